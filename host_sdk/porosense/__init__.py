@@ -1,0 +1,20 @@
+"""porosense: proprioception for 3D-printed graded-porosity soft vacuum actuators.
+
+Subpackages (one concept each; lower layers never import higher ones):
+
+- ``porosense.protocol``  frames and messages of the wire protocol
+- ``porosense.sim``       actuator physics and the paper's experiment schedules
+- ``porosense.data``      the Recording type and its CSV/JSON/.mat I/O
+- ``porosense.ident``     linear, Hammerstein, Wiener and Wiener-Hammerstein identification
+- ``porosense.quant``     fixed-point design and the bit-exact firmware reference
+- ``porosense.diagnose``  residual analysis, named causes, model extensions
+- ``porosense.device``    the Device client over any pyserial URL
+- ``porosense.emulator``  the Python twin of the board
+- ``porosense.report``    figures and reports
+- ``porosense.cli``       the ``porosense`` command
+"""
+
+from porosense._version import __version__
+from porosense.errors import PorosenseError
+
+__all__ = ["__version__", "PorosenseError"]

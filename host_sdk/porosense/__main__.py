@@ -1,0 +1,5 @@
+import sys
+
+from porosense.cli import main
+
+sys.exit(main())

@@ -1,0 +1,82 @@
+"""The ``porosense`` command.
+
+Each subcommand lives in its own module ``porosense.cli.<name>`` exposing
+
+    def register(subparsers) -> argparse.ArgumentParser   # adds the parser, sets func=run
+    def run(args) -> int                                   # the exit status
+
+User mistakes raise :class:`porosense.errors.PorosenseError`; ``main`` prints them as one
+line on stderr and exits with the error's code, never with a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from porosense._version import __version__
+from porosense.errors import PorosenseError
+
+# Order is the order --help lists them in: the workflow from experiment to device.
+SUBCOMMANDS = (
+    "demo",
+    "simulate",
+    "identify",
+    "predict",
+    "diagnose",
+    "quantize",
+    "flash",
+    "verify",
+    "config",
+    "ports",
+    "emulator",
+    "infoam",
+    "bench",
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Build the top-level parser with every installed subcommand."""
+    parser = argparse.ArgumentParser(
+        prog="porosense",
+        description=(
+            "Proprioception for 3D-printed graded-porosity soft vacuum actuators: simulate the "
+            "paper's experiments, identify linear/Hammerstein/Wiener/Wiener-Hammerstein models "
+            "of strain from resistance, quantize them, flash them to an Arduino Uno and verify "
+            "them on the device."
+        ),
+        epilog="Run 'porosense COMMAND --help' for the options of one command.",
+    )
+    parser.add_argument("--version", action="version", version=f"porosense {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in SUBCOMMANDS:
+        try:
+            module = importlib.import_module(f"porosense.cli.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name == f"porosense.cli.{name}":
+                continue  # subcommand not part of this build
+            raise
+        module.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the console script; returns the process exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 1
+    try:
+        return int(args.func(args) or 0)
+    except PorosenseError as exc:
+        print(f"porosense {args.command}: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print(f"porosense {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,49 @@
+"""``porosense bench AREA``: run one benchmark area and print its figures."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import os
+
+from porosense.bench import AREAS
+from porosense.errors import InputError
+
+
+def register(sub) -> argparse.ArgumentParser:
+    p = sub.add_parser(
+        "bench",
+        help="run a benchmark and print its figures",
+        description=(
+            "Run the benchmark of one area and print its figures. Areas: "
+            + ", ".join(AREAS)
+            + ". --size small is the quick CI-sized run; full (default outside CI) gives the "
+            "figures the documentation quotes."
+        ),
+        epilog="example: porosense bench protocol --json",
+    )
+    p.add_argument("area", choices=AREAS, help="what to benchmark")
+    p.add_argument("--json", action="store_true", help="print the figures as one JSON object")
+    p.add_argument(
+        "--size",
+        choices=("small", "full"),
+        default="small" if os.environ.get("CI") else "full",
+        help="problem size (default: small under CI, full otherwise)",
+    )
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args) -> int:
+    try:
+        module = importlib.import_module(f"porosense.bench.{args.area}")
+    except ModuleNotFoundError as exc:
+        raise InputError(f"benchmark area '{args.area}' is not available in this build") from exc
+    result = module.run(args.size)
+    if args.json:
+        print(json.dumps(result, indent=2, default=float))
+    else:
+        for line in result.get("summary", []):
+            print(line)
+    return 0

@@ -1,0 +1,204 @@
+"""The estimator structure of DESIGN.md in floating point: the contract between ident and quant.
+
+For each output j over inputs i::
+
+    y_j = offset_j + H2_j( g_j( sum_i H1_ij( f_ij( u_i[k - delay_ij] - u_offset_ij ) ) ) )
+
+``f`` and ``g`` are piecewise-linear (linear beyond the outer breakpoints); ``H1`` and ``H2``
+are cascades of second-order sections in scipy's ``sos`` layout ``[b0 b1 b2 1 a1 a2]``.
+Any block may be absent (identity). Every identified model converts to an
+``EstimatorStructure``; quant turns it into fixed point, and its ``simulate`` is the float
+reference the fixed-point fit is compared with.
+
+Limits of the firmware (checked by :meth:`EstimatorStructure.check_limits`): at most 3 inputs
+and 3 outputs, 16 breakpoints per nonlinearity, 5 sections (10 poles) per linear block, input
+delays of at most 15 samples.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import signal
+
+from porosense.errors import ModelError
+
+MAX_INPUTS = 3
+MAX_OUTPUTS = 3
+MAX_BREAKPOINTS = 16
+MAX_SECTIONS = 5
+MAX_DELAY = 15
+
+
+@dataclass(frozen=True)
+class PiecewiseLinear:
+    """Static piecewise-linear map through breakpoints (x[k], y[k]); linear beyond the ends.
+
+    ``x`` is strictly increasing, in the unit of the block's input; ``y`` in its output unit.
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+
+    def __post_init__(self):
+        x = np.asarray(self.x, dtype=float)
+        y = np.asarray(self.y, dtype=float)
+        if x.ndim != 1 or x.shape != y.shape or len(x) < 2:
+            raise ModelError("a piecewise-linear map needs at least 2 breakpoints with matching x and y")
+        if np.any(np.diff(x) <= 0):
+            raise ModelError("piecewise-linear breakpoints must be strictly increasing")
+        object.__setattr__(self, "x", x)
+        object.__setattr__(self, "y", y)
+
+    def __call__(self, u) -> np.ndarray:
+        """Evaluate the map at ``u`` (array), extrapolating the outer segments."""
+        u = np.asarray(u, dtype=float)
+        x, y = self.x, self.y
+        k = np.clip(np.searchsorted(x, u, side="right") - 1, 0, len(x) - 2)
+        slope = (y[k + 1] - y[k]) / (x[k + 1] - x[k])
+        return y[k] + slope * (u - x[k])
+
+    @property
+    def slopes(self) -> np.ndarray:
+        """Slope of each of the len(x) - 1 segments."""
+        return np.diff(self.y) / np.diff(self.x)
+
+
+@dataclass(frozen=True)
+class SOSCascade:
+    """Linear block as second-order sections, shape (n_sections, 6), scipy layout."""
+
+    sos: np.ndarray
+
+    def __post_init__(self):
+        sos = np.atleast_2d(np.asarray(self.sos, dtype=float))
+        if sos.ndim != 2 or sos.shape[1] != 6 or sos.shape[0] < 1:
+            raise ModelError("sos must have shape (n_sections, 6)")
+        if not np.allclose(sos[:, 3], 1.0):
+            raise ModelError("sos rows must be normalised so that a0 = 1")
+        object.__setattr__(self, "sos", sos)
+
+    @classmethod
+    def from_tf(cls, b, a) -> SOSCascade:
+        """From a discrete transfer function b(z)/a(z) (coefficients in descending powers of z)."""
+        b = np.atleast_1d(np.asarray(b, dtype=float))
+        a = np.atleast_1d(np.asarray(a, dtype=float))
+        n = max(len(a), len(b))
+        # tf2sos needs len(b) == len(a) for a proper z^-1 polynomial alignment.
+        a = np.concatenate([a, np.zeros(n - len(a))])
+        b = np.concatenate([np.zeros(n - len(b)), b]) if len(b) < n else b
+        if n == 1:
+            return cls(np.array([[b[0] / a[0], 0, 0, 1, 0, 0]]))
+        return cls(signal.tf2sos(b, a))
+
+    def to_tf(self) -> tuple[np.ndarray, np.ndarray]:
+        """As (b, a), coefficients of z^-1 in ascending powers."""
+        return signal.sos2tf(self.sos)
+
+    @property
+    def n_sections(self) -> int:
+        return self.sos.shape[0]
+
+    @property
+    def dc_gain(self) -> float:
+        """Gain at z = 1."""
+        return float(np.prod(self.sos[:, :3].sum(axis=1) / self.sos[:, 3:].sum(axis=1)))
+
+    def poles(self) -> np.ndarray:
+        return np.concatenate([np.roots(row[3:]) for row in self.sos])
+
+    def is_stable(self) -> bool:
+        return bool(np.all(np.abs(self.poles()) < 1.0))
+
+    def filter(self, u) -> np.ndarray:
+        """Filter ``u`` from rest (zero initial state)."""
+        return signal.sosfilt(self.sos, np.asarray(u, dtype=float))
+
+
+@dataclass(frozen=True)
+class Branch:
+    """Input path i -> output j: delay, offset removal, f, then H1."""
+
+    input: int
+    h1: SOSCascade
+    f: PiecewiseLinear | None = None
+    delay: int = 0
+    u_offset: float = 0.0
+
+
+@dataclass(frozen=True)
+class OutputChain:
+    """One output: the sum of its branches, then g, then H2, then an offset."""
+
+    name: str
+    branches: tuple[Branch, ...]
+    g: PiecewiseLinear | None = None
+    h2: SOSCascade | None = None
+    offset: float = 0.0
+
+    @property
+    def kind(self) -> str:
+        """linear, hammerstein, wiener or wh, from the blocks present."""
+        has_f = any(b.f is not None for b in self.branches)
+        if self.g is None and self.h2 is None:
+            return "hammerstein" if has_f else "linear"
+        if self.h2 is None and not has_f:
+            return "wiener"
+        return "wh"
+
+
+@dataclass(frozen=True)
+class EstimatorStructure:
+    """A whole MISO-per-output estimator; ``ts`` is the sample period in seconds."""
+
+    inputs: tuple[str, ...]
+    outputs: tuple[OutputChain, ...]
+    ts: float
+    meta: dict = field(default_factory=dict)
+
+    def simulate(self, u) -> np.ndarray:
+        """Simulate from rest; ``u`` has shape (N, n_inputs) (or (N,) for one input).
+
+        Returns an array of shape (N, n_outputs).
+        """
+        u = np.asarray(u, dtype=float)
+        if u.ndim == 1:
+            u = u[:, None]
+        if u.shape[1] != len(self.inputs):
+            raise ModelError(f"expected {len(self.inputs)} input columns, got {u.shape[1]}")
+        n = u.shape[0]
+        y = np.zeros((n, len(self.outputs)))
+        for j, out in enumerate(self.outputs):
+            s = np.zeros(n)
+            for br in out.branches:
+                x = u[:, br.input] - br.u_offset
+                if br.delay:
+                    x = np.concatenate([np.full(br.delay, x[0] * 0.0), x[:-br.delay]])
+                if br.f is not None:
+                    x = br.f(x)
+                s += br.h1.filter(x)
+            if out.g is not None:
+                s = out.g(s)
+            if out.h2 is not None:
+                s = out.h2.filter(s)
+            y[:, j] = s + out.offset
+        return y
+
+    def check_limits(self) -> None:
+        """Raise ModelError naming the first limit of the firmware this structure exceeds."""
+        if not 1 <= len(self.inputs) <= MAX_INPUTS:
+            raise ModelError(f"{len(self.inputs)} inputs; the firmware takes 1 to {MAX_INPUTS}")
+        if not 1 <= len(self.outputs) <= MAX_OUTPUTS:
+            raise ModelError(f"{len(self.outputs)} outputs; the firmware takes 1 to {MAX_OUTPUTS}")
+        for out in self.outputs:
+            blocks = [(f"{out.name}.g", out.g), (f"{out.name}.h2", out.h2)]
+            for br in out.branches:
+                blocks += [(f"{out.name}.f[{br.input}]", br.f), (f"{out.name}.h1[{br.input}]", br.h1)]
+                if not 0 <= br.delay <= MAX_DELAY:
+                    raise ModelError(f"{out.name}: input delay {br.delay} outside 0..{MAX_DELAY}")
+            for name, block in blocks:
+                if isinstance(block, PiecewiseLinear) and len(block.x) > MAX_BREAKPOINTS:
+                    raise ModelError(f"{name}: {len(block.x)} breakpoints; at most {MAX_BREAKPOINTS}")
+                if isinstance(block, SOSCascade) and block.n_sections > MAX_SECTIONS:
+                    raise ModelError(f"{name}: {2 * block.n_sections} poles; at most {2 * MAX_SECTIONS}")

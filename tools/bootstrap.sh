@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Idempotent environment setup: Debian toolchain for the firmware and simboard, then a
+# virtual environment with the pinned Python dependencies and porosense installed editable.
+# Usage: tools/bootstrap.sh [--no-apt]
+set -euo pipefail
+top="$(cd "$(dirname "$0")/.." && pwd)"
+cd "$top"
+
+APT_PACKAGES="gcc-avr avr-libc binutils-avr arduino-core-avr simavr libsimavr-dev libelf-dev pkg-config"
+
+missing=()
+if [ "${1:-}" != "--no-apt" ]; then
+  for p in $APT_PACKAGES; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+fi
+if [ ${#missing[@]} -gt 0 ]; then
+  if [ "$(id -u)" = "0" ]; then
+    echo "bootstrap: installing Debian packages: ${missing[*]}"
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq
+    apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  else
+    echo "bootstrap: missing Debian packages: ${missing[*]}" >&2
+    echo "bootstrap: run this once, then retry:" >&2
+    echo "    sudo apt-get install -y ${missing[*]}" >&2
+    exit 1
+  fi
+fi
+
+PY="${PYTHON:-python3}"
+venv="$top/.venv"
+stamp="$venv/.porosense-stamp"
+want="$(cat host_sdk/requirements.lock host_sdk/pyproject.toml | sha256sum | cut -c1-16)"
+if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ]; then
+  exit 0
+fi
+if [ ! -x "$venv/bin/python" ]; then
+  echo "bootstrap: creating $venv"
+  "$PY" -m venv "$venv"
+fi
+echo "bootstrap: installing pinned Python dependencies"
+"$venv/bin/python" -m pip install -q --disable-pip-version-check -r host_sdk/requirements.lock
+"$venv/bin/python" -m pip install -q --disable-pip-version-check --no-deps -e host_sdk
+# The benchmark peer (SIPPY) is optional: benchmarks report it as absent when it cannot install.
+"$venv/bin/python" -m pip install -q --disable-pip-version-check "sippy-unipi==1.0.1" \
+  || echo "bootstrap: sippy-unipi not installed; the identification benchmark will skip its peer"
+echo "$want" > "$stamp"

@@ -81,16 +81,36 @@ class SOSCascade:
 
     @classmethod
     def from_tf(cls, b, a) -> SOSCascade:
-        """From a discrete transfer function b(z)/a(z) (coefficients in descending powers of z)."""
-        b = np.atleast_1d(np.asarray(b, dtype=float))
-        a = np.atleast_1d(np.asarray(a, dtype=float))
-        n = max(len(a), len(b))
-        # tf2sos needs len(b) == len(a) for a proper z^-1 polynomial alignment.
-        a = np.concatenate([a, np.zeros(n - len(a))])
-        b = np.concatenate([np.zeros(n - len(b)), b]) if len(b) < n else b
-        if n == 1:
-            return cls(np.array([[b[0] / a[0], 0, 0, 1, 0, 0]]))
-        return cls(signal.tf2sos(b, a))
+        """From b(z^-1)/a(z^-1), coefficients of z^-1 in ascending powers (scipy's lfilter form).
+
+        Leading zeros of ``b`` are pure delays and are kept (scipy's tf2sos would drop them).
+        """
+        b = np.trim_zeros(np.atleast_1d(np.asarray(b, dtype=float)), "b")
+        a = np.trim_zeros(np.atleast_1d(np.asarray(a, dtype=float)), "b")
+        if len(b) == 0:
+            return cls(np.array([[0.0, 0, 0, 1, 0, 0]]))
+        if len(a) == 0 or a[0] == 0:
+            raise ModelError("the denominator must start with a non-zero coefficient")
+        b, a = b / a[0], a / a[0]
+        delay = int(np.argmax(b != 0))
+        b = b[delay:]
+        zeros = np.roots(b) if len(b) > 1 else np.array([])
+        poles = np.roots(a) if len(a) > 1 else np.array([])
+        n_pairs = max(1, (max(len(zeros), len(poles)) + 1) // 2)
+        # Pad with roots at the origin: in z^-1 form they are factors of 1 (no effect).
+        zeros = np.concatenate([zeros, np.zeros(2 * n_pairs - len(zeros))])
+        poles = np.concatenate([poles, np.zeros(2 * n_pairs - len(poles))])
+        sos = signal.zpk2sos(zeros, poles, b[0], pairing="nearest")
+        sos = sos[np.any(sos != [1, 0, 0, 1, 0, 0], axis=1)] if len(sos) > 1 else sos
+        # Put each delay into a section with a free numerator slot, else add a delay section.
+        for _ in range(delay):
+            free = np.flatnonzero(sos[:, 2] == 0)
+            if len(free):
+                i = free[-1]
+                sos[i, :3] = [0.0, sos[i, 0], sos[i, 1]]
+            else:
+                sos = np.vstack([sos, [0.0, 1.0, 0.0, 1.0, 0.0, 0.0]])
+        return cls(sos)
 
     def to_tf(self) -> tuple[np.ndarray, np.ndarray]:
         """As (b, a), coefficients of z^-1 in ascending powers."""

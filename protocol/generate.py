@@ -8,6 +8,10 @@ Usage:
 Outputs:
     firmware/lib/core/protocol_messages.h     (namespace proto, no Arduino header, no heap)
     host_sdk/porosense/protocol/_messages.py  (dataclasses with pack/unpack)
+    protocol/vectors/frames.json, frames.txt  (golden frames and streams, gen_vectors.py)
+    protocol/spec.md                          (only its catalogue section, gen_spec.py)
+
+Standard library only, so that it runs before any dependency is installed.
 """
 
 from __future__ import annotations
@@ -23,6 +27,13 @@ ROOT = Path(__file__).resolve().parent.parent
 CATALOGUE = ROOT / "protocol" / "messages.toml"
 CPP_OUT = ROOT / "firmware" / "lib" / "core" / "protocol_messages.h"
 PY_OUT = ROOT / "host_sdk" / "porosense" / "protocol" / "_messages.py"
+VECTORS_JSON = ROOT / "protocol" / "vectors" / "frames.json"
+VECTORS_TXT = ROOT / "protocol" / "vectors" / "frames.txt"
+SPEC = ROOT / "protocol" / "spec.md"
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import gen_spec  # noqa: E402
+import gen_vectors  # noqa: E402
 
 SCALARS = {
     # name: (size, struct code, C type)
@@ -65,6 +76,7 @@ class Message:
     doc: str
     reply: str | None
     fields: list[Field]
+    deadline_ms: int = 0  # commands: longest time before the reply starts (spec.md, timing)
 
     @property
     def variable(self) -> Field | None:
@@ -104,7 +116,8 @@ def load(path: Path = CATALOGUE) -> dict:
             else:
                 n = int(count)
             fields.append(Field(f["name"], base, n, int(f.get("max", 0)), f.get("unit", ""), f.get("doc", "")))
-        msg = Message(m["name"], int(m["type"]), m["dir"], m.get("doc", ""), m.get("reply"), fields)
+        deadline = int(m.get("deadline_ms", cat["protocol"]["deadline_ms"] if m["dir"] == "h2d" else 0))
+        msg = Message(m["name"], int(m["type"]), m["dir"], m.get("doc", ""), m.get("reply"), fields, deadline)
         if msg.type in seen_types:
             sys.exit(f"{path}: type 0x{msg.type:02X} used by {seen_types[msg.type]} and {msg.name}")
         seen_types[msg.type] = msg.name
@@ -170,7 +183,9 @@ def gen_cpp(cat: dict) -> str:
         "  switch (key) {",
     ]
     for c in cat["config"]:
-        out.append(f"    case {c['name']}: *out = KeyInfo{{{c['default']}L, {c['min']}L, {c['max']}L}}; return true;")
+        # Field by field: an aggregate copy would come from a constant in .rodata (RAM on AVR).
+        out.append(f"    case {c['name']}: out->def = {c['default']}L; out->min = {c['min']}L; "
+                   f"out->max = {c['max']}L; return true;")
     out += [
         "    default: return false;",
         "  }",
@@ -341,6 +356,7 @@ def gen_py(cat: dict) -> str:
         "    REPLY: ClassVar[str | None]",
         "    MIN_LEN: ClassVar[int]",
         "    MAX_LEN: ClassVar[int]",
+        "    DEADLINE_MS: ClassVar[int]  # commands: time allowed before the reply starts (0: not a command)",
         "",
         "    def pack(self) -> bytes:  # pragma: no cover - overridden",
         "        raise NotImplementedError",
@@ -366,6 +382,7 @@ def gen_py(cat: dict) -> str:
         out.append(f"    REPLY: ClassVar[str | None] = {m.reply!r}")
         out.append(f"    MIN_LEN: ClassVar[int] = {m.min_len}")
         out.append(f"    MAX_LEN: ClassVar[int] = {m.max_len}")
+        out.append(f"    DEADLINE_MS: ClassVar[int] = {m.deadline_ms}")
         out.append(f"    _FMT: ClassVar[struct.Struct] = struct.Struct({fmt!r})")
         for f in m.fields:
             pytype = "float" if f.base == "f32" else "int"
@@ -454,7 +471,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--check", action="store_true", help="exit 1 when a generated file is stale")
     args = ap.parse_args(argv)
     cat = load()
-    outputs = {CPP_OUT: gen_cpp(cat), PY_OUT: gen_py(cat)}
+    vectors = gen_vectors.build(cat)
+    outputs = {
+        CPP_OUT: gen_cpp(cat),
+        PY_OUT: gen_py(cat),
+        VECTORS_JSON: gen_vectors.to_json(vectors),
+        VECTORS_TXT: gen_vectors.to_text(vectors),
+    }
+    if SPEC.exists():
+        try:
+            outputs[SPEC] = gen_spec.splice(SPEC.read_text(), cat)
+        except ValueError as exc:
+            sys.exit(f"{SPEC.relative_to(ROOT)}: {exc}")
     stale = [p for p, text in outputs.items() if not p.exists() or p.read_text() != text]
     if args.check:
         for p in stale:

@@ -23,3 +23,11 @@ def shared_data() -> Path:
     if not SHARED_DATA.is_dir():
         pytest.skip(f"measured benchmark data not found at {SHARED_DATA}")
     return SHARED_DATA
+
+
+def pytest_addoption(parser):
+    parser.addoption(
+        "--port",
+        default=None,
+        help="pyserial URL of a real board (e.g. /dev/ttyACM0): adds it to the device conformance suite",
+    )

@@ -117,22 +117,22 @@ struct KeyInfo { int32_t def; int32_t min; int32_t max; };
 // A switch instead of a table keeps the limits in flash, not in the Uno's RAM.
 inline bool key_info(uint8_t key, KeyInfo* out) {
   switch (key) {
-    case SAMPLE_RATE_HZ: *out = KeyInfo{50L, 10L, 200L}; return true;
-    case CHANNEL_MASK: *out = KeyInfo{31L, 0L, 31L}; return true;
-    case R0_MODE: *out = KeyInfo{0L, 0L, 1L}; return true;
-    case R0_CH0_MOHM: *out = KeyInfo{1000000L, 1000L, 100000000L}; return true;
-    case R0_CH1_MOHM: *out = KeyInfo{1000000L, 1000L, 100000000L}; return true;
-    case R0_CH2_MOHM: *out = KeyInfo{1000000L, 1000L, 100000000L}; return true;
-    case ADC_PGA: *out = KeyInfo{1L, 0L, 5L}; return true;
-    case ADC_RATE: *out = KeyInfo{7L, 0L, 7L}; return true;
-    case MIN_SETPOINT_DKPA: *out = KeyInfo{-600L, -800L, 0L}; return true;
-    case WATCHDOG_MS: *out = KeyInfo{1000L, 100L, 10000L}; return true;
-    case AUTOSTART: *out = KeyInfo{0L, 0L, 1L}; return true;
-    case PWM_PIN: *out = KeyInfo{0L, 0L, 13L}; return true;
-    case PWM_SCALE_MILLI: *out = KeyInfo{1000L, -1000000L, 1000000L}; return true;
-    case PWM_OFFSET: *out = KeyInfo{0L, -255L, 255L}; return true;
-    case LINE_MODE: *out = KeyInfo{0L, 0L, 1L}; return true;
-    case SCHEDULE_ENABLE: *out = KeyInfo{0L, 0L, 1L}; return true;
+    case SAMPLE_RATE_HZ: out->def = 50L; out->min = 10L; out->max = 200L; return true;
+    case CHANNEL_MASK: out->def = 31L; out->min = 0L; out->max = 31L; return true;
+    case R0_MODE: out->def = 0L; out->min = 0L; out->max = 1L; return true;
+    case R0_CH0_MOHM: out->def = 1000000L; out->min = 1000L; out->max = 100000000L; return true;
+    case R0_CH1_MOHM: out->def = 1000000L; out->min = 1000L; out->max = 100000000L; return true;
+    case R0_CH2_MOHM: out->def = 1000000L; out->min = 1000L; out->max = 100000000L; return true;
+    case ADC_PGA: out->def = 1L; out->min = 0L; out->max = 5L; return true;
+    case ADC_RATE: out->def = 7L; out->min = 0L; out->max = 7L; return true;
+    case MIN_SETPOINT_DKPA: out->def = -600L; out->min = -800L; out->max = 0L; return true;
+    case WATCHDOG_MS: out->def = 1000L; out->min = 100L; out->max = 10000L; return true;
+    case AUTOSTART: out->def = 0L; out->min = 0L; out->max = 1L; return true;
+    case PWM_PIN: out->def = 0L; out->min = 0L; out->max = 13L; return true;
+    case PWM_SCALE_MILLI: out->def = 1000L; out->min = -1000000L; out->max = 1000000L; return true;
+    case PWM_OFFSET: out->def = 0L; out->min = -255L; out->max = 255L; return true;
+    case LINE_MODE: out->def = 0L; out->min = 0L; out->max = 1L; return true;
+    case SCHEDULE_ENABLE: out->def = 0L; out->min = 0L; out->max = 1L; return true;
     default: return false;
   }
 }
@@ -443,9 +443,9 @@ struct ModelBegin {
 struct ModelChunk {
   static constexpr uint8_t kType = 0x21;
   static constexpr uint8_t kMinLen = 2;
-  static constexpr uint8_t kMaxLen = 114;
+  static constexpr uint8_t kMaxLen = 120;
   uint16_t offset;  // bytes
-  uint8_t data[112];
+  uint8_t data[118];
   uint8_t data_count;
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
@@ -574,9 +574,9 @@ struct ModelRead {
 struct ModelData {
   static constexpr uint8_t kType = 0x85;
   static constexpr uint8_t kMinLen = 2;
-  static constexpr uint8_t kMaxLen = 114;
+  static constexpr uint8_t kMaxLen = 120;
   uint16_t offset;  // bytes
-  uint8_t data[112];
+  uint8_t data[118];
   uint8_t data_count;
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;

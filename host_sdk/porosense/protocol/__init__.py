@@ -9,6 +9,7 @@ Ping(nonce=7)
 from porosense.protocol._messages import *  # noqa: F401,F403 - the generated catalogue
 from porosense.protocol._messages import MESSAGES, MsgType, Result, StatusFlag
 from porosense.protocol.framing import (
+    COUNTER_NAMES,
     MAX_FRAME_LEN,
     Frame,
     FrameDecoder,
@@ -17,19 +18,27 @@ from porosense.protocol.framing import (
     decode_frame,
     encode_frame,
     encode_message,
+    frame_len,
 )
+from porosense.protocol.version import ProtocolVersionError, check_compatible, hello_versions, split_version
 
 __all__ = [
     "MESSAGES",
     "MsgType",
     "Result",
     "StatusFlag",
+    "COUNTER_NAMES",
     "MAX_FRAME_LEN",
     "Frame",
     "FrameDecoder",
     "FrameError",
+    "ProtocolVersionError",
+    "check_compatible",
     "crc16",
     "decode_frame",
     "encode_frame",
     "encode_message",
+    "frame_len",
+    "hello_versions",
+    "split_version",
 ]

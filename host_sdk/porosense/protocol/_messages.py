@@ -171,6 +171,7 @@ class Message:
     REPLY: ClassVar[str | None]
     MIN_LEN: ClassVar[int]
     MAX_LEN: ClassVar[int]
+    DEADLINE_MS: ClassVar[int]  # commands: time allowed before the reply starts (0: not a command)
 
     def pack(self) -> bytes:  # pragma: no cover - overridden
         raise NotImplementedError
@@ -189,6 +190,7 @@ class Hello(Message):
     REPLY: ClassVar[str | None] = 'HELLO_REPLY'
     MIN_LEN: ClassVar[int] = 0
     MAX_LEN: ClassVar[int] = 0
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<')
 
     def pack(self) -> bytes:
@@ -211,6 +213,7 @@ class HelloReply(Message):
     REPLY: ClassVar[str | None] = None
     MIN_LEN: ClassVar[int] = 16
     MAX_LEN: ClassVar[int] = 16
+    DEADLINE_MS: ClassVar[int] = 0
     _FMT: ClassVar[struct.Struct] = struct.Struct('<BBBBBHBBHBI')
     proto_major: int = 0
     proto_minor: int = 0
@@ -245,6 +248,7 @@ class Ping(Message):
     REPLY: ClassVar[str | None] = 'PONG'
     MIN_LEN: ClassVar[int] = 4
     MAX_LEN: ClassVar[int] = 4
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<I')
     nonce: int = 0
 
@@ -269,6 +273,7 @@ class Pong(Message):
     REPLY: ClassVar[str | None] = None
     MIN_LEN: ClassVar[int] = 8
     MAX_LEN: ClassVar[int] = 8
+    DEADLINE_MS: ClassVar[int] = 0
     _FMT: ClassVar[struct.Struct] = struct.Struct('<II')
     nonce: int = 0
     device_time_us: int = 0  # us
@@ -294,6 +299,7 @@ class Ack(Message):
     REPLY: ClassVar[str | None] = None
     MIN_LEN: ClassVar[int] = 1
     MAX_LEN: ClassVar[int] = 1
+    DEADLINE_MS: ClassVar[int] = 0
     _FMT: ClassVar[struct.Struct] = struct.Struct('<B')
     acked_type: int = 0
 
@@ -318,6 +324,7 @@ class Nak(Message):
     REPLY: ClassVar[str | None] = None
     MIN_LEN: ClassVar[int] = 4
     MAX_LEN: ClassVar[int] = 4
+    DEADLINE_MS: ClassVar[int] = 0
     _FMT: ClassVar[struct.Struct] = struct.Struct('<BBh')
     acked_type: int = 0
     code: int = 0
@@ -344,6 +351,7 @@ class SetOutputs(Message):
     REPLY: ClassVar[str | None] = 'ACK'
     MIN_LEN: ClassVar[int] = 8
     MAX_LEN: ClassVar[int] = 8
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<3hBB')
     setpoint_dkpa: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 0.1 kPa
     pump_mask: int = 0
@@ -372,6 +380,7 @@ class SetWatchdog(Message):
     REPLY: ClassVar[str | None] = 'ACK'
     MIN_LEN: ClassVar[int] = 2
     MAX_LEN: ClassVar[int] = 2
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<H')
     timeout_ms: int = 0  # ms
 
@@ -396,6 +405,7 @@ class StartStream(Message):
     REPLY: ClassVar[str | None] = 'ACK'
     MIN_LEN: ClassVar[int] = 3
     MAX_LEN: ClassVar[int] = 3
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<HB')
     rate_hz: int = 0  # Hz
     channel_mask: int = 0
@@ -421,6 +431,7 @@ class StopStream(Message):
     REPLY: ClassVar[str | None] = 'ACK'
     MIN_LEN: ClassVar[int] = 0
     MAX_LEN: ClassVar[int] = 0
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<')
 
     def pack(self) -> bytes:
@@ -443,6 +454,7 @@ class Sample(Message):
     REPLY: ClassVar[str | None] = None
     MIN_LEN: ClassVar[int] = 31
     MAX_LEN: ClassVar[int] = 31
+    DEADLINE_MS: ClassVar[int] = 0
     _FMT: ClassVar[struct.Struct] = struct.Struct('<IBH3h3h3h3h')
     t_us: int = 0  # us
     channel_mask: int = 0
@@ -481,6 +493,7 @@ class ModelBegin(Message):
     REPLY: ClassVar[str | None] = 'ACK'
     MIN_LEN: ClassVar[int] = 5
     MAX_LEN: ClassVar[int] = 5
+    DEADLINE_MS: ClassVar[int] = 1000
     _FMT: ClassVar[struct.Struct] = struct.Struct('<HHB')
     length: int = 0  # bytes
     crc: int = 0
@@ -506,21 +519,22 @@ class ModelChunk(Message):
     DIRECTION: ClassVar[str] = 'h2d'
     REPLY: ClassVar[str | None] = 'ACK'
     MIN_LEN: ClassVar[int] = 2
-    MAX_LEN: ClassVar[int] = 114
+    MAX_LEN: ClassVar[int] = 120
+    DEADLINE_MS: ClassVar[int] = 1000
     _FMT: ClassVar[struct.Struct] = struct.Struct('<H')
     offset: int = 0  # bytes
     data: bytes = b''
 
     def pack(self) -> bytes:
         head = self._FMT.pack(self.offset)
-        if len(self.data) > 112:
-            raise ValueError('MODEL_CHUNK.data holds at most 112 values')
+        if len(self.data) > 118:
+            raise ValueError('MODEL_CHUNK.data holds at most 118 values')
         return head + bytes(self.data)
 
     @classmethod
     def unpack(cls, payload: bytes) -> ModelChunk:
         if not (cls.MIN_LEN <= len(payload) <= cls.MAX_LEN) or (len(payload) - cls.MIN_LEN) % 1:
-            raise ValueError(f'MODEL_CHUNK payload of {len(payload)} bytes (expected 2..114)')
+            raise ValueError(f'MODEL_CHUNK payload of {len(payload)} bytes (expected 2..120)')
         vals = cls._FMT.unpack_from(payload, 0)
         tail = bytes(payload[2:])
         return cls(offset=vals[0], data=tail)
@@ -535,6 +549,7 @@ class ModelCommit(Message):
     REPLY: ClassVar[str | None] = 'ACK'
     MIN_LEN: ClassVar[int] = 0
     MAX_LEN: ClassVar[int] = 0
+    DEADLINE_MS: ClassVar[int] = 1000
     _FMT: ClassVar[struct.Struct] = struct.Struct('<')
 
     def pack(self) -> bytes:
@@ -557,6 +572,7 @@ class ModelInfo(Message):
     REPLY: ClassVar[str | None] = 'MODEL_INFO_REPLY'
     MIN_LEN: ClassVar[int] = 0
     MAX_LEN: ClassVar[int] = 0
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<')
 
     def pack(self) -> bytes:
@@ -579,6 +595,7 @@ class ModelInfoReply(Message):
     REPLY: ClassVar[str | None] = None
     MIN_LEN: ClassVar[int] = 24
     MAX_LEN: ClassVar[int] = 24
+    DEADLINE_MS: ClassVar[int] = 0
     _FMT: ClassVar[struct.Struct] = struct.Struct('<BBHHBBI3f')
     status: int = 0
     format_version: int = 0
@@ -612,6 +629,7 @@ class ModelErase(Message):
     REPLY: ClassVar[str | None] = 'ACK'
     MIN_LEN: ClassVar[int] = 0
     MAX_LEN: ClassVar[int] = 0
+    DEADLINE_MS: ClassVar[int] = 1000
     _FMT: ClassVar[struct.Struct] = struct.Struct('<')
 
     def pack(self) -> bytes:
@@ -634,6 +652,7 @@ class ModelRead(Message):
     REPLY: ClassVar[str | None] = 'MODEL_DATA'
     MIN_LEN: ClassVar[int] = 3
     MAX_LEN: ClassVar[int] = 3
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<HB')
     offset: int = 0  # bytes
     length: int = 0  # bytes
@@ -658,21 +677,22 @@ class ModelData(Message):
     DIRECTION: ClassVar[str] = 'd2h'
     REPLY: ClassVar[str | None] = None
     MIN_LEN: ClassVar[int] = 2
-    MAX_LEN: ClassVar[int] = 114
+    MAX_LEN: ClassVar[int] = 120
+    DEADLINE_MS: ClassVar[int] = 0
     _FMT: ClassVar[struct.Struct] = struct.Struct('<H')
     offset: int = 0  # bytes
     data: bytes = b''
 
     def pack(self) -> bytes:
         head = self._FMT.pack(self.offset)
-        if len(self.data) > 112:
-            raise ValueError('MODEL_DATA.data holds at most 112 values')
+        if len(self.data) > 118:
+            raise ValueError('MODEL_DATA.data holds at most 118 values')
         return head + bytes(self.data)
 
     @classmethod
     def unpack(cls, payload: bytes) -> ModelData:
         if not (cls.MIN_LEN <= len(payload) <= cls.MAX_LEN) or (len(payload) - cls.MIN_LEN) % 1:
-            raise ValueError(f'MODEL_DATA payload of {len(payload)} bytes (expected 2..114)')
+            raise ValueError(f'MODEL_DATA payload of {len(payload)} bytes (expected 2..120)')
         vals = cls._FMT.unpack_from(payload, 0)
         tail = bytes(payload[2:])
         return cls(offset=vals[0], data=tail)
@@ -687,6 +707,7 @@ class Replay(Message):
     REPLY: ClassVar[str | None] = 'REPLAY_RESULT'
     MIN_LEN: ClassVar[int] = 1
     MAX_LEN: ClassVar[int] = 97
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<B')
     reset: int = 0
     dr_centi: tuple[int, ...] = ()  # 0.01 %
@@ -715,6 +736,7 @@ class ReplayResult(Message):
     REPLY: ClassVar[str | None] = None
     MIN_LEN: ClassVar[int] = 1
     MAX_LEN: ClassVar[int] = 97
+    DEADLINE_MS: ClassVar[int] = 0
     _FMT: ClassVar[struct.Struct] = struct.Struct('<B')
     flags: int = 0
     estimate: tuple[int, ...] = ()  # model LSB
@@ -743,6 +765,7 @@ class CalibrateR0(Message):
     REPLY: ClassVar[str | None] = 'R0_REPLY'
     MIN_LEN: ClassVar[int] = 2
     MAX_LEN: ClassVar[int] = 2
+    DEADLINE_MS: ClassVar[int] = 1000
     _FMT: ClassVar[struct.Struct] = struct.Struct('<BB')
     n_samples: int = 0
     channel_mask: int = 0
@@ -768,6 +791,7 @@ class R0Reply(Message):
     REPLY: ClassVar[str | None] = None
     MIN_LEN: ClassVar[int] = 12
     MAX_LEN: ClassVar[int] = 12
+    DEADLINE_MS: ClassVar[int] = 0
     _FMT: ClassVar[struct.Struct] = struct.Struct('<3f')
     r0_ohm: tuple[float, ...] = field(default_factory=lambda: (0.0, 0.0, 0.0,))  # ohm
 
@@ -794,6 +818,7 @@ class SetR0(Message):
     REPLY: ClassVar[str | None] = 'ACK'
     MIN_LEN: ClassVar[int] = 13
     MAX_LEN: ClassVar[int] = 13
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<B3f')
     channel_mask: int = 0
     r0_ohm: tuple[float, ...] = field(default_factory=lambda: (0.0, 0.0, 0.0,))  # ohm
@@ -821,6 +846,7 @@ class Status(Message):
     REPLY: ClassVar[str | None] = 'STATUS_REPLY'
     MIN_LEN: ClassVar[int] = 0
     MAX_LEN: ClassVar[int] = 0
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<')
 
     def pack(self) -> bytes:
@@ -843,6 +869,7 @@ class StatusReply(Message):
     REPLY: ClassVar[str | None] = None
     MIN_LEN: ClassVar[int] = 35
     MAX_LEN: ClassVar[int] = 35
+    DEADLINE_MS: ClassVar[int] = 0
     _FMT: ClassVar[struct.Struct] = struct.Struct('<HHHHHHHHBHHHIII')
     flags: int = 0
     bad_crc: int = 0
@@ -881,6 +908,7 @@ class Error(Message):
     REPLY: ClassVar[str | None] = None
     MIN_LEN: ClassVar[int] = 7
     MAX_LEN: ClassVar[int] = 7
+    DEADLINE_MS: ClassVar[int] = 0
     _FMT: ClassVar[struct.Struct] = struct.Struct('<BhI')
     code: int = 0
     detail: int = 0
@@ -907,6 +935,7 @@ class ConfigGet(Message):
     REPLY: ClassVar[str | None] = 'CONFIG_VALUE'
     MIN_LEN: ClassVar[int] = 1
     MAX_LEN: ClassVar[int] = 1
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<B')
     key: int = 0
 
@@ -931,6 +960,7 @@ class ConfigValue(Message):
     REPLY: ClassVar[str | None] = None
     MIN_LEN: ClassVar[int] = 5
     MAX_LEN: ClassVar[int] = 5
+    DEADLINE_MS: ClassVar[int] = 0
     _FMT: ClassVar[struct.Struct] = struct.Struct('<Bi')
     key: int = 0
     value: int = 0
@@ -956,6 +986,7 @@ class ConfigSet(Message):
     REPLY: ClassVar[str | None] = 'ACK'
     MIN_LEN: ClassVar[int] = 5
     MAX_LEN: ClassVar[int] = 5
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<Bi')
     key: int = 0
     value: int = 0
@@ -981,6 +1012,7 @@ class ConfigSave(Message):
     REPLY: ClassVar[str | None] = 'ACK'
     MIN_LEN: ClassVar[int] = 0
     MAX_LEN: ClassVar[int] = 0
+    DEADLINE_MS: ClassVar[int] = 1000
     _FMT: ClassVar[struct.Struct] = struct.Struct('<')
 
     def pack(self) -> bytes:
@@ -1003,6 +1035,7 @@ class ConfigReset(Message):
     REPLY: ClassVar[str | None] = 'ACK'
     MIN_LEN: ClassVar[int] = 0
     MAX_LEN: ClassVar[int] = 0
+    DEADLINE_MS: ClassVar[int] = 1000
     _FMT: ClassVar[struct.Struct] = struct.Struct('<')
 
     def pack(self) -> bytes:
@@ -1025,6 +1058,7 @@ class Reset(Message):
     REPLY: ClassVar[str | None] = 'ACK'
     MIN_LEN: ClassVar[int] = 0
     MAX_LEN: ClassVar[int] = 0
+    DEADLINE_MS: ClassVar[int] = 50
     _FMT: ClassVar[struct.Struct] = struct.Struct('<')
 
     def pack(self) -> bytes:

@@ -1,0 +1,544 @@
+#include "device.h"
+
+#include "sensing.h"
+
+namespace dev {
+
+namespace r = proto::result;
+namespace f = proto::flag;
+
+namespace {
+
+uint16_t sat_add16(uint16_t a, uint16_t b) { return (uint16_t)(a > 0xFFFF - b ? 0xFFFF : a + b); }
+uint32_t sat_inc32(uint32_t a) { return a == 0xFFFFFFFFUL ? a : a + 1; }
+
+// Field indices named by NAK.detail for OUT_OF_RANGE (position in the catalogue's field list).
+constexpr int16_t kFieldSetpoint = 0, kFieldPumpMask = 1, kFieldValveMask = 2;
+
+}  // namespace
+
+Device::Device(Hal& hal, ModelPort& model)
+    : hal_(hal),
+      model_(model),
+      store_(hal),
+      outputs_(),
+      counters_(),
+      cached_len_(0),
+      last_type_(0),
+      last_seq_(0),
+      cmd_seq_(0),
+      frame_ready_(false),
+      streaming_(false),
+      reset_requested_(false),
+      stream_mask_(0),
+      rate_hz_(0),
+      telemetry_seq_(0),
+      error_seq_(0),
+      sticky_flags_(0),
+      sample_flags_(0),
+      pending_overrun_(0) {
+  config_.set_defaults();
+}
+
+void Device::begin() {
+  outputs_off();
+  if (store_.load(&config_)) {
+    // Count boots in the stored configuration (only bytes that change are written).
+    config_.boots = sat_add16(config_.boots, 1);
+    store_.save(config_);
+  } else {
+    sticky_flags_ |= f::CONFIG_DEFAULTS;
+  }
+  apply_config();
+  if (!hal_.adc_present()) sample_flags_ |= f::ADC_FAULT;
+  if (!hal_.imu_present()) sample_flags_ |= f::IMU_FAULT;
+  const bool r0_stored = config_.r0_mode == 1 && !(sticky_flags_ & f::CONFIG_DEFAULTS);
+  if (!r0_stored && !calibrate_r0(kR0BootSamples, 0x07)) sticky_flags_ |= f::R0_UNCALIBRATED;
+  if (config_.autostart && model_.estimator_loaded()) {
+    start_stream(config_.sample_rate_hz, config_.channel_mask);
+    sticky_flags_ |= f::STANDALONE;
+  }
+  link_.feed(hal_.millis());
+}
+
+void Device::apply_config() {
+  link_.set_timeout(config_.watchdog_ms);
+  hal_.adc_configure(config_.adc_pga, config_.adc_rate);
+}
+
+uint16_t Device::flags() const {
+  uint16_t fl = (uint16_t)(sticky_flags_ | sample_flags_);
+  if (!model_.estimator_loaded()) fl |= f::ESTIMATOR_OFF;
+  if (outputs_active()) fl |= f::OUTPUTS_ACTIVE;
+  if (pending_overrun_) fl |= f::OVERRUN;
+  return fl;
+}
+
+// ---------------------------------------------------------------- outputs and watchdog
+
+bool Device::outputs_active() const {
+  if (outputs_.pump_mask || outputs_.valve_mask) return true;
+  for (uint8_t i = 0; i < kChannels; ++i)
+    if (outputs_.setpoint_dkpa[i] != 0) return true;
+  return false;
+}
+
+void Device::outputs_off() {
+  for (uint8_t i = 0; i < kChannels; ++i) outputs_.setpoint_dkpa[i] = 0;
+  outputs_.pump_mask = 0;
+  outputs_.valve_mask = 0;  // vented
+  hal_.apply_outputs(outputs_);
+}
+
+void Device::poll() {
+  poll_rx();
+  if (frame_ready_) {
+    handle_frame();
+    frame_ready_ = false;
+  }
+  const uint32_t now = hal_.millis();
+  if (link_.expired(now, outputs_active())) {
+    outputs_off();
+    sticky_flags_ |= f::WATCHDOG_TRIPPED;
+    counters_.watchdog_trips = sat_add16(counters_.watchdog_trips, 1);
+    send_error(r::BAD_STATE, (int16_t)f::WATCHDOG_TRIPPED, hal_.micros());
+  }
+}
+
+void Device::poll_rx() {
+  while (!frame_ready_) {
+    const int16_t c = hal_.serial_read();
+    if (c < 0) return;
+    if (decoder_.feed((uint8_t)c)) {
+      frame_ready_ = true;
+      counters_.rx_frames = sat_inc32(counters_.rx_frames);
+      link_.feed(hal_.millis());
+    }
+  }
+}
+
+// ---------------------------------------------------------------- replies
+
+void Device::reply(uint8_t type, const uint8_t* payload, uint8_t len) {
+  cached_len_ = proto::encode_frame(type, cmd_seq_, payload, len, cached_);
+  if (cached_len_ == 0) return;
+  hal_.serial_write(cached_, cached_len_);
+  counters_.tx_frames = sat_inc32(counters_.tx_frames);
+}
+
+void Device::ack() {
+  proto::Ack a;
+  a.acked_type = last_type_;
+  uint8_t buf[proto::Ack::kMaxLen];
+  reply(proto::Ack::kType, buf, a.encode(buf));
+}
+
+void Device::nak(uint8_t code, int16_t detail) {
+  proto::Nak n;
+  n.acked_type = last_type_;
+  n.code = code;
+  n.detail = detail;
+  uint8_t buf[proto::Nak::kMaxLen];
+  reply(proto::Nak::kType, buf, n.encode(buf));
+}
+
+void Device::send_unsolicited(uint8_t type, const uint8_t* payload, uint8_t len) {
+  // SAMPLE and ERROR number themselves with separate counters; a dropped frame still takes
+  // its number, so the host sees the gap.
+  uint8_t* seq = type == proto::msg::SAMPLE ? &telemetry_seq_ : &error_seq_;
+  uint8_t frame[proto::kMaxFrameLen];
+  const uint8_t n = proto::encode_frame(type, (*seq)++, payload, len, frame);
+  if (n == 0) return;
+  if (hal_.serial_tx_free() < n) {
+    counters_.dropped_telemetry = sat_add16(counters_.dropped_telemetry, 1);
+    return;
+  }
+  hal_.serial_write(frame, n);
+  counters_.tx_frames = sat_inc32(counters_.tx_frames);
+}
+
+void Device::send_error(uint8_t code, int16_t detail, uint32_t t_us) {
+  proto::Error e;
+  e.code = code;
+  e.detail = detail;
+  e.t_us = t_us;
+  uint8_t buf[proto::Error::kMaxLen];
+  send_unsolicited(proto::Error::kType, buf, e.encode(buf));
+}
+
+// ---------------------------------------------------------------- command dispatch
+
+void Device::handle_frame() {
+  const uint8_t type = decoder_.type();
+  const uint8_t seq = decoder_.seq();
+  // A retry carries the same sequence number and type: answer it without executing again.
+  // HELLO is never a duplicate (a new host session must not collide with the last one).
+  if (cached_len_ != 0 && type == last_type_ && seq == last_seq_ && type != proto::msg::HELLO) {
+    hal_.serial_write(cached_, cached_len_);
+    counters_.tx_frames = sat_inc32(counters_.tx_frames);
+    return;
+  }
+  last_type_ = type;
+  last_seq_ = seq;
+  cmd_seq_ = seq;
+  uint8_t lo, hi;
+  const uint8_t len = decoder_.length();
+  if (!proto::payload_bounds(type, &lo, &hi) || (type & 0x80)) {
+    nak(r::UNKNOWN_TYPE, 0);  // a device-to-host type sent to the device
+    return;
+  }
+  if (len < lo || len > hi) {
+    nak(r::BAD_LENGTH, (int16_t)lo);
+    return;
+  }
+  dispatch(type, decoder_.payload(), len);
+}
+
+void Device::dispatch(uint8_t type, const uint8_t* p, uint8_t len) {
+  namespace m = proto::msg;
+  switch (type) {
+    case m::HELLO:
+      cmd_hello();
+      cached_len_ = 0;  // HELLO clears the duplicate cache
+      return;
+    case m::PING: {
+      proto::Pong pong;
+      pong.nonce = proto::get_u32(p);
+      pong.device_time_us = hal_.micros();
+      uint8_t buf[proto::Pong::kMaxLen];
+      reply(proto::Pong::kType, buf, pong.encode(buf));
+      return;
+    }
+    case m::SET_OUTPUTS: cmd_set_outputs(p); return;
+    case m::SET_WATCHDOG: {
+      const uint16_t ms = proto::get_u16(p);
+      if (config_.set(proto::config::WATCHDOG_MS, ms) != r::OK) return nak(r::OUT_OF_RANGE, 0);
+      link_.set_timeout(ms);
+      return ack();
+    }
+    case m::START_STREAM: cmd_start_stream(p); return;
+    case m::STOP_STREAM:
+      stop_stream();
+      sticky_flags_ &= (uint16_t)~f::STANDALONE;
+      return ack();
+    case m::REPLAY: cmd_replay(p, len); return;
+    case m::CALIBRATE_R0: cmd_calibrate_r0(p); return;
+    case m::SET_R0: cmd_set_r0(p); return;
+    case m::STATUS: cmd_status(); return;
+    case m::CONFIG_GET: {
+      proto::ConfigValue v;
+      v.key = p[0];
+      if (!config_.get(v.key, &v.value)) return nak(r::BAD_KEY, 0);
+      uint8_t buf[proto::ConfigValue::kMaxLen];
+      reply(proto::ConfigValue::kType, buf, v.encode(buf));
+      return;
+    }
+    case m::CONFIG_SET: cmd_config_set(p); return;
+    case m::CONFIG_SAVE:
+      if (streaming_) return nak(r::BUSY, 0);  // EEPROM writes would stall sampling
+      store_.save(config_);
+      sticky_flags_ &= (uint16_t)~f::CONFIG_DEFAULTS;
+      return ack();
+    case m::CONFIG_RESET: {
+      if (streaming_) return nak(r::BUSY, 0);
+      const uint16_t boots = config_.boots;
+      config_.set_defaults();
+      config_.boots = boots;
+      store_.save(config_);
+      apply_config();
+      sticky_flags_ &= (uint16_t)~f::CONFIG_DEFAULTS;
+      return ack();
+    }
+    case m::RESET:
+      outputs_off();
+      ack();
+      reset_requested_ = true;
+      hal_.request_reset();
+      return;
+    case m::MODEL_BEGIN:
+    case m::MODEL_CHUNK:
+    case m::MODEL_COMMIT:
+    case m::MODEL_INFO:
+    case m::MODEL_ERASE:
+    case m::MODEL_READ: cmd_model(type, p, len); return;
+    default: nak(r::UNKNOWN_TYPE, 0); return;
+  }
+}
+
+void Device::cmd_hello() {
+  proto::HelloReply h;
+  h.proto_major = proto::kVersionMajor;
+  h.proto_minor = proto::kVersionMinor;
+  h.fw_major = kFwMajor;
+  h.fw_minor = kFwMinor;
+  h.fw_patch = kFwPatch;
+  h.capabilities = proto::cap::ESTIMATOR;
+  if (hal_.adc_present()) h.capabilities |= proto::cap::ADC;
+  if (hal_.imu_present()) h.capabilities |= proto::cap::IMU;
+  h.n_channels = kChannels;
+  h.model_status = model_.status();
+  h.model_crc = model_.crc();
+  h.streaming = streaming_ ? 1 : 0;
+  h.uptime_ms = hal_.millis();
+  uint8_t buf[proto::HelloReply::kMaxLen];
+  reply(proto::HelloReply::kType, buf, h.encode(buf));
+}
+
+void Device::cmd_set_outputs(const uint8_t* p) {
+  proto::SetOutputs s;
+  s.decode(p, proto::SetOutputs::kMinLen);
+  for (uint8_t i = 0; i < kChannels; ++i) {
+    if (s.setpoint_dkpa[i] > 0 || s.setpoint_dkpa[i] < config_.min_setpoint_dkpa)
+      return nak(r::OUT_OF_RANGE, kFieldSetpoint);
+  }
+  if (s.pump_mask & ~0x07) return nak(r::OUT_OF_RANGE, kFieldPumpMask);
+  if (s.valve_mask & ~0x07) return nak(r::OUT_OF_RANGE, kFieldValveMask);
+  for (uint8_t i = 0; i < kChannels; ++i) outputs_.setpoint_dkpa[i] = s.setpoint_dkpa[i];
+  outputs_.pump_mask = s.pump_mask;
+  outputs_.valve_mask = s.valve_mask;
+  hal_.apply_outputs(outputs_);
+  sticky_flags_ &= (uint16_t)~f::WATCHDOG_TRIPPED;
+  link_.feed(hal_.millis());
+  ack();
+}
+
+void Device::cmd_start_stream(const uint8_t* p) {
+  proto::StartStream s;
+  s.decode(p, proto::StartStream::kMinLen);
+  proto::config::KeyInfo rate;
+  proto::config::key_info(proto::config::SAMPLE_RATE_HZ, &rate);
+  if (s.rate_hz < rate.min || s.rate_hz > rate.max) return nak(r::OUT_OF_RANGE, 0);
+  if (s.channel_mask & ~0x1F) return nak(r::OUT_OF_RANGE, 1);
+  sticky_flags_ &= (uint16_t)~f::STANDALONE;
+  start_stream(s.rate_hz, s.channel_mask);
+  ack();
+}
+
+void Device::start_stream(uint16_t rate_hz, uint8_t mask) {
+  model_.estimator_reset();
+  stream_mask_ = mask;
+  rate_hz_ = rate_hz;
+  telemetry_seq_ = 0;  // each stream numbers its SAMPLE frames from 0
+  pending_overrun_ = 0;
+  streaming_ = true;
+}
+
+void Device::stop_stream() {
+  streaming_ = false;
+  rate_hz_ = 0;
+}
+
+void Device::cmd_replay(const uint8_t* p, uint8_t len) {
+  if (streaming_) return nak(r::BUSY, 0);
+  if (!model_.estimator_loaded()) return nak(r::NO_MODEL, 0);
+  const uint8_t values = (uint8_t)((len - 1) / 2);
+  if (values % kChannels != 0) return nak(r::BAD_LENGTH, 0);
+  if (p[0]) model_.estimator_reset();
+  // Replies mirror the request: same length, estimates interleaved like the inputs.
+  uint8_t out[proto::ReplayResult::kMaxLen];
+  uint8_t flags = 0;
+  for (uint8_t s = 0; s < values; s = (uint8_t)(s + kChannels)) {
+    int16_t in[kChannels], est[kChannels];
+    for (uint8_t i = 0; i < kChannels; ++i) in[i] = proto::get_i16(p + 1 + 2 * (s + i));
+    flags |= model_.estimator_step(in, est);
+    for (uint8_t i = 0; i < kChannels; ++i) proto::put_i16(out + 1 + 2 * (s + i), est[i]);
+  }
+  out[0] = flags & 1;
+  reply(proto::ReplayResult::kType, out, len);
+}
+
+bool Device::calibrate_r0(uint8_t n_samples, uint8_t mask) {
+  int32_t sum[kChannels] = {0, 0, 0};
+  for (uint8_t k = 0; k < n_samples; ++k) {
+    for (uint8_t ch = 0; ch < kChannels; ++ch) {
+      if (!(mask & (1u << ch))) continue;
+      int16_t c;
+      if (!hal_.adc_read(ch, &c)) {
+        counters_.sensor_faults = sat_add16(counters_.sensor_faults, 1);
+        return false;
+      }
+      sum[ch] += c;
+    }
+  }
+  for (uint8_t ch = 0; ch < kChannels; ++ch) {
+    if (!(mask & (1u << ch))) continue;
+    const float ohm = counts_to_ohm((float)sum[ch] / (float)n_samples, config_.adc_pga);
+    const float mohm = ohm * 1000.0f + 0.5f;
+    proto::config::KeyInfo lim;
+    proto::config::key_info((uint8_t)(proto::config::R0_CH0_MOHM + ch), &lim);
+    // An open or shorted input gives no usable R0: keep the previous one.
+    if (!(mohm >= (float)lim.min && mohm <= (float)lim.max)) return false;
+    config_.r0_mohm[ch] = (int32_t)mohm;
+  }
+  sticky_flags_ &= (uint16_t)~f::R0_UNCALIBRATED;
+  return true;
+}
+
+void Device::cmd_calibrate_r0(const uint8_t* p) {
+  const uint8_t n = p[0], mask = p[1];
+  if (n < 1 || n > 64) return nak(r::OUT_OF_RANGE, 0);
+  if (mask == 0 || (mask & ~0x07)) return nak(r::OUT_OF_RANGE, 1);
+  if (streaming_) return nak(r::BUSY, 0);
+  if (!calibrate_r0(n, mask)) return nak(r::SENSOR_FAULT, 0);
+  proto::R0Reply rep;
+  for (uint8_t ch = 0; ch < kChannels; ++ch) rep.r0_ohm[ch] = r0_ohm(ch);
+  uint8_t buf[proto::R0Reply::kMaxLen];
+  reply(proto::R0Reply::kType, buf, rep.encode(buf));
+}
+
+void Device::cmd_set_r0(const uint8_t* p) {
+  proto::SetR0 s;
+  s.decode(p, proto::SetR0::kMinLen);
+  if (s.channel_mask == 0 || (s.channel_mask & ~0x07)) return nak(r::OUT_OF_RANGE, 0);
+  int32_t mohm[kChannels];
+  for (uint8_t ch = 0; ch < kChannels; ++ch) {
+    if (!(s.channel_mask & (1u << ch))) continue;
+    const float v = s.r0_ohm[ch] * 1000.0f;
+    proto::config::KeyInfo lim;
+    proto::config::key_info((uint8_t)(proto::config::R0_CH0_MOHM + ch), &lim);
+    if (!(v >= (float)lim.min && v <= (float)lim.max)) return nak(r::OUT_OF_RANGE, 1);  // NaN too
+    mohm[ch] = (int32_t)(v + 0.5f);
+  }
+  for (uint8_t ch = 0; ch < kChannels; ++ch)
+    if (s.channel_mask & (1u << ch)) config_.r0_mohm[ch] = mohm[ch];
+  sticky_flags_ &= (uint16_t)~f::R0_UNCALIBRATED;
+  ack();
+}
+
+void Device::cmd_status() {
+  const proto::DecoderCounters& d = decoder_.counters();
+  proto::StatusReply s;
+  s.flags = flags();
+  s.bad_crc = sat_add16(d.bad_crc, d.bad_cobs);  // both are corrupted frames
+  s.bad_length = sat_add16(d.bad_length, d.overlong);
+  s.bad_version = d.bad_version;
+  s.unknown_type = d.unknown_type;
+  s.overruns = counters_.overruns;
+  s.dropped_telemetry = counters_.dropped_telemetry;
+  s.resets = config_.boots;
+  s.reset_cause = hal_.reset_cause();
+  s.watchdog_trips = counters_.watchdog_trips;
+  s.sensor_faults = counters_.sensor_faults;
+  s.free_ram = hal_.free_stack();
+  s.rx_frames = counters_.rx_frames;
+  s.tx_frames = counters_.tx_frames;
+  s.uptime_ms = hal_.millis();
+  uint8_t buf[proto::StatusReply::kMaxLen];
+  reply(proto::StatusReply::kType, buf, s.encode(buf));
+}
+
+void Device::cmd_config_set(const uint8_t* p) {
+  const uint8_t key = p[0];
+  const uint8_t code = config_.set(key, proto::get_i32(p + 1));
+  if (code == r::BAD_KEY) return nak(code, 0);
+  if (code != r::OK) return nak(code, 1);
+  if (key >= proto::config::R0_CH0_MOHM && key <= proto::config::R0_CH2_MOHM)
+    sticky_flags_ &= (uint16_t)~f::R0_UNCALIBRATED;
+  apply_config();
+  ack();
+}
+
+void Device::cmd_model(uint8_t type, const uint8_t* p, uint8_t len) {
+  namespace m = proto::msg;
+  int16_t detail = 0;
+  uint8_t code = r::OK;
+  switch (type) {
+    case m::MODEL_INFO: {
+      proto::ModelInfoReply info;
+      model_.info(&info);
+      uint8_t buf[proto::ModelInfoReply::kMaxLen];
+      reply(proto::ModelInfoReply::kType, buf, info.encode(buf));
+      return;
+    }
+    case m::MODEL_READ: {
+      const uint16_t offset = proto::get_u16(p);
+      const uint8_t n = p[2];
+      if (n < 1 || n > 112) return nak(r::OUT_OF_RANGE, 1);
+      uint8_t buf[2 + 112];
+      proto::put_u16(buf, offset);
+      code = model_.read(offset, n, buf + 2);
+      if (code != r::OK) return nak(code, 0);
+      reply(proto::ModelData::kType, buf, (uint8_t)(2 + n));
+      return;
+    }
+    default: break;
+  }
+  if (streaming_) return nak(r::BUSY, 0);
+  switch (type) {
+    case m::MODEL_BEGIN:
+      code = model_.begin(proto::get_u16(p), proto::get_u16(p + 2), p[4], &detail);
+      break;
+    case m::MODEL_CHUNK:
+      code = model_.chunk(proto::get_u16(p), p + 2, (uint8_t)(len - 2), &detail);
+      break;
+    case m::MODEL_COMMIT: code = model_.commit(&detail); break;
+    case m::MODEL_ERASE: code = model_.erase(); break;
+    default: code = r::UNKNOWN_TYPE; break;
+  }
+  if (code != r::OK) return nak(code, detail);
+  ack();
+}
+
+// ---------------------------------------------------------------- sampling
+
+void Device::on_sample_ticks(uint8_t n, uint32_t tick_us) {
+  if (n == 0 || !streaming_) return;
+  if (n > 1) {
+    counters_.overruns = sat_add16(counters_.overruns, (uint16_t)(n - 1));
+    pending_overrun_ = 1;
+  }
+  proto::Sample s;
+  s.t_us = tick_us;
+  s.channel_mask = stream_mask_;
+  for (uint8_t i = 0; i < kChannels; ++i) {
+    s.adc[i] = 0;
+    s.dr_centi[i] = 0;
+    s.euler_16[i] = 0;
+    s.estimate[i] = 0;
+  }
+  const bool estimating = (stream_mask_ & proto::chan::ESTIMATES) && model_.estimator_loaded();
+  // The estimator needs every input channel, even those not reported.
+  const uint8_t adc_mask = (uint8_t)((stream_mask_ & 0x07) | (estimating ? 0x07 : 0));
+  uint16_t fl = 0;
+  int16_t dr[kChannels] = {0, 0, 0};
+  for (uint8_t ch = 0; ch < kChannels; ++ch) {
+    if (!(adc_mask & (1u << ch))) continue;
+    int16_t c = 0;
+    if (!hal_.adc_read(ch, &c)) {
+      fl |= f::ADC_FAULT;
+      break;  // the remaining channels would wait on the same missing chip
+    }
+    if (adc_clipped(c)) fl |= f::ADC_CLIPPED;
+    dr[ch] = counts_to_dr_centi(c, config_.adc_pga, r0_ohm(ch));
+    if (stream_mask_ & (1u << ch)) {
+      s.adc[ch] = c;
+      s.dr_centi[ch] = dr[ch];
+    }
+  }
+  poll_rx();
+  if (stream_mask_ & proto::chan::IMU) {
+    uint8_t cal = 0;
+    if (!hal_.imu_read(s.euler_16, &cal)) {
+      fl |= f::IMU_FAULT;
+      for (uint8_t i = 0; i < kChannels; ++i) s.euler_16[i] = 0;
+    } else if (cal < 3) {
+      fl |= f::IMU_UNCALIBRATED;
+    }
+  }
+  if (estimating && !(fl & f::ADC_FAULT)) {
+    if (model_.estimator_step(dr, s.estimate) & 1) fl |= f::ESTIMATOR_SATURATED;
+  }
+  // A sensor that stops answering is reported once, as it happens.
+  const uint16_t faults = f::ADC_FAULT | f::IMU_FAULT;
+  const uint16_t new_faults = (uint16_t)(fl & faults & ~(sample_flags_ & faults));
+  if (fl & faults) counters_.sensor_faults = sat_add16(counters_.sensor_faults, 1);
+  sample_flags_ = fl;
+  s.status = flags();
+  pending_overrun_ = 0;
+  uint8_t buf[proto::Sample::kMaxLen];
+  send_unsolicited(proto::Sample::kType, buf, s.encode(buf));
+  if (new_faults) send_error(r::SENSOR_FAULT, (int16_t)new_faults, tick_us);
+  poll_rx();
+}
+
+}  // namespace dev

@@ -1,0 +1,107 @@
+// The device core: command handling per protocol/messages.toml, duplicate detection with a
+// cached reply, output limits, the host-link watchdog, fixed-rate sampling and telemetry.
+// Pure C++: all hardware access goes through dev::Hal, the model through dev::ModelPort.
+#pragma once
+#include <stdint.h>
+
+#include "device_config.h"
+#include "frame_codec.h"
+#include "hal.h"
+#include "link_watchdog.h"
+#include "model_port.h"
+#include "protocol_messages.h"
+
+namespace dev {
+
+constexpr uint8_t kFwMajor = 1, kFwMinor = 0, kFwPatch = 0;
+constexpr uint8_t kR0BootSamples = 16;  // averaged at boot when R0_MODE is 0
+
+struct Counters {
+  uint16_t overruns;           // sample ticks missed because the previous sample ran late
+  uint16_t dropped_telemetry;  // SAMPLE frames not sent: transmit buffer full
+  uint16_t watchdog_trips;
+  uint16_t sensor_faults;
+  uint32_t rx_frames;
+  uint32_t tx_frames;
+};
+
+class Device {
+ public:
+  Device(Hal& hal, ModelPort& model);
+
+  // Outputs off, configuration from EEPROM (defaults when corrupt), R0 per R0_MODE,
+  // autostart when configured and a model is loaded.
+  void begin();
+  // Feed received bytes to the decoder until a frame is complete; safe to call from a
+  // driver's wait loop (commands are executed later by poll()).
+  void poll_rx();
+  // Execute a received command, check the host-link watchdog. Call every loop pass.
+  void poll();
+  // Sample ticks from the timer: n ticks since the previous call (n > 1: n - 1 overruns),
+  // tick_us the time of the latest. Samples, estimates and sends one SAMPLE.
+  void on_sample_ticks(uint8_t n, uint32_t tick_us);
+
+  bool streaming() const { return streaming_; }
+  uint16_t rate_hz() const { return rate_hz_; }  // the timer's sample rate, 0 when stopped
+  uint16_t flags() const;
+  const Counters& counters() const { return counters_; }
+  const Config& config() const { return config_; }
+  const Outputs& outputs() const { return outputs_; }
+  bool reset_requested() const { return reset_requested_; }
+
+ private:
+  void handle_frame();
+  void dispatch(uint8_t type, const uint8_t* p, uint8_t len);
+  void reply(uint8_t type, const uint8_t* payload, uint8_t len);
+  void ack();
+  void nak(uint8_t code, int16_t detail);
+  void send_unsolicited(uint8_t type, const uint8_t* payload, uint8_t len);
+  void send_error(uint8_t code, int16_t detail, uint32_t t_us);
+
+  void cmd_hello();
+  void cmd_set_outputs(const uint8_t* p);
+  void cmd_start_stream(const uint8_t* p);
+  void cmd_replay(const uint8_t* p, uint8_t len);
+  void cmd_calibrate_r0(const uint8_t* p);
+  void cmd_set_r0(const uint8_t* p);
+  void cmd_status();
+  void cmd_config_set(const uint8_t* p);
+  void cmd_model(uint8_t type, const uint8_t* p, uint8_t len);
+
+  void apply_config();
+  void outputs_off();
+  bool outputs_active() const;
+  void start_stream(uint16_t rate_hz, uint8_t mask);
+  void stop_stream();
+  bool calibrate_r0(uint8_t n_samples, uint8_t mask);
+  float r0_ohm(uint8_t ch) const { return (float)config_.r0_mohm[ch] * 0.001f; }
+
+  Hal& hal_;
+  ModelPort& model_;
+  proto::FrameDecoder decoder_;
+  Config config_;
+  ConfigStore store_;
+  LinkWatchdog link_;
+  Outputs outputs_;
+  Counters counters_;
+
+  // The last command and its encoded reply, resent verbatim for a duplicate.
+  uint8_t cached_[proto::kMaxFrameLen];
+  uint8_t cached_len_;
+  uint8_t last_type_;
+  uint8_t last_seq_;
+  uint8_t cmd_seq_;  // sequence number of the command being handled
+
+  bool frame_ready_;
+  bool streaming_;
+  bool reset_requested_;
+  uint8_t stream_mask_;
+  uint16_t rate_hz_;
+  uint8_t telemetry_seq_;  // SAMPLE frames, from 0 at each START_STREAM
+  uint8_t error_seq_;      // ERROR frames
+  uint16_t sticky_flags_;  // flags that persist until cleared (watchdog, config, R0, ...)
+  uint16_t sample_flags_;  // sensor flags of the latest sample
+  uint8_t pending_overrun_;  // an overrun happened since the previous SAMPLE
+};
+
+}  // namespace dev

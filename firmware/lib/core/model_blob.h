@@ -1,0 +1,92 @@
+// The model blob: the fixed-point estimator's coefficients as stored in EEPROM.
+// Layout and number formats: protocol/spec.md, section "Model blob format". The Python twin
+// is porosense.quant.blob; both sides must agree byte for byte.
+// Pure C++ (no Arduino header, no heap, no float in the hot path).
+#pragma once
+#include <stdint.h>
+
+namespace est {
+
+// Where the estimator reads its coefficients: RAM on the host, EEPROM on the Uno.
+class BlobReader {
+ public:
+  virtual void read(uint16_t offset, void* dst, uint8_t n) const = 0;
+};
+
+// A blob held in RAM (host tests, REPLAY checks, a blob in flash copied to RAM).
+class RamBlobReader : public BlobReader {
+ public:
+  RamBlobReader(const uint8_t* data, uint16_t size) : data_(data), size_(size) {}
+  void read(uint16_t offset, void* dst, uint8_t n) const override;
+
+ private:
+  const uint8_t* data_;
+  uint16_t size_;
+};
+
+namespace blob {
+
+constexpr uint8_t kMagic0 = 0x50;  // 'P'
+constexpr uint8_t kMagic1 = 0x57;  // 'W'
+constexpr uint8_t kFormatVersion = 1;
+constexpr uint8_t kHeaderLen = 24;
+constexpr uint8_t kCrcLen = 2;
+constexpr uint16_t kMaxLength = 952;  // EEPROM model region (960) minus the store header (8)
+
+// Header offsets.
+constexpr uint8_t kOffMagic = 0, kOffVersion = 2, kOffInputs = 3, kOffOutputs = 4,
+                  kOffReserved = 5, kOffLength = 6, kOffModelId = 8, kOffOutScale = 12;
+
+// Limits of the structure (DESIGN.md): 3 inputs, 3 outputs, 16 breakpoints, 5 sections
+// (10 poles) per linear block, delays of at most 15 samples.
+constexpr uint8_t kMaxInputs = 3, kMaxOutputs = 3, kMaxBranches = 3, kMaxBreakpoints = 16,
+                  kMaxSections = 5, kMaxDelay = 15;
+constexpr uint8_t kMaxCascades = kMaxOutputs * (kMaxBranches + 1);            // 12
+constexpr uint8_t kMaxTotalSections = kMaxCascades * kMaxSections;            // 60
+
+// Output record flags.
+constexpr uint8_t kOutHasG = 0x01, kOutHasH2 = 0x02;
+// Branch record flags.
+constexpr uint8_t kBranchHasF = 0x01;
+// Section flags byte: bit0 32-bit numerator, bit1 delta form, bits 2-4 m1 + 2, bits 5-6 m2 + 1.
+constexpr uint8_t kSecWide = 0x01, kSecDelta = 0x02;
+constexpr uint8_t kSecFixedLen = 4;               // flags, sb, n1, n2
+constexpr uint8_t kSecLen16 = kSecFixedLen + 6 + 4;  // 14
+constexpr uint8_t kSecLen32 = kSecFixedLen + 12 + 4; // 20
+constexpr uint8_t kOutputRecLen = 4, kBranchRecLen = 6;
+
+// Section states are int32 in Q14 of the section's int16 output and saturate here.
+constexpr int32_t kStateMax = (int32_t(1) << 29) - 1;
+constexpr int32_t kStateMin = -(int32_t(1) << 29);
+constexpr uint8_t kStateFrac = 14;
+
+inline uint16_t pwl_len(uint8_t n) { return uint16_t(1 + 4 * n + 3 * (n - 1)); }
+
+struct Header {
+  uint8_t format_version;
+  uint8_t n_inputs;
+  uint8_t n_outputs;
+  uint16_t length;
+  uint32_t model_id;
+  float out_scale[3];
+};
+
+// CRC-16/MCRF4XX over bytes [0, n) of the blob (the protocol's CRC).
+uint16_t crc(const BlobReader& r, uint16_t n);
+
+// The CRC stored in the last two bytes of a blob of `length` bytes.
+uint16_t stored_crc(const BlobReader& r, uint16_t length);
+
+// Parses the header without checking the body; false when magic, version or counts are bad
+// or the length field disagrees with `length`.
+bool read_header(const BlobReader& r, uint16_t length, Header* out,
+                 uint16_t max_length = kMaxLength);
+
+// Full check: header, CRC and a walk of every record against the limits and the number
+// formats' bounds (so the step can never overflow). Counts cascades and sections.
+// max_length: the EEPROM limit by default; larger only for blobs held in RAM or flash.
+bool validate(const BlobReader& r, uint16_t length, uint16_t max_length = kMaxLength,
+              uint8_t* n_cascades = 0, uint8_t* n_sections = 0);
+
+}  // namespace blob
+}  // namespace est

@@ -1,0 +1,40 @@
+// dev::ModelPort backed by the EEPROM model store (est::ModelStore) and the fixed-point
+// estimator (est::Estimator): the command handler's model commands are delegated here.
+#pragma once
+#include <stdint.h>
+
+#include "estimator.h"
+#include "model_port.h"
+#include "model_store.h"
+
+namespace dev {
+
+class ModelLink : public ModelPort {
+ public:
+  explicit ModelLink(est::Eeprom& eeprom) : store_(eeprom, estimator_) {}
+  void boot() { store_.boot(); }  // load and check the stored model; a bad one stays off
+
+  uint8_t begin(uint16_t length, uint16_t crc, uint8_t format_version, int16_t* detail) override {
+    return store_.begin(length, crc, format_version, detail);
+  }
+  uint8_t chunk(uint16_t offset, const uint8_t* data, uint8_t n, int16_t* detail) override {
+    return store_.chunk(offset, data, n, detail);
+  }
+  uint8_t commit(int16_t* detail) override { return store_.commit(detail); }
+  uint8_t erase() override { return store_.erase(); }
+  uint8_t read(uint16_t offset, uint8_t n, uint8_t* dst) override { return store_.read(offset, n, dst); }
+  void info(proto::ModelInfoReply* out) override { store_.info(out); }
+  uint8_t status() override { return store_.status(); }
+  uint16_t crc() override { return store_.crc(); }
+  bool estimator_loaded() override { return estimator_.loaded(); }
+  void estimator_reset() override { estimator_.reset(); }
+  uint8_t estimator_step(const int16_t dr_centi[3], int16_t estimate[3]) override {
+    return estimator_.step(dr_centi, estimate);
+  }
+
+ private:
+  est::Estimator estimator_;  // constructed before the store, which keeps a reference
+  est::ModelStore store_;
+};
+
+}  // namespace dev

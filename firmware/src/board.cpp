@@ -1,0 +1,74 @@
+#include "board.h"
+
+#include <Arduino.h>
+#include <avr/eeprom.h>
+#include <avr/wdt.h>
+
+#include "pins.h"
+#include "stack_paint.h"
+#include "twi.h"
+
+Board::Board() : adc_(pins::kAds1115Addr), imu_(pins::kBno055Addr) {}
+
+void Board::outputs_safe() {
+  for (uint8_t i = 0; i < 3; ++i) {
+    digitalWrite(pins::kPump[i], LOW);
+    pinMode(pins::kPump[i], OUTPUT);
+    digitalWrite(pins::kValve[i], LOW);  // vented
+    pinMode(pins::kValve[i], OUTPUT);
+    digitalWrite(pins::kRegulator[i], LOW);
+    pinMode(pins::kRegulator[i], OUTPUT);
+  }
+}
+
+void Board::begin() {
+  Serial.begin(pins::kBaud);
+  twi::begin(pins::kI2cHz);
+  adc_.begin();
+  imu_.begin();
+}
+
+uint32_t Board::micros() { return ::micros(); }
+uint32_t Board::millis() { return ::millis(); }
+
+void Board::apply_outputs(const dev::Outputs& out) {
+  for (uint8_t i = 0; i < 3; ++i) {
+    // duty = setpoint / -80 kPa * 255, rounded; setpoints are already limited to <= 0.
+    int32_t sp = -(int32_t)out.setpoint_dkpa[i];
+    if (sp < 0) sp = 0;
+    if (sp > 800) sp = 800;
+    analogWrite(pins::kRegulator[i], (int)((sp * 255 + 400) / 800));
+    digitalWrite(pins::kPump[i], (out.pump_mask >> i) & 1 ? HIGH : LOW);
+    digitalWrite(pins::kValve[i], (out.valve_mask >> i) & 1 ? HIGH : LOW);
+  }
+}
+
+bool Board::adc_read(uint8_t ch, int16_t* counts) { return adc_.read(ch, counts); }
+void Board::adc_configure(uint8_t pga_code, uint8_t rate_code) { adc_.configure(pga_code, rate_code); }
+bool Board::imu_read(int16_t euler_16[3], uint8_t* sys_cal) { return imu_.read(euler_16, sys_cal); }
+bool Board::adc_present() { return adc_.present(); }
+bool Board::imu_present() { return imu_.present(); }
+
+int16_t Board::serial_read() { return (int16_t)Serial.read(); }
+void Board::serial_write(const uint8_t* data, uint8_t n) { Serial.write(data, n); }
+uint8_t Board::serial_tx_free() {
+  const int n = Serial.availableForWrite();
+  return (uint8_t)(n > 255 ? 255 : n);
+}
+
+uint8_t Board::eeprom_read(uint16_t addr) { return eeprom_read_byte((const uint8_t*)addr); }
+void Board::eeprom_write(uint16_t addr, uint8_t value) {
+  wdt_reset();  // a long model chunk takes ~3.4 ms per byte
+  eeprom_update_byte((uint8_t*)addr, value);
+}
+
+void Board::request_reset() {
+  Serial.flush();  // the ACK leaves before the reset
+  outputs_safe();
+  wdt_enable(WDTO_15MS);
+  for (;;) {
+  }
+}
+
+uint16_t Board::free_stack() { return stack_paint::untouched_bytes(); }
+uint8_t Board::reset_cause() { return stack_paint::reset_cause(); }

@@ -1,0 +1,55 @@
+// The porosense sketch: wires the board (drivers), the model store and the device core.
+// setup(): outputs off first, watchdog on, sensors up, configuration and model loaded.
+// loop(): feed the watchdog, handle commands, run the link watchdog, take sample ticks.
+// The core's headers come before any avr-libc header: avr/io.h defines a macro named ADC,
+// which would clash with proto::cap::ADC.
+#include "device.h"
+#include "model_link.h"
+
+#include <avr/wdt.h>
+
+#include "avr_eeprom.h"
+#include "board.h"
+#include "idle.h"
+#include "sample_clock.h"
+
+// Declared extern "C" by Arduino.h, which this file does not include.
+extern "C" void setup();
+extern "C" void loop();
+
+namespace {
+Board g_board;
+AvrEeprom g_eeprom;
+dev::ModelLink g_model(g_eeprom);
+dev::Device g_device(g_board, g_model);
+uint16_t g_clock_rate = 0;
+
+void drain_serial() { g_device.poll_rx(); }
+
+void sync_sample_clock() {
+  if (g_device.rate_hz() != g_clock_rate) {
+    g_clock_rate = g_device.rate_hz();
+    sample_clock::set_rate(g_clock_rate);
+  }
+}
+}  // namespace
+
+void setup() {
+  Board::outputs_safe();
+  wdt_enable(WDTO_1S);
+  idle::set_hook(drain_serial);
+  g_board.begin();
+  g_model.boot();
+  g_device.begin();
+  sample_clock::begin();
+  sync_sample_clock();
+}
+
+void loop() {
+  wdt_reset();
+  g_device.poll();
+  sync_sample_clock();
+  uint32_t tick_us;
+  const uint8_t n = sample_clock::take(&tick_us);
+  if (n) g_device.on_sample_ticks(n, tick_us);
+}

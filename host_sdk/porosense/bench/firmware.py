@@ -1,0 +1,202 @@
+"""Firmware budgets: flash and static RAM from avr-size, stack headroom, the estimator's
+worst-case step in cycles, and overruns at 100 Hz in the simboard.
+
+``porosense bench firmware --json`` prints them. Budgets (issue 5): flash <= 28 KB, static
+RAM (data + bss) <= 1,400 bytes, estimator step <= 48,000 cycles, zero overruns over 60 s
+of simulated time at 100 Hz with 3 ADC channels + IMU + estimator + telemetry.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[3]
+FIRMWARE_DIR = REPO_ROOT / "firmware"
+ELF = FIRMWARE_DIR / "build" / "porosense.elf"
+
+FLASH_BUDGET = 28 * 1024          # bytes
+RAM_BUDGET = 1400                 # bytes, .data + .bss
+RAM_TOTAL = 2048                  # ATmega328P SRAM
+CYCLE_BUDGET = 48_000             # estimator step, cycles at 16 MHz
+OVERRUN_RATE_HZ = 100
+ESTIMATOR_OFF = 1 << 3            # status flag: no model loaded
+
+
+@dataclass(frozen=True)
+class SizeReport:
+    """Section sizes of the firmware ELF in bytes."""
+
+    text: int
+    data: int
+    bss: int
+    noinit: int
+
+    @property
+    def flash(self) -> int:
+        """Program memory used: code + constants + the initial values of .data (bytes)."""
+        return self.text + self.data
+
+    @property
+    def static_ram(self) -> int:
+        """RAM taken before the stack: .data + .bss (bytes)."""
+        return self.data + self.bss
+
+    @property
+    def stack_room(self) -> int:
+        """RAM left for the stack: 2048 - .data - .bss - .noinit (bytes)."""
+        return RAM_TOTAL - self.data - self.bss - self.noinit
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d.update(flash=self.flash, static_ram=self.static_ram, stack_room=self.stack_room)
+        return d
+
+    def __str__(self) -> str:
+        return (f"flash {self.flash} B (<= {FLASH_BUDGET}), static RAM {self.static_ram} B "
+                f"(<= {RAM_BUDGET}), {self.stack_room} B left for the stack")
+
+
+def toolchain_missing() -> str | None:
+    """Why the firmware cannot be built here, or None when it can."""
+    for tool in ("avr-gcc", "avr-g++", "avr-size", "make"):
+        if shutil.which(tool) is None:
+            return f"{tool} not installed (Debian: gcc-avr avr-libc binutils-avr)"
+    if not Path("/usr/share/arduino/hardware/arduino/avr/cores/arduino").is_dir():
+        return "arduino-core-avr not installed (/usr/share/arduino)"
+    return None
+
+
+def build(quiet: bool = True) -> subprocess.CompletedProcess:
+    """``make -C firmware``; returns the completed process (output captured)."""
+    args = ["make", "-C", str(FIRMWARE_DIR)]
+    if quiet:
+        args.insert(1, "-s")
+    return subprocess.run(args, capture_output=True, text=True, timeout=600)
+
+
+def measure_size(elf: Path = ELF) -> SizeReport:
+    """Parse ``avr-size -A`` of the ELF into a SizeReport (bytes)."""
+    out = subprocess.run(["avr-size", "-A", str(elf)], capture_output=True, text=True,
+                         check=True).stdout
+    sizes = {}
+    for line in out.splitlines():
+        m = re.match(r"^\.(\w+)\s+(\d+)\s+\d+", line.strip())
+        if m:
+            sizes[m.group(1)] = int(m.group(2))
+    return SizeReport(text=sizes.get("text", 0), data=sizes.get("data", 0),
+                      bss=sizes.get("bss", 0), noinit=sizes.get("noinit", 0))
+
+
+def estimator_cycles() -> dict:
+    """The quantization area's measurement of the worst-case estimator step in simavr."""
+    try:
+        from porosense.quant import cycles  # measured by counting cycles in simavr
+    except ImportError:
+        return {"status": "pending", "reason": "porosense.quant.cycles not available"}
+    try:
+        return {"status": "measured", **cycles.measure_worst_case()}
+    except Exception as exc:  # a missing simavr or ELF is reported, not raised
+        return {"status": "pending", "reason": f"{type(exc).__name__}: {exc}"}
+
+
+def heavy_model_blob(seed: int = 1) -> bytes:
+    """The most expensive model that fits the EEPROM: 3 inputs x 3 outputs, Wiener-Hammerstein
+    with 4 poles in every H1 and H2 and 6 breakpoints in every f and g (917 bytes)."""
+    import numpy as np
+
+    from porosense.quant.quantize import quantize
+    from porosense.quant.random_models import random_structure
+
+    s = random_structure(np.random.default_rng(seed), 3, 3, h1_poles=4, h2_poles=4, breakpoints=6,
+                         kind="wh")
+    return quantize(s, input_range=(-90.0, 10.0)).blob.to_bytes()
+
+
+def simboard_overruns(seconds: float) -> dict:
+    """Flash the heaviest model that fits, then stream 3 ADC channels + IMU + estimates at
+    100 Hz in the simboard for ``seconds`` of simulated time; overruns and free stack (never
+    touched bytes, from STATUS) afterwards."""
+    try:
+        from porosense.device import Device
+        from porosense.simboard import SimBoard
+    except ImportError as exc:
+        return {"status": "pending", "reason": f"simboard not available ({exc})"}
+    try:
+        blob = heavy_model_blob()
+        with SimBoard(ELF) as board, Device.open(board.url) as dev:
+            dev.write_model(blob)
+            dev.start_stream(OVERRUN_RATE_HZ, 0x1F)
+            n = 0
+            flags = 0
+            first = last = None
+            for s in dev.samples():
+                first = s.t_us if first is None else first
+                last = s.t_us
+                flags |= s.status
+                n += 1
+                if n >= int(seconds * OVERRUN_RATE_HZ):
+                    break
+            dev.stop_stream()
+            st = dev.status()
+        return {"status": "measured", "seconds": seconds, "samples": n, "model_bytes": len(blob),
+                "estimator_on": not (flags & ESTIMATOR_OFF), "sample_flags_seen": flags,
+                "overruns": int(st.overruns), "free_stack": int(st.free_ram),
+                "dropped_telemetry": int(st.dropped_telemetry),
+                "span_us": int((last - first) % (1 << 32)) if n > 1 else 0}
+    except Exception as exc:
+        return {"status": "pending", "reason": f"{type(exc).__name__}: {exc}"}
+
+
+def run(size: str = "small") -> dict:
+    """Build the firmware and report its budgets. ``size="small"`` streams 5 s of simulated
+    time in the simboard, ``"full"`` the 60 s the budget quotes."""
+    why = toolchain_missing()
+    if why:
+        return {"status": "skipped", "reason": why, "summary": [f"firmware: skipped ({why})"]}
+    proc = build()
+    if proc.returncode != 0:
+        raise RuntimeError(f"firmware build failed:\n{proc.stdout}\n{proc.stderr}")
+    sz = measure_size()
+    seconds = 60.0 if size == "full" else 5.0
+    if os.environ.get("CI") and size != "full":
+        seconds = 5.0
+    cyc = estimator_cycles()
+    sim = simboard_overruns(seconds)
+    result = {
+        "elf": str(ELF.relative_to(REPO_ROOT)),
+        "size": sz.to_dict(),
+        "flash_bytes": sz.flash,
+        "flash_budget": FLASH_BUDGET,
+        "flash_ok": sz.flash <= FLASH_BUDGET,
+        "static_ram_bytes": sz.static_ram,
+        "static_ram_budget": RAM_BUDGET,
+        "static_ram_ok": sz.static_ram <= RAM_BUDGET,
+        "stack_room_bytes": sz.stack_room,
+        "estimator_cycles": cyc,
+        "cycle_budget": CYCLE_BUDGET,
+        "overruns_100hz": sim,
+    }
+    summary = [
+        f"flash: {sz.flash} B of {FLASH_BUDGET} B budget (text {sz.text} + data {sz.data})",
+        f"static RAM: {sz.static_ram} B of {RAM_BUDGET} B budget (data {sz.data} + bss {sz.bss})",
+        f"stack room: {sz.stack_room} B (2048 - data - bss - noinit)",
+    ]
+    if cyc.get("status") == "measured":
+        summary.append(f"estimator worst-case step: {cyc.get('cycles')} cycles "
+                       f"(budget {CYCLE_BUDGET})")
+    else:
+        summary.append(f"estimator worst-case step: pending ({cyc.get('reason')})")
+    if sim.get("status") == "measured":
+        summary.append(f"100 Hz, 3 ADC + IMU + estimator ({sim['model_bytes']} B model, "
+                       f"{'on' if sim['estimator_on'] else 'OFF'}) + telemetry, {seconds:g} s "
+                       f"simulated: {sim['overruns']} overruns, {sim['samples']} samples, "
+                       f"free stack {sim['free_stack']} B")
+    else:
+        summary.append(f"overruns at 100 Hz: pending ({sim.get('reason')})")
+    result["summary"] = summary
+    return result

@@ -1,0 +1,143 @@
+"""Protocol benchmark: codec throughput (Python and C++) and what the serial link carries.
+
+``run("small")`` takes a few seconds; ``run("full")`` times ten times more frames. The link
+figures (SAMPLE frame size and highest rate at 115200 baud) do not depend on the size: they
+come from the real encoder.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+BAUD = 115200
+BITS_PER_BYTE = 10  # 8N1: start bit, 8 data bits, stop bit
+REPO = Path(__file__).resolve().parents[3]
+CPP_BENCH_DIR = REPO / "tools" / "bench" / "protocol"
+SIZES = {"small": (5_000, 300_000), "full": (50_000, 3_000_000)}  # Python frames, C++ frames
+
+
+@dataclass
+class ProtocolBenchResult:
+    """Figures of the protocol benchmark (rates in frames per second)."""
+
+    size: str
+    sample_payload_bytes: int
+    sample_frame_bytes: int  # on the wire, delimiter included, worst case over contents
+    sample_max_rate_hz: float  # at BAUD with BITS_PER_BYTE
+    link_use_at_200hz: float  # fraction of the device -> host link
+    python_encode_fps: float
+    python_decode_fps: float
+    cpp_encode_fps: float | None
+    cpp_decode_fps: float | None
+    cpp_note: str = ""
+    summary: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def _samples(n: int):
+    from porosense.protocol import Sample
+
+    return [
+        Sample(
+            t_us=i * 5000 & 0xFFFFFFFF,
+            channel_mask=0x1F,
+            status=i & 0x0F,
+            adc=tuple(20000 + (i * 37 + c * 11) % 4000 for c in range(3)),
+            dr_centi=tuple(-((i * 13 + c) % 8000) for c in range(3)),
+            euler_16=tuple((i * 7 + c * 100) % 5760 for c in range(3)),
+            estimate=tuple((i * 3 + c) % 30000 for c in range(3)),
+        )
+        for i in range(n)
+    ]
+
+
+def sample_frame_bytes() -> int:
+    """Largest SAMPLE frame on the wire over extreme contents (all 0x00, no 0x00, mixed)."""
+    from porosense.protocol import Sample, encode_message
+
+    cases = [
+        Sample(),
+        Sample(t_us=0xFFFFFFFF, channel_mask=0xFF, status=0xFFFF, adc=(-1,) * 3, dr_centi=(-1,) * 3,
+               euler_16=(-1,) * 3, estimate=(-1,) * 3),
+        *_samples(64),
+    ]
+    return max(len(encode_message(s, seq)) for seq, s in enumerate(cases))
+
+
+def _python_rates(n: int) -> tuple[float, float]:
+    from porosense.protocol import FrameDecoder, encode_message
+
+    samples = _samples(min(n, 1024))
+    t0 = time.perf_counter()
+    frames = [encode_message(samples[i % len(samples)], i & 0xFF) for i in range(n)]
+    t_encode = time.perf_counter() - t0
+    stream = b"".join(frames)
+    dec = FrameDecoder()
+    t0 = time.perf_counter()
+    decoded = 0
+    for i in range(0, len(stream), 64):  # the size of a typical serial read
+        decoded += len(dec.feed(stream[i : i + 64]))
+    t_decode = time.perf_counter() - t0
+    if decoded != n:
+        raise RuntimeError(f"Python decoder returned {decoded} of {n} frames")
+    return n / t_encode, n / t_decode
+
+
+def _cpp_rates(n: int) -> tuple[float | None, float | None, str]:
+    if not (CPP_BENCH_DIR / "codec_bench.cpp").exists():
+        return None, None, "C++ benchmark source not found (installed without the repository)"
+    if shutil.which("g++") is None or shutil.which("make") is None:
+        return None, None, "g++ or make not installed"
+    build = subprocess.run(["make", "-s", "-C", str(CPP_BENCH_DIR)], capture_output=True, text=True)
+    if build.returncode != 0:
+        return None, None, f"C++ benchmark build failed: {build.stderr.strip()[-300:]}"
+    proc = subprocess.run([str(CPP_BENCH_DIR / "build" / "codec_bench"), str(n)], capture_output=True,
+                          text=True, timeout=300)
+    if proc.returncode != 0:
+        return None, None, f"C++ benchmark failed: {proc.stderr.strip()[-300:]}"
+    figures = json.loads(proc.stdout)
+    return figures["encode_frames_per_s"], figures["decode_frames_per_s"], "g++ -O2 on this host"
+
+
+def run(size: str = "small") -> dict:
+    """Run the benchmark; returns the figures as a dict with a ``summary`` of lines."""
+    from porosense.protocol import Sample
+
+    if size not in SIZES:
+        raise ValueError(f"size must be one of {sorted(SIZES)}")
+    n_py, n_cpp = SIZES[size]
+    frame_bytes = sample_frame_bytes()
+    max_rate = BAUD / (BITS_PER_BYTE * frame_bytes)
+    py_enc, py_dec = _python_rates(n_py)
+    cpp_enc, cpp_dec, note = _cpp_rates(n_cpp)
+    result = ProtocolBenchResult(
+        size=size,
+        sample_payload_bytes=Sample.MIN_LEN,
+        sample_frame_bytes=frame_bytes,
+        sample_max_rate_hz=round(max_rate, 1),
+        link_use_at_200hz=round(200 / max_rate, 3),
+        python_encode_fps=round(py_enc),
+        python_decode_fps=round(py_dec),
+        cpp_encode_fps=cpp_enc,
+        cpp_decode_fps=cpp_dec,
+        cpp_note=note,
+    )
+
+    def rate(x):
+        return f"{x:,.0f} frames/s" if x is not None else f"n/a ({note})"
+
+    result.summary = [
+        f"SAMPLE frame (3 channels, IMU, 3 estimates): {Sample.MIN_LEN}-byte payload, "
+        f"{frame_bytes} bytes on the wire",
+        f"highest SAMPLE rate at {BAUD} baud 8N1: {max_rate:.1f} Hz (200 Hz uses {200 / max_rate:.0%} of the link)",
+        f"Python codec: encode {rate(py_enc)}, decode {rate(py_dec)} (SAMPLE frames, {n_py:,} each)",
+        f"C++ codec: encode {rate(cpp_enc)}, decode {rate(cpp_dec)} ({n_cpp:,} each, byte by byte)",
+    ]
+    return result.to_dict()

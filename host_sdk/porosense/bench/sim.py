@@ -1,0 +1,99 @@
+"""Simulator speed and the paper's figures it reproduces.
+
+Speed: one contractor at 100 Hz through the paper's experiments (vectorised run) as a
+multiple of real time on one core; the cost of one ``plant.step`` (emulator, simboard).
+Figures: dR and strain at -60 kPa per porosity, the porosity power law, the release
+overshoot, the rate-dependent loop areas and the load effect.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+
+def _speed(repeats: int) -> dict:
+    from porosense.sim import make_plant, run_experiment
+
+    names = ["step_10", "step_20", "step_40", "step_60", "staircase"]
+    run_experiment("contractor", "step_10")  # warm-up (imports, caches)
+    simulated = elapsed = 0.0
+    for k in range(repeats):
+        for name in names:
+            t0 = time.perf_counter()
+            rec = run_experiment("contractor", name, rate_hz=100.0, seed=k)
+            elapsed += time.perf_counter() - t0
+            simulated += rec.duration + rec.ts
+    plant = make_plant("contractor", seed=1)
+    sp, on = np.array([-40.0, 0.0, 0.0]), np.array([True, False, False])
+    n = 2000 * repeats
+    t0 = time.perf_counter()
+    for _ in range(n):
+        plant.step(0.01, sp, on, on)
+    step_us = (time.perf_counter() - t0) / n * 1e6
+    plant3 = make_plant("3dof", seed=1)
+    on3 = np.ones(3, dtype=bool)
+    t0 = time.perf_counter()
+    for _ in range(n):
+        plant3.step(0.01, sp, on3, on3)
+    step3_us = (time.perf_counter() - t0) / n * 1e6
+    return {"simulated_s": simulated, "wall_s": elapsed, "realtime_ratio": simulated / elapsed,
+            "step_us_contractor": step_us, "step_us_3dof": step3_us}
+
+
+def _figures() -> dict:
+    from porosense.sim import run_experiment
+    from porosense.sim.analysis import (fit_power_law, hold_mean, normalised_loop_area,
+                                        release_overshoots)
+
+    porosities = [68, 76, 82, 86]
+    strain, dr, strain_500 = [], [], []
+    for phi in porosities:
+        rec = run_experiment("contractor", "step_60", porosity=phi, seed=phi)
+        loaded = run_experiment("contractor", "step_60", porosity=phi, load_g=500, seed=phi)
+        strain.append(hold_mean(rec, "strain_0", -60))
+        dr.append(hold_mean(rec, "dR_0", -60))
+        strain_500.append(hold_mean(loaded, "strain_0", -60))
+    step = run_experiment("contractor", "step_20", porosity=82, seed=1)
+    stairs = run_experiment("contractor", "staircase", porosity=82, seed=2)
+    step60 = run_experiment("contractor", "step_60", porosity=82, seed=3)
+    cycle = (step.t >= 5.0) & (step.t < 25.0)
+    shots = [s for lv in (10, 20, 40, 60)
+             for s in release_overshoots(run_experiment("contractor", f"step_{lv}", porosity=82, seed=lv))]
+    ss_gap = {name: abs(hold_mean(step60, name, -60) - hold_mean(stairs, name, -60))
+              / np.max(np.abs(stairs[name])) * 100.0 for name in ("strain_0", "dR_0")}
+    return {
+        "porosity": porosities, "strain_60_pct": strain, "dR_60_pct": dr,
+        "strain_60_500g_pct": strain_500,
+        "load_drop_pct": [a - b for a, b in zip(strain, strain_500)],
+        "power_law_strain": fit_power_law(porosities, strain).to_dict(),
+        "power_law_dR": fit_power_law(porosities, dr).to_dict(),
+        "loop_area_step20": normalised_loop_area(step["strain_0"][cycle], step["dR_0"][cycle]),
+        "loop_area_staircase": normalised_loop_area(stairs["strain_0"], stairs["dR_0"]),
+        "steady_gap_pct_fs": ss_gap,
+        "overshoot_min_pct": min(s.peak_pct for s in shots),
+        "overshoot_min_decayed": min(s.decayed for s in shots),
+    }
+
+
+def run(size: str = "small") -> dict:
+    """Speed (``realtime_ratio``, step cost in us) and the reproduced paper figures."""
+    speed = _speed(1 if size == "small" else 5)
+    fig = _figures()
+    pl_s, pl_d = fig["power_law_strain"], fig["power_law_dR"]
+    summary = [
+        f"contractor at 100 Hz: {speed['realtime_ratio']:.0f}x real time "
+        f"({speed['simulated_s']:.0f} s simulated in {speed['wall_s'] * 1e3:.0f} ms, one core)",
+        f"plant.step: {speed['step_us_contractor']:.1f} us (contractor), {speed['step_us_3dof']:.1f} us (3dof)",
+        "at -60 kPa, porosity " + ", ".join(
+            f"{p}%: strain {s:.1f} %, dR {d:.1f} %" for p, s, d in zip(fig["porosity"], fig["strain_60_pct"], fig["dR_60_pct"])),
+        f"power law strain: n = {pl_s['n']:.2f}, R^2 = {pl_s['r2']:.3f}; dR: n = {pl_d['n']:.2f}, R^2 = {pl_d['r2']:.3f}",
+        f"500 g load: strain drop {fig['load_drop_pct'][0]:.1f} % (68 %) vs {fig['load_drop_pct'][-1]:.1f} % (86 %)",
+        f"loop area (normalised): step -20 kPa {fig['loop_area_step20']:.3f} vs staircase {fig['loop_area_staircase']:.3f}; "
+        f"steady state gap at -60 kPa: strain {fig['steady_gap_pct_fs']['strain_0']:.2f} % FS, "
+        f"dR {fig['steady_gap_pct_fs']['dR_0']:.2f} % FS",
+        f"release overshoot: at least {fig['overshoot_min_pct']:.2f} % above R0, "
+        f"at least {fig['overshoot_min_decayed'] * 100:.0f} % decayed before the next pulse",
+    ]
+    return {"size": size, **speed, **fig, "summary": summary}

@@ -1,0 +1,151 @@
+"""``porosense identify``: estimate a model from CSV recordings and save it."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from porosense.errors import InputError
+
+STRUCTURE_CHOICES = ("linear", "hammerstein", "wiener", "wh", "all")
+
+
+def parse_range(text: str | None) -> slice:
+    """'A:B' (Python slice semantics, either side may be empty) -> slice."""
+    if text is None:
+        return slice(None)
+    parts = text.split(":")
+    if len(parts) != 2:
+        raise InputError(f"sample range '{text}' must look like A:B (for example 0:3000 or 3000:)")
+    try:
+        a, b = (int(p) if p.strip() else None for p in parts)
+    except ValueError:
+        raise InputError(f"sample range '{text}': A and B must be integers") from None
+    return slice(a, b)
+
+
+def register(sub) -> argparse.ArgumentParser:
+    p = sub.add_parser(
+        "identify",
+        help="identify a linear/Hammerstein/Wiener/Wiener-Hammerstein model from CSV data",
+        description=(
+            "Estimate discrete-time models (simulation error, jointly over every file, each file "
+            "simulated from rest) of one or more output columns from up to 3 input columns of CSV "
+            "files with a header row. Without --poles the paper's order search runs (poles 1..10, "
+            "zeros < poles) and the model with the best mean NRMSE fit over the estimation and "
+            "validation ranges is kept. Fit and RMS are in %; --ts is the sample period in seconds."
+        ),
+        epilog=("example: porosense identify --data step_10.csv step_60.csv --input dR_0 --output strain_0 "
+                "--ts 0.02 --structure wh --poles 4 --zeros 2 --estimation 0:2000 --validation 2000: "
+                "--save model.json --json report.json"),
+    )
+    p.add_argument("--data", nargs="+", required=True, metavar="FILE", help="CSV files, one recording each")
+    p.add_argument("--input", required=True, metavar="COL[,COL...]", help="input column names (1 to 3)")
+    p.add_argument("--output", required=True, metavar="COL[,COL...]", help="output column name(s)")
+    p.add_argument("--ts", type=float, required=True, metavar="SECONDS", help="sample period in s")
+    p.add_argument("--structure", choices=STRUCTURE_CHOICES, default="all", help="model structure (default all)")
+    p.add_argument("--poles", type=int, metavar="N", help="number of poles (default: search 1..--max-poles)")
+    p.add_argument("--zeros", type=int, metavar="N", help="number of zeros, < poles (default: search)")
+    p.add_argument("--max-poles", type=int, default=10, metavar="N", help="largest pole count searched (default 10)")
+    p.add_argument("--breakpoints", type=int, default=10, metavar="N", help="PWL breakpoints (2..64, default 10)")
+    p.add_argument("--delay", type=int, default=0, metavar="SAMPLES", help="input delay in samples (default 0)")
+    p.add_argument("--starts", type=int, default=2, metavar="N", help="starts per nonlinear model (default 2)")
+    p.add_argument("--estimation", metavar="A:B", help="sample range of every file used for estimation")
+    p.add_argument("--validation", metavar="A:B", help="sample range of every file used for validation")
+    p.add_argument("--jobs", type=int, metavar="N", help="worker processes of the order search (default: all cores)")
+    p.add_argument("--save", required=True, metavar="MODEL.json", help="where to write the model")
+    p.add_argument("--json", metavar="REPORT.json", help="also write the search report as JSON")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+    return p
+
+
+def _columns(text: str, what: str) -> list[str]:
+    cols = [c.strip() for c in text.split(",") if c.strip()]
+    if not cols:
+        raise InputError(f"--{what} needs at least one column name")
+    return cols
+
+
+def load_recordings(files, inputs, outputs, rng: slice):
+    """(list of (N, n_in) inputs, list of (N, n_out) outputs) from the CSV files, sliced by ``rng``."""
+    import numpy as np
+
+    from porosense.data import read_table
+
+    us, ys = [], []
+    for f in files:
+        table = read_table(f)
+        for name in inputs + outputs:
+            if name not in table.columns:
+                raise InputError(f"{f}: no column '{name}' (columns: {', '.join(table.names)})")
+        u = np.column_stack([table.columns[c] for c in inputs])[rng]
+        y = np.column_stack([table.columns[c] for c in outputs])[rng]
+        if len(u) < 10:
+            raise InputError(f"{f}: the range {rng.start}:{rng.stop} leaves {len(u)} samples (need >= 10)")
+        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
+            raise InputError(f"{f}: empty or non-finite cells in the selected columns and range")
+        us.append(u)
+        ys.append(y)
+    return us, ys
+
+
+def run(args) -> int:
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    from porosense import ident
+
+    inputs = _columns(args.input, "input")
+    outputs = _columns(args.output, "output")
+    if len(inputs) > 3:
+        raise InputError(f"{len(inputs)} input columns; at most 3")
+    if not args.ts > 0:
+        raise InputError("--ts must be a positive sample period in seconds")
+    if args.poles is not None and not 0 <= args.poles <= 10:
+        raise InputError("--poles must be 0..10")
+    if args.zeros is not None and args.poles is not None and args.zeros >= max(args.poles, 1):
+        raise InputError("--zeros must be smaller than --poles")
+    if not 2 <= args.breakpoints <= 64:
+        raise InputError("--breakpoints must be 2..64")
+    est_u, est_y = load_recordings(args.data, inputs, outputs, parse_range(args.estimation))
+    val = None
+    if args.validation is not None:
+        val = load_recordings(args.data, inputs, outputs, parse_range(args.validation))
+    structures = tuple(ident.KINDS) if args.structure == "all" else (args.structure,)
+    if args.poles is not None:
+        poles = [args.poles]
+        zeros = [args.zeros] if args.zeros is not None else None
+    else:
+        poles = range(1, args.max_poles + 1)
+        zeros = [args.zeros] if args.zeros is not None else None
+    grid = ident.order_grid(structures, poles, zeros)
+    if args.poles == 0:
+        grid = [(s, 0, 0) for s in structures]
+    if not grid:
+        raise InputError("the orders given leave no model to estimate (zeros must be < poles)")
+    executor = ProcessPoolExecutor(max_workers=args.jobs or os.cpu_count() or 1) if len(grid) > 1 else None
+    models, reports = [], []
+    try:
+        for j, name in enumerate(outputs):
+            result = ident.search(
+                u=est_u, y=[y[:, j] for y in est_y], ts=args.ts,
+                validation=(val[0], [y[:, j] for y in val[1]]) if val else None,
+                grid=grid, n_breakpoints=args.breakpoints, delay=args.delay, starts=args.starts,
+                inputs=inputs, output=name, executor=executor, progress=not args.quiet)
+            models.append(result.model)
+            reports.append({"output": name, **result.to_dict()})
+            print(f"{name}:")
+            print(str(result))
+    finally:
+        if executor is not None:
+            executor.shutdown()
+    model = models[0] if len(models) == 1 else ident.ModelSet(models)
+    model.save(args.save)
+    print(f"model saved to {args.save}")
+    if args.json:
+        report = {"files": list(args.data), "inputs": inputs, "outputs": outputs, "ts": args.ts,
+                  "estimation": args.estimation, "validation": args.validation, "results": reports}
+        with open(args.json, "w") as fh:
+            json.dump(report, fh, indent=1, default=float)
+    return 0

@@ -1,0 +1,250 @@
+"""The Recording: a timestamped multi-channel record with metadata.
+
+Columns and units follow docs/conventions.md (``t`` in s, ``dR_0`` in %, ``strain_0`` in %,
+...). Metadata carries what produced the record: actuator, porosity (%), load (g), schedule,
+sample rate (Hz), seed, effects, and which columns are ground truth.
+
+Files:
+
+- CSV (``name.csv``) with a JSON sidecar (``name.json``: meta, units, column order and
+  dtypes). Floats are written with ``repr`` (shortest exact form), so a round trip returns
+  bit-identical arrays.
+- MATLAB ``.mat`` (scipy.io): ``t`` and one variable per column (N x 1), a ``units`` struct, a
+  ``meta`` struct for reading in MATLAB, and ``recording_json`` with the exact metadata.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from porosense.data.table import read_table
+from porosense.errors import InputError
+
+FORMAT = "porosense.recording/1"
+
+
+def _jsonable(value):
+    """Metadata value -> plain JSON types (numpy scalars and arrays included)."""
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _jsonable(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+@dataclass
+class Recording:
+    """A record of samples at times ``t`` (s) with named columns of equal length.
+
+    ``columns`` maps names (docs/conventions.md) to 1-D arrays; ``units`` maps names to unit
+    strings; ``meta`` holds JSON-serialisable facts about the record.
+    """
+
+    t: np.ndarray
+    columns: dict[str, np.ndarray]
+    meta: dict = field(default_factory=dict)
+    units: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.t = np.asarray(self.t, dtype=float).ravel()
+        cols = {}
+        for name, values in self.columns.items():
+            if name == "t":
+                raise InputError("'t' is the time axis, not a column")
+            arr = np.asarray(values).ravel()
+            if arr.shape != self.t.shape:
+                raise InputError(
+                    f"column '{name}' has {arr.size} samples, the time axis has {self.t.size}"
+                )
+            cols[str(name)] = arr
+        self.columns = cols
+        self.meta = _jsonable(dict(self.meta))
+        self.units = {str(k): str(v) for k, v in dict(self.units).items()}
+        self.units.setdefault("t", "s")
+
+    # --- access --------------------------------------------------------------------------
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name == "t":
+            return self.t
+        try:
+            return self.columns[name]
+        except KeyError:
+            raise InputError(
+                f"recording has no column '{name}' (columns: {', '.join(self.names)})"
+            ) from None
+
+    def __contains__(self, name: str) -> bool:
+        return name == "t" or name in self.columns
+
+    def __len__(self) -> int:
+        return self.t.size
+
+    @property
+    def names(self) -> list[str]:
+        """Column names in order (without ``t``)."""
+        return list(self.columns)
+
+    @property
+    def ts(self) -> float:
+        """Sample period (s): the median time step."""
+        if self.t.size < 2:
+            return float(1.0 / self.meta["rate_hz"]) if "rate_hz" in self.meta else float("nan")
+        return float(np.median(np.diff(self.t)))
+
+    @property
+    def fs(self) -> float:
+        """Sample rate (Hz)."""
+        return 1.0 / self.ts
+
+    @property
+    def duration(self) -> float:
+        """Time from the first to the last sample (s)."""
+        return float(self.t[-1] - self.t[0]) if self.t.size else 0.0
+
+    def matrix(self, names) -> np.ndarray:
+        """Columns ``names`` stacked as an (N, k) float array."""
+        return np.column_stack([np.asarray(self[n], dtype=float) for n in names])
+
+    def slice(self, t0: float, t1: float) -> "Recording":
+        """The samples with ``t0 <= t < t1`` (s); times are kept, metadata copied."""
+        keep = (self.t >= t0) & (self.t < t1)
+        return Recording(
+            self.t[keep],
+            {k: v[keep] for k, v in self.columns.items()},
+            dict(self.meta, slice_s=[float(t0), float(t1)]),
+            dict(self.units),
+        )
+
+    def with_columns(self, **columns) -> "Recording":
+        """A copy with columns added or replaced."""
+        return Recording(self.t, {**self.columns, **columns}, dict(self.meta), dict(self.units))
+
+    def __repr__(self) -> str:
+        what = ", ".join(f"{k}={self.meta[k]}" for k in ("actuator", "experiment", "porosity", "load_g")
+                         if k in self.meta)
+        return (f"Recording({what + ', ' if what else ''}{len(self)} samples, "
+                f"{self.duration:.1f} s, columns={self.names})")
+
+    def to_dict(self) -> dict:
+        """Plain-JSON form (lists), e.g. for reports."""
+        return {"t": self.t.tolist(), "columns": {k: v.tolist() for k, v in self.columns.items()},
+                "meta": self.meta, "units": self.units}
+
+    def plot(self, names=None, ax=None):
+        """Plot columns ``names`` (default: all but pressure commands) against time; returns ax."""
+        import matplotlib.pyplot as plt
+
+        ax = ax or plt.subplots(figsize=(8, 3))[1]
+        for name in names or self.names:
+            ax.plot(self.t, self[name], label=f"{name} [{self.units.get(name, '')}]")
+        ax.set_xlabel("t [s]")
+        ax.legend(loc="best", fontsize="small")
+        return ax
+
+    def _sidecar(self) -> dict:
+        return {"format": FORMAT, "meta": self.meta, "units": self.units,
+                "columns": self.names,
+                "dtypes": {k: v.dtype.str for k, v in self.columns.items()}}
+
+    # --- CSV + JSON sidecar --------------------------------------------------------------
+    def to_csv(self, path) -> Path:
+        """Write ``path`` (CSV) and ``path.with_suffix('.json')`` (metadata); returns the CSV path."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        names = ["t"] + self.names
+        cols = [self.t] + [self.columns[n] for n in self.names]
+        # repr of a Python float is the shortest text that reads back bit-identical.
+        as_text = [list(map(repr, c.astype(float).tolist())) if c.dtype.kind == "f"
+                   else list(map(str, c.tolist())) for c in cols]
+        lines = [",".join(names)]
+        lines.extend(",".join(row) for row in zip(*as_text))
+        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        path.with_suffix(".json").write_text(json.dumps(self._sidecar(), indent=1), encoding="utf-8")
+        return path
+
+    @classmethod
+    def from_csv(cls, path) -> "Recording":
+        """Read a CSV (and its JSON sidecar when present: meta, units, dtypes, order)."""
+        path = Path(path)
+        table = read_table(path)
+        if "t" not in table.columns:
+            raise InputError(f"{path}: line 1: no 't' column (time in s)")
+        sidecar = {}
+        side_path = path.with_suffix(".json")
+        if side_path.exists():
+            try:
+                sidecar = json.loads(side_path.read_text(encoding="utf-8"))
+            except json.JSONDecodeError as exc:
+                raise InputError(f"{side_path}: line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+            if not isinstance(sidecar, dict):
+                raise InputError(f"{side_path}: expected a JSON object")
+        order = sidecar.get("columns", [n for n in table.names if n != "t"])
+        missing = [n for n in order if n not in table.columns]
+        if missing:
+            raise InputError(f"{path}: columns named in {side_path.name} are missing: {missing}")
+        dtypes = sidecar.get("dtypes", {})
+        columns = {}
+        for name in order:
+            values = table.columns[name]
+            dtype = np.dtype(dtypes.get(name, "<f8"))
+            if dtype.kind in "iub":
+                if not np.all(np.isfinite(values)) or np.any(values != np.round(values)):
+                    raise InputError(f"{path}: column '{name}' should hold integers")
+                values = values.astype(dtype)
+            columns[name] = values
+        return cls(table.columns["t"], columns, sidecar.get("meta", {}), sidecar.get("units", {}))
+
+    # --- MATLAB -------------------------------------------------------------------------
+    def to_mat(self, path) -> Path:
+        """Write a MATLAB .mat file (v5, readable by MATLAB and Octave); returns the path."""
+        from scipy.io import savemat
+
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        content = {"t": self.t.reshape(-1, 1)}
+        for name, values in self.columns.items():
+            content[name] = values.reshape(-1, 1)
+        content["units"] = {k.replace(".", "_"): v for k, v in self.units.items()}
+        content["meta"] = {k: v for k, v in self.meta.items()
+                           if isinstance(v, (int, float, str)) and k.isidentifier()}
+        content["recording_json"] = json.dumps(self._sidecar())
+        savemat(path, content, do_compression=True, oned_as="column")
+        return path
+
+    @classmethod
+    def from_mat(cls, path) -> "Recording":
+        """Read a .mat file written by :meth:`to_mat` (or any with ``t`` and column vectors)."""
+        from scipy.io import loadmat
+
+        path = Path(path)
+        try:
+            content = loadmat(path)
+        except FileNotFoundError:
+            raise InputError(f"{path}: no such file") from None
+        except Exception as exc:  # scipy raises several types for a damaged file
+            raise InputError(f"{path}: not a readable MATLAB file ({exc})") from None
+        if "t" not in content:
+            raise InputError(f"{path}: no variable 't' (time in s)")
+        sidecar = {}
+        if "recording_json" in content:
+            sidecar = json.loads(str(np.asarray(content["recording_json"]).ravel()[0]))
+        order = sidecar.get("columns") or [k for k in content
+                                           if not k.startswith("__") and k not in
+                                           ("t", "units", "meta", "recording_json")]
+        columns = {}
+        for name in order:
+            if name not in content:
+                raise InputError(f"{path}: variable '{name}' is missing")
+            columns[name] = np.asarray(content[name]).ravel()
+        return cls(np.asarray(content["t"], dtype=float).ravel(), columns,
+                   sidecar.get("meta", {}), sidecar.get("units", {}))

@@ -1,0 +1,33 @@
+"""Talk to a porosense board (real Uno, simboard or emulator) over any pyserial URL.
+
+>>> from porosense.device import Device
+>>> with Device.open("socket://127.0.0.1:5000") as dev:   # doctest: +SKIP
+...     print(dev.hello())
+"""
+
+from porosense.device.client import ALL_CHANNELS, Device, NakError
+from porosense.device.ports import PortInfo, list_ports
+from porosense.device.results import (
+    DeviceStatus,
+    HelloInfo,
+    LinkStats,
+    ModelInfo,
+    PingResult,
+    Sample,
+    SampleBlock,
+)
+
+__all__ = [
+    "ALL_CHANNELS",
+    "Device",
+    "NakError",
+    "PortInfo",
+    "list_ports",
+    "DeviceStatus",
+    "HelloInfo",
+    "LinkStats",
+    "ModelInfo",
+    "PingResult",
+    "Sample",
+    "SampleBlock",
+]

@@ -1,0 +1,563 @@
+"""The Device client: commands with deadlines and retries, and the SAMPLE stream.
+
+One command is outstanding at a time. A command is sent with the next sequence number and
+retried with the *same* number when its answer does not arrive in time; the device answers a
+duplicate from its reply cache without executing it again. An answer is accepted only when
+its sequence number and type match the command (ACK/NAK also name the command's type), so a
+late answer to an earlier attempt or command is ignored. SAMPLE frames that arrive meanwhile
+are queued for :meth:`Device.samples`; gaps in their sequence numbers count lost frames.
+"""
+
+from __future__ import annotations
+
+import collections
+import random
+import struct
+import time
+from collections.abc import Iterator, Sequence
+
+import numpy as np
+
+from porosense.device.link import SerialLink
+from porosense.device.results import (
+    DeviceStatus,
+    HelloInfo,
+    LinkStats,
+    ModelInfo,
+    PingResult,
+    Sample,
+    SampleBlock,
+)
+from porosense.errors import DeviceError
+from porosense.protocol import (
+    MESSAGES,
+    FrameDecoder,
+    MsgType,
+    Result,
+    crc16,
+    encode_frame,
+    encode_message,
+)
+from porosense.protocol import _messages as m
+from porosense.protocol._messages import VERSION_BYTE, VERSION_MAJOR, VERSION_MINOR, ConfigKey
+
+DEFAULT_BAUD = 115200
+MODEL_CHUNK_BYTES = 112
+REPLAY_SAMPLES = 16
+ALL_CHANNELS = 0x1F
+
+# Device-side handling time (s): EEPROM writes take 3.3 ms per byte on the Uno.
+_SLOW_COMMANDS = {
+    MsgType.MODEL_BEGIN: 1.0,
+    MsgType.MODEL_CHUNK: 1.0,
+    MsgType.MODEL_COMMIT: 1.0,
+    MsgType.MODEL_ERASE: 1.0,
+    MsgType.CONFIG_SAVE: 1.0,
+    MsgType.CONFIG_RESET: 1.0,
+}
+_DEFAULT_DEADLINE_S = 0.1
+_MARGIN_S = 0.03  # host scheduling and the UART transmit buffer ahead of the answer
+
+
+def _reply_type(cmd_type: int) -> int:
+    return int(MsgType[MESSAGES[cmd_type].REPLY])
+
+
+def _max_frame_bytes(msg_type: int) -> int:
+    """Longest encoded frame of ``msg_type`` (header, CRC, COBS overhead, delimiter)."""
+    return MESSAGES[msg_type].MAX_LEN + 4 + 2 + 2 + 1
+
+
+class NakError(DeviceError):
+    """The device refused a command: ``code`` (porosense.protocol.Result) and ``detail``."""
+
+    def __init__(self, command: int, code: int, detail: int):
+        self.command = MsgType(command) if command in MsgType._value2member_map_ else command
+        self.code = Result(code) if code in Result._value2member_map_ else code
+        self.detail = detail
+        cmd = getattr(self.command, "name", f"0x{command:02X}")
+        code_name = getattr(self.code, "name", str(code))
+        super().__init__(f"device refused {cmd}: {code_name} (detail {detail})")
+
+
+class Device:
+    """A porosense board (real, simboard or emulator) behind a pyserial URL.
+
+    Use :meth:`open` as a context manager::
+
+        with Device.open("socket://127.0.0.1:5000") as dev:
+            print(dev.hello())
+            dev.start_stream(100)
+            for s in dev.samples(200): ...
+    """
+
+    def __init__(
+        self,
+        link: SerialLink,
+        *,
+        baudrate: int = DEFAULT_BAUD,
+        timeout_scale: float = 1.0,
+        retries: int = 5,
+        seed: int | None = None,
+    ):
+        self.link = link
+        self.url = link.url
+        self.baudrate = baudrate
+        self.timeout_scale = float(timeout_scale)
+        self.retries = int(retries)
+        self.stats = LinkStats()
+        self.errors: list[m.Error] = []  # unsolicited ERROR reports, oldest first
+        self.info: HelloInfo | None = None
+        self._decoder = FrameDecoder()
+        self._seq = random.Random(seed).randrange(256)
+        self._samples: collections.deque[Sample] = collections.deque()
+        self._next_tseq: int | None = None
+        self._t_last_raw: int | None = None
+        self._t_wraps = 0
+        self._rate_hz = 0
+        self._streaming = False
+        self._outputs_active = False
+        self._replay_flags: list[int] = []
+
+    # ------------------------------------------------------------------ opening
+
+    @classmethod
+    def open(
+        cls,
+        url: str,
+        *,
+        baudrate: int = DEFAULT_BAUD,
+        timeout_scale: float = 1.0,
+        retries: int = 5,
+        handshake: bool = True,
+        handshake_timeout_s: float | None = None,
+        seed: int | None = None,
+    ) -> Device:
+        """Open ``url`` and (by default) handshake with HELLO.
+
+        A real Uno resets when its port opens and boots for about 1.5 s, so the handshake is
+        retried for ``handshake_timeout_s`` (3 s for device paths, 1 s for socket:// and
+        loop://). Raises DeviceError when nothing answers or the protocol major version differs.
+        """
+        link = SerialLink.open(url, baudrate)
+        dev = cls(link, baudrate=baudrate, timeout_scale=timeout_scale, retries=retries, seed=seed)
+        if handshake:
+            if handshake_timeout_s is None:
+                handshake_timeout_s = 1.0 if "://" in url else 3.0
+            try:
+                link.discard_input()
+                dev.hello(wait_s=handshake_timeout_s)
+            except BaseException:
+                link.close()
+                raise
+        return dev
+
+    def __enter__(self) -> Device:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Stop streaming and switch the outputs off (best effort), then close the link."""
+        try:
+            if self._streaming:
+                self.stop_stream()
+            if self._outputs_active:
+                self.set_outputs()
+        except DeviceError:
+            pass
+        self.stats.decoder = dict(self._decoder.counters)
+        self.link.close()
+
+    # ------------------------------------------------------------------ commands
+
+    def hello(self, wait_s: float | None = None) -> HelloInfo:
+        """Handshake: versions, capabilities, model status. Refuses another protocol major."""
+        frame = self._exchange(m.Hello(), wait_total_s=wait_s, raw=True)
+        major = frame.version >> 4
+        if major != VERSION_MAJOR:
+            raise DeviceError(
+                f"device at {self.url} speaks protocol {major}.{frame.version & 0xF}, this host speaks "
+                f"{VERSION_MAJOR}.{VERSION_MINOR}: update the firmware or the porosense package"
+            )
+        try:
+            reply = frame.message()
+        except ValueError as exc:
+            raise DeviceError(f"malformed HELLO_REPLY from {self.url}: {exc}") from None
+        if reply.proto_major != VERSION_MAJOR:
+            raise DeviceError(
+                f"device at {self.url} speaks protocol {reply.proto_major}.{reply.proto_minor}, this host "
+                f"speaks {VERSION_MAJOR}.{VERSION_MINOR}: update the firmware or the porosense package"
+            )
+        self.info = HelloInfo.from_message(reply)
+        return self.info
+
+    def ping(self, nonce: int | None = None) -> PingResult:
+        """PING: the device clock (us) and the round-trip time (s); feeds the host-link watchdog."""
+        nonce = random.getrandbits(32) if nonce is None else nonce & 0xFFFFFFFF
+        t0 = time.perf_counter()
+        reply = self._exchange(m.Ping(nonce=nonce))
+        rtt = time.perf_counter() - t0
+        if reply.nonce != nonce:
+            raise DeviceError(f"PONG carries nonce {reply.nonce}, expected {nonce}")
+        return PingResult(nonce, reply.device_time_us, rtt)
+
+    def set_outputs(self, setpoint_kpa=0.0, pumps=0, valves=0) -> None:
+        """Vacuum setpoints (kPa, <= 0; a scalar or one per channel), pumps and valves.
+
+        ``pumps``/``valves`` are bit masks (bit i = channel i) or sequences of booleans. While
+        any output is active the host-link watchdog is armed: send a command (e.g. ping) at
+        least every WATCHDOG_MS or the device cuts the outputs.
+        """
+        sp = np.atleast_1d(np.asarray(setpoint_kpa, dtype=float))
+        sp = np.repeat(sp, 3) if sp.size == 1 else np.pad(sp, (0, 3 - sp.size))
+        dkpa = tuple(int(round(v * 10)) for v in sp)
+        pump_mask, valve_mask = _mask(pumps), _mask(valves)
+        self._exchange(m.SetOutputs(setpoint_dkpa=dkpa, pump_mask=pump_mask, valve_mask=valve_mask))
+        self._outputs_active = bool(pump_mask or valve_mask)
+
+    def set_watchdog(self, timeout_ms: int) -> None:
+        """Host-link watchdog timeout in ms (RAM only; 100..10000)."""
+        self._exchange(m.SetWatchdog(timeout_ms=int(timeout_ms)))
+
+    def start_stream(self, rate_hz: int = 50, channels: int | Sequence[str] = ALL_CHANNELS) -> None:
+        """Start SAMPLE telemetry at ``rate_hz`` (10..200) for ``channels`` (mask or names)."""
+        if self._streaming:
+            self.stop_stream()
+        mask = _channel_mask(channels)
+        self._samples.clear()
+        self._next_tseq = 0  # the device restarts the telemetry sequence at each START_STREAM
+        self._exchange(m.StartStream(rate_hz=int(rate_hz), channel_mask=mask))
+        self._rate_hz = int(rate_hz)
+        self._streaming = True
+
+    def stop_stream(self) -> None:
+        """Stop SAMPLE telemetry; samples already received stay readable."""
+        self._exchange(m.StopStream())
+        self._streaming = False
+
+    @property
+    def streaming(self) -> bool:
+        return self._streaming
+
+    def samples(self, n: int | None = None, *, timeout_s: float | None = None) -> Iterator[Sample]:
+        """Yield ``n`` samples (forever when None) in arrival order.
+
+        Raises DeviceError when no sample arrives for ``timeout_s`` (default: 1 s or five
+        sample periods, whichever is longer, times ``timeout_scale``). Lost frames are
+        counted in ``stats.samples_lost``.
+        """
+        if timeout_s is None:
+            period = 1.0 / self._rate_hz if self._rate_hz else 0.1
+            timeout_s = max(1.0, 5 * period) * self.timeout_scale
+        count = 0
+        while n is None or count < n:
+            if not self._samples:
+                end = time.monotonic() + timeout_s
+                while not self._samples:
+                    left = end - time.monotonic()
+                    if left <= 0:
+                        raise DeviceError(f"no SAMPLE from {self.url} for {timeout_s:.1f} s")
+                    self._pump(left)
+            yield self._samples.popleft()
+            count += 1
+
+    def read_samples(self, n: int, *, timeout_s: float | None = None) -> SampleBlock:
+        """The next ``n`` samples as arrays, with the frames lost meanwhile in ``.lost``."""
+        lost0 = self.stats.samples_lost
+        samples = list(self.samples(n, timeout_s=timeout_s))
+        return SampleBlock.from_samples(samples, lost=self.stats.samples_lost - lost0)
+
+    def write_model(self, blob: bytes, *, format_version: int | None = None) -> ModelInfo:
+        """MODEL_BEGIN, MODEL_CHUNKs of 112 bytes, MODEL_COMMIT, then MODEL_INFO; checks the CRC."""
+        blob = bytes(blob)
+        if format_version is None:
+            format_version = _blob_format_version(blob)
+        crc = blob_crc(blob)
+        self._exchange(m.ModelBegin(length=len(blob), crc=crc, format_version=format_version))
+        for offset in range(0, len(blob), MODEL_CHUNK_BYTES):
+            self._exchange(m.ModelChunk(offset=offset, data=blob[offset : offset + MODEL_CHUNK_BYTES]))
+        self._exchange(m.ModelCommit())
+        info = self.model_info()
+        if not info.valid or info.crc != crc or info.length != len(blob):
+            raise DeviceError(f"model written but the device reports {info}")
+        return info
+
+    def model_info(self) -> ModelInfo:
+        """The stored model."""
+        return ModelInfo.from_message(self._exchange(m.ModelInfo()))
+
+    def erase_model(self) -> None:
+        """Erase the stored model; the estimator turns off."""
+        self._exchange(m.ModelErase())
+
+    def read_model(self) -> bytes:
+        """Read the stored blob back."""
+        info = self.model_info()
+        if not info.valid:
+            raise DeviceError(f"no model to read: {info}")
+        out = bytearray()
+        while len(out) < info.length:
+            n = min(MODEL_CHUNK_BYTES, info.length - len(out))
+            reply = self._exchange(m.ModelRead(offset=len(out), length=n))
+            if reply.offset != len(out) or not reply.data:
+                raise DeviceError(f"MODEL_DATA at offset {reply.offset}, expected {len(out)}")
+            out += reply.data
+        return bytes(out)
+
+    def replay(self, dr_centi, *, reset: bool = True, return_flags: bool = False):
+        """Run the on-device estimator on inputs ``dr_centi`` (N, 3) int16 (0.01 %).
+
+        Sent in chunks of 16 samples; the first chunk zeroes the estimator state when
+        ``reset``. Returns the estimates (N, 3) int16 (and per-chunk flags when asked).
+        """
+        x = np.asarray(dr_centi)
+        if x.ndim != 2 or x.shape[1] != 3:
+            raise ValueError("replay inputs must have shape (N, 3)")
+        if np.any(x < -32768) or np.any(x > 32767):
+            raise ValueError("replay inputs must fit in int16")
+        x = x.astype(np.int16)
+        out = np.zeros_like(x)
+        flags = []
+        for k in range(0, len(x), REPLAY_SAMPLES):
+            chunk = x[k : k + REPLAY_SAMPLES]
+            reply = self._exchange(
+                m.Replay(reset=int(reset and k == 0), dr_centi=tuple(int(v) for v in chunk.ravel()))
+            )
+            est = np.asarray(reply.estimate, dtype=np.int16)
+            if est.size != chunk.size:
+                raise DeviceError(f"REPLAY_RESULT holds {est.size} values for {chunk.size} inputs")
+            out[k : k + len(chunk)] = est.reshape(chunk.shape)
+            flags.append(reply.flags)
+        self._replay_flags = flags
+        return (out, np.asarray(flags, dtype=np.uint8)) if return_flags else out
+
+    def calibrate_r0(self, n_samples: int = 16, channels: int = 0b111) -> tuple[float, ...]:
+        """Average ``n_samples`` (1..64) at rest and take them as R0; returns R0 per channel (ohm)."""
+        deadline = 0.3 + 0.05 * max(1, int(n_samples))
+        reply = self._exchange(m.CalibrateR0(n_samples=int(n_samples), channel_mask=int(channels)), deadline_s=deadline)
+        return tuple(float(r) for r in reply.r0_ohm)
+
+    def set_r0(self, r0_ohm: Sequence[float], channels: int = 0b111) -> None:
+        """Set R0 (ohm) of the masked channels in RAM."""
+        r0 = tuple(float(v) for v in np.pad(np.asarray(r0_ohm, dtype=float), (0, 3 - len(r0_ohm))))
+        self._exchange(m.SetR0(channel_mask=int(channels), r0_ohm=r0))
+
+    def status(self) -> DeviceStatus:
+        """Health counters and flags."""
+        return DeviceStatus.from_message(self._exchange(m.Status()))
+
+    def config_get(self, key: str | int) -> int:
+        """One configuration value (key by name, e.g. "SAMPLE_RATE_HZ", or number)."""
+        k = _config_key(key)
+        reply = self._exchange(m.ConfigGet(key=k))
+        if reply.key != k:
+            raise DeviceError(f"CONFIG_VALUE for key {reply.key}, asked for {k}")
+        return reply.value
+
+    def config_set(self, key: str | int, value: int) -> None:
+        """Set one configuration value in RAM (config_save stores it)."""
+        self._exchange(m.ConfigSet(key=_config_key(key), value=int(value)))
+
+    def config_all(self) -> dict[str, int]:
+        """Every configuration key known to this host, by name."""
+        return {k.name: self.config_get(k) for k in ConfigKey}
+
+    def config_save(self) -> None:
+        """Write the configuration to EEPROM."""
+        self._exchange(m.ConfigSave())
+
+    def config_reset(self) -> None:
+        """Restore the documented defaults in RAM and EEPROM."""
+        self._exchange(m.ConfigReset())
+
+    def reset(self, wait_s: float = 3.0) -> HelloInfo:
+        """Reset the board, wait for it to boot and handshake again."""
+        self._exchange(m.Reset())
+        self._streaming = False
+        self._outputs_active = False
+        self._samples.clear()
+        time.sleep(0.05 * self.timeout_scale)
+        return self.hello(wait_s=wait_s)
+
+    # ------------------------------------------------------------------ raw access
+
+    def send_raw(self, data: bytes) -> None:
+        """Write bytes as they are (tests of the device's frame checks)."""
+        self.link.write(data)
+
+    def exchange_raw(self, msg_type: int, payload: bytes = b"", *, seq: int | None = None,
+                     version: int | None = None, timeout_s: float = 0.3):
+        """Send one hand-built frame (any type, payload, sequence, version byte) once; return
+        the answering Frame (its reply, ACK or NAK with the same sequence number) or None."""
+        seq = self._next_seq() if seq is None else seq & 0xFF
+        self.link.write(encode_frame(msg_type, seq, payload, VERSION_BYTE if version is None else version))
+        cls = MESSAGES.get(msg_type)
+        reply_type = _reply_type(msg_type) if cls is not None and cls.REPLY else MsgType.ACK
+        return self._await(seq, msg_type, reply_type, timeout_s * self.timeout_scale)
+
+    def command(self, message, *, seq: int | None = None, deadline_s: float | None = None):
+        """Send any command message (with the next or the given sequence number) and return
+        its answer (NakError on NAK)."""
+        return self._exchange(message, seq=seq, deadline_s=deadline_s)
+
+    # ------------------------------------------------------------------ machinery
+
+    def _next_seq(self) -> int:
+        self._seq = (self._seq + 1) & 0xFF
+        return self._seq
+
+    def _timeout_s(self, cmd_type: int, frame_len: int, deadline_s: float | None) -> float:
+        deadline = _SLOW_COMMANDS.get(cmd_type, _DEFAULT_DEADLINE_S) if deadline_s is None else deadline_s
+        link_bytes = frame_len + _max_frame_bytes(_reply_type(cmd_type))
+        return (deadline + link_bytes * 10.0 / self.baudrate + _MARGIN_S) * self.timeout_scale
+
+    def _exchange(self, message, *, seq=None, deadline_s=None, wait_total_s=None, raw=False):
+        """Send ``message``, retry with the same sequence number, return the matching answer."""
+        if seq is None:
+            seq = self._next_seq()
+        else:
+            self._seq = seq = seq & 0xFF
+        cmd_type = message.TYPE
+        reply_type = _reply_type(cmd_type)
+        data = encode_message(message, seq)
+        timeout = self._timeout_s(cmd_type, len(data), deadline_s)
+        attempts = self.retries + 1
+        if wait_total_s is not None:
+            attempts = max(attempts, int(wait_total_s / timeout) + 1)
+        self.stats.commands += 1
+        for attempt in range(attempts):
+            if attempt:
+                self.stats.retries += 1
+            self.link.write(data)
+            frame = self._await(seq, cmd_type, reply_type, timeout)
+            if frame is not None:
+                break
+        else:
+            name = MsgType(cmd_type).name
+            raise DeviceError(
+                f"no answer to {name} from {self.url} after {attempts} attempts of {timeout * 1000:.0f} ms"
+            )
+        if frame.type == MsgType.NAK:
+            nak = frame.message()
+            raise NakError(cmd_type, nak.code, nak.detail)
+        if raw:
+            return frame
+        try:
+            return frame.message()
+        except ValueError as exc:
+            raise DeviceError(f"malformed {frame.name} from {self.url}: {exc}") from None
+
+    def _await(self, seq: int, cmd_type: int, reply_type: int, timeout: float):
+        """The frame answering (seq, cmd_type), or None after ``timeout`` seconds."""
+        end = time.monotonic() + timeout
+        while True:
+            for frame in self._pump(max(0.0, end - time.monotonic())):
+                if frame.seq == seq and self._answers(frame, cmd_type, reply_type):
+                    return frame
+                self.stats.stale_replies += 1
+            if time.monotonic() >= end:
+                return None
+
+    @staticmethod
+    def _answers(frame, cmd_type: int, reply_type: int) -> bool:
+        if frame.type in (MsgType.ACK, MsgType.NAK):
+            return len(frame.payload) >= 1 and frame.payload[0] == cmd_type and (
+                frame.type == MsgType.NAK or reply_type == MsgType.ACK
+            )
+        return frame.type == reply_type
+
+    def _pump(self, wait_s: float) -> list:
+        """Read what the link holds (waiting up to ``wait_s``); queue samples, return other frames."""
+        data = self.link.read(wait_s)
+        if not data:
+            return []
+        others = []
+        for frame in self._decoder.feed(data):
+            if frame.type == MsgType.SAMPLE:
+                self._on_sample(frame)
+            elif frame.type == MsgType.ERROR:
+                try:
+                    self.errors.append(frame.message())
+                    self.stats.errors_received += 1
+                except ValueError:
+                    pass
+            else:
+                others.append(frame)
+        return others
+
+    def _on_sample(self, frame) -> None:
+        try:
+            t_us, mask, status, *vals = _SAMPLE.unpack(frame.payload)
+        except struct.error:
+            return
+        if self._next_tseq is not None:
+            self.stats.samples_lost += (frame.seq - self._next_tseq) & 0xFF
+        self._next_tseq = (frame.seq + 1) & 0xFF
+        if self._t_last_raw is not None and t_us < self._t_last_raw and self._t_last_raw - t_us > 1 << 31:
+            self._t_wraps += 1
+        self._t_last_raw = t_us
+        self.stats.samples += 1
+        self._samples.append(
+            Sample(
+                frame.seq,
+                t_us + (self._t_wraps << 32),
+                mask,
+                status,
+                tuple(vals[0:3]),
+                tuple(vals[3:6]),
+                tuple(vals[6:9]),
+                tuple(vals[9:12]),
+            )
+        )
+
+    @property
+    def decoder_counters(self) -> dict[str, int]:
+        """Frames the host decoder accepted and dropped, by reason."""
+        return dict(self._decoder.counters)
+
+
+_SAMPLE = m.Sample._FMT
+
+
+def _mask(bits) -> int:
+    if isinstance(bits, (int, np.integer)):
+        return int(bits) & 0xFF
+    return sum(1 << i for i, on in enumerate(bits) if on)
+
+
+def _channel_mask(channels) -> int:
+    if isinstance(channels, (int, np.integer)):
+        return int(channels)
+    mask = 0
+    for name in channels:
+        try:
+            mask |= m.Channel[str(name).upper()]
+        except KeyError:
+            raise ValueError(f"unknown stream channel {name!r}; use {[c.name for c in m.Channel]}") from None
+    return mask
+
+
+def _config_key(key) -> int:
+    if isinstance(key, (int, np.integer)):
+        return int(key)
+    try:
+        return int(ConfigKey[str(key).upper()])
+    except KeyError:
+        raise ValueError(f"unknown configuration key {key!r}; use {[k.name for k in ConfigKey]}") from None
+
+
+def blob_crc(blob: bytes) -> int:
+    """The CRC that identifies a model blob (MODEL_BEGIN.crc, MODEL_INFO.crc).
+
+    A blob ends with the CRC-16/MCRF4XX of the bytes before it, so that CRC is its identity
+    (the CRC over the whole blob, trailing CRC included, is always 0 for this CRC).
+    """
+    blob = bytes(blob)
+    return crc16(blob[:-2]) if len(blob) >= 2 else crc16(blob)
+
+
+def _blob_format_version(blob: bytes) -> int:
+    """Format version of a model blob: header byte 2 after the magic "PW" (0 when not a blob)."""
+    return blob[2] if len(blob) >= 3 and blob[:2] == b"PW" else 0

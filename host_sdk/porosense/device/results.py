@@ -1,0 +1,258 @@
+"""Typed answers of the device: handshake, health, model and stream figures.
+
+Each is a small dataclass that prints well and converts to a dict (``to_dict``) for JSON.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from porosense.protocol import MsgType, StatusFlag
+from porosense.protocol._messages import Capability
+
+MODEL_STATUS_NAMES = {0: "none", 1: "valid", 2: "invalid"}
+
+
+def flag_names(flags: int, enum_type=StatusFlag) -> list[str]:
+    """Names of the bits set in ``flags`` (status flags by default)."""
+    return [f.name for f in enum_type if flags & f.value]
+
+
+class _Dictable:
+    def to_dict(self) -> dict:
+        """Plain-JSON dict of the fields."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class HelloInfo(_Dictable):
+    """The handshake answer: protocol and firmware versions, capabilities, model status."""
+
+    proto_major: int
+    proto_minor: int
+    firmware: str
+    capabilities: list[str]
+    n_channels: int
+    model_status: str
+    model_crc: int
+    streaming: bool
+    uptime_ms: int
+
+    @property
+    def emulated(self) -> bool:
+        """True for the Python emulator."""
+        return "EMULATED" in self.capabilities
+
+    def __str__(self) -> str:
+        return (
+            f"protocol {self.proto_major}.{self.proto_minor}, firmware {self.firmware}, "
+            f"{self.n_channels} channel(s), capabilities {'|'.join(self.capabilities) or '-'}, "
+            f"model {self.model_status} (crc 0x{self.model_crc:04X}), up {self.uptime_ms / 1000:.1f} s"
+        )
+
+    @classmethod
+    def from_message(cls, m) -> HelloInfo:
+        return cls(
+            proto_major=m.proto_major,
+            proto_minor=m.proto_minor,
+            firmware=f"{m.fw_major}.{m.fw_minor}.{m.fw_patch}",
+            capabilities=flag_names(m.capabilities, Capability),
+            n_channels=m.n_channels,
+            model_status=MODEL_STATUS_NAMES.get(m.model_status, str(m.model_status)),
+            model_crc=m.model_crc,
+            streaming=bool(m.streaming),
+            uptime_ms=m.uptime_ms,
+        )
+
+
+@dataclass(frozen=True)
+class PingResult(_Dictable):
+    """A PING round trip: the device clock (us) and the host round-trip time (s)."""
+
+    nonce: int
+    device_time_us: int
+    rtt_s: float
+
+
+@dataclass(frozen=True)
+class DeviceStatus(_Dictable):
+    """Health counters of STATUS_REPLY (each saturates at its maximum on the device)."""
+
+    flags: int
+    bad_crc: int
+    bad_length: int
+    bad_version: int
+    unknown_type: int
+    overruns: int
+    dropped_telemetry: int
+    resets: int
+    reset_cause: int
+    watchdog_trips: int
+    sensor_faults: int
+    free_ram: int
+    rx_frames: int
+    tx_frames: int
+    uptime_ms: int
+
+    @property
+    def flag_names(self) -> list[str]:
+        return flag_names(self.flags)
+
+    def has(self, flag: StatusFlag) -> bool:
+        """True when ``flag`` is set."""
+        return bool(self.flags & flag)
+
+    @property
+    def dropped_frames(self) -> int:
+        """Received frames the device dropped for any reason (CRC, length, version, type)."""
+        return self.bad_crc + self.bad_length + self.bad_version + self.unknown_type
+
+    @classmethod
+    def from_message(cls, m) -> DeviceStatus:
+        return cls(**{k: getattr(m, k) for k in cls.__dataclass_fields__})
+
+    def __str__(self) -> str:
+        return (
+            f"flags {'|'.join(self.flag_names) or '-'}; rx {self.rx_frames} tx {self.tx_frames} frames; "
+            f"dropped crc {self.bad_crc} len {self.bad_length} ver {self.bad_version} type {self.unknown_type}; "
+            f"overruns {self.overruns}, telemetry dropped {self.dropped_telemetry}, "
+            f"watchdog trips {self.watchdog_trips}, sensor faults {self.sensor_faults}, "
+            f"free RAM {self.free_ram} B, up {self.uptime_ms / 1000:.1f} s"
+        )
+
+
+@dataclass(frozen=True)
+class ModelInfo(_Dictable):
+    """The stored model (MODEL_INFO_REPLY); ``out_scale`` is output units per estimate LSB."""
+
+    status: str
+    format_version: int
+    length: int
+    crc: int
+    n_inputs: int
+    n_outputs: int
+    model_id: int
+    out_scale: tuple[float, ...]
+
+    @property
+    def valid(self) -> bool:
+        return self.status == "valid"
+
+    @classmethod
+    def from_message(cls, m) -> ModelInfo:
+        return cls(
+            status=MODEL_STATUS_NAMES.get(m.status, str(m.status)),
+            format_version=m.format_version,
+            length=m.length,
+            crc=m.crc,
+            n_inputs=m.n_inputs,
+            n_outputs=m.n_outputs,
+            model_id=m.model_id,
+            out_scale=tuple(float(s) for s in m.out_scale[: max(m.n_outputs, 0)]),
+        )
+
+    def __str__(self) -> str:
+        if not self.valid:
+            return f"model {self.status}"
+        return (
+            f"model valid: id 0x{self.model_id:08X}, format {self.format_version}, {self.length} bytes, "
+            f"crc 0x{self.crc:04X}, {self.n_inputs} in / {self.n_outputs} out, scale {self.out_scale}"
+        )
+
+
+@dataclass(slots=True)
+class Sample:
+    """One SAMPLE with its unwrapped device time ``t_us`` (us since the stream's device clock origin)."""
+
+    seq: int
+    t_us: int
+    channel_mask: int
+    status: int
+    adc: tuple[int, ...]
+    dr_centi: tuple[int, ...]
+    euler_16: tuple[int, ...]
+    estimate: tuple[int, ...]
+
+    @property
+    def t_s(self) -> float:
+        """Device time in seconds."""
+        return self.t_us * 1e-6
+
+    @property
+    def dr_percent(self) -> tuple[float, ...]:
+        """dR = (R - R0) / R0 in percent."""
+        return tuple(d / 100.0 for d in self.dr_centi)
+
+    @property
+    def euler_deg(self) -> tuple[float, ...]:
+        """BNO055 heading, roll, pitch in degrees."""
+        return tuple(e / 16.0 for e in self.euler_16)
+
+
+@dataclass
+class SampleBlock(_Dictable):
+    """A run of samples as arrays: ``t_us`` (N,), ``adc``/``dr_centi``/``euler_16``/``estimate`` (N, 3)."""
+
+    t_us: np.ndarray
+    status: np.ndarray
+    adc: np.ndarray
+    dr_centi: np.ndarray
+    euler_16: np.ndarray
+    estimate: np.ndarray
+    lost: int = 0
+
+    @classmethod
+    def from_samples(cls, samples: list[Sample], lost: int = 0) -> SampleBlock:
+        def col(name, dtype=np.int16):
+            return np.array([getattr(s, name) for s in samples], dtype=dtype).reshape(len(samples), 3)
+
+        return cls(
+            t_us=np.array([s.t_us for s in samples], dtype=np.int64),
+            status=np.array([s.status for s in samples], dtype=np.uint16),
+            adc=col("adc"),
+            dr_centi=col("dr_centi"),
+            euler_16=col("euler_16"),
+            estimate=col("estimate"),
+            lost=lost,
+        )
+
+    def __len__(self) -> int:
+        return len(self.t_us)
+
+    def to_dict(self) -> dict:
+        return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.__dict__.items()}
+
+
+@dataclass
+class LinkStats(_Dictable):
+    """What the host saw on the link: commands, retries, stale replies, telemetry loss."""
+
+    commands: int = 0
+    retries: int = 0
+    stale_replies: int = 0
+    samples: int = 0
+    samples_lost: int = 0
+    errors_received: int = 0
+    decoder: dict = field(default_factory=dict)
+
+    def __str__(self) -> str:
+        dropped = sum(v for k, v in self.decoder.items() if k != "frames")
+        return (
+            f"{self.commands} commands ({self.retries} retries, {self.stale_replies} stale replies), "
+            f"{self.samples} samples received, {self.samples_lost} lost, {dropped} bad frames dropped"
+        )
+
+
+REPLY_OF = {
+    MsgType.HELLO: MsgType.HELLO_REPLY,
+    MsgType.PING: MsgType.PONG,
+    MsgType.MODEL_INFO: MsgType.MODEL_INFO_REPLY,
+    MsgType.MODEL_READ: MsgType.MODEL_DATA,
+    MsgType.REPLAY: MsgType.REPLAY_RESULT,
+    MsgType.CALIBRATE_R0: MsgType.R0_REPLY,
+    MsgType.STATUS: MsgType.STATUS_REPLY,
+    MsgType.CONFIG_GET: MsgType.CONFIG_VALUE,
+}
+"""Commands answered by a data message; every other command is answered by ACK."""

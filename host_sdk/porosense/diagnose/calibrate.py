@@ -1,0 +1,83 @@
+"""Calibrate the actuator simulator to measured data, so that diagnosis can say what it misses.
+
+Commanded vacuum goes in (columns ``p_cmd_0..2``, kPa), a measured column comes out (``dR_*``,
+``strain_*``, ``curvature``, ``theta_x``, ``theta_y`` or ``dz``). Calibrated parameters:
+
+* ``porosity`` (%, 60..90): the physical parameter that sets stroke and sensitivity
+  (bounded scalar search, scipy.optimize.minimize_scalar);
+* ``scale`` and ``offset`` of the output (sensor sensitivity and zero, in the output's unit):
+  linear least squares inside every evaluation.
+
+The simulation runs without noise and without any named effect: it is the nominal physics,
+and what it misses is what diagnosis is asked to find.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from scipy import optimize
+
+from porosense.errors import InputError
+
+POROSITY_BOUNDS = (60.0, 90.0)
+
+
+@dataclass
+class Calibration:
+    """Calibrated simulator: actuator, porosity (%), output scale and offset, fit (%) on estimation."""
+
+    actuator: str
+    output: str
+    porosity: float
+    scale: float
+    offset: float
+    fit_estimation: float
+
+    def predict(self, p_cmd: np.ndarray, ts: float) -> np.ndarray:
+        """Simulated output for commanded vacuum p_cmd (N, n_channels) kPa, sampled every ts s."""
+        return self.scale * _simulate(self.actuator, self.output, self.porosity, p_cmd, ts) + self.offset
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def _simulate(actuator: str, output: str, porosity: float, p_cmd: np.ndarray, ts: float) -> np.ndarray:
+    from porosense import sim
+
+    p = np.asarray(p_cmd, float).reshape(len(p_cmd), -1)
+    sp = np.zeros((len(p), 3))
+    sp[:, : p.shape[1]] = np.minimum(p, 0.0)
+    on = sp < 0.0
+    plant = sim.make_plant(actuator, porosity=porosity, noise=False)
+    out = plant.run(ts, sp, on, on.copy())
+    if output not in out:
+        raise InputError(f"the {actuator} simulator has no output '{output}' "
+                         f"(it has {', '.join(k for k in out if not k.startswith(('voltage', 'euler', 't_')))})")
+    return np.asarray(out[output], float)  # sample k as a recording stores it
+
+
+def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float) -> Calibration:
+    """Fit porosity, scale and offset of ``actuator``'s ``output`` to the estimation records."""
+    from porosense.diagnose.metrics import fit_percent
+
+    ys = np.concatenate([np.asarray(y, float) for y in y_list])
+
+    def affine(por):
+        sims = np.concatenate([_simulate(actuator, output, por, u, ts) for u in u_list])
+        X = np.column_stack([sims, np.ones_like(sims)])
+        coef, *_ = np.linalg.lstsq(X, ys, rcond=None)
+        return coef, X @ coef
+
+    def cost(por):
+        return float(np.sum((ys - affine(por)[1]) ** 2))
+
+    grid = np.linspace(*POROSITY_BOUNDS, 7)
+    costs = [cost(p) for p in grid]
+    k = int(np.argmin(costs))
+    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
+    sol = optimize.minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 0.05})
+    por = float(sol.x) if sol.fun <= costs[k] else float(grid[k])
+    (scale, offset), pred = affine(por)
+    return Calibration(actuator, output, por, float(scale), float(offset), fit_percent(ys, pred))

@@ -1,0 +1,466 @@
+"""One handler per cause: its test (conditional on the generic linear correction) and its extension.
+
+Each handler returns a :class:`CauseResult` with the cause's test, whether its own detector
+fired (``gate``), a sentence of what it means, and the extended prediction on the
+validation records (original prediction + generic correction + the cause's terms, all fitted
+on the estimation records only).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from porosense.diagnose import signals, stats
+
+LAGUERRE_ORDER = 4
+POLE_GRID = (0.3, 0.5, 0.7, 0.8, 0.9, 0.95, 0.975, 0.99, 0.995)
+
+
+@dataclass
+class CauseResult:
+    test: stats.StatResult
+    gate: bool
+    meaning: str
+    extension: str
+    yhat_val: np.ndarray | None
+    detail: dict = field(default_factory=dict)
+
+
+def _huber_lstsq(X: np.ndarray, y: np.ndarray, iters: int = 10) -> np.ndarray:
+    """Huber-loss linear regression by iteratively reweighted least squares (k = 1.345 sigma)."""
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    for _ in range(iters):
+        r = y - X @ coef
+        s = 1.4826 * np.median(np.abs(r - np.median(r))) or 1e-12
+        w = np.minimum(1.0, 1.345 * s / np.maximum(np.abs(r), 1e-300))
+        sw = np.sqrt(w)
+        coef, *_ = np.linalg.lstsq(X * sw[:, None], y * sw, rcond=None)
+    return coef
+
+
+class Context:
+    """Estimation and validation records with the shared regressors of all handlers."""
+
+    def __init__(self, estimation, validation):
+        self.est = list(estimation)
+        self.val = list(validation)
+        self.ts = float(self.est[0].ts)
+        self.n_in = self.est[0].u.shape[1]
+        self.seg_est = [len(r.y) for r in self.est]
+        self.e_est = np.concatenate([r.e for r in self.est])
+        self.yhat_est = np.concatenate([r.yhat for r in self.est])
+        self.yhat_val = np.concatenate([r.yhat for r in self.val])
+        self.y_val = np.concatenate([r.y for r in self.val])
+        self.u_est = np.vstack([r.u for r in self.est])
+        self.pole = self._dominant_pole()
+        self.G0_est = self.stack(self.generic, self.est)
+        self.G0_val = self.stack(self.generic, self.val)
+        self._cache = {}
+
+    # -- regressors -------------------------------------------------------------------------
+    @staticmethod
+    def stack(fn, records) -> np.ndarray:
+        return np.vstack([np.asarray(fn(r), float).reshape(len(r.y), -1) for r in records])
+
+    def lag_bank(self, x: np.ndarray, order: int = LAGUERRE_ORDER, pole: float | None = None) -> np.ndarray:
+        """Laguerre bank of x started at rest at x[0] (x - x[0] enters the filters)."""
+        return signals.laguerre_bank(x - x[0], self.pole if pole is None else pole, order)
+
+    def generic(self, rec) -> np.ndarray:
+        """G0: Laguerre bank of every used input and a constant (retunes the linear dynamics)."""
+        cols = [self.lag_bank(rec.u[:, i]) for i in range(self.n_in)]
+        return np.column_stack(cols + [np.ones(len(rec.y))])
+
+    def _dominant_pole(self) -> float:
+        """Laguerre pole that best reproduces the prediction from the inputs (its time scale)."""
+        best = (np.inf, 0.8)
+        yh = self.yhat_est
+        if np.ptp(yh) == 0:
+            return 0.8
+        for a in POLE_GRID:
+            X = self.stack(lambda r: np.column_stack(
+                [signals.laguerre_bank(r.u[:, i] - r.u[0, i], a, LAGUERRE_ORDER) for i in range(self.n_in)]
+                + [np.ones(len(r.y))]), self.est)
+            c, *_ = np.linalg.lstsq(X, yh, rcond=None)
+            rss = float(np.sum((yh - X @ c) ** 2))
+            if rss < best[0] * 0.999:
+                best = (rss, a)
+        return best[1]
+
+    @property
+    def tau_s(self) -> float:
+        """Time constant (s) of the dominant pole."""
+        return -self.ts / np.log(self.pole)
+
+    # -- fitting ----------------------------------------------------------------------------
+    def f_test(self, Z_est: np.ndarray, extra_base: np.ndarray | None = None) -> stats.FTest:
+        base = self.G0_est[:, :-1] if extra_base is None else np.column_stack([self.G0_est[:, :-1], extra_base])
+        return stats.gls_f_test(self.e_est, Z_est, base, segments=self.seg_est)
+
+    def fit_apply(self, z_fn=None, *, robust: bool = False, mask_est: np.ndarray | None = None):
+        """Fit e ~ [G0, Z] on estimation; return (extended yhat on validation, on estimation)."""
+        Xe, Xv = self.G0_est, self.G0_val
+        if z_fn is not None:
+            Xe = np.column_stack([Xe, self.stack(z_fn, self.est)])
+            Xv = np.column_stack([Xv, self.stack(z_fn, self.val)])
+        e = self.e_est
+        rows = np.ones(len(e), bool) if mask_est is None else ~mask_est
+        scale = np.linalg.norm(Xe[rows], axis=0)
+        scale[scale == 0] = 1.0
+        if robust:
+            coef = _huber_lstsq(Xe[rows] / scale, e[rows])
+        else:
+            coef, *_ = np.linalg.lstsq(Xe[rows] / scale, e[rows], rcond=None)
+        coef = coef / scale
+        return self.yhat_val + Xv @ coef, self.yhat_est + Xe @ coef
+
+    def generic_validation(self) -> np.ndarray:
+        if "g0" not in self._cache:
+            self._cache["g0"] = self.fit_apply(None)
+        return self._cache["g0"][0]
+
+    # -- report data ------------------------------------------------------------------------
+    def residual_tests(self, alpha: float) -> dict:
+        out = {"autocorrelation": stats.residual_autocorrelation(self.e_est, 25, alpha)}
+        for i in range(self.n_in):
+            out[f"crosscorrelation_u{i}"] = stats.input_crosscorrelation(self.u_est[:, i], self.e_est, 25, alpha)
+        bv = stats.billings_voon(self.u_est[:, 0], self.e_est, 20, alpha)
+        out.update({f"billings_voon_{k}": v for k, v in bv.items()})
+        return out
+
+    def curves(self, results: dict) -> dict:
+        return {
+            "ts": self.ts,
+            "e_est": self.e_est, "yhat_est": self.yhat_est,
+            "y_val": self.y_val, "yhat_val": self.yhat_val,
+            "extended_val": {c: r.yhat_val for c, r in results.items() if r.yhat_val is not None},
+            "spectrum": results["periodic_disturbance"].test.detail,
+        }
+
+
+# ------------------------------------------------------------------------------------------------
+def _explained(test) -> str:
+    return f"{100 * test.detail.get('explained', 0.0):.1f} % of the whitened residual"
+
+
+def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
+    knots_out = signals.quantile_knots(ctx.yhat_est, 5)
+    knots_in = [signals.quantile_knots(ctx.u_est[:, i], 5) for i in range(ctx.n_in)]
+
+    def z_out(r):
+        return signals.hinge_basis(r.yhat, knots_out)
+
+    def z_in(r):
+        cols = []
+        for i in range(ctx.n_in):
+            h = signals.hinge_basis(r.u[:, i], knots_in[i])
+            cols += [ctx.lag_bank(h[:, j], 2) for j in range(h.shape[1])]
+        return np.column_stack(cols)
+
+    t_out = ctx.f_test(ctx.stack(z_out, ctx.est))
+    t_in = ctx.f_test(ctx.stack(z_in, ctx.est))
+    side, test, z = ("output", t_out, z_out) if t_out.log10_p <= t_in.log10_p else ("input", t_in, z_in)
+    res = stats.f_result(f"F(residual ~ PWL of the {side} level)", test, alpha, 2, side=side)
+    ctx._cache["static_z"] = z_out
+    pred, _ = ctx.fit_apply(z)
+    kind = "Wiener: PWL on the output side" if side == "output" else "Hammerstein: PWL on the input side"
+    return CauseResult(res, True, f"the residual depends on the {side} level ({_explained(res)})",
+                       f"{kind}, 5 breakpoints", pred, {"side": side, "p_output": t_out.p, "p_input": t_in.p})
+
+
+def hysteresis(ctx: Context, alpha: float) -> CauseResult:
+    span = float(np.ptp(ctx.yhat_est)) or 1.0
+    radii = span * np.array([0.03, 0.08, 0.15, 0.3])
+    knots_out = signals.quantile_knots(ctx.yhat_est, 5)
+
+    def z_static(r):
+        return signals.hinge_basis(r.yhat, knots_out)
+
+    def z_h(r):
+        cols = []
+        for rad in radii:
+            d = signals.play_operator(r.yhat, rad) - r.yhat
+            cols += [d, ctx.lag_bank(d, 1)[:, 0]]
+        return np.column_stack(cols)
+
+    test = ctx.f_test(ctx.stack(z_h, ctx.est), extra_base=ctx.stack(z_static, ctx.est))
+    res = stats.f_result("F(residual ~ direction of motion at equal level | level)", test, alpha)
+    pred, _ = ctx.fit_apply(lambda r: np.column_stack([z_static(r), z_h(r)]))
+    return CauseResult(res, True, "at equal output level the residual depends on the direction of motion "
+                       f"({_explained(res)} beyond the level alone)",
+                       "Prandtl-Ishlinskii play operators (4 radii) of the model output with a static PWL", pred)
+
+
+def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
+    t_total = sum(ctx.seg_est) * ctx.ts / len(ctx.seg_est)
+    taus = [f * ctx.tau_s for f in (8.0, 25.0, 80.0) if f * ctx.tau_s < t_total / 2] or [t_total / 4]
+    best = None
+    for tau in taus:
+        a = float(np.exp(-ctx.ts / tau))
+
+        def z(r, a=a):
+            return np.column_stack([ctx.lag_bank(r.u[:, i], 2, a) for i in range(ctx.n_in)])
+
+        t = ctx.f_test(ctx.stack(z, ctx.est))
+        if best is None or t.log10_p < best[0].log10_p:
+            best = (t, z, tau)
+    test, z, tau = best
+    res = stats.f_result("F(residual ~ slowly filtered input)", test, alpha, len(taus), tau_s=tau)
+    pred, _ = ctx.fit_apply(z)
+    return CauseResult(res, True, f"the residual follows the input through a slow mode of about {tau:.3g} s "
+                       f"({_explained(res)}; the model's own time constant is {ctx.tau_s:.3g} s)",
+                       f"an extra relaxation pole at tau = {tau:.3g} s", pred, {"tau_s": tau})
+
+
+def time_delay(ctx: Context, alpha: float) -> CauseResult:
+    d_max = int(min(25, max(2, min(ctx.seg_est) // 20)))
+    best = None
+    for d in range(1, d_max + 1):
+        def z(r, d=d):
+            return signals.shift(r.yhat, d) - r.yhat
+
+        t = ctx.f_test(ctx.stack(z, ctx.est))
+        if t.coef.size and t.coef[0] <= 0:  # a delay moves the prediction later, never earlier
+            t = stats.FTest(t.f, t.df1, t.df2, 1.0, 0.0, t.ar_order, t.coef, 0.0)
+        if best is None or t.log10_p < best[0].log10_p:
+            best = (t, z, d)
+    test, z, d = best
+    xc = stats.input_crosscorrelation(ctx.u_est[:, 0], ctx.e_est, 25, alpha)
+    res = stats.f_result("F(residual ~ model output delayed)", test, alpha, d_max, delay_samples=d)
+    pred, _ = ctx.fit_apply(z)
+    return CauseResult(res, True, f"the measurement lags the model by about {d} samples ({d * ctx.ts:.3g} s; "
+                       f"prewhitened input-residual cross-correlation peaks at lag {xc.detail['peak_lag']})",
+                       f"an input delay of {d} samples", pred, {"delay": d})
+
+
+def _ema_causal(x: np.ndarray, a: float) -> np.ndarray:
+    """Exponential average of x up to k-1 (causal one-step-ahead estimate)."""
+    from scipy import signal
+
+    m = signal.lfilter([1.0 - a], [1.0, -a], x)
+    return np.concatenate([[0.0], m[:-1]])
+
+
+def _track_per_record(records, resid: np.ndarray, fn) -> np.ndarray:
+    out, start = [], 0
+    for r in records:
+        n = len(r.y)
+        out.append(fn(r, resid[start : start + n]))
+        start += n
+    return np.concatenate(out)
+
+
+def drift(ctx: Context, alpha: float) -> CauseResult:
+    n_terms = 3
+
+    def z(r, recs=None):
+        return signals.cosine_trend_basis(len(r.y), n_terms)
+
+    # one block of cosines per record (a separate trend in each file)
+    blocks, start = [], 0
+    total = sum(ctx.seg_est)
+    for n in ctx.seg_est:
+        B = np.zeros((total, n_terms))
+        B[start : start + n] = signals.cosine_trend_basis(n, n_terms)
+        blocks.append(B)
+        start += n
+    test = ctx.f_test(np.column_stack(blocks))
+    res = stats.f_result("F(residual ~ slow trend in time)", test, alpha)
+    pred_g0_val, pred_g0_est = ctx.fit_apply(None)
+    r_est = np.concatenate([r.y for r in ctx.est]) - pred_g0_est
+    r_val = ctx.y_val - pred_g0_val
+    t_rec = min(ctx.seg_est) * ctx.ts
+    best = None
+    for tau in (t_rec / 40, t_rec / 15, t_rec / 6):
+        tau = max(tau, 5 * ctx.tau_s)
+        a = float(np.exp(-ctx.ts / tau))
+        trk = _track_per_record(ctx.est, r_est, lambda rec, x: _ema_causal(x, a))
+        rss = float(np.sum((r_est - trk) ** 2))
+        if best is None or rss < best[0]:
+            best = (rss, a, tau)
+    _, a, tau = best
+    pred = pred_g0_val + _track_per_record(ctx.val, r_val, lambda rec, x: _ema_causal(x, a))
+    return CauseResult(res, True, f"the residual has a slow trend over time ({_explained(res)})",
+                       f"a drift state tracked from the measured output (time constant {tau:.3g} s)", pred)
+
+
+def periodic_disturbance(ctx: Context, alpha: float) -> CauseResult:
+    exclude = None
+    for i in range(ctx.n_in):
+        m = stats.line_mask(ctx.u_est[:, i])
+        exclude = m if exclude is None else exclude | m
+    line = stats.spectral_lines(ctx.e_est, ctx.ts, alpha, exclude=exclude)
+    n = len(ctx.e_est)
+    f0 = line.detail["freq_hz"]
+    t_all = np.arange(n) * ctx.ts
+    best = (-1.0, f0)
+    for f in f0 + np.linspace(-1.0, 1.0, 41) / (n * ctx.ts):
+        if f <= 0:
+            continue
+        c, s = np.cos(2 * np.pi * f * t_all), np.sin(2 * np.pi * f * t_all)
+        amp = (ctx.e_est @ c) ** 2 + (ctx.e_est @ s) ** 2
+        if amp > best[0]:
+            best = (amp, f)
+    f = best[1]
+
+    def z(r):
+        return np.column_stack([np.sin(2 * np.pi * f * r.t), np.cos(2 * np.pi * f * r.t)])
+
+    test = ctx.f_test(ctx.stack(z, ctx.est))
+    ftest = stats.f_result("F(residual ~ sinusoid)", test, alpha)
+    res = line if line.strength < ftest.strength else ftest
+    res = stats.StatResult(line.name, line.value, line.threshold, line.p, alpha,
+                           {**line.detail, "f_test": ftest.value}, log10_p=-min(line.strength, ftest.strength))
+    pred_g0_val, pred_g0_est = ctx.fit_apply(None)
+    r_est = np.concatenate([r.y for r in ctx.est]) - pred_g0_est
+    r_val = ctx.y_val - pred_g0_val
+
+    def tracker(a):
+        def fn(rec, x):
+            c, s = np.cos(2 * np.pi * f * rec.t), np.sin(2 * np.pi * f * rec.t)
+            return 2.0 * (_ema_causal(x * c, a) * c + _ema_causal(x * s, a) * s)
+        return fn
+
+    best = None
+    for periods in (3.0, 10.0, 30.0):
+        a = float(np.exp(-ctx.ts * f / periods))
+        rss = float(np.sum((r_est - _track_per_record(ctx.est, r_est, tracker(a))) ** 2))
+        if best is None or rss < best[0]:
+            best = (rss, a, periods)
+    pred = pred_g0_val + _track_per_record(ctx.val, r_val, tracker(best[1]))
+    return CauseResult(res, line.significant, f"the residual has a spectral line at {f:.4g} Hz that the input "
+                       "does not have", f"a sinusoidal disturbance at {f:.4g} Hz tracked from the measured output",
+                       pred, {"freq_hz": f})
+
+
+def _condition_columns(ctx: Context) -> list:
+    names = list(ctx.est[0].conditions)
+    cols = []
+    for name in names:
+        x = np.concatenate([r.conditions[name] for r in ctx.est])
+        if np.std(x) > 0:
+            cols.append((name, float(np.mean(x)), float(np.std(x))))
+    return cols
+
+
+def load_dependence(ctx: Context, alpha: float) -> CauseResult:
+    cols = _condition_columns(ctx)
+    if not cols:
+        res = stats.StatResult("F(residual ~ load offset and load x output)", 0.0, np.inf, 1.0, alpha)
+        return CauseResult(res, False, "no varying condition column was given", "none", None)
+    m, s = float(np.mean(ctx.yhat_est)), float(np.std(ctx.yhat_est)) or 1.0
+    best = None
+    for name, mu, sd in cols:
+        def z(r, name=name, mu=mu, sd=sd):
+            c = (r.conditions[name] - mu) / sd
+            return np.column_stack([c, c * (r.yhat - m) / s])
+
+        t = ctx.f_test(ctx.stack(z, ctx.est))
+        if best is None or t.log10_p < best[0].log10_p:
+            best = (t, z, name)
+    test, z, name = best
+    res = stats.f_result(f"F(residual ~ {name} offset and {name} x output)", test, alpha, len(cols), column=name)
+    pred, _ = ctx.fit_apply(z)
+    return CauseResult(res, True, f"the residual depends on the measured column {name} ({_explained(res)})",
+                       f"{name} as an extra input and a {name}-scheduled gain", pred, {"column": name})
+
+
+def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
+    cols = _condition_columns(ctx)
+    if not cols:
+        res = stats.StatResult("F(residual ~ filtered unused input)", 0.0, np.inf, 1.0, alpha)
+        return CauseResult(res, False, "no varying condition column was given", "none", None)
+    best = None
+    for name, mu, sd in cols:
+        def z(r, name=name, mu=mu, sd=sd):
+            return ctx.lag_bank((r.conditions[name] - mu) / sd, 3)
+
+        t = ctx.f_test(ctx.stack(z, ctx.est))
+        if best is None or t.log10_p < best[0].log10_p:
+            best = (t, z, name)
+    test, z, name = best
+    res = stats.f_result(f"F(residual ~ dynamics of unused input {name})", test, alpha, len(cols), column=name)
+    pred, _ = ctx.fit_apply(z)
+    return CauseResult(res, True, f"the residual follows the unused input {name} through dynamics "
+                       f"({_explained(res)})", f"{name} as an extra MISO input", pred, {"column": name})
+
+
+def saturation(ctx: Context, alpha: float) -> CauseResult:
+    y_est = np.concatenate([r.y for r in ctx.est])
+    candidates = [("output", None, stats.limit_clustering(y_est, alpha))]
+    for i in range(ctx.n_in):
+        if not stats.is_piecewise_constant(ctx.u_est[:, i]):
+            candidates.append((f"input {i}", i, stats.limit_clustering(ctx.u_est[:, i], alpha)))
+    where, idx, clus = min(candidates, key=lambda c: c[2].p)
+    n_sig = len(candidates)
+    limit, side = clus.detail["limit"], clus.detail["side"]
+    if idx is None:
+        def z(r):
+            over = r.yhat - limit
+            return np.maximum(over, 0.0) if side == "high" else np.minimum(over, 0.0)
+    else:
+        span = float(np.ptp(ctx.u_est[:, idx])) or 1.0
+
+        def z(r):
+            at = (np.abs(r.u[:, idx] - limit) <= 1e-6 * span).astype(float)
+            return ctx.lag_bank(at, 2)
+    test = ctx.f_test(ctx.stack(z, ctx.est))
+    ftest = stats.f_result("F(residual ~ excess beyond the limit)", test, alpha)
+    p = min(1.0, clus.p * n_sig)
+    # a pile-up at one exact value is evidence no other cause produces: the two tests add up
+    strength = clus.strength - np.log10(n_sig) + (ftest.strength if ftest.significant else 0.0)
+    res = stats.StatResult(f"samples at the {side} limit of the {where}", clus.value, clus.threshold, p, alpha,
+                           {**clus.detail, "f_test": ftest.value}, log10_p=-strength)
+    if idx is None:
+        # clipped samples are censored: they say only that the output is beyond the limit
+        censored = np.abs(y_est - limit) <= 1e-6 * (float(np.ptp(y_est)) or 1.0)
+        pred, _ = ctx.fit_apply(None, mask_est=censored)
+        pred = np.maximum(pred, limit) if side == "low" else np.minimum(pred, limit)
+    else:
+        pred, _ = ctx.fit_apply(z)
+    return CauseResult(res, p < alpha, f"{clus.detail['k_at']} samples ({100 * clus.detail['fraction']:.1f} %) "
+                       f"sit exactly at the {side} limit {limit:.4g} of the {where}",
+                       f"clipping of the {where} at {limit:.4g}", pred, {"limit": limit, "where": where})
+
+
+def outliers(ctx: Context, alpha: float) -> CauseResult:
+    spikes = stats.isolated_spikes(ctx.e_est, alpha)
+    _, mask = signals.hampel(ctx.e_est, 3, 6.0)
+    despiked = []
+    for i in range(ctx.n_in):
+        if stats.is_piecewise_constant(ctx.u_est[:, i]):
+            continue
+        _, m = signals.hampel(ctx.u_est[:, i], 3, 6.0)
+        if m.sum():
+            despiked.append(i)
+
+    def z(r):
+        cols = [ctx.lag_bank(signals.hampel(r.u[:, i], 3, 6.0)[0] - r.u[:, i], 2) for i in despiked]
+        return np.column_stack(cols) if cols else np.zeros((len(r.y), 0))
+
+    pred, _ = ctx.fit_apply(z if despiked else None, robust=True, mask_est=mask)
+    # Outlier rejection on the measurement: validation samples the Hampel identifier flags in
+    # the residual are glitches of the measurement, not behaviour to predict; they are left out
+    # of the extended model's score (reported as such in the evidence).
+    _, reject = signals.hampel(ctx.y_val - pred, 3, 6.0)
+    kurt = spikes.detail["kurtosis"]
+    return CauseResult(spikes, spikes.significant, f"{int(spikes.value)} isolated spikes "
+                       f"({100 * spikes.detail['fraction']:.2f} % of samples; excess kurtosis of the residual "
+                       f"differences {kurt:.3g}; {int(reject.sum())} validation samples rejected)",
+                       "Hampel outlier rejection and a robust (Huber) refit", pred, {"score_mask": ~reject})
+
+
+HANDLERS = {
+    "static_nonlinearity": static_nonlinearity,
+    "hysteresis": hysteresis,
+    "slow_relaxation": slow_relaxation,
+    "time_delay": time_delay,
+    "drift": drift,
+    "periodic_disturbance": periodic_disturbance,
+    "load_dependence": load_dependence,
+    "saturation": saturation,
+    "cross_coupling": cross_coupling,
+    "outliers": outliers,
+}

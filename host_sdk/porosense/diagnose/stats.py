@@ -1,0 +1,345 @@
+"""Residual statistics on plain arrays, each with its statistic and a false-alarm controlled threshold.
+
+Residuals of a simulation are strongly autocorrelated, so no test here treats samples as
+independent:
+
+* correlation tests use bands from Bartlett's formula, var r_xy = (1/N) sum_k rho_x(k) rho_y(k),
+  or prewhiten one of the two signals (Box-Jenkins) so that the band is 1/sqrt(N);
+* dependence tests (residual against level, direction, trend, a column) are F tests in a
+  feasible generalised least squares: the residual's AR noise model is estimated after the
+  candidate regressors are removed, then residual and regressors are filtered by it;
+* the number of lags or frequencies tested is corrected for (Bonferroni).
+
+Every test returns a :class:`StatResult` whose ``p`` is the family-wise p-value of the test
+and ``significant`` compares it with the test's ``alpha`` (per test, default 1 %).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+from scipy import stats as sps
+
+from porosense.diagnose import signals
+
+DEFAULT_ALPHA = 0.01
+
+
+@dataclass
+class StatResult:
+    """One residual test: name of the statistic, its value, the threshold at level ``alpha``."""
+
+    name: str
+    value: float
+    threshold: float
+    p: float
+    alpha: float = DEFAULT_ALPHA
+    detail: dict = field(default_factory=dict)
+    log10_p: float | None = None  # exact log10 p when p underflows
+
+    @property
+    def significant(self) -> bool:
+        return bool(self.strength > -np.log10(self.alpha))
+
+    @property
+    def strength(self) -> float:
+        """-log10 p: how far beyond chance the statistic is (kept beyond double precision)."""
+        if self.log10_p is not None:
+            return float(-self.log10_p)
+        return float(-np.log10(max(self.p, 1e-300)))
+
+    def sentence(self) -> str:
+        """``name = value (threshold t at alpha a %, p = ...)``."""
+        return (
+            f"{self.name} = {self.value:.3g} (threshold {self.threshold:.3g} at "
+            f"{100 * self.alpha:g} % false alarm, p = {self.p:.2g})"
+        )
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["significant"] = self.significant
+        return d
+
+
+def _zcrit(alpha: float, n_tests: int) -> float:
+    """Two-sided normal quantile for a family of n_tests at family-wise level alpha."""
+    return float(sps.norm.isf(alpha / (2.0 * max(n_tests, 1))))
+
+
+def _p_from_max_z(zmax: float, n_tests: int) -> float:
+    return float(min(1.0, 2.0 * n_tests * sps.norm.sf(abs(zmax))))
+
+
+def residual_autocorrelation(e: np.ndarray, max_lag: int = 25, alpha: float = DEFAULT_ALPHA) -> StatResult:
+    """Whiteness of the residual: max over lags 1..max_lag of |r_ee(k)| sqrt(N), Bonferroni.
+
+    Under a correct model with white measurement noise r_ee(k) ~ N(0, 1/N).
+    """
+    e = np.asarray(e, float)
+    n = len(e)
+    r = signals.autocorr(e, max_lag)
+    z = np.abs(r[1:]) * np.sqrt(n)
+    k = int(np.argmax(z)) + 1
+    return StatResult(
+        "max |r_ee(k)| sqrt(N)", float(z.max()), _zcrit(alpha, max_lag), _p_from_max_z(z.max(), max_lag),
+        alpha, {"lags": list(range(max_lag + 1)), "r": r.tolist(), "band": _zcrit(alpha, max_lag) / np.sqrt(n),
+                "worst_lag": k},
+    )
+
+
+def input_crosscorrelation(u: np.ndarray, e: np.ndarray, max_lag: int = 25,
+                           alpha: float = DEFAULT_ALPHA) -> StatResult:
+    """Residual-input cross-correlation with the input prewhitened (Box-Jenkins).
+
+    The input's AR model whitens u; the same filter is applied to e, so under independence
+    the correlation at every lag is N(0, 1/N) whatever the input's colour. Positive lags
+    (residual after input) mean unmodelled input dynamics; the lag of the largest positive-lag
+    peak estimates a missing delay.
+    """
+    ar = signals.fit_ar(u, 10)
+    uw = signals.whiten(u, ar)
+    ew = signals.whiten(e, ar)
+    n = len(uw)
+    lags, r = signals.crosscorr(uw, ew, max_lag)
+    z = np.abs(r) * np.sqrt(n)
+    m = len(lags)
+    pos = lags >= 0
+    peak = int(lags[pos][np.argmax(z[pos])])
+    return StatResult(
+        "max |r_ue(tau)| sqrt(N), input prewhitened", float(z.max()), _zcrit(alpha, m),
+        _p_from_max_z(z.max(), m), alpha,
+        {"lags": lags.tolist(), "r": r.tolist(), "band": _zcrit(alpha, m) / np.sqrt(n), "peak_lag": peak,
+         "positive_lag_share": float(np.sum(r[pos] ** 2) / max(np.sum(r ** 2), 1e-300))},
+    )
+
+
+def bartlett_crosscorrelation(x: np.ndarray, y: np.ndarray, lags: np.ndarray, alpha: float,
+                              name: str) -> StatResult:
+    """corr(x[k], y[k + tau]) at ``lags`` with Bartlett's variance for two coloured signals."""
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    n = len(x)
+    k = min(n - 1, 200)
+    rx = signals.autocorr(x, k)
+    ry = signals.autocorr(y, k)
+    var = (1.0 + 2.0 * np.sum(rx[1:] * ry[1:])) / n
+    var = max(var, 1.0 / n)
+    all_lags, r = signals.crosscorr(x, y, int(np.max(np.abs(lags))))
+    sel = np.isin(all_lags, lags)
+    z = np.abs(r[sel]) / np.sqrt(var)
+    m = int(sel.sum())
+    return StatResult(name, float(z.max()), _zcrit(alpha, m), _p_from_max_z(z.max(), m), alpha,
+                      {"lags": all_lags[sel].tolist(), "r": r[sel].tolist(), "band": _zcrit(alpha, m) * np.sqrt(var)})
+
+
+def billings_voon(u: np.ndarray, e: np.ndarray, max_lag: int = 20, alpha: float = DEFAULT_ALPHA) -> dict:
+    """Billings-Voon higher-order correlation tests for unmodelled nonlinearity.
+
+    phi_{u2'e}(tau) = corr(u^2 - mean, e), phi_{u2'e2}(tau) = corr(u^2 - mean, e^2 - mean) for
+    tau = 0..max_lag, and phi_{e(eu)}(tau) = corr(e[k], e[k-1-tau] u[k-1-tau]) for tau >= 0.
+    A linear model of a linear system leaves all three inside the bands. Bartlett variance
+    (coloured signals) and Bonferroni over lags and the three tests (alpha / 3 each).
+    """
+    u = (np.asarray(u, float) - np.mean(u)) / (np.std(u) or 1.0)
+    e = (np.asarray(e, float) - np.mean(e)) / (np.std(e) or 1.0)
+    lags = np.arange(0, max_lag + 1)
+    u2 = u * u - np.mean(u * u)
+    a = alpha / 3.0
+    res = {
+        "u2_e": bartlett_crosscorrelation(u2, e, lags, a, "max |phi_u2'e| / sd"),
+        "u2_e2": bartlett_crosscorrelation(u2, e * e - np.mean(e * e), lags, a, "max |phi_u2'e2| / sd"),
+    }
+    eu = np.concatenate([[0.0], (e * u)[:-1]])  # e[k-1] u[k-1]
+    res["e_eu"] = bartlett_crosscorrelation(eu, e, lags, a, "max |phi_e(eu)| / sd")
+    return res
+
+
+@dataclass
+class FTest:
+    """Result of :func:`gls_f_test` (F statistic, dof, p, variance share explained)."""
+
+    f: float
+    df1: int
+    df2: int
+    p: float
+    explained: float
+    ar_order: int
+    coef: np.ndarray
+    log10_p: float = 0.0
+
+
+def gls_f_test(e: np.ndarray, Z: np.ndarray, base: np.ndarray | None = None, max_ar: int = 10,
+               segments: list[int] | None = None) -> FTest:
+    """F test that the columns of Z explain e beyond the columns of ``base`` (feasible GLS).
+
+    1. OLS of e on [base, Z]; 2. AR(p) noise model (BIC, p <= max_ar) of its residual;
+    3. filter e, base and Z with the AR polynomial (per segment, start-up samples dropped);
+    4. classical nested F test on the filtered data. The AR step makes the test honest for
+    autocorrelated residuals; estimating it after removing Z keeps Z's effect out of it.
+    ``explained`` is the share of the whitened residual sum of squares that Z removes.
+    """
+    e = np.asarray(e, float)
+    n = len(e)
+    Z = np.asarray(Z, float).reshape(n, -1)
+    B = np.ones((n, 1)) if base is None else np.column_stack([np.ones(n), np.asarray(base, float).reshape(n, -1)])
+    X = np.column_stack([B, Z])
+    coef, *_ = np.linalg.lstsq(X, e, rcond=None)
+    ar = signals.fit_ar(e - X @ coef, max_ar)
+    segments = segments or [n]
+    ew, Xw = [], []
+    start = 0
+    for length in segments:
+        sl = slice(start, start + length)
+        ew.append(signals.whiten(e[sl], ar))
+        Xw.append(signals.whiten(X[sl], ar))
+        start += length
+    ew = np.concatenate(ew)
+    Xw = np.vstack(Xw)
+    nb = B.shape[1]
+    # drop regressors that are numerically absent (e.g. constant hinge columns)
+    scale = np.linalg.norm(Xw, axis=0)
+    keep = scale > 1e-12 * max(scale.max(), 1e-300)
+    keep[:nb] = True
+    Xw = Xw[:, keep] / scale[keep]
+    kz = int(keep[nb:].sum())
+    c0, *_ = np.linalg.lstsq(Xw[:, :nb], ew, rcond=None)
+    rss0 = float(np.sum((ew - Xw[:, :nb] @ c0) ** 2))
+    c1, _, rank, _ = np.linalg.lstsq(Xw, ew, rcond=None)
+    rss1 = float(np.sum((ew - Xw @ c1) ** 2))
+    df1 = max(int(rank) - nb, 1) if kz else 1
+    df2 = max(len(ew) - int(rank), 1)
+    if kz == 0 or rss1 <= 0:
+        f, p = 0.0, 1.0
+    else:
+        f = ((rss0 - rss1) / df1) / (rss1 / df2)
+        p = float(sps.f.sf(f, df1, df2))
+    logp = _f_log10_sf(f, df1, df2) if p < 1e-280 else (np.log10(p) if p > 0 else -300.0)
+    return FTest(float(f), df1, df2, p, float((rss0 - rss1) / rss0) if rss0 > 0 else 0.0,
+                 len(ar) - 1, coef[nb:] if kz else np.zeros(0), float(logp))
+
+
+def _f_log10_sf(f: float, df1: int, df2: int) -> float:
+    """log10 of the F survival function where it underflows (via the regularised beta tail)."""
+    if f <= 0:
+        return 0.0
+    x = df2 / (df2 + df1 * f)
+    # sf = I_x(df2/2, df1/2); for tiny x, I_x(a, b) ~ x^a (1-x)^b / (a B(a, b))
+    a, b = df2 / 2.0, df1 / 2.0
+    from scipy.special import betaln
+    ln = a * np.log(x) + b * np.log1p(-x) - np.log(a) - betaln(a, b)
+    return float(ln / np.log(10.0))
+
+
+def f_result(name: str, test: FTest, alpha: float, n_tests: int = 1, **detail) -> StatResult:
+    """Wrap an :class:`FTest` (Bonferroni over ``n_tests`` alternatives) as a StatResult."""
+    p = min(1.0, test.p * n_tests)
+    thr = float(sps.f.isf(alpha / n_tests, test.df1, test.df2))
+    return StatResult(name, test.f, thr, max(p, 1e-300), alpha,
+                      {"df1": test.df1, "df2": test.df2, "explained": test.explained,
+                       "ar_order": test.ar_order, **detail},
+                      log10_p=min(0.0, test.log10_p + float(np.log10(n_tests))))
+
+
+def spectral_lines(e: np.ndarray, ts: float, alpha: float = DEFAULT_ALPHA, guard: int = 3,
+                   half_width: int = 12, min_bin: int = 6,
+                   exclude: np.ndarray | None = None) -> StatResult:
+    """Largest periodogram line of the residual against its local background (periodic disturbance).
+
+    Hann-tapered periodogram; each ordinate is divided by the median of its neighbours
+    (+-half_width bins, minus +-guard bins around it) over ln 2, which is Exp(1) distributed
+    for a smooth noise spectrum. The maximum over M tested bins has p = M exp(-ratio)
+    (Bonferroni). Bins below ``min_bin`` (trend) and bins flagged in ``exclude`` (lines the
+    input has too: input-driven, not disturbances) are not tested.
+    """
+    e = np.asarray(e, float) - np.mean(e)
+    n = len(e)
+    w = np.hanning(n)
+    P = np.abs(np.fft.rfft(e * w)) ** 2
+    freqs = np.fft.rfftfreq(n, ts)
+    ratio = np.zeros_like(P)
+    m = len(P)
+    for k in range(min_bin, m - 1):
+        lo, hi = max(1, k - half_width), min(m, k + half_width + 1)
+        idx = np.r_[lo : max(lo, k - guard), min(hi, k + guard + 1) : hi]
+        if len(idx) < 4:
+            continue
+        ratio[k] = P[k] / (np.median(P[idx]) / np.log(2.0) + 1e-300)
+    if exclude is not None:
+        ratio[np.asarray(exclude, bool)[: len(ratio)]] = 0.0
+    tested = int(np.sum(ratio > 0)) or 1
+    k = int(np.argmax(ratio))
+    r = float(ratio[k])
+    p = float(min(1.0, tested * np.exp(-r)))
+    return StatResult("periodogram line / local background", r, float(np.log(tested / alpha)), max(p, 1e-300),
+                      alpha, {"freq_hz": float(freqs[k]), "bin": k, "freqs": freqs.tolist(), "power": P.tolist()},
+                      log10_p=min(0.0, (np.log(tested) - r) / np.log(10.0)))
+
+
+def line_mask(x: np.ndarray, alpha: float = 1e-3, guard: int = 3, half_width: int = 12) -> np.ndarray:
+    """Boolean mask of periodogram bins (with +-guard neighbours) where ``x`` itself has a line."""
+    x = np.asarray(x, float) - np.mean(x)
+    n = len(x)
+    P = np.abs(np.fft.rfft(x * np.hanning(n))) ** 2
+    m = len(P)
+    mask = np.zeros(m, bool)
+    thr = np.log(m / alpha)
+    for k in range(1, m - 1):
+        lo, hi = max(1, k - half_width), min(m, k + half_width + 1)
+        idx = np.r_[lo : max(lo, k - guard), min(hi, k + guard + 1) : hi]
+        if len(idx) >= 4 and P[k] / (np.median(P[idx]) / np.log(2.0) + 1e-300) > thr:
+            mask[max(0, k - guard) : k + guard + 1] = True
+    return mask
+
+
+def limit_clustering(x: np.ndarray, alpha: float = DEFAULT_ALPHA, tol_frac: float = 1e-6,
+                     band_frac: float = 0.02) -> StatResult:
+    """Samples piled up at the smallest or largest value of x (clipping at an ADC/divider limit).
+
+    k_at = samples within tol_frac * range of the extreme, k_near = samples in the next
+    band_frac * range. A continuous signal thins out towards its extremes, so under no clipping
+    k_at is at most a few and is not more likely than a sample of the band next to it; the
+    statistic is k_at and its p-value the binomial tail P(K >= k_at | k_at + k_near, 1/2) (two
+    ends, Bonferroni). At least 10 samples at the limit are required.
+    """
+    x = np.asarray(x, float)
+    span = float(np.ptp(x)) or 1.0
+    best = None
+    for side, ext in (("low", x.min()), ("high", x.max())):
+        d = np.abs(x - ext)
+        k_at = int(np.sum(d <= tol_frac * span))
+        k_near = int(np.sum((d > tol_frac * span) & (d <= band_frac * span)))
+        p = float(sps.binom.sf(k_at - 1, k_at + k_near, 0.5)) * 2.0 if k_at >= 10 else 1.0
+        p = min(1.0, p)
+        if best is None or p < best[0]:
+            best = (p, side, float(ext), k_at, k_near)
+    p, side, ext, k_at, k_near = best
+    return StatResult("samples at the limit", float(k_at), 10.0, max(p, 1e-300), alpha,
+                      {"side": side, "limit": ext, "k_at": k_at, "k_near": k_near,
+                       "fraction": k_at / len(x)})
+
+
+def isolated_spikes(e: np.ndarray, alpha: float = DEFAULT_ALPHA, n_sigma: float = 6.0) -> StatResult:
+    """Count of isolated spikes in e (Hampel identifier at n_sigma robust SDs of the differences).
+
+    For a Gaussian residual the deviation from the local median has a standard deviation of
+    at most about 1.5 sigma, so the chance that one sample is flagged is taken as
+    q = 2 Phi(-n_sigma / 1.5) (conservative); the count's p-value is the binomial tail with that
+    q. The excess kurtosis of the differenced residual is reported too.
+    """
+    e = np.asarray(e, float)
+    _, mask = signals.hampel(e, 3, n_sigma)
+    k = int(mask.sum())
+    n = len(e)
+    q = 2.0 * sps.norm.sf(n_sigma / 1.5)
+    p = float(sps.binom.sf(k - 1, n, q)) if k > 0 else 1.0
+    d = np.diff(e)
+    kurt = float(sps.kurtosis(d)) if len(d) > 3 else 0.0
+    return StatResult("isolated spikes (Hampel, %g sigma)" % n_sigma, float(k), float(sps.binom.isf(alpha, n, q)),
+                      max(p, 1e-300), alpha, {"kurtosis": kurt, "fraction": k / max(n, 1), "index": np.flatnonzero(mask)[:50].tolist()})
+
+
+def is_piecewise_constant(x: np.ndarray) -> bool:
+    """True for command-like signals (more than half of the steps are exactly zero)."""
+    x = np.asarray(x, float)
+    return len(x) > 2 and float(np.mean(np.diff(x) == 0.0)) > 0.5

@@ -1,0 +1,195 @@
+"""Hidden-effect trials: hide one cause in contractor-like data and check that diagnosis names it.
+
+The surrogate plant is the contractor's command-to-resistance path reduced to what a
+low-order model captures: commanded vacuum p (kPa, a random staircase 0..-60 kPa with 1-6 s
+holds) through a pneumatic lag (0.2-0.5 s) and a one-sample transport delay, times the
+sensitivity K (1.0-1.4 % per kPa, dR in %), plus white measurement noise (0.5 % of full
+scale). Two more columns are always recorded: the command of a neighbouring channel
+(``p_cmd_1``) and a load that changes during the record (``load_g``: 0, 200 or 500 g).
+
+Each cause is hidden with a random strength drawn from the stated range (``STRENGTHS``);
+diagnosis gets the data and the reference prediction of a first-order output-error model
+identified on the estimation record, and is not told the cause.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import signal
+
+from porosense.diagnose import engine, oe
+from porosense.diagnose.catalogue import CAUSES, NONE
+
+TS = 0.05  # s (20 Hz)
+EST_S = 120.0
+VAL_S = 60.0
+NOISE_FRACTION = 0.005
+
+#: Range of strength of each hidden cause (what a trial draws uniformly from).
+STRENGTHS = {
+    "static_nonlinearity": "bend s in [0.4, 0.9]: g(v) = v + s v (1 + v) on the normalised input or output "
+                           "(largest deviation s/4 of full scale)",
+    "hysteresis": "rate-independent lag of the output (memory length 5-15 % of full scale), weight 0.3-0.6",
+    "slow_relaxation": "extra slow mode with 15-35 % of the gain and tau 5-15 s",
+    "time_delay": "extra delay of 3-10 samples (0.15-0.5 s)",
+    "drift": "slow random baseline of 4-10 % of full scale (periods 40-400 s and a slope)",
+    "periodic_disturbance": "sinusoid of 2-6 % of full scale at 0.7-4 Hz",
+    "load_dependence": "gain falls by 10-30 % at 500 g",
+    "saturation": "output clipped at the level exceeded by 8-25 % of the samples",
+    "cross_coupling": "10-30 % of the neighbouring channel's response leaks in",
+    "outliers": "0.3-1 % of samples replaced by glitches of 30-100 % of full scale",
+}
+
+
+def _staircase(rng, n: int, lo: float = -60.0, hold=(1.0, 6.0)) -> np.ndarray:
+    out = np.zeros(n)
+    k = 0
+    level = 0.0
+    while k < n:
+        m = int(rng.uniform(*hold) / TS)
+        out[k : k + m] = level
+        k += m
+        level = rng.uniform(lo, 0.0) if rng.random() > 0.15 else 0.0
+    return out
+
+
+def _load_profile(rng, n: int) -> np.ndarray:
+    out = np.zeros(n)
+    cuts = np.sort(rng.choice(np.arange(n // 10, n - n // 10), size=rng.integers(2, 5), replace=False))
+    levels = rng.choice([0.0, 200.0, 500.0], size=len(cuts) + 1)
+    start = 0
+    for c, lvl in zip(list(cuts) + [n], levels):
+        out[start:c] = lvl
+        start = c
+    return out
+
+
+@dataclass
+class Plant:
+    """Clean plant parameters plus the hidden cause and its parameters."""
+
+    tau: float
+    gain: float
+    cause: str
+    params: dict = field(default_factory=dict)
+
+    def lag(self, x, tau=None):
+        a = np.exp(-TS / (tau or self.tau))
+        return signal.lfilter([0.0, 1.0 - a], [1.0, -a], x - x[0]) + x[0]  # one-sample delay
+
+    def record(self, rng, seconds: float) -> engine.Record:
+        """Simulate one record; returns a Record whose yhat is still empty (filled later)."""
+        n = int(seconds / TS)
+        p0 = _staircase(rng, n)
+        p1 = _staircase(rng, n)
+        load = _load_profile(rng, n)
+        c, pr = self.cause, self.params
+        u = p0.copy()
+        if c == "static_nonlinearity" and pr["side"] == "input":
+            w = u / 60.0
+            u = 60.0 * (w + pr["s"] * w * (1.0 + w))
+        if c == "time_delay":
+            u = np.concatenate([np.zeros(pr["d"]), u[:-pr["d"]]])
+        x = self.lag(u)
+        if c == "slow_relaxation":
+            x = (1.0 - pr["r"]) * x + pr["r"] * self.lag(x, pr["tau_slow"])
+        y = self.gain * x
+        full = 60.0 * self.gain
+        if c == "static_nonlinearity" and pr["side"] == "output":
+            v = y / full
+            y = full * (v + pr["s"] * v * (1.0 + v))
+        if c == "hysteresis":
+            z = np.empty_like(y)
+            zk = y[0]
+            rho = 1.0 / (pr["memory"] * full)
+            for k, yk in enumerate(y):
+                zk += (1.0 - np.exp(-rho * abs(yk - (y[k - 1] if k else yk)))) * (yk - zk)
+                z[k] = zk
+            y = (1.0 - pr["h"]) * y + pr["h"] * z
+        if c == "load_dependence":
+            y = y * (1.0 - pr["beta"] * load / 500.0)
+        if c == "cross_coupling":
+            y = y + pr["kappa"] * self.gain * self.lag(p1)
+        t = np.arange(n) * TS
+        if c == "drift":
+            base = pr["slope"] * t / seconds
+            for per, ph in zip(rng.uniform(40.0, 400.0, 2), rng.uniform(0, 2 * np.pi, 2)):
+                base = base + np.sin(2 * np.pi * t / per + ph)
+            base = base - base[0]
+            y = y + pr["amp"] * full * base / (np.max(np.abs(base)) or 1.0)
+        if c == "periodic_disturbance":
+            y = y + pr["amp"] * full * np.sin(2 * np.pi * pr["f"] * t + rng.uniform(0, 2 * np.pi))
+        y = y + rng.normal(0.0, NOISE_FRACTION * full, n)
+        if c == "saturation":
+            y = np.maximum(y, -pr["limit"])
+        if c == "outliers":
+            k = rng.random(n) < pr["rate"]
+            y[k] += rng.choice([-1.0, 1.0], k.sum()) * rng.uniform(0.3, 1.0, k.sum()) * full
+        return engine.Record(p0[:, None], y, np.zeros(n), TS, {"p_cmd_1": p1, "load_g": load})
+
+
+def draw_plant(rng, cause: str) -> Plant:
+    """Clean plant with random parameters and ``cause`` (or none) with a random strength."""
+    tau, gain = rng.uniform(0.2, 0.5), rng.uniform(1.0, 1.4)
+    u = rng.uniform
+    params = {
+        "static_nonlinearity": lambda: {"s": u(0.4, 0.9), "side": str(rng.choice(["input", "output"]))},
+        "hysteresis": lambda: {"memory": u(0.05, 0.15), "h": u(0.3, 0.6)},
+        "slow_relaxation": lambda: {"r": u(0.15, 0.35), "tau_slow": u(5.0, 15.0)},
+        "time_delay": lambda: {"d": int(rng.integers(3, 11))},
+        "drift": lambda: {"amp": u(0.04, 0.10), "slope": u(-1.0, 1.0)},
+        "periodic_disturbance": lambda: {"amp": u(0.02, 0.06), "f": u(0.7, 4.0)},
+        "load_dependence": lambda: {"beta": u(0.1, 0.3)},
+        "saturation": lambda: {"quantile": u(0.08, 0.25)},
+        "cross_coupling": lambda: {"kappa": u(0.1, 0.3)},
+        "outliers": lambda: {"rate": u(0.003, 0.01)},
+        NONE: lambda: {},
+    }[cause]()
+    plant = Plant(tau, gain, cause, params)
+    if cause == "saturation":  # the limit is the level exceeded by the drawn share of samples
+        clean = Plant(tau, gain, NONE).record(np.random.default_rng(0), EST_S)
+        plant.params["limit"] = -float(np.quantile(clean.y, params["quantile"]))
+    return plant
+
+
+@dataclass
+class Trial:
+    cause: str
+    top: str
+    gain: float
+    seconds: float
+    diagnosis: engine.Diagnosis = field(repr=False, default=None)
+
+
+def run_trial(cause: str, seed: int) -> Trial:
+    """One trial: hide ``cause`` (or none), fit the baseline, diagnose; returns the verdict."""
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    plant = draw_plant(rng, cause)
+    est = plant.record(rng, EST_S)
+    val = plant.record(rng, VAL_S)
+    model = oe.fit_oe([est.u], [est.y], n_poles=1, n_zeros=0, delay=1)
+    est.yhat = model.predict(est.u)
+    val.yhat = model.predict(val.u)
+    d = engine.diagnose([est], [val])
+    gain = d.finding(cause).gain if cause != NONE else 0.0
+    return Trial(cause, d.top, float(gain), time.perf_counter() - t0, d)
+
+
+def run_trials(n_per_cause: int, seed: int = 0, causes=None) -> dict:
+    """Top-1 rate and share of positive gains per cause (and the false-alarm rate for none)."""
+    causes = list(causes or (list(CAUSES) + [NONE]))
+    out = {}
+    for ci, cause in enumerate(causes):
+        trials = [run_trial(cause, seed + 1000 * ci + k) for k in range(n_per_cause)]
+        out[cause] = {
+            "top1_rate": float(np.mean([t.top == cause for t in trials])),
+            "positive_gain_rate": float(np.mean([t.gain > 0 for t in trials if t.top == cause] or [0.0])),
+            "tops": [t.top for t in trials],
+            "mean_gain": float(np.mean([t.gain for t in trials])),
+            "seconds_per_trial": float(np.mean([t.seconds for t in trials])),
+        }
+    return out

@@ -1,0 +1,243 @@
+"""The Emulator: a BoardCore served over TCP or a pty from a background thread.
+
+Two timings:
+
+* lockstep (default, for tests): while streaming, the board's clock advances one sample
+  period per SAMPLE and the next sample is made as soon as the previous one has left, so the
+  host receives correctly timestamped samples as fast as it reads them (a host that stops
+  reading stops the board's clock). When not streaming the clock follows the wall clock.
+* real time (``realtime=True``): the clock follows the wall clock (times ``speed``);
+  telemetry that does not fit the transmit buffer is dropped and counted, like on the board.
+"""
+
+from __future__ import annotations
+
+import select
+import threading
+import time
+from dataclasses import dataclass
+
+from porosense.emulator.core import BoardCore
+from porosense.emulator.endpoints import make_endpoint
+from porosense.emulator.faults import Faults, FaultyLink
+
+# Real-time mode: bytes pending beyond this are a full UART buffer (telemetry dropped).
+REALTIME_TX_BUFFER = 2048
+FAST_BATCH_BYTES = 1024
+IDLE_WAIT_S = 0.02
+
+
+def make_plant(actuator: str, porosity=None, load_g: float = 0.0, seed: int = 0, effects=None):
+    """The simulated actuator behind the emulated sensors (porosense.sim)."""
+    from porosense.sim import make_plant as sim_make_plant
+
+    return sim_make_plant(actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects)
+
+
+@dataclass
+class EmulatorStats:
+    """Counters of the board and of the faulty link, for tests and benchmarks."""
+
+    board: dict
+    link: dict
+    connections: int
+
+    def to_dict(self) -> dict:
+        return {"board": self.board, "link": self.link, "connections": self.connections}
+
+
+class Emulator:
+    """The Python twin of the porosense board, reachable at ``.url``.
+
+        with Emulator(actuator="contractor") as emu:
+            with Device.open(emu.url) as dev: ...
+
+    ``listen``: "tcp://127.0.0.1:0" (a free port) or "pty". ``faults``: a Faults, or None.
+    ``proto_version``: the (major, minor) the board claims (tests of version refusal).
+    """
+
+    def __init__(
+        self,
+        actuator: str = "contractor",
+        *,
+        porosity=None,
+        load_g: float = 0.0,
+        seed: int = 0,
+        effects=None,
+        listen: str = "tcp://127.0.0.1:0",
+        realtime: bool = False,
+        speed: float = 1.0,
+        faults: Faults | None = None,
+        proto_version: tuple[int, int] | None = None,
+        reset_on_connect: bool = False,
+        plant=None,
+    ):
+        self.actuator = actuator
+        self.realtime = realtime
+        self.speed = float(speed)
+        self.faults = faults or Faults()
+        self.link = FaultyLink(self.faults)
+        self.reset_on_connect = reset_on_connect
+        self._plant = plant if plant is not None else make_plant(
+            actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects
+        )
+        self._out = bytearray()
+        self._lock = threading.RLock()
+        self._requests: list = []
+        self.core = BoardCore(
+            self._plant,
+            send=self._on_frame,
+            tx_room=self._tx_room,
+            faults=self.faults,
+            proto_version=proto_version,
+        )
+        self.endpoint = make_endpoint(listen)
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self.error: BaseException | None = None
+
+    # ------------------------------------------------------------------ public
+
+    @property
+    def url(self) -> str:
+        """pyserial URL of the board (socket://127.0.0.1:PORT or /dev/pts/N)."""
+        return self.endpoint.url
+
+    def start(self) -> Emulator:
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._serve, name="porosense-emulator", daemon=True)
+            self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+            self._thread = None
+        self.endpoint.close()
+
+    def __enter__(self) -> Emulator:
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+    def serve_forever(self) -> None:
+        """Run in the calling thread until KeyboardInterrupt (the CLI)."""
+        try:
+            self._serve()
+        finally:
+            self.endpoint.close()
+
+    @property
+    def stats(self) -> EmulatorStats:
+        with self._lock:
+            return EmulatorStats(
+                board=self.core.stats.to_dict(),
+                link=self.link.damage.to_dict(),
+                connections=self.endpoint.connections,
+            )
+
+    def disconnect(self, adc: bool | None = None, imu: bool | None = None) -> None:
+        """Unplug (True) or replug (False) the ADC and/or the IMU while running."""
+        with self._lock:
+            if adc is not None:
+                self.core.adc_present = not adc
+            if imu is not None:
+                self.core.imu_present = not imu
+
+    def reset_now(self) -> None:
+        """Cut the power of the board now (it reboots; nothing pending is answered)."""
+        with self._lock:
+            self.core.power_cycle()
+
+    def set_faults(self, **rates) -> None:
+        """Change fault rates while running (rx_corrupt=..., tx_drop=..., ...)."""
+        with self._lock:
+            for k, v in rates.items():
+                if not hasattr(self.faults, k):
+                    raise ValueError(f"unknown fault {k!r}")
+                setattr(self.faults, k, v)
+
+    # ------------------------------------------------------------------ machinery
+
+    def _on_frame(self, frame: bytes, sample_t_us: int | None) -> None:
+        self._out += self.link.board_to_host(frame, sample_t_us)
+
+    def _tx_room(self) -> int:
+        if not self.realtime:
+            return 1 << 30  # lockstep: the board waits for the host instead of dropping
+        return max(0, REALTIME_TX_BUFFER - len(self._out))
+
+    def _flush(self) -> None:
+        while self._out:
+            n = self.endpoint.send(bytes(self._out[:65536]))
+            if n <= 0:
+                return
+            del self._out[:n]
+
+    def _serve(self) -> None:
+        try:
+            self._loop()
+        except BaseException as exc:  # surfaced to tests through .error
+            self.error = exc
+            raise
+
+    def _loop(self) -> None:
+        core = self.core
+        ep = self.endpoint
+        last_wall = time.monotonic()
+        while not self._stop.is_set():
+            wall = time.monotonic()
+            lockstep = not self.realtime and core.streaming and ep.connected
+            with self._lock:
+                if not lockstep:
+                    core.set_time(core.T_us + int((wall - last_wall) * 1e6 * self.speed))
+                else:
+                    core.set_time(core.T_us)  # watchdog only
+            last_wall = wall
+
+            # Wait for input, room to write, or the next event.
+            wait = IDLE_WAIT_S
+            if core.streaming:
+                if lockstep and not self._out:
+                    wait = 0.0
+                elif self.realtime:
+                    due = core.next_tick_T_us()
+                    wait = min(wait, max(0.0, (due - core.T_us) * 1e-6 / self.speed))
+            wfds = ep.write_fds() if self._out else []
+            try:
+                ready_r, ready_w, _ = select.select(ep.read_fds(), wfds, [], wait)
+            except (OSError, ValueError):
+                ready_r, ready_w = [], []
+            if ready_r:
+                data, new_client = ep.on_readable(ready_r)
+                with self._lock:
+                    if new_client:
+                        self._out.clear()
+                        if self.reset_on_connect:
+                            core.power_cycle()
+                    if data:
+                        core.receive(self.link.host_to_board(data))
+            with self._lock:
+                if core.streaming:
+                    if self.realtime:
+                        self._sample_due(core)
+                    elif ep.connected:
+                        while core.streaming and len(self._out) < FAST_BATCH_BYTES:
+                            core.sample()
+            if self._out:
+                self._flush()
+
+    def _sample_due(self, core: BoardCore) -> None:
+        """Real time: every tick up to now; ticks more than two periods late are overruns."""
+        period_us = 1e6 / max(core.rate_hz, 1)
+        due = core.next_tick_T_us()
+        while due is not None and due <= core.T_us:
+            late = core.T_us - due
+            if late > 2 * period_us:
+                core.skip_ticks(int(late // period_us))
+            T = core.T_us
+            core.sample()
+            core.set_time(T)
+            due = core.next_tick_T_us()

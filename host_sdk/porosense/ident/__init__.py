@@ -1,0 +1,27 @@
+"""System identification: linear, Hammerstein, Wiener and Wiener-Hammerstein models.
+
+Discrete-time MISO models per output, estimated on simulation error jointly over several
+recordings, stable by construction, with the paper's order search and selection. Every model
+converts to :class:`porosense.structure.EstimatorStructure` (what quant and the firmware run).
+"""
+
+from porosense.ident.metrics import fit_percent, information_criteria, rms_percent, rmse
+from porosense.ident.models import (
+    KINDS,
+    Hammerstein,
+    Linear,
+    Model,
+    ModelSet,
+    Wiener,
+    WienerHammerstein,
+    load_model,
+    make_model,
+    save_models,
+)
+from porosense.ident.search import Candidate, SearchResult, approx_blob_bytes, order_grid, search
+
+__all__ = [
+    "KINDS", "Candidate", "Hammerstein", "Linear", "Model", "ModelSet", "SearchResult", "Wiener",
+    "WienerHammerstein", "approx_blob_bytes", "fit_percent", "information_criteria", "load_model",
+    "make_model", "order_grid", "rms_percent", "rmse", "save_models", "search",
+]

@@ -1,0 +1,180 @@
+"""Parametrised blocks with their derivatives: stable denominators and piecewise-linear maps.
+
+A denominator of n poles is a cascade of n // 2 second-order sections (plus one first-order
+section when n is odd). Each section 1 + a1 z^-1 + a2 z^-2 is parametrised by two reflection
+coefficients k = K tanh(theta) with |k| < K < 1: a2 = k2, a1 = k1 (1 + k2). That maps onto
+the whole stability triangle, so every parameter vector gives a stable filter, and the
+sections are filtered one after the other (numerically robust for clustered poles near
+z = 1, and exactly the SOS form the firmware runs).
+
+Piecewise-linear maps have free breakpoints: x_0 = p_0, x_k = x_{k-1} + exp(p_k), so the
+breakpoints stay strictly increasing for any parameter vector.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import lfilter
+
+# |k| < _K_MAX keeps every pole a margin inside the unit circle in floating point too.
+_K_MAX = 1.0 - 1e-6
+
+
+def n_sections(n_poles: int) -> int:
+    return (n_poles + 1) // 2
+
+
+def sections(theta) -> tuple[np.ndarray, np.ndarray]:
+    """(den, dden) for ``theta`` of n poles: den (n_sec, 3) rows [1, a1, a2]; dden (n_sec, 2, 2)
+    with dden[s, i, j] = d a_(i+1) / d theta_j of section s (theta_j its own parameters)."""
+    theta = np.asarray(theta, dtype=float)
+    n = len(theta)
+    m = n_sections(n)
+    den = np.zeros((m, 3))
+    den[:, 0] = 1.0
+    dden = np.zeros((m, 2, 2))
+    for s in range(m):
+        t = theta[2 * s: 2 * s + 2]
+        k = _K_MAX * np.tanh(t)
+        dk = _K_MAX * (1.0 - np.tanh(t) ** 2)
+        if len(t) == 2:
+            den[s, 1] = k[0] * (1.0 + k[1])
+            den[s, 2] = k[1]
+            dden[s, 0, 0] = dk[0] * (1.0 + k[1])
+            dden[s, 0, 1] = k[0] * dk[1]
+            dden[s, 1, 1] = dk[1]
+        else:
+            den[s, 1] = k[0]
+            dden[s, 0, 0] = dk[0]
+    return den, dden
+
+
+def _pair_roots(roots, n_poles: int):
+    """Group roots into conjugate pairs / real pairs, a lone real root last (odd count)."""
+    roots = np.asarray(roots, dtype=complex)
+    cplx = [r for r in roots if r.imag > 1e-12]
+    real = sorted([r.real for r in roots if abs(r.imag) <= 1e-12], key=abs, reverse=True)
+    groups = [(r, np.conj(r)) for r in cplx]
+    lone = None
+    if n_poles % 2 == 1 and real:
+        lone = real.pop()
+    while len(real) >= 2:
+        groups.append((real.pop(0), real.pop(0)))
+    if real:  # an odd real left over (odd count with conjugates unpaired): pair with origin
+        groups.append((real.pop(), 0.0))
+    if lone is not None:
+        groups.append((lone,))
+    return groups
+
+
+def theta_from_poly(a, n_poles: int) -> np.ndarray:
+    """Parameters whose cascade has the (stabilised) roots of the monic denominator ``a``."""
+    a = np.asarray(a, dtype=float)
+    a = a / a[0]
+    roots = np.roots(a) if len(a) > 1 else np.array([])
+    roots = np.concatenate([roots, np.zeros(max(n_poles - len(roots), 0))])[:n_poles]
+    big = np.abs(roots) > 0.995
+    roots[big] = 0.995 * roots[big] / np.abs(roots[big])
+    theta = np.zeros(n_poles)
+    for s, grp in enumerate(_pair_roots(roots, n_poles)):
+        poly = np.real(np.poly(grp))
+        if len(grp) == 2:
+            k2 = poly[2]
+            k1 = poly[1] / (1.0 + k2)
+            theta[2 * s: 2 * s + 2] = np.arctanh(np.clip([k1, k2], -0.9999, 0.9999) / _K_MAX)
+        else:
+            theta[2 * s] = np.arctanh(np.clip(poly[1], -0.9999, 0.9999) / _K_MAX)
+    return theta
+
+
+def den_poly(den) -> np.ndarray:
+    """The product polynomial of the section rows."""
+    a = np.ones(1)
+    for row in den:
+        a = np.convolve(a, row)
+    return a
+
+
+def cascade(den, x, axis=0):
+    """Filter ``x`` through 1 / prod(sections) from rest."""
+    for row in den:
+        x = lfilter([1.0], row, x, axis=axis)
+    return x
+
+
+def stabilise(a) -> np.ndarray:
+    """Reflect roots outside the unit circle inside (keeps the magnitude response shape)."""
+    a = np.asarray(a, dtype=float)
+    if len(a) <= 1:
+        return a
+    r = np.roots(a)
+    big = np.abs(r) >= 0.999
+    if not np.any(big):
+        return a
+    r[big] = r[big] / np.abs(r[big]) ** 2  # reflect into the unit disc
+    near = np.abs(r) >= 0.999
+    r[near] = 0.999 * r[near] / np.abs(r[near])
+    return np.real(np.poly(r)) * a[0]
+
+
+# ------------------------------------------------------------------ piecewise linear maps
+
+
+def pwl_positions(p) -> tuple[np.ndarray, np.ndarray]:
+    """Breakpoint positions x and dx/dp (lower triangular) from unconstrained ``p``."""
+    p = np.asarray(p, dtype=float)
+    # The floor keeps breakpoints distinct (normalised units, so 2e-9 is negligible).
+    steps = np.exp(np.clip(p[1:], -20.0, 50.0))
+    x = p[0] + np.concatenate([[0.0], np.cumsum(steps)])
+    n = len(p)
+    jac = np.zeros((n, n))
+    jac[:, 0] = 1.0
+    for j in range(1, n):
+        jac[j:, j] = steps[j - 1]
+    return x, jac
+
+
+def positions_to_p(x) -> np.ndarray:
+    """Unconstrained parameters of strictly increasing breakpoints ``x``."""
+    x = np.asarray(x, dtype=float)
+    return np.concatenate([[x[0]], np.log(np.diff(x))])
+
+
+def pwl_eval(x, y, u, derivatives: bool = False):
+    """Evaluate the map through (x, y) at u, linear beyond the ends.
+
+    With ``derivatives``, also returns dz/du (N,), dz/dx (N, n) and dz/dy (N, n).
+    """
+    u = np.asarray(u, dtype=float)
+    n = len(x)
+    k = np.clip(np.searchsorted(x, u, side="right") - 1, 0, n - 2)
+    h = x[k + 1] - x[k]
+    t = (u - x[k]) / h
+    dy = y[k + 1] - y[k]
+    z = y[k] + dy * t
+    if not derivatives:
+        return z
+    slope = dy / h
+    rows = np.arange(len(u))
+    dz_dy = np.zeros((len(u), n))
+    dz_dy[rows, k] = 1.0 - t
+    dz_dy[rows, k + 1] = t
+    dz_dx = np.zeros((len(u), n))
+    dz_dx[rows, k] = slope * (t - 1.0)
+    dz_dx[rows, k + 1] = -slope * t
+    return z, slope, dz_dx, dz_dy
+
+
+def initial_breakpoints(values, n: int) -> np.ndarray:
+    """``n`` strictly increasing breakpoints spread over the quantiles of ``values``."""
+    v = np.asarray(values, dtype=float)
+    lo, hi = np.quantile(v, [0.0, 1.0])
+    if not hi > lo:
+        lo, hi = lo - 1.0, hi + 1.0
+    q = np.quantile(v, np.linspace(0.0, 1.0, n))
+    # Blend quantiles with an even grid so that no two breakpoints coincide.
+    x = 0.7 * q + 0.3 * np.linspace(lo, hi, n)
+    min_gap = 1e-3 * (hi - lo)
+    for i in range(1, n):
+        x[i] = max(x[i], x[i - 1] + min_gap)
+    return x

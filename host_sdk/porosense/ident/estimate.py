@@ -1,0 +1,271 @@
+"""Simulation-error estimation of every structure, with the starting points of the paper.
+
+All functions work on normalised data: ``us`` a list of (N_r, n_inputs) arrays, ``ys`` a list
+of (N_r,) arrays, one pair per recording (each simulated from rest). They return a
+:class:`Fit` holding the :class:`ChainSpec`, the parameters and the sum of squared errors.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.signal import lfilter
+
+from porosense.ident import blocks
+from porosense.ident.chain import Chain, ChainSpec
+from porosense.ident.linear_init import arx, iv, simulate_common
+
+
+
+def lstsq(phi, rhs):
+    """Least squares for tall ``phi`` through its (small) normal equations, ridge-guarded."""
+    gram = phi.T @ phi
+    ridge = 1e-10 * np.trace(gram) / max(len(gram), 1)
+    try:
+        return np.linalg.solve(gram + ridge * np.eye(len(gram)), phi.T @ rhs)
+    except np.linalg.LinAlgError:
+        return np.full(phi.shape[1], np.nan)
+
+
+@dataclass
+class Fit:
+    spec: ChainSpec
+    theta: np.ndarray
+    sse: float
+    nfev: int = 0
+
+
+@dataclass(frozen=True)
+class Options:
+    """Optimiser settings: evaluations per refinement, tolerance, samples skipped per record."""
+
+    max_nfev: int = 200
+    tol: float = 1e-7
+    skip: int = 0
+    starts: int = 2
+
+
+def sse(spec, theta, us, ys, skip=0) -> float:
+    chain = Chain(spec, theta)
+    return float(sum(np.sum((chain.simulate(u)[skip:] - y[skip:]) ** 2) for u, y in zip(us, ys)))
+
+
+def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
+    """Minimise the simulation error over all recordings with least_squares (LM, exact J)."""
+    skip = opts.skip
+
+    def residuals(theta):
+        chain = Chain(spec, theta)
+        r = np.concatenate([chain.simulate(u)[skip:] - y[skip:] for u, y in zip(us, ys)])
+        return np.where(np.isfinite(r), r, 1e6)
+
+    def jacobian(theta):
+        chain = Chain(spec, theta)
+        j = np.vstack([chain.jacobian(u)[1][skip:] for u in us])
+        return np.where(np.isfinite(j), j, 0.0)
+
+    theta0 = np.asarray(theta0, dtype=float)
+    start_sse = float(np.sum(residuals(theta0) ** 2))
+    n_res = sum(len(y) - skip for y in ys)
+    method = "lm" if n_res >= spec.n_params else "trf"
+    try:
+        res = least_squares(residuals, theta0, jac=jacobian, method=method, max_nfev=opts.max_nfev,
+                            ftol=opts.tol, xtol=opts.tol, gtol=opts.tol, x_scale=1.0)
+        theta, cost, nfev = res.x, 2.0 * res.cost, res.nfev
+    except (np.linalg.LinAlgError, ValueError):
+        theta, cost, nfev = theta0, start_sse, 0
+    if not cost <= start_sse:
+        theta, cost = theta0, start_sse
+    return Fit(spec, theta, float(cost), int(nfev))
+
+
+# ----------------------------------------------------------------------------- linear
+
+
+def _linear_theta(spec: ChainSpec, a_list, b_list, offset) -> np.ndarray:
+    theta = np.zeros(spec.n_params)
+    sl = spec.slices()
+    for i in range(spec.n_inputs):
+        a = np.asarray(a_list[i], dtype=float)
+        theta[sl[f"h1{i}.a"]] = blocks.poly_to_theta(a)[: spec.np1] if spec.np1 else []
+        b = np.zeros(spec.nz1 + 1)
+        bi = np.asarray(b_list[i], dtype=float)[: spec.nz1 + 1]
+        b[: len(bi)] = bi
+        theta[sl[f"h1{i}.b"]] = b
+    theta[sl["offset"]] = offset
+    return theta
+
+
+def fit_linear(us, ys, n_poles, n_zeros, delay, opts: Options) -> Fit:
+    """Output-error MISO model, each input its own B_i/F_i; started from the better of ARX/IV."""
+    spec = ChainSpec(us[0].shape[1], n_poles, n_zeros, delay=delay)
+    best = None
+    for method in (arx, iv):
+        a, bs, c = method(us, ys, n_poles, n_zeros, delay)
+        # Offset c enters through 1/A: its steady-state value is c / A(1).
+        a_sum = float(np.sum(a))
+        offset = c / a_sum if abs(a_sum) > 1e-6 else float(np.mean(np.concatenate(ys)))
+        theta = _linear_theta(spec, [a] * spec.n_inputs, bs, offset)
+        cost = sse(spec, theta, us, ys, opts.skip)
+        if best is None or cost < best[1]:
+            best = (theta, cost)
+    return refine(spec, best[0], us, ys, opts)
+
+
+# ------------------------------------------------------------------------- nonlinear
+
+
+def _hat_basis(x, u):
+    """Columns of the PWL map through x with unit value at one breakpoint (N, len(x))."""
+    return blocks.pwl_eval(x, np.zeros(len(x)), u, derivatives=True)[3]
+
+
+def _pwl_params(x, y):
+    return np.concatenate([blocks.positions_to_p(x), y])
+
+
+def _hammerstein_starts(lin: Fit, us, ys, n_bp, delay, opts):
+    """Two starts: f by least squares through the BLA's H1, and f = identity."""
+    n_in = us[0].shape[1]
+    spec = ChainSpec(n_in, lin.spec.np1, lin.spec.nz1, f_bp=n_bp, delay=delay)
+    lchain = Chain(lin.spec, lin.theta)
+    xs = [blocks.initial_breakpoints(np.concatenate([u[:, i] for u in us]), n_bp) for i in range(n_in)]
+    sl, lsl = spec.slices(), lin.spec.slices()
+
+    def theta_with(fys, offset):
+        theta = np.zeros(spec.n_params)
+        for i in range(n_in):
+            theta[sl[f"f{i}.p"]] = blocks.positions_to_p(xs[i])
+            theta[sl[f"f{i}.y"]] = fys[i]
+            theta[sl[f"h1{i}.a"]] = lin.theta[lsl[f"h1{i}.a"]]
+            theta[sl[f"h1{i}.b"]] = lin.theta[lsl[f"h1{i}.b"]]
+        theta[sl["offset"]] = offset
+        return theta
+
+    starts = [theta_with(xs, lchain.offset)]
+    # Least squares for the f values with the BLA's dynamics held: y - c = sum H1_i(hat(u_i)) fy_i.
+    cols = []
+    for u in us:
+        xin = lchain.branch_inputs(u)
+        blocks_i = []
+        for i in range(n_in):
+            b, a, _ = lchain.h1[i]
+            blocks_i.append(lfilter(b, a, _hat_basis(xs[i], xin[i]), axis=0))
+        cols.append(np.hstack(blocks_i + [np.ones((len(u), 1))]))
+    phi = np.vstack(cols)
+    sol = lstsq(phi, np.concatenate(ys))
+    if np.all(np.isfinite(sol)):
+        fys = [sol[i * n_bp:(i + 1) * n_bp] for i in range(n_in)]
+        starts.insert(0, theta_with(fys, sol[-1]))
+    return spec, starts[: max(opts.starts, 1)]
+
+
+def fit_hammerstein(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, lin: Fit | None = None) -> Fit:
+    """f_i then B_i/F_i; best of the multi-start refinements from the best linear approximation."""
+    lin = lin or fit_linear(us, ys, n_poles, n_zeros, delay, opts)
+    spec, starts = _hammerstein_starts(lin, us, ys, n_bp, delay, opts)
+    return multistart(spec, starts, us, ys, opts)
+
+
+def _wiener_starts(lin: Fit, us, ys, n_bp, delay, opts):
+    n_in = us[0].shape[1]
+    spec = ChainSpec(n_in, lin.spec.np1, lin.spec.nz1, g_bp=n_bp, delay=delay)
+    lchain = Chain(lin.spec, lin.theta)
+    ss = [lchain.linear_sum(u) for u in us]
+    x = blocks.initial_breakpoints(np.concatenate(ss), n_bp)
+    sl = spec.slices()
+    base = np.zeros(spec.n_params)
+    base[: sl["g.p"].start] = lin.theta[: sl["g.p"].start]
+    base[sl["g.p"]] = blocks.positions_to_p(x)
+    starts = []
+    phi = np.vstack([_hat_basis(x, s) for s in ss])
+    gy = lstsq(phi, np.concatenate(ys))
+    if np.all(np.isfinite(gy)):
+        t = base.copy()
+        t[sl["g.y"]] = gy
+        starts.append(t)
+    t = base.copy()
+    t[sl["g.y"]] = x
+    t[sl["offset"]] = lchain.offset
+    starts.append(t)
+    return spec, starts[: max(opts.starts, 1)]
+
+
+def fit_wiener(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, lin: Fit | None = None) -> Fit:
+    """B_i/F_i summed, then g; multi-start from the best linear approximation."""
+    lin = lin or fit_linear(us, ys, n_poles, n_zeros, delay, opts)
+    spec, starts = _wiener_starts(lin, us, ys, n_bp, delay, opts)
+    return multistart(spec, starts, us, ys, opts)
+
+
+def split_orders(n_poles: int, n_zeros: int) -> tuple[int, int, int, int]:
+    """Split a WH order between H1 and H2: (np1, nz1, np2, nz2), H1 gets the larger half."""
+    np1 = (n_poles + 1) // 2
+    nz1 = (n_zeros + 1) // 2
+    return np1, nz1, n_poles - np1, n_zeros - nz1
+
+
+def _wh_spec(n_in, np1, nz1, np2, nz2, n_bp, delay):
+    return ChainSpec(n_in, np1, nz1, g_bp=n_bp, h2=True, np2=np2, nz2=nz2, delay=delay)
+
+
+def fit_wh(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options) -> Fit:
+    """H1, g, H2 built both ways (Wiener + linear, linear + Hammerstein), refined jointly."""
+    n_in = us[0].shape[1]
+    np1, nz1, np2, nz2 = split_orders(n_poles, n_zeros)
+    spec = _wh_spec(n_in, np1, nz1, np2, nz2, n_bp, delay)
+    sl = spec.slices()
+    starts = []
+    # The two ways are the two starts; their own sub-fits get one start and a small budget.
+    inner = Options(max_nfev=max(opts.max_nfev // 4, 15), tol=opts.tol, skip=opts.skip, starts=1)
+
+    # Wiener + linear: H2 is an OE model from z = g(s) to y.
+    lin = fit_linear(us, ys, np1, nz1, delay, inner)
+    wien = fit_wiener(us, ys, np1, nz1, n_bp, delay, inner, lin=lin)
+    wchain = Chain(wien.spec, wien.theta)
+    zs = [wchain.simulate(u) - wchain.offset for u in us]
+    h2 = fit_linear([z[:, None] for z in zs], ys, np2, nz2, 0, inner)
+    theta = np.zeros(spec.n_params)
+    wsl = wien.spec.slices()
+    theta[: wsl["offset"].start] = wien.theta[: wsl["offset"].start]
+    hsl = h2.spec.slices()
+    theta[sl["h2.a"]] = h2.theta[hsl["h10.a"]]
+    theta[sl["h2.b"]] = h2.theta[hsl["h10.b"]]
+    theta[sl["offset"]] = h2.theta[hsl["offset"]]
+    starts.append(theta)
+
+    # linear + Hammerstein: H1 from the linear fit, then (g, H2) as a Hammerstein model of s.
+    if opts.starts >= 2:
+        lchain = Chain(lin.spec, lin.theta)
+        ss = [lchain.linear_sum(u)[:, None] for u in us]
+        ham = fit_hammerstein(ss, ys, np2, nz2, n_bp, 0, inner)
+        msl = ham.spec.slices()
+        theta = np.zeros(spec.n_params)
+        lsl = lin.spec.slices()
+        theta[: lsl["offset"].start] = lin.theta[: lsl["offset"].start]
+        theta[sl["g.p"]] = ham.theta[msl["f0.p"]]
+        theta[sl["g.y"]] = ham.theta[msl["f0.y"]]
+        theta[sl["h2.a"]] = ham.theta[msl["h10.a"]]
+        theta[sl["h2.b"]] = ham.theta[msl["h10.b"]]
+        theta[sl["offset"]] = ham.theta[msl["offset"]]
+        starts.append(theta)
+    return multistart(spec, starts, us, ys, opts)
+
+
+def multistart(spec: ChainSpec, starts, us, ys, opts: Options) -> Fit:
+    """Refine every start briefly, then continue the best one with the remaining budget."""
+    if len(starts) == 1:
+        return refine(spec, starts[0], us, ys, opts)
+    screen = max(opts.max_nfev // 6, 8)
+    short = Options(max_nfev=screen, tol=opts.tol, skip=opts.skip, starts=opts.starts)
+    best = _best([refine(spec, t, us, ys, short) for t in starts])
+    rest = Options(max_nfev=max(opts.max_nfev - screen, 1), tol=opts.tol, skip=opts.skip, starts=opts.starts)
+    final = refine(spec, best.theta, us, ys, rest)
+    final.nfev += screen * len(starts)
+    return final
+
+
+def _best(fits: list[Fit]) -> Fit:
+    return min(fits, key=lambda f: f.sse if np.isfinite(f.sse) else np.inf)

@@ -1,0 +1,43 @@
+"""The paper's metrics (DESIGN.md), on simulation output, per recording and output.
+
+fit   = 100 (1 - ||y - yhat|| / ||y - mean(y)||)            (NRMSE fit, %)
+RMS % = 100 / max(y) * sqrt(mean((y - yhat)^2))              (% of the output's maximum)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def fit_percent(y, yhat) -> float:
+    """NRMSE fit in % (100 is perfect, can be negative). ``y``, ``yhat`` 1-D, same unit."""
+    y = np.asarray(y, dtype=float).ravel()
+    yhat = np.asarray(yhat, dtype=float).ravel()
+    den = np.linalg.norm(y - y.mean())
+    if den == 0.0:
+        return float("nan")
+    return float(100.0 * (1.0 - np.linalg.norm(y - yhat) / den))
+
+
+def rms_percent(y, yhat) -> float:
+    """RMS error in % of max(y), as the paper reports it."""
+    y = np.asarray(y, dtype=float).ravel()
+    yhat = np.asarray(yhat, dtype=float).ravel()
+    peak = np.max(y)
+    if peak == 0.0:
+        return float("nan")
+    return float(100.0 / peak * np.sqrt(np.mean((y - yhat) ** 2)))
+
+
+def rmse(y, yhat) -> float:
+    """Root-mean-square error in the unit of ``y``."""
+    y = np.asarray(y, dtype=float).ravel()
+    yhat = np.asarray(yhat, dtype=float).ravel()
+    return float(np.sqrt(np.mean((y - yhat) ** 2)))
+
+
+def information_criteria(sse: float, n_samples: int, n_params: int) -> tuple[float, float]:
+    """(AIC, BIC) of a Gaussian least-squares fit: N ln(SSE/N) + 2p, N ln(SSE/N) + p ln N."""
+    n = max(int(n_samples), 1)
+    base = n * np.log(max(sse, 1e-300) / n)
+    return float(base + 2 * n_params), float(base + n_params * np.log(n))

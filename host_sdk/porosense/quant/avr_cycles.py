@@ -1,0 +1,64 @@
+"""Measure Estimator::step in AVR cycles: build tests/quant/avr/cycles.cpp with avr-g++ -Os for
+the ATmega328P around a model blob and run it in simavr (Timer1 at the CPU clock)."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from porosense.quant.blob import ModelBlob
+
+ROOT = Path(__file__).resolve().parents[3]
+CORE = ROOT / "firmware" / "lib" / "core"
+PROGRAM = ROOT / "tests" / "quant" / "avr" / "cycles.cpp"
+CORE_SOURCES = ("estimator.cpp", "model_blob.cpp", "frame_codec.cpp")
+
+
+@dataclass
+class CycleResult:
+    max_cycles: int
+    mean_cycles: int
+    steps: int
+    estimator_ram: int  # sizeof(est::Estimator) on the AVR
+    text: int  # flash bytes of the test program
+    in_eeprom: bool
+
+
+def available() -> str | None:
+    """None when avr-g++ and simavr are installed, else what is missing."""
+    missing = [t for t in ("avr-g++", "simavr") if shutil.which(t) is None]
+    if not PROGRAM.exists():
+        missing.append(str(PROGRAM))
+    return ", ".join(missing) or None
+
+
+def measure(blob: ModelBlob | bytes, *, in_eeprom: bool = False, steps: int = 64, timeout: float = 120.0) -> CycleResult:
+    """Worst and mean cycles of one step over ``steps`` samples of switching inputs."""
+    data = blob.to_bytes() if isinstance(blob, ModelBlob) else bytes(blob)
+    with tempfile.TemporaryDirectory(prefix="porosense-cycles-") as tmp:
+        tmp = Path(tmp)
+        rows = ",\n".join("  " + ", ".join(f"0x{v:02X}" for v in data[i:i + 16]) for i in range(0, len(data), 16))
+        (tmp / "model.h").write_text(
+            "#pragma once\n#include <avr/pgmspace.h>\n"
+            f"#define MODEL_LEN {len(data)}u\n#define MODEL_STEPS {steps}u\n"
+            f"#define MODEL_IN_EEPROM {int(in_eeprom)}\n"
+            f"static const uint8_t MODEL_BLOB[{len(data)}] PROGMEM = {{\n{rows}\n}};\n")
+        elf = tmp / "cycles.elf"
+        cmd = ["avr-g++", "-std=c++11", "-Os", "-mmcu=atmega328p", "-DF_CPU=16000000UL", "-fno-exceptions",
+               "-ffunction-sections", "-fdata-sections", "-Wl,--gc-sections", f"-I{CORE}", f"-I{tmp}",
+               "-o", str(elf), str(PROGRAM), *[str(CORE / s) for s in CORE_SOURCES]]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode:
+            raise RuntimeError(f"avr-g++ failed:\n{proc.stderr}")
+        size = subprocess.run(["avr-size", str(elf)], capture_output=True, text=True).stdout.split("\n")[1].split()
+        run = subprocess.run(["simavr", "-m", "atmega328p", "-f", "16000000", str(elf)], capture_output=True,
+                             text=True, timeout=timeout)
+        out = run.stdout + run.stderr
+        m = re.search(r"cycles max=(\d+) mean=(\d+) steps=(\d+) ram=(\d+)", out)
+        if not m:
+            raise RuntimeError(f"simavr gave no cycle count:\n{out[-2000:]}")
+        return CycleResult(int(m[1]), int(m[2]), int(m[3]), int(m[4]), int(size[0]), in_eeprom)

@@ -1,0 +1,353 @@
+"""Fixed-point design: from a float EstimatorStructure to a ModelBlob.
+
+Choices (all automatic, each recorded in the report):
+
+* Sections: poles and zeros re-paired with scipy's ``zpk2sos(pairing="nearest")``, which
+  orders sections by pole radius (poles closest to the unit circle last); pure delays kept.
+* Scaling: every signal node (f output, each section output, the branch sum, g output, the
+  output) gets a real scale (units per int16 LSB) such that its guaranteed range maps to
+  +-30000 LSB. The range is an interval bound: for a linear block the l1 norm of the positive
+  and negative parts of the impulse response applied to the input interval; for a table its
+  image of the interval. The input interval is the data range (``input_range``), so no node
+  can overflow for any input inside it.
+* Numerators: 16-bit coefficients with one shift per section unless that moves the
+  section's DC gain by more than ``DC_TOLERANCE`` (zeros near z = 1), then 32-bit.
+* Denominators: 16-bit residues with a shift each; direct form with integer base weights
+  (-a = m + k, |k| <= 1/2) or, for poles near z = 1, the delta form (alpha1 = 2 + a1,
+  alpha0 = 1 + a1 + a2 stored separately, so A(1) keeps 15 significant bits). States are
+  32-bit (Q14 of the section output) everywhere.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import signal
+
+from porosense.errors import ModelError
+from porosense.quant.blob import (
+    MAX_BLOB_LEN, STATE_FRAC, BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, pwl_len, section_len,
+)
+from porosense.structure import EstimatorStructure, PiecewiseLinear, SOSCascade
+
+FULL_SCALE = 30000.0  # LSB a node's guaranteed range maps to (of 32767)
+DC_TOLERANCE = 2e-4  # relative DC-gain error above which a numerator goes to 32 bits
+DELTA_LIMIT = 0.49  # |alpha1|, |alpha0| below this -> delta form
+DEFAULT_INPUT_LSB = 0.01  # structure input units (dR in %) per 0.01 % LSB
+
+
+# -- sections ----------------------------------------------------------------------------
+
+def regroup(sos: np.ndarray) -> np.ndarray:
+    """Re-pair poles and zeros (nearest) and order sections by pole radius; keeps delays."""
+    sos = np.atleast_2d(np.asarray(sos, dtype=float))
+    zeros, poles, gain, delay = [], [], 1.0, 0
+    for row in sos:
+        b = np.trim_zeros(row[:3], "b")
+        if len(b) == 0:
+            return sos  # a zero block: nothing to re-pair
+        lead = int(np.argmax(b != 0))
+        delay += lead
+        b = b[lead:]
+        gain *= b[0]
+        zeros.extend(np.roots(b) if len(b) > 1 else [])
+        a = np.trim_zeros(row[3:], "b")
+        poles.extend(np.roots(a) if len(a) > 1 else [])
+    zeros = [z for z in zeros if abs(z) > 0]
+    poles = [p for p in poles if abs(p) > 0]
+    n_pairs = max(1, (max(len(zeros), len(poles)) + 1) // 2)
+    z = np.concatenate([zeros, np.zeros(2 * n_pairs - len(zeros))])
+    p = np.concatenate([poles, np.zeros(2 * n_pairs - len(poles))])
+    new = signal.zpk2sos(z, p, gain, pairing="nearest")
+    if len(new) > 1:
+        new = new[np.any(new != [1, 0, 0, 1, 0, 0], axis=1)]
+        if len(new) == 0:
+            new = np.array([[gain, 0, 0, 1, 0, 0]])
+    for _ in range(delay):
+        free = np.flatnonzero(new[:, 2] == 0)
+        if len(free):
+            i = free[-1]
+            new[i, :3] = [0.0, new[i, 0], new[i, 1]]
+        else:
+            new = np.vstack([new, [0.0, 1.0, 0.0, 1.0, 0.0, 0.0]])
+    if len(new) > len(sos) or not _same_response(sos, new):
+        return sos
+    return new
+
+
+def _same_response(a: np.ndarray, b: np.ndarray) -> bool:
+    w = np.linspace(0, np.pi, 64)
+    _, ha = signal.sosfreqz(a, w)
+    _, hb = signal.sosfreqz(b, w)
+    return bool(np.allclose(hb, ha, rtol=1e-6, atol=1e-9 * float(np.max(np.abs(ha)) + 1e-300)))
+
+
+def _impulse_length(sos: np.ndarray) -> int:
+    r = max((np.max(np.abs(np.roots(row[3:]))) if np.any(row[4:] != 0) else 0.0) for row in sos)
+    if r >= 1.0:
+        raise ModelError("a linear block is unstable (pole on or outside the unit circle)")
+    return int(np.clip(math.ceil(50.0 / max(1.0 - r, 1e-6)) + 16 * len(sos), 64, 500_000))
+
+
+def prefix_intervals(sos: np.ndarray, lo: float, hi: float) -> list[tuple[float, float]]:
+    """Guaranteed output interval after each section for inputs in [lo, hi] (l1 bound)."""
+    n = _impulse_length(sos)
+    h = np.zeros(n)
+    h[0] = 1.0
+    out = []
+    for row in sos:
+        h = signal.sosfilt(row[None, :], h)
+        pos, neg = float(np.sum(h[h > 0])), float(np.sum(h[h < 0]))
+        out.append((pos * lo + neg * hi, pos * hi + neg * lo))
+    return out
+
+
+def pwl_interval(f: PiecewiseLinear, lo: float, hi: float) -> tuple[float, float]:
+    pts = [lo, hi] + [x for x in f.x if lo < x < hi]
+    vals = f(np.asarray(pts))
+    return float(np.min(vals)), float(np.max(vals))
+
+
+def _quantize_residue(k: float) -> tuple[int, int]:
+    """k (|k| < 1/2) as (mantissa int16, shift n in 16..47) with the most bits."""
+    if k == 0.0:
+        return 0, 16
+    n = 16
+    while n < 47 and abs(k) * 2.0 ** (n + 1) <= 32767:
+        n += 1
+    return int(np.clip(round(k * 2.0 ** n), -32768, 32767)), n
+
+
+def quantize_section(row: np.ndarray, s_in: float, s_out: float, notes: list[str], name: str) -> SectionQ:
+    """One float section (scipy sos row) with input/output scales -> SectionQ."""
+    b = np.asarray(row[:3], dtype=float) * (s_in / s_out) * 2.0 ** STATE_FRAC  # y Q14 per x LSB
+    a1, a2 = float(row[4]), float(row[5])
+    b16, sb16, err16 = _numerator(b, wide=False)
+    if err16 <= DC_TOLERANCE:
+        bq, sb, wide = b16, sb16, False
+    else:
+        bq, sb, wide = _numerator(b, wide=True)[:2] + (True,)
+    alpha1, alpha0 = 2.0 + a1, 1.0 + a1 + a2
+    if a2 != 0.0 and abs(alpha1) < DELTA_LIMIT and abs(alpha0) < DELTA_LIMIT:
+        (k1, n1), (k2, n2) = _quantize_residue(-alpha1), _quantize_residue(-alpha0)
+        sec = SectionQ(tuple(bq), (k1, k2), sb, (n1, n2), wide, True, (0, 0))
+        form = f"delta form (alpha1={alpha1:.3g}, alpha0={alpha0:.3g})"
+    else:
+        m1, m2 = int(np.clip(round(-a1), -2, 2)), int(np.clip(round(-a2), -1, 1))
+        r1, r2 = -a1 - m1, -a2 - m2
+        if round(r1 * 65536) > 32767:
+            m1, r1 = m1 + 1, r1 - 1
+        if round(r2 * 65536) > 32767:
+            m2, r2 = m2 + 1, r2 - 1
+        (k1, n1), (k2, n2) = _quantize_residue(r1), _quantize_residue(r2)
+        sec = SectionQ(tuple(bq), (k1, k2), sb, (n1, n2), wide, False, (m1, m2))
+        form = f"direct form (m={m1},{m2})"
+    qb, qa = sec.real()
+    poles = np.roots(qa)
+    if np.any(np.abs(poles) >= 1.0):
+        raise ModelError(f"{name}: quantized section became unstable (poles {np.round(poles, 6)})")
+    dc_note = f"16-bit DC error {err16:.1e}" if math.isfinite(err16) else "16-bit numerator out of range"
+    notes.append(f"{name}: poles {_fmt_roots(np.roots([1, a1, a2]))}; {form}, residue shifts {n1},{n2}; "
+                 f"{'32' if wide else '16'}-bit numerator ({dc_note})")
+    return sec
+
+
+def _numerator(b: np.ndarray, wide: bool) -> tuple[list[int], int, float]:
+    """Mantissas and shift for numerator values b (Q14 output per input LSB)."""
+    lim, total, extra = (2**31 - 1, 0xFFFF0000, 16) if wide else (32767, 65535, 0)
+    peak = float(np.max(np.abs(b)))
+    sb = 31
+    if peak > 0:
+        sb = int(np.clip(math.floor(math.log2(lim / peak)) - extra, 0, 31))
+    while True:
+        q = np.round(b * 2.0 ** (sb + extra))
+        if (np.all(np.abs(q) <= lim) and np.sum(np.abs(q)) <= total) or sb == 0:
+            break
+        sb -= 1
+    q = np.clip(q, -lim - 1, lim)
+    if np.sum(np.abs(q)) > total:
+        q = np.trunc(q * (total / np.sum(np.abs(q))))
+    dc, dcq = float(np.sum(b)), float(np.sum(q)) * 2.0 ** -(sb + extra)
+    ref = abs(dc) if abs(dc) > 1e-12 * max(peak, 1e-300) else max(peak, 1e-300)
+    return [int(v) for v in q], sb, abs(dcq - dc) / ref
+
+
+def _fmt_roots(r: np.ndarray) -> str:
+    return ", ".join(f"{abs(x):.4f}" + (f"@{math.degrees(np.angle(x)):.1f}deg" if abs(x.imag) > 1e-12 else "")
+                     for x in np.atleast_1d(r))
+
+
+# -- tables ------------------------------------------------------------------------------
+
+def quantize_pwl(f: PiecewiseLinear, s_x: float, s_y: float, notes: list[str], name: str) -> PwlQ:
+    """A float table with input scale s_x and output scale s_y -> PwlQ."""
+    xq = np.clip(np.round(f.x / s_x), -32768, 32767).astype(int)
+    keep = np.concatenate([[True], np.diff(xq) > 0])
+    xq = xq[keep]
+    if len(xq) < 2:
+        lo = int(np.clip(xq[0], -32768, 32766))
+        xq = np.array([lo, lo + 1])
+    slopes_real = f.slopes
+    yq, slope, shift = [], [], []
+    for k, xi in enumerate(xq):
+        yq.append(int(np.clip(round(float(f(xi * s_x)) / s_y), -32768, 32767)))
+    for k in range(len(xq) - 1):
+        mid = 0.5 * (xq[k] + xq[k + 1]) * s_x
+        seg = int(np.clip(np.searchsorted(f.x, mid, side="right") - 1, 0, len(f.x) - 2))
+        m = slopes_real[seg] * s_x / s_y
+        sh = 30
+        if m != 0.0:
+            sh = int(np.clip(math.floor(math.log2(32767 / abs(m))), 0, 30))
+        mq = round(m * 2.0 ** sh)
+        while abs(mq) > 32767 and sh > 0:
+            sh -= 1
+            mq = round(m * 2.0 ** sh)
+        if abs(mq) > 32767:
+            notes.append(f"{name}: segment {k} slope clipped")
+            mq = int(np.clip(mq, -32768, 32767))
+        slope.append(int(mq))
+        shift.append(sh)
+    notes.append(f"{name}: {len(xq)} breakpoints, input {s_x:.4g}/LSB, output {s_y:.4g}/LSB")
+    return PwlQ(tuple(int(v) for v in xq), tuple(yq), tuple(slope), tuple(shift))
+
+
+# -- whole structure ---------------------------------------------------------------------
+
+def _scale(lo: float, hi: float) -> float:
+    peak = max(abs(lo), abs(hi))
+    return peak / FULL_SCALE if peak > 0 else 1.0 / FULL_SCALE
+
+
+def design_blob(structure: EstimatorStructure, input_range: list[tuple[float, float]], input_lsb: float,
+                model_id: int, notes: list[str]) -> tuple[ModelBlob, list[dict]]:
+    """Build the blob; returns it and one dict per node (name, interval, scale)."""
+    structure.check_limits()
+    nodes: list[dict] = []
+    outputs = []
+    scales = []
+    for out in structure.outputs:
+        # 1. Intervals of every node, from the input ranges forward.
+        plans = []
+        sum_lo = sum_hi = 0.0
+        worst_branch = 0.0
+        for br in out.branches:
+            lo, hi = input_range[br.input]
+            lo, hi = lo - br.u_offset, hi - br.u_offset
+            f_iv = pwl_interval(br.f, lo, hi) if br.f is not None else (lo, hi)
+            sos = regroup(br.h1.sos)
+            ivs = prefix_intervals(sos, *f_iv)
+            sum_lo, sum_hi = sum_lo + ivs[-1][0], sum_hi + ivs[-1][1]
+            worst_branch = max(worst_branch, abs(ivs[-1][0]), abs(ivs[-1][1]))
+            plans.append((br, (lo, hi), f_iv, sos, ivs))
+        v_iv = (sum_lo, sum_hi)
+        g_iv = pwl_interval(out.g, *v_iv) if out.g is not None else v_iv
+        h2_sos = regroup(out.h2.sos) if out.h2 is not None else None
+        h2_ivs = prefix_intervals(h2_sos, *g_iv) if h2_sos is not None else []
+        last = h2_ivs[-1] if h2_ivs else g_iv
+        out_scale = float(np.float32(max(abs(last[0]), abs(last[1]), abs(last[0] + out.offset),
+                                         abs(last[1] + out.offset), 1e-12) / FULL_SCALE))
+        scales.append(out_scale)
+        # 2. Scales: the last node of the chain is the output's scale.
+        s_sum = max(worst_branch, abs(sum_lo), abs(sum_hi)) / FULL_SCALE or 1.0 / FULL_SCALE
+        if out.g is None and h2_sos is None:
+            s_sum = out_scale
+        s_g = out_scale if h2_sos is None else _scale(*g_iv)
+        # 3. Quantize.
+        branches = []
+        for br, x_iv, f_iv, sos, ivs in plans:
+            tag = f"{out.name}.b{br.input}"
+            fq = None
+            s_in = input_lsb
+            if br.f is not None:
+                s_f = _scale(*f_iv)
+                fq = quantize_pwl(br.f, input_lsb, s_f, notes, f"{tag}.f")
+                nodes.append({"node": f"{tag}.f", "interval": f_iv, "scale": s_f})
+                s_in = s_f
+            secs = []
+            for k, (row, iv) in enumerate(zip(sos, ivs)):
+                s_out = s_sum if k == len(sos) - 1 else _scale(*iv)
+                secs.append(quantize_section(row, s_in, s_out, notes, f"{tag}.h1[{k}]"))
+                nodes.append({"node": f"{tag}.h1[{k}]", "interval": iv, "scale": s_out})
+                s_in = s_out
+            u_off = int(np.clip(round(br.u_offset / input_lsb), -32768, 32767))
+            branches.append(BranchQ(br.input, tuple(secs), fq, br.delay, u_off))
+        nodes.append({"node": f"{out.name}.sum", "interval": v_iv, "scale": s_sum})
+        gq = None
+        if out.g is not None:
+            gq = quantize_pwl(out.g, s_sum, s_g, notes, f"{out.name}.g")
+            nodes.append({"node": f"{out.name}.g", "interval": g_iv, "scale": s_g})
+        h2 = []
+        if h2_sos is not None:
+            s_in = s_g
+            for k, (row, iv) in enumerate(zip(h2_sos, h2_ivs)):
+                s_out = out_scale if k == len(h2_sos) - 1 else _scale(*iv)
+                h2.append(quantize_section(row, s_in, s_out, notes, f"{out.name}.h2[{k}]"))
+                nodes.append({"node": f"{out.name}.h2[{k}]", "interval": iv, "scale": s_out})
+                s_in = s_out
+        offset = int(np.clip(round(out.offset / out_scale), -32768, 32767))
+        outputs.append(OutputQ(tuple(branches), gq, tuple(h2), offset))
+    blob = ModelBlob(len(structure.inputs), tuple(outputs), tuple(scales), model_id & 0xFFFFFFFF)
+    return blob, nodes
+
+
+def blob_size(structure: EstimatorStructure, *, h1_sections: int | None = None, h2_sections: int | None = None,
+              breakpoints: int | None = None, section_bytes: float = 14.0) -> int:
+    """Bytes of the blob of ``structure`` with its blocks capped at the given orders."""
+    size = 24 + 2
+    for out in structure.outputs:
+        size += 4
+        for br in out.branches:
+            ns = br.h1.n_sections if h1_sections is None else min(br.h1.n_sections, h1_sections)
+            size += 6 + ns * section_bytes
+            if br.f is not None:
+                size += pwl_len(len(br.f.x) if breakpoints is None else min(len(br.f.x), breakpoints))
+        if out.g is not None:
+            size += pwl_len(len(out.g.x) if breakpoints is None else min(len(out.g.x), breakpoints))
+        if out.h2 is not None:
+            ns = out.h2.n_sections if h2_sections is None else min(out.h2.n_sections, h2_sections)
+            size += 1 + ns * section_bytes
+    return int(math.ceil(size))
+
+
+def orders_that_fit(structure: EstimatorStructure, section_bytes: float = 14.0, limit: int = 4) -> list[str]:
+    """The largest uniform caps (poles in H1, poles in H2, breakpoints) whose blob fits."""
+    has_h2 = any(o.h2 is not None for o in structure.outputs)
+    has_pwl = any(o.g is not None or any(b.f is not None for b in o.branches) for o in structure.outputs)
+    fits = []
+    for s1 in range(5, 0, -1):
+        for s2 in (range(5, 0, -1) if has_h2 else [None]):
+            for bp in ((16, 12, 10, 8, 6, 5, 4, 3, 2) if has_pwl else [None]):
+                if blob_size(structure, h1_sections=s1, h2_sections=s2, breakpoints=bp,
+                             section_bytes=section_bytes) <= MAX_BLOB_LEN:
+                    fits.append((s1, s2 or 0, bp or 0))
+    # Keep the Pareto front.
+    front = [c for c in fits if not any(o != c and all(x >= y for x, y in zip(o, c)) for o in fits)]
+    front.sort(key=lambda c: (-(c[0] + c[1]), -c[2]))
+    out = []
+    for s1, s2, bp in front[:limit]:
+        parts = [f"H1 <= {2 * s1} poles"]
+        if has_h2:
+            parts.append(f"H2 <= {2 * s2} poles")
+        if has_pwl:
+            parts.append(f"{bp} breakpoints")
+        out.append(", ".join(parts))
+    return out
+
+
+def check_size(blob: ModelBlob, structure: EstimatorStructure) -> None:
+    """Raise ModelError (how many bytes too large, which orders fit) if the blob is too big."""
+    length = blob.length
+    if length <= MAX_BLOB_LEN:
+        return
+    per_section = np.mean([s.nbytes for o in blob.outputs for b in o.branches for s in b.sections]
+                          + [s.nbytes for o in blob.outputs for s in o.h2])
+    fits = orders_that_fit(structure, float(per_section))
+    hint = "; ".join(fits) if fits else "none: reduce the number of outputs or inputs"
+    raise ModelError(
+        f"model blob is {length} bytes, {length - MAX_BLOB_LEN} bytes too large for the "
+        f"{MAX_BLOB_LEN}-byte EEPROM model region; orders that fit: {hint}")
+
+
+def section_bytes_of(wide: bool) -> int:
+    return section_len(wide)

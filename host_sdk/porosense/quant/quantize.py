@@ -1,0 +1,120 @@
+"""``quantize``: float EstimatorStructure -> fixed-point blob + report."""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from porosense.errors import InputError
+from porosense.quant.blob import MAX_BLOB_LEN, ModelBlob
+from porosense.quant.design import DEFAULT_INPUT_LSB, FULL_SCALE, check_size, design_blob
+from porosense.quant.fixed import FixedPointEstimator
+from porosense.quant.report import QuantReport, RecordingFit, fit_percent
+from porosense.structure import EstimatorStructure
+
+DEFAULT_INPUT_RANGE = (-100.0, 100.0)  # dR in %, when neither a range nor data is given
+
+
+@dataclass
+class QuantResult:
+    blob: ModelBlob
+    report: QuantReport
+
+    def to_bytes(self) -> bytes:
+        return self.blob.to_bytes()
+
+
+def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None, input_lsb: float | None = None,
+             model_id: int | None = None) -> QuantResult:
+    """Quantize ``structure`` for the firmware.
+
+    recordings: recordings (porosense.data.Recording or mappings name -> column) holding the
+        structure's input columns (and its output columns for the fit against data), or
+        (name, U (N, n_in), Y (N, n_out) or None) tuples. They set the data range when
+        ``input_range`` is absent and are replayed for the report.
+    input_range: (lo, hi) in the structure's input unit, one pair or one per input; the scaling
+        guarantees no overflow for inputs inside it. Default: the recordings' range widened by
+        25 % of its span (or -100..100 % without data).
+    input_lsb: structure input units per device LSB (default 0.01: inputs are dR in %, the
+        device sends 0.01 %); taken from ``structure.meta["input_lsb"]`` when present.
+    model_id: tag stored in the blob (default: CRC-32 of the structure's repr, 32 bits).
+    """
+    lsb = float(input_lsb or structure.meta.get("input_lsb", DEFAULT_INPUT_LSB))
+    recs = [_as_recording(r, structure, i) for i, r in enumerate(recordings or [])]
+    ranges = _input_ranges(structure, recs, input_range, lsb)
+    mid = model_id if model_id is not None else zlib.crc32(repr(structure).encode()) & 0xFFFFFFFF
+    notes: list[str] = []
+    blob, nodes = design_blob(structure, ranges, lsb, mid, notes)
+    check_size(blob, structure)
+    secs = [s for o in blob.outputs for b in o.branches for s in b.sections] + [s for o in blob.outputs for s in o.h2]
+    scaling = ("l1 interval bound: each node's range is the input interval through the positive and "
+               "negative parts of the impulse response (tables: their image), mapped to "
+               f"+-{FULL_SCALE:.0f} LSB; input ranges " + ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in ranges))
+    report = QuantReport(blob_bytes=blob.length, capacity_bytes=MAX_BLOB_LEN, n_sections=len(secs),
+                         wide_numerators=sum(s.wide for s in secs), delta_sections=sum(s.delta for s in secs),
+                         out_scale=list(blob.out_scale), scaling=scaling, nodes=nodes, notes=notes)
+    for name, u, y in recs:
+        report.fits.extend(evaluate(structure, blob, u, y, name, lsb))
+    return QuantResult(blob, report)
+
+
+def evaluate(structure: EstimatorStructure, blob: ModelBlob, u: np.ndarray, y, name: str,
+             input_lsb: float = DEFAULT_INPUT_LSB) -> list[RecordingFit]:
+    """Fit of the fixed-point reference against the float model and the data, per output."""
+    counts = np.clip(np.round(np.asarray(u, dtype=float) / input_lsb), -32768, 32767).astype(np.int64)
+    u_dev = counts * input_lsb  # what the device sees: dR quantized to 0.01 %
+    y_float = structure.simulate(u_dev)
+    full = np.zeros((len(counts), 3), dtype=np.int64)
+    full[:, : counts.shape[1]] = counts
+    est, flags = FixedPointEstimator(blob).run(full)
+    out = []
+    for j, o in enumerate(structure.outputs):
+        y_fixed = est[:, j].astype(float) * blob.out_scale[j]
+        yd = None if y is None or y[j] is None else np.asarray(y[j], dtype=float)
+        out.append(RecordingFit(
+            recording=name, output=o.name,
+            fit_float_vs_data=None if yd is None else fit_percent(yd, y_float[:, j]),
+            fit_fixed_vs_data=None if yd is None else fit_percent(yd, y_fixed),
+            fit_fixed_vs_float=fit_percent(y_float[:, j], y_fixed),
+            saturated_samples=int(np.count_nonzero(flags))))
+    return out
+
+
+def _as_recording(r, structure: EstimatorStructure, i: int):
+    if isinstance(r, tuple):
+        name, u, y = r
+        u = np.asarray(u, dtype=float)
+        u = u[:, None] if u.ndim == 1 else u
+        if y is not None:
+            y = np.asarray(y, dtype=float)
+            y = [y] if y.ndim == 1 else [y[:, j] for j in range(y.shape[1])]
+        return str(name), u, y
+    names = getattr(r, "names", None) or list(getattr(r, "columns", r).keys())
+    missing = [n for n in structure.inputs if n not in names]
+    if missing:
+        raise InputError(f"recording {i} lacks the model's input column(s) {', '.join(missing)}")
+    u = np.column_stack([np.asarray(r[n], dtype=float) for n in structure.inputs])
+    y = [np.asarray(r[o.name], dtype=float) if o.name in names else None for o in structure.outputs]
+    meta = getattr(r, "meta", {}) or {}
+    name = str(meta.get("name") or meta.get("experiment") or f"recording {i}")
+    return name, u, y
+
+
+def _input_ranges(structure, recs, input_range, lsb) -> list[tuple[float, float]]:
+    n = len(structure.inputs)
+    dev_lo, dev_hi = -32768 * lsb, 32767 * lsb
+    if input_range is not None:
+        arr = np.asarray(input_range, dtype=float)
+        pairs = [tuple(arr)] * n if arr.shape == (2,) else [tuple(p) for p in arr]
+        if len(pairs) != n or any(lo >= hi for lo, hi in pairs):
+            raise InputError(f"input_range needs (lo, hi) with lo < hi, once or per input ({n})")
+    elif recs:
+        u = np.concatenate([r[1] for r in recs], axis=0)
+        lo, hi = np.min(u, axis=0), np.max(u, axis=0)
+        span = np.maximum(hi - lo, 1.0)
+        pairs = list(zip(lo - 0.25 * span, hi + 0.25 * span))
+    else:
+        pairs = [DEFAULT_INPUT_RANGE] * n
+    return [(max(float(lo), dev_lo), min(float(hi), dev_hi)) for lo, hi in pairs]

@@ -1,0 +1,106 @@
+"""Quantization report: formats chosen, sizes, and the fit of the fixed-point reference."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+
+def fit_percent(y, yhat) -> float:
+    """NRMSE fit (DESIGN.md): 100 (1 - ||y - yhat|| / ||y - mean(y)||), in percent."""
+    y, yhat = np.asarray(y, dtype=float), np.asarray(yhat, dtype=float)
+    den = np.linalg.norm(y - np.mean(y))
+    if den == 0:
+        return float("nan")
+    return float(100.0 * (1.0 - np.linalg.norm(y - yhat) / den))
+
+
+@dataclass
+class RecordingFit:
+    """Fit of one output on one recording (percent); None where there is no measured output."""
+
+    recording: str
+    output: str
+    fit_float_vs_data: float | None
+    fit_fixed_vs_data: float | None
+    fit_fixed_vs_float: float
+    saturated_samples: int
+
+    @property
+    def loss_points(self) -> float | None:
+        """How many fit points the fixed-point model loses against the float one on the data."""
+        if self.fit_float_vs_data is None or self.fit_fixed_vs_data is None:
+            return None
+        return self.fit_float_vs_data - self.fit_fixed_vs_data
+
+
+@dataclass
+class QuantReport:
+    blob_bytes: int
+    capacity_bytes: int
+    n_sections: int
+    wide_numerators: int
+    delta_sections: int
+    out_scale: list[float]
+    scaling: str
+    nodes: list[dict] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    fits: list[RecordingFit] = field(default_factory=list)
+
+    @property
+    def saturated_samples(self) -> int:
+        return int(sum(f.saturated_samples for f in self.fits))
+
+    @property
+    def worst_loss_points(self) -> float | None:
+        losses = [f.loss_points for f in self.fits if f.loss_points is not None]
+        return max(losses) if losses else None
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["saturated_samples"] = self.saturated_samples
+        d["worst_loss_points"] = self.worst_loss_points
+        for f, fd in zip(self.fits, d["fits"]):
+            fd["loss_points"] = f.loss_points
+        d["nodes"] = [{**n, "interval": [float(v) for v in n["interval"]], "scale": float(n["scale"])}
+                      for n in self.nodes]
+        return d
+
+    def to_json(self, path=None) -> str:
+        text = json.dumps(self.to_dict(), indent=2, default=float)
+        if path is not None:
+            with open(path, "w") as fh:
+                fh.write(text + "\n")
+        return text
+
+    def lines(self) -> list[str]:
+        out = [f"blob {self.blob_bytes} of {self.capacity_bytes} bytes; {self.n_sections} sections "
+               f"({self.wide_numerators} with 32-bit numerators, {self.delta_sections} in delta form)",
+               f"scaling: {self.scaling}",
+               "out_scale: " + ", ".join(f"{s:.6g}" for s in self.out_scale)]
+        for f in self.fits:
+            parts = [f"{f.recording} {f.output}: fixed vs float {f.fit_fixed_vs_float:.2f} %"]
+            if f.fit_float_vs_data is not None:
+                parts.append(f"float vs data {f.fit_float_vs_data:.2f} %, fixed vs data "
+                             f"{f.fit_fixed_vs_data:.2f} % (loss {f.loss_points:+.3f} points)")
+            parts.append(f"saturated samples {f.saturated_samples}")
+            out.append("; ".join(parts))
+        return out
+
+    def __str__(self) -> str:
+        return "\n".join(self.lines())
+
+    def plot(self, ax=None):
+        """Bar chart of the fit loss per recording and output (points)."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 3))
+        labels = [f"{f.recording}\n{f.output}" for f in self.fits]
+        ax.bar(range(len(labels)), [f.loss_points or 0.0 for f in self.fits])
+        ax.set_xticks(range(len(labels)), labels, fontsize=7)
+        ax.axhline(0.5, color="r", lw=0.8, ls="--")
+        ax.set_ylabel("fit loss (points)")
+        return ax

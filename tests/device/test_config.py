@@ -1,0 +1,73 @@
+"""Conformance: configuration keys, their defaults and limits, save and reset."""
+
+from __future__ import annotations
+
+import pytest
+
+from porosense.device import NakError
+from porosense.protocol import Result, StatusFlag
+from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
+
+
+def test_defaults_after_config_reset(dev):
+    dev.config_reset()
+    values = dev.config_all()
+    expected = {k.name: CONFIG_SPECS[k].default for k in ConfigKey}
+    # R0 is measured at boot when R0_MODE is 0, so only its range is fixed.
+    for k in ("R0_CH0_MOHM", "R0_CH1_MOHM", "R0_CH2_MOHM"):
+        spec = CONFIG_SPECS[ConfigKey[k]]
+        assert spec.min <= values.pop(k) <= spec.max
+        expected.pop(k)
+    assert values == expected
+    assert not dev.status().has(StatusFlag.CONFIG_DEFAULTS)
+
+
+@pytest.mark.parametrize("key", [0, 17, 255])
+def test_unknown_keys(dev, key):
+    for call in (lambda: dev.config_get(key), lambda: dev.config_set(key, 0)):
+        with pytest.raises(NakError) as err:
+            call()
+        assert err.value.code == Result.BAD_KEY
+
+
+@pytest.mark.parametrize("key", list(ConfigKey), ids=lambda k: k.name)
+def test_limits_of_every_key(dev, key):
+    spec = CONFIG_SPECS[key]
+    before = dev.config_get(key)
+    for bad in (spec.min - 1, spec.max + 1):
+        with pytest.raises(NakError) as err:
+            dev.config_set(key, bad)
+        assert err.value.code == Result.OUT_OF_RANGE and err.value.detail == 1
+    assert dev.config_get(key) == before, "a refused CONFIG_SET changed the value"
+    safe = [spec.min, spec.max]
+    if key in (ConfigKey.AUTOSTART, ConfigKey.LINE_MODE):  # keep the board talking frames
+        safe = [spec.min]
+    for v in safe:
+        dev.config_set(key, v)
+        assert dev.config_get(key) == v
+    dev.config_set(key, before)
+
+
+def test_saved_configuration_survives_a_reset(dev):
+    dev.config_reset()
+    try:
+        dev.config_set("WATCHDOG_MS", 1234)
+        dev.config_set("ADC_RATE", 6)
+        dev.config_save()
+        dev.config_set("WATCHDOG_MS", 4321)  # RAM only: lost at the reset
+        dev.reset()
+        assert dev.config_get("WATCHDOG_MS") == 1234
+        assert dev.config_get("ADC_RATE") == 6
+    finally:
+        dev.config_reset()
+    dev.reset()
+    assert dev.config_get("WATCHDOG_MS") == CONFIG_SPECS[ConfigKey.WATCHDOG_MS].default
+
+
+def test_save_and_reset_are_refused_while_streaming(dev):
+    dev.start_stream(50)
+    for call in (dev.config_save, dev.config_reset):
+        with pytest.raises(NakError) as err:
+            call()
+        assert err.value.code == Result.BUSY
+    dev.stop_stream()

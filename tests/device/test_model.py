@@ -1,0 +1,131 @@
+"""Conformance: model flash, commit, info, read back, erase, refusals, torn writes."""
+
+from __future__ import annotations
+
+import pytest
+
+from porosense.device import NakError
+from porosense.device.client import MODEL_CHUNK_BYTES, blob_crc
+from porosense.protocol import Result, StatusFlag
+from porosense.protocol import _messages as m
+
+
+def begin(dev, blob, crc=None):
+    dev.command(m.ModelBegin(length=len(blob), crc=blob_crc(blob) if crc is None else crc, format_version=blob[2]))
+
+
+def send_chunks(dev, blob, upto=None):
+    end = len(blob) if upto is None else upto
+    for off in range(0, end, MODEL_CHUNK_BYTES):
+        dev.command(m.ModelChunk(offset=off, data=blob[off : min(off + MODEL_CHUNK_BYTES, end)]))
+
+
+def nak(fn, *args) -> NakError:
+    with pytest.raises(NakError) as err:
+        fn(*args)
+    return err.value
+
+
+def test_write_info_read_back_and_hello(dev, blob):
+    info = dev.write_model(blob)
+    assert info.valid and info.length == len(blob) and info.crc == blob_crc(blob)
+    assert info.n_inputs == 1 and info.n_outputs == 1 and info.model_id == 0x5EED0001
+    assert info.format_version == blob[2]
+    assert len(info.out_scale) == 1 and info.out_scale[0] > 0
+    assert dev.read_model() == blob
+    hello = dev.hello()
+    assert hello.model_status == "valid" and hello.model_crc == blob_crc(blob)
+    assert not dev.status().has(StatusFlag.ESTIMATOR_OFF)
+
+
+def test_model_survives_a_reset(dev, blob3):
+    dev.write_model(blob3)
+    dev.reset()
+    info = dev.model_info()
+    assert info.valid and info.crc == blob_crc(blob3) and info.n_outputs == 3
+
+
+def test_erase(dev, blob):
+    dev.write_model(blob)
+    dev.erase_model()
+    assert dev.model_info().status == "none"
+    assert dev.hello().model_status == "none"
+    assert dev.status().has(StatusFlag.ESTIMATOR_OFF)
+    assert nak(dev.command, m.ModelRead(offset=0, length=8)).code == Result.NO_MODEL
+
+
+def test_begin_invalidates_the_stored_model(dev, blob, blob3):
+    dev.write_model(blob)
+    begin(dev, blob3)
+    assert dev.model_info().status == "none"
+
+
+def test_chunk_and_commit_without_begin(dev, blob):
+    dev.erase_model()
+    dev.reset()  # forget any write in progress
+    assert nak(dev.command, m.ModelChunk(offset=0, data=blob[:16])).code == Result.BAD_STATE
+    assert nak(dev.command, m.ModelCommit()).code == Result.BAD_STATE
+
+
+def test_non_contiguous_chunk_names_the_expected_offset(dev, blob):
+    begin(dev, blob)
+    dev.command(m.ModelChunk(offset=0, data=blob[:32]))
+    err = nak(dev.command, m.ModelChunk(offset=48, data=blob[48:64]))
+    assert err.code == Result.BAD_STATE and err.detail == 32
+
+
+def test_too_large(dev):
+    err = nak(dev.command, m.ModelBegin(length=4000, crc=0, format_version=1))
+    assert err.code == Result.TOO_LARGE and 0 < err.detail < 4000
+
+
+def test_incomplete_commit_is_refused(dev, blob):
+    begin(dev, blob)
+    send_chunks(dev, blob, upto=64)
+    assert nak(dev.command, m.ModelCommit()).code == Result.BAD_STATE
+    assert dev.model_info().status == "none"
+
+
+def test_wrong_crc_is_refused(dev, blob):
+    begin(dev, blob, crc=blob_crc(blob) ^ 0x5555)
+    send_chunks(dev, blob)
+    assert nak(dev.command, m.ModelCommit()).code == Result.BAD_MODEL
+    assert dev.model_info().status == "none"
+
+
+def test_broken_structure_is_refused(dev, blob):
+    """A blob whose declared CRC matches but whose content the estimator refuses."""
+    from porosense.protocol import crc16
+
+    broken = bytearray(blob)
+    broken[3] = 7  # seven inputs: beyond the firmware's three
+    crc = crc16(bytes(broken[:-2]))
+    broken[-2:] = crc.to_bytes(2, "little")
+    begin(dev, bytes(broken))
+    send_chunks(dev, bytes(broken))
+    assert nak(dev.command, m.ModelCommit()).code == Result.BAD_MODEL
+    assert dev.model_info().status == "none"
+
+
+def test_writes_are_refused_while_streaming(dev, blob):
+    dev.start_stream(50)
+    for msg in (
+        m.ModelBegin(length=len(blob), crc=blob_crc(blob), format_version=blob[2]),
+        m.ModelChunk(offset=0, data=blob[:8]),
+        m.ModelCommit(),
+        m.ModelErase(),
+    ):
+        assert nak(dev.command, msg).code == Result.BUSY
+    dev.model_info()  # reading is allowed
+    dev.stop_stream()
+
+
+def test_reset_during_a_write_leaves_the_old_model_or_none(dev, blob, blob3):
+    old = dev.write_model(blob)
+    begin(dev, blob3)
+    send_chunks(dev, blob3, upto=2 * MODEL_CHUNK_BYTES)
+    dev.reset()
+    info = dev.model_info()
+    assert info.status == "none" or (info.valid and info.crc == old.crc)
+    assert nak(dev.command, m.ModelChunk(offset=2 * MODEL_CHUNK_BYTES, data=blob3[224:240])).code == Result.BAD_STATE
+    assert dev.write_model(blob3).valid  # and a new write works

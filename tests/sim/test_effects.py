@@ -1,0 +1,93 @@
+"""Named extra effects: off by default, each measurable when switched on."""
+
+import numpy as np
+import pytest
+
+from porosense.errors import InputError
+from porosense.sim import EFFECT_NAMES, make_plant, run_experiment, resolve_effects
+
+
+def contractor(effects=None, experiment="step_40"):
+    return run_experiment("contractor", experiment, porosity=82, seed=7, effects=effects)
+
+
+@pytest.fixture(scope="module")
+def clean():
+    return contractor()
+
+
+def window(rec, name, t0, t1):
+    m = (rec.t >= t0) & (rec.t < t1)
+    return np.asarray(rec[name], dtype=float)[m]
+
+
+def test_names_match_the_diagnosis_causes_and_default_off():
+    assert set(EFFECT_NAMES) == {"drift", "time_delay", "periodic_disturbance", "saturation",
+                                 "load_dependence", "slow_relaxation", "cross_coupling", "outliers"}
+    assert make_plant("contractor").effects == {}
+    assert resolve_effects({"drift": {"rate_pct_per_min": 3}})["drift"]["rate_pct_per_min"] == 3.0
+    with pytest.raises(InputError):
+        resolve_effects(["humidity"])
+
+
+def test_drift(clean):
+    rec = contractor(["drift"])
+    shift = window(rec, "dR_0", 60, 65).mean() - window(clean, "dR_0", 60, 65).mean()
+    assert shift > 0.8  # 1.5 %/min over ~1 min of record
+
+
+def test_time_delay(clean):
+    rec = contractor({"time_delay": {"delay_s": 0.3}})
+    def crossing(r):
+        m = r.t > 5.0
+        return r.t[m][np.argmax(r["dR_0"][m] < -20.0)]
+    assert crossing(rec) - crossing(clean) == pytest.approx(0.3, abs=0.03)
+
+
+def test_periodic_disturbance(clean):
+    def amplitude(r):
+        t, y = r.t[(r.t >= 56) & (r.t < 64)], window(r, "dR_0", 56, 64)
+        w = 2 * np.pi * 7.3 * (t + 0.01)  # plant time runs one sample ahead of t
+        x = t - t.mean()  # a quadratic trend absorbs the decaying overshoot
+        basis = np.column_stack([np.ones_like(t), x, x**2, np.sin(w), np.cos(w)])
+        coef = np.linalg.lstsq(basis, y, rcond=None)[0]
+        return float(np.hypot(coef[3], coef[4]))
+    assert amplitude(contractor(["periodic_disturbance"])) == pytest.approx(1.5, rel=0.15)
+    assert amplitude(clean) < 0.1
+
+
+def test_saturation(clean):
+    rec = contractor({"saturation": {"low_V": 1.5}}, "step_60")
+    low = window(rec, "dR_0", 12, 15).mean()
+    assert low > contractor(None, "step_60")["dR_0"].min() + 5.0
+    assert rec["adc_0"].min() >= int(1.5 / (4.096 / 32768)) - 1
+
+
+def test_load_dependence(clean):
+    rec = contractor({"load_dependence": {"delta_g": 400, "start_s": 20, "ramp_s": 5}})
+    assert rec["load_g"][0] == 0.0 and rec["load_g"][-1] == pytest.approx(400.0)
+    drop = window(clean, "strain_0", 53, 55).mean() - window(rec, "strain_0", 53, 55).mean()
+    assert drop > 1.0  # % strain lost to the added load on the last pulse
+
+
+def test_slow_relaxation(clean):
+    rec = contractor(["slow_relaxation"])
+    gap = window(rec, "dR_0", 62, 65).mean() - window(clean, "dR_0", 62, 65).mean()
+    assert gap > 0.5  # the slow mode is still relaxing after the release
+
+
+def test_cross_coupling():
+    seq = dict(porosity=76, seed=3)
+    on = run_experiment("3dof", "sequential_40", effects=["cross_coupling"], **seq)
+    off = run_experiment("3dof", "sequential_40", **seq)
+    alone0 = (on.t > 12) & (on.t < 15)
+    assert abs(on["dR_1"][alone0].mean()) > 5.0
+    assert abs(off["dR_1"][alone0].mean()) < 1.0
+
+
+def test_outliers(clean):
+    rec = contractor(["outliers"])
+    spikes = lambda r: int(np.sum(np.abs(np.diff(r["dR_0"])) > 10.0))
+    assert rec.meta["dropped_samples"] >= 5 and len(rec) < len(clean)
+    assert spikes(rec) >= 6 and spikes(clean) == 0
+    assert "dropped_samples" not in clean.meta

@@ -123,10 +123,11 @@ class ReferenceDecoder:
                     if found is None:
                         self.counters[reason] += 1
                         first = 1
-                for start in range(first, len(chunk) - 6):
-                    if found is not None:
-                        break
+                # The longest suffix that is a valid frame, if any (garbage before a frame).
+                start = first
+                while found is None and start <= len(chunk) - 7:
                     found = self.check(bytes(chunk[start:]))[1]
+                    start += 1
                 if found is not None:
                     self.counters["frames"] += 1
                     frames.append(found)

@@ -149,6 +149,11 @@ def gen_cpp(cat: dict) -> str:
         "#include <stdint.h>",
         "#include <string.h>",
         "",
+        "// <avr/io.h> defines ADC (the ADC data register) as a macro: keep it away from the",
+        "// names below, so that this header may follow <avr/io.h> or Arduino.h.",
+        '#pragma push_macro("ADC")',
+        "#undef ADC",
+        "",
         "namespace proto {",
         "",
         f"constexpr uint8_t kVersionMajor = {p['major']};",
@@ -276,6 +281,8 @@ def gen_cpp(cat: dict) -> str:
     out.append("}")
     out.append("")
     out.append("}  // namespace proto")
+    out.append("")
+    out.append('#pragma pop_macro("ADC")')
     return "\n".join(out) + "\n"
 
 

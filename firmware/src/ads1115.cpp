@@ -39,35 +39,35 @@ void Ads1115::configure(uint8_t pga_code, uint8_t rate_code) {
 
 uint32_t Ads1115::conversion_us() const { return 1000000UL / samples_per_s(rate_) + 1; }
 
-bool Ads1115::read(uint8_t channel, int16_t* counts) {
+bool Ads1115::fail() {
+  present_ = false;
+  return false;
+}
+
+bool Ads1115::start(uint8_t channel) {
   const uint16_t mux = (uint16_t)((4u + (channel & 3u)) << 12);  // AINx vs GND
   const uint16_t cfg = kOs | mux | (uint16_t)(pga_ << 9) | kModeSingle |
                        (uint16_t)(rate_ << 5) | kCompDisable;
   const uint8_t w[2] = {(uint8_t)(cfg >> 8), (uint8_t)cfg};
-  if (!twi::write_reg(addr_, kRegConfig, w, 2)) {
-    present_ = false;
-    return false;
-  }
+  // Also leaves the register pointer on the config register for the OS polls.
+  if (!twi::write_reg(addr_, kRegConfig, w, 2)) return fail();
+  t_start_ = micros();
+  return true;
+}
+
+bool Ads1115::finish(int16_t* counts) {
   const uint32_t nominal = conversion_us();
-  // The internal oscillator is within 10 %: wait 90 % of the nominal time, then poll OS.
-  const uint32_t first_poll = nominal - nominal / 10;
   const uint32_t deadline = 2 * nominal + 2000;
-  const uint32_t t0 = micros();
-  while ((uint32_t)(micros() - t0) < first_poll) idle::run();
+  while ((uint32_t)(micros() - t_start_) < nominal) idle::run();
   uint8_t b[2];
   for (;;) {
-    if (!twi::read_reg(addr_, kRegConfig, b, 2)) {
-      present_ = false;
-      return false;
-    }
+    // The pointer still selects the config register: a bare read returns it.
+    if (!twi::read(addr_, b, 2)) return fail();
     if (b[0] & 0x80) break;  // OS = 1: conversion finished
-    if ((uint32_t)(micros() - t0) > deadline) return false;
+    if ((uint32_t)(micros() - t_start_) > deadline) return false;
     idle::run();
   }
-  if (!twi::read_reg(addr_, kRegConversion, b, 2)) {
-    present_ = false;
-    return false;
-  }
+  if (!twi::read_reg(addr_, kRegConversion, b, 2)) return fail();
   present_ = true;
   *counts = (int16_t)((uint16_t)(b[0] << 8) | b[1]);
   return true;

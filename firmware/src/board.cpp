@@ -43,7 +43,8 @@ void Board::apply_outputs(const dev::Outputs& out) {
   }
 }
 
-bool Board::adc_read(uint8_t ch, int16_t* counts) { return adc_.read(ch, counts); }
+bool Board::adc_start(uint8_t ch) { return adc_.start(ch); }
+bool Board::adc_finish(int16_t* counts) { return adc_.finish(counts); }
 void Board::adc_configure(uint8_t pga_code, uint8_t rate_code) { adc_.configure(pga_code, rate_code); }
 bool Board::imu_read(int16_t euler_16[3], uint8_t* sys_cal) { return imu_.read(euler_16, sys_cal); }
 bool Board::adc_present() { return adc_.present(); }

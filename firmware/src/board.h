@@ -16,7 +16,8 @@ class Board : public dev::Hal {
   uint32_t micros() override;
   uint32_t millis() override;
   void apply_outputs(const dev::Outputs& out) override;
-  bool adc_read(uint8_t ch, int16_t* counts) override;
+  bool adc_start(uint8_t ch) override;
+  bool adc_finish(int16_t* counts) override;
   void adc_configure(uint8_t pga_code, uint8_t rate_code) override;
   bool imu_read(int16_t euler_16[3], uint8_t* sys_cal) override;
   bool adc_present() override;

@@ -9,11 +9,19 @@ namespace {
 
 uint32_t g_scl_hz = 400000;
 uint16_t g_timeouts = 0;
+volatile uint8_t g_done = 0;
 
-bool wait_twint() {
+// Each bus phase starts with TWINT written 1 and TWIE set; the interrupt only records the
+// completion and disables itself (TWINT stays set and holds the bus until the next phase).
+// Waiting on this flag rather than on TWCR.TWINT also works in simavr 1.6, whose TWCR
+// still reads TWINT = 1 right after software cleared it.
+bool run_phase(uint8_t bits) {
+  g_done = 0;
+  TWCR = (uint8_t)(bits | _BV(TWINT) | _BV(TWEN) | _BV(TWIE));
   const uint32_t t0 = micros();
-  while (!(TWCR & _BV(TWINT))) {
+  while (!g_done) {
     if ((uint32_t)(micros() - t0) > kPhaseTimeoutUs) {
+      TWCR = _BV(TWEN);  // no late interrupt
       if (g_timeouts != 0xFFFF) ++g_timeouts;
       return false;
     }
@@ -58,25 +66,21 @@ void stop() {
 }
 
 bool start(uint8_t sla) {
-  TWCR = _BV(TWINT) | _BV(TWSTA) | _BV(TWEN);
-  if (!wait_twint()) return false;
+  if (!run_phase(_BV(TWSTA))) return false;
   const uint8_t s = status();
   if (s != TW_START && s != TW_REP_START) return false;
   TWDR = sla;
-  TWCR = _BV(TWINT) | _BV(TWEN);
-  if (!wait_twint()) return false;
+  if (!run_phase(0)) return false;
   return status() == ((sla & 1) ? TW_MR_SLA_ACK : TW_MT_SLA_ACK);
 }
 
 bool send(uint8_t b) {
   TWDR = b;
-  TWCR = _BV(TWINT) | _BV(TWEN);
-  return wait_twint() && status() == TW_MT_DATA_ACK;
+  return run_phase(0) && status() == TW_MT_DATA_ACK;
 }
 
 bool receive(uint8_t* b, bool ack) {
-  TWCR = _BV(TWINT) | _BV(TWEN) | (ack ? _BV(TWEA) : 0);
-  if (!wait_twint()) return false;
+  if (!run_phase(ack ? _BV(TWEA) : 0)) return false;
   *b = TWDR;
   return status() == (ack ? TW_MR_DATA_ACK : TW_MR_DATA_NACK);
 }
@@ -113,9 +117,9 @@ bool write_reg(uint8_t addr, uint8_t reg, const uint8_t* data, uint8_t n) {
   return true;
 }
 
-bool read_reg(uint8_t addr, uint8_t reg, uint8_t* dst, uint8_t n) {
-  if (n == 0) return true;
-  if (!start((uint8_t)(addr << 1)) || !send(reg) || !start((uint8_t)((addr << 1) | 1))) {
+// (Repeated) start with SLA+R, n bytes (the last one NACKed), stop.
+static bool read_tail(uint8_t addr, uint8_t* dst, uint8_t n) {
+  if (!start((uint8_t)((addr << 1) | 1))) {
     stop();
     return false;
   }
@@ -129,6 +133,21 @@ bool read_reg(uint8_t addr, uint8_t reg, uint8_t* dst, uint8_t n) {
   return true;
 }
 
+bool read_reg(uint8_t addr, uint8_t reg, uint8_t* dst, uint8_t n) {
+  if (!start((uint8_t)(addr << 1)) || !send(reg)) {
+    stop();
+    return false;
+  }
+  return read_tail(addr, dst, n);
+}
+
+bool read(uint8_t addr, uint8_t* dst, uint8_t n) { return read_tail(addr, dst, n); }
+
 uint16_t timeouts() { return g_timeouts; }
 
 }  // namespace twi
+
+ISR(TWI_vect) {
+  TWCR = _BV(TWEN);  // TWINT written 0: left set; TWIE off until the next phase
+  twi::g_done = 1;
+}

@@ -55,10 +55,17 @@ struct FakeHal : dev::Hal {
     out = o;
     ++apply_calls;
   }
-  bool adc_read(uint8_t ch, int16_t* c) override {
+  int adc_channel = -1;  // conversion in progress
+  bool adc_start(uint8_t ch) override {
     ++adc_reads;
     if (!adc_ok) return false;
-    *c = adc_counts[ch];
+    adc_channel = ch;
+    return true;
+  }
+  bool adc_finish(int16_t* c) override {
+    if (!adc_ok || adc_channel < 0) return false;
+    *c = adc_counts[adc_channel];
+    adc_channel = -1;
     return true;
   }
   void adc_configure(uint8_t, uint8_t) override {}

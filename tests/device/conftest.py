@@ -17,6 +17,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # tests/device/models.py
 
 from porosense.device import Device  # noqa: E402
+from porosense.protocol._messages import CONFIG_SPECS, ConfigKey  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 ELF = ROOT / "firmware" / "build" / "porosense.elf"
@@ -76,10 +77,14 @@ def backend(request):
 
 @pytest.fixture
 def dev(backend):
-    """An open Device on a board just reset (RAM state fresh; EEPROM kept)."""
+    """An open Device on a board in its idle state: not streaming, outputs off, watchdog at
+    its default (a fresh emulator per test; the simboard and a real board are shared, so
+    tests compare counters before and after rather than with zero)."""
     with Device.open(backend.url, timeout_scale=backend.timeout_scale, seed=7) as d:
         if not backend.is_emulator:
-            d.reset()
+            d.stop_stream()
+            d.set_outputs()
+            d.set_watchdog(CONFIG_SPECS[ConfigKey.WATCHDOG_MS].default)
         yield d
 
 

@@ -66,11 +66,11 @@ def test_hello_reports_streaming(dev):
     dev.stop_stream()
 
 
-@pytest.mark.parametrize("rate_hz", [9, 201, 0])
-def test_rate_outside_limits_is_refused(dev, rate_hz):
-    with pytest.raises(NakError) as err:
-        dev.start_stream(rate_hz)
-    assert err.value.code == Result.OUT_OF_RANGE and err.value.detail == 0
+def test_rate_outside_limits_is_refused(dev):
+    for rate_hz in (9, 201, 0):
+        with pytest.raises(NakError) as err:
+            dev.start_stream(rate_hz)
+        assert err.value.code == Result.OUT_OF_RANGE and err.value.detail == 0, rate_hz
     assert dev.hello().streaming is False
 
 

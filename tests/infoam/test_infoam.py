@@ -165,3 +165,11 @@ def test_prediction_follows_porosity():
     # Stroke grows with vacuum for one design.
     strains = [r.strain_pct for r in high.rows]
     assert all(np.diff(strains) > 0)
+
+
+def test_bending_prediction_reports_curvature_growing_with_vacuum():
+    from porosense.infoam import predict
+
+    pred = predict(paper_bending())
+    k = [r.curvature_1pm for r in pred.rows]
+    assert all(v is not None for v in k) and all(np.diff(k) > 0)

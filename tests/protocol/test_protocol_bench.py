@@ -34,4 +34,18 @@ def test_cli_prints_the_figures_as_json():
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     figures = json.loads(proc.stdout)
-    assert figures["sample_frame_bytes"] == 39 and len(figures["summary"]) == 4
+    assert figures["sample_frame_bytes"] == 39 and len(figures["summary"]) == 5
+
+
+def test_decoder_on_the_uno_never_stalls_longer_than_the_receive_buffer_lasts():
+    """Simulated cycles (not wall-clock): the slowest delimiter, a bad 129-byte chunk whose
+    every suffix has to be considered, must be handled before the Uno's 64-byte receive
+    buffer fills at 115200 baud (64 * 10 / 115200 s = 5.6 ms)."""
+    figures, note = bench._avr_cycles()
+    if figures is None:
+        pytest.skip(note)
+    print(figures)
+    buffer_s = 64 * 10 / 115200
+    worst = max(figures["worst_bad_chunk_delimiter"], figures["adversarial_chunk_delimiter"])
+    assert worst / figures["f_cpu_hz"] < buffer_s / 2
+    assert figures["valid_frame_delimiter"] / figures["f_cpu_hz"] < 0.5e-3

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from porosense.quant import FixedPointEstimator, quantize
-from porosense.quant.blob import BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ
+from porosense.quant.blob import BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit
 from porosense.quant.random_models import random_structure, step_inputs
 
 KINDS = ("linear", "hammerstein", "wiener", "wh")
@@ -22,15 +22,12 @@ def random_section(rng: np.random.Generator) -> SectionQ:
     """Any section the format allows (not necessarily stable): exercises every path."""
     wide = bool(rng.random() < 0.4)
     delta = bool(rng.random() < 0.4)
-    if wide:
-        raw = rng.integers(-2**31, 2**31, 3)
-        raw = (raw * min(1.0, 0xFFFF0000 / np.sum(np.abs(raw)))).astype(np.int64)
-    else:
-        raw = rng.integers(-32768, 32768, 3)
-        raw = (raw * min(1.0, 65535 / np.sum(np.abs(raw)))).astype(np.int64)
+    sb = int(rng.integers(0, 32))
+    raw = rng.integers(-2**31, 2**31, 3) if wide else rng.integers(-32768, 32768, 3)
+    raw = np.trunc(raw * min(1.0, numerator_limit(wide, sb) / np.sum(np.abs(raw)))).astype(np.int64)
     m = (0, 0) if delta else (int(rng.integers(-2, 3)), int(rng.integers(-1, 2)))
     return SectionQ(tuple(int(v) for v in raw), tuple(int(v) for v in rng.integers(-32768, 32768, 2)),
-                    int(rng.integers(0, 32)), tuple(int(v) for v in rng.integers(16, 48, 2)), wide, delta, m)
+                    sb, tuple(int(v) for v in rng.integers(16, 48, 2)), wide, delta, m)
 
 
 def random_table(rng: np.random.Generator) -> PwlQ:
@@ -95,3 +92,12 @@ def write_cases(path: Path, cases, max_len: int = 952) -> None:
             fh.write(" ".join(f"{b:02x}" for b in data) + "\n")
             for row_u, row_e, fl in zip(u, est, flags):
                 fh.write(" ".join(str(int(v)) for v in (*row_u, *row_e, fl)) + "\n")
+
+
+DATA_FILE = Path(__file__).resolve().parents[1] / "core" / "data" / "estimator_vectors.txt"
+SEED, N_CASES, N_SAMPLES = 7, 18, 400
+
+
+if __name__ == "__main__":  # regenerate the committed vectors after a deliberate format change
+    write_cases(DATA_FILE, make_cases(SEED, N_CASES, N_SAMPLES))
+    print(f"wrote {DATA_FILE}")

@@ -7,9 +7,10 @@ import random
 import time
 
 import pytest
+import serial
 
 from porosense.errors import DeviceError
-from porosense.simboard import BringupPlant, SimBoard
+from porosense.simboard import BringupPlant, SimBoard, measure_speed
 
 pytestmark = pytest.mark.simboard
 
@@ -38,7 +39,6 @@ def test_pump_and_valve_pins_are_observed(board, console_for):
     con = console_for(board)
     for mask in (0b000000, 0b000001, 0b000010, 0b000100, 0b001000, 0b010000, 0b100000, 0b101010, 0b111111):
         assert con.ask(f"p{mask:02x}") == "p OK"
-        pins = board.wait_for(lambda t: True) and board.pins
         board.run_for(0.002)
         pins = board.pins
         assert pins.pumps == tuple(bool(mask >> i & 1) for i in range(3)), mask
@@ -101,7 +101,7 @@ def test_reset_after_eeprom_writes_tears_a_write(board, console_for):
 def test_reset_at_a_chosen_time(board, console_for):
     con = console_for(board)
     con.ask("t")
-    at = board.sim_time_s + 0.3
+    at = board.sim_time_s + 1.0   # well ahead of the AVR, however slow this thread is
     board.reset(at_s=at)
     tick = board.wait_for(lambda t: t.resets == 1)
     assert at <= tick.time_s <= at + 0.0021
@@ -135,3 +135,19 @@ def test_missing_files_raise_device_error(testfw, tmp_path):
         SimBoard(tmp_path / "absent.elf", plant=BringupPlant())
     with pytest.raises(DeviceError, match="harness not found"):
         SimBoard(testfw, plant=BringupPlant(), harness=tmp_path / "simboard")
+
+
+def test_reset_on_connect_shows_the_boot_banner(testfw):
+    with SimBoard(testfw, plant=BringupPlant(), reset_on_connect=True) as b:
+        b.run_for(0.05)
+        for expected_resets in (1, 2):                       # every open resets, like DTR
+            port = serial.serial_for_url(b.url, timeout=10)
+            assert port.readline() == b"boot 0\r\n"
+            assert b.counters["resets"] == expected_resets
+            port.close()
+
+
+def test_measure_speed_reports_avr_time(testfw):
+    report = measure_speed(testfw, seconds=0.5, plant=BringupPlant())
+    assert 0.5 <= report.sim_time_s <= 0.5 + 0.0011       # one plant period of overshoot
+    assert report.cycles >= 0.5 * 16e6 and report.to_dict()["ratio"] > 0

@@ -53,7 +53,10 @@ void Device::begin() {
   if (!hal_.adc_present()) sample_flags_ |= f::ADC_FAULT;
   if (!hal_.imu_present()) sample_flags_ |= f::IMU_FAULT;
   const bool r0_stored = config_.r0_mode == 1 && !(sticky_flags_ & f::CONFIG_DEFAULTS);
-  if (!r0_stored && !calibrate_r0(kR0BootSamples, 0x07)) sticky_flags_ |= f::R0_UNCALIBRATED;
+  if (!r0_stored) {
+    sticky_flags_ |= f::R0_UNCALIBRATED;  // cleared when a channel gives a usable R0
+    calibrate_r0(kR0BootSamples, 0x07);
+  }
   if (config_.autostart && model_.estimator_loaded()) {
     start_stream(config_.sample_rate_hz, config_.channel_mask);
     sticky_flags_ |= f::STANDALONE;
@@ -353,24 +356,26 @@ bool Device::calibrate_r0(uint8_t n_samples, uint8_t mask) {
     for (uint8_t ch = 0; ch < kChannels; ++ch) {
       if (!(mask & (1u << ch))) continue;
       int16_t c;
-      if (!hal_.adc_read(ch, &c)) {
+      if (!hal_.adc_start(ch) || !hal_.adc_finish(&c)) {
         counters_.sensor_faults = sat_add16(counters_.sensor_faults, 1);
         return false;
       }
       sum[ch] += c;
     }
   }
+  bool any = false;
   for (uint8_t ch = 0; ch < kChannels; ++ch) {
     if (!(mask & (1u << ch))) continue;
     const float ohm = counts_to_ohm((float)sum[ch] / (float)n_samples, config_.adc_pga);
     const float mohm = ohm * 1000.0f + 0.5f;
     proto::config::KeyInfo lim;
     proto::config::key_info((uint8_t)(proto::config::R0_CH0_MOHM + ch), &lim);
-    // An open or shorted input gives no usable R0: keep the previous one.
-    if (!(mohm >= (float)lim.min && mohm <= (float)lim.max)) return false;
+    // An open (unwired) or shorted input gives no usable R0: keep the previous one.
+    if (!(mohm >= (float)lim.min && mohm <= (float)lim.max)) continue;
     config_.r0_mohm[ch] = (int32_t)mohm;
+    any = true;
   }
-  sticky_flags_ &= (uint16_t)~f::R0_UNCALIBRATED;
+  if (any) sticky_flags_ &= (uint16_t)~f::R0_UNCALIBRATED;
   return true;
 }
 
@@ -501,21 +506,13 @@ void Device::on_sample_ticks(uint8_t n, uint32_t tick_us) {
   const uint8_t adc_mask = (uint8_t)((stream_mask_ & 0x07) | (estimating ? 0x07 : 0));
   uint16_t fl = 0;
   int16_t dr[kChannels] = {0, 0, 0};
-  for (uint8_t ch = 0; ch < kChannels; ++ch) {
-    if (!(adc_mask & (1u << ch))) continue;
-    int16_t c = 0;
-    if (!hal_.adc_read(ch, &c)) {
-      fl |= f::ADC_FAULT;
-      break;  // the remaining channels would wait on the same missing chip
-    }
-    if (adc_clipped(c)) fl |= f::ADC_CLIPPED;
-    dr[ch] = counts_to_dr_centi(c, config_.adc_pga, r0_ohm(ch));
-    if (stream_mask_ & (1u << ch)) {
-      s.adc[ch] = c;
-      s.dr_centi[ch] = dr[ch];
-    }
-  }
-  poll_rx();
+  // Channels in conversion order; each conversion runs while the previous channel's dR (and,
+  // during the first one, the IMU read) is computed.
+  uint8_t order[kChannels];
+  uint8_t n_adc = 0;
+  for (uint8_t ch = 0; ch < kChannels; ++ch)
+    if (adc_mask & (1u << ch)) order[n_adc++] = ch;
+  bool adc_ok = n_adc == 0 || hal_.adc_start(order[0]);
   if (stream_mask_ & proto::chan::IMU) {
     uint8_t cal = 0;
     if (!hal_.imu_read(s.euler_16, &cal)) {
@@ -525,6 +522,23 @@ void Device::on_sample_ticks(uint8_t n, uint32_t tick_us) {
       fl |= f::IMU_UNCALIBRATED;
     }
   }
+  for (uint8_t k = 0; k < n_adc && adc_ok; ++k) {
+    int16_t c = 0;
+    if (!hal_.adc_finish(&c)) {
+      adc_ok = false;  // the remaining channels would wait on the same missing chip
+      break;
+    }
+    if (k + 1 < n_adc) adc_ok = hal_.adc_start(order[k + 1]);
+    const uint8_t ch = order[k];
+    if (adc_clipped(c)) fl |= f::ADC_CLIPPED;
+    dr[ch] = counts_to_dr_centi(c, config_.adc_pga, r0_ohm(ch));
+    if (stream_mask_ & (1u << ch)) {
+      s.adc[ch] = c;
+      s.dr_centi[ch] = dr[ch];
+    }
+  }
+  if (!adc_ok) fl |= f::ADC_FAULT;
+  poll_rx();
   if (estimating && !(fl & f::ADC_FAULT)) {
     if (model_.estimator_step(dr, s.estimate) & 1) fl |= f::ESTIMATOR_SATURATED;
   }

@@ -73,6 +73,8 @@ class Device {
   bool outputs_active() const;
   void start_stream(uint16_t rate_hz, uint8_t mask);
   void stop_stream();
+  // Averages n samples per masked channel; channels with a usable R0 take it. False only
+  // when the ADC did not answer.
   bool calibrate_r0(uint8_t n_samples, uint8_t mask);
   float r0_ohm(uint8_t ch) const { return (float)config_.r0_mohm[ch] * 0.001f; }
 

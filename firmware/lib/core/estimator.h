@@ -49,7 +49,7 @@ class Estimator {
   uint8_t cascade_, section_;  // running indices during a step
   int16_t delay_[blob::kMaxInputs][kDelayLen];
   int16_t xhist_[blob::kMaxCascades][2];       // inputs k-1, k-2 of each cascade
-  int32_t ystate_[blob::kMaxTotalSections][2];  // outputs k-1, k-2 of each section (Q14)
+  int32_t ystate_[blob::kMaxTotalSections][2];  // outputs k-1, k-2 of each section (Q13)
 };
 
 }  // namespace est

@@ -1,5 +1,10 @@
 #include "frame_codec.h"
 
+#include <string.h>
+#if defined(__AVR__)
+#include <util/crc16.h>
+#endif
+
 namespace proto {
 
 namespace {
@@ -31,6 +36,14 @@ struct CobsWriter {
   }
 };
 
+// 1 << (i & 7) in a few instructions: the AVR has no barrel shifter, a variable shift loops.
+inline uint8_t bit_mask(uint8_t i) {
+  uint8_t m = (i & 4) ? 16 : 1;
+  if (i & 2) m = (uint8_t)(m << 2);
+  if (i & 1) m = (uint8_t)(m << 1);
+  return m;
+}
+
 void reverse(uint8_t* a, uint8_t lo, uint8_t hi) {  // [lo, hi)
   while (lo + 1 < hi) {
     --hi;
@@ -44,11 +57,15 @@ void reverse(uint8_t* a, uint8_t lo, uint8_t hi) {  // [lo, hi)
 }  // namespace
 
 uint16_t crc16_update(uint16_t crc, uint8_t byte) {
+#if defined(__AVR__)
+  return _crc_ccitt_update(crc, byte);  // avr-libc's hand-written assembly, same function
+#else
   // Byte-wise form of the reflected CCITT polynomial (x^16 + x^12 + x^5 + 1).
   byte ^= (uint8_t)crc;
   byte ^= (uint8_t)(byte << 4);
   return (uint16_t)((((uint16_t)byte << 8) | (crc >> 8)) ^ (uint8_t)(byte >> 4) ^
                     ((uint16_t)byte << 3));
+#endif
 }
 
 uint16_t crc16(const uint8_t* data, uint16_t len) {
@@ -112,7 +129,7 @@ bool FrameDecoder::end_of_chunk() {
   if (overlong_) {
     unwrap();  // already counted; its start is lost, so every suffix is a candidate
   } else {
-    const Check c = check(0, true);
+    const Check c = check(0, true, false);
     if (c == kOk) {
       accept(0);
       return true;
@@ -121,8 +138,29 @@ bool FrameDecoder::end_of_chunk() {
     first = 1;
   }
   // A valid frame preceded by garbage that held no 0x00: the longest valid suffix wins.
+  // One backward pass marks the suffixes whose code chain ends exactly at the delimiter
+  // (the chain from s continues the chain from s + code), so the search stays linear in
+  // the chunk length apart from the rare suffixes whose header also looks right.
+  uint8_t chain_ends[(kMaxFrameLen + 7) / 8];
+  memset(chain_ends, 0, sizeof chain_ends);
+  for (uint8_t s = fill_; s-- > first;) {
+    const uint16_t next = (uint16_t)(s + buf_[s]);
+    if (next == fill_ || (next < fill_ && (chain_ends[next >> 3] & bit_mask((uint8_t)next)))) {
+      chain_ends[s >> 3] = (uint8_t)(chain_ends[s >> 3] | bit_mask(s));
+    }
+  }
   for (uint8_t s = first; (uint16_t)s + kMinEncodedLen <= fill_; ++s) {
-    if (check(s, false) == kOk) {
+    if (!(chain_ends[s >> 3] & bit_mask(s))) continue;
+    // Exact shortcut: a non-zero length byte must sit, as data, at encoded position s + 4
+    // (a code byte there decodes to 0), and equal the payload size of this suffix.
+    const uint8_t payload_len = (uint8_t)(fill_ - s - kMinEncodedLen);
+    if (payload_len != 0 && buf_[s + kHeaderLen] != payload_len) continue;
+    // Exact too: with a first code above 2, version and type are the next two bytes.
+    if (buf_[s] > 2 && (buf_[s + 1] >> 4) != kVersionMajor && buf_[s + 2] != msg::HELLO &&
+        buf_[s + 2] != msg::HELLO_REPLY) {
+      continue;
+    }
+    if (check(s, false, true) == kOk) {
       accept(s);
       return true;
     }
@@ -130,11 +168,11 @@ bool FrameDecoder::end_of_chunk() {
   return false;
 }
 
-FrameDecoder::Check FrameDecoder::check(uint8_t start, bool need_reason) const {
+FrameDecoder::Check FrameDecoder::check(uint8_t start, bool need_reason, bool chain_ok) const {
   const uint8_t end = fill_;
   // The code-byte chain must end exactly at the delimiter. A code of 0xFF (no implicit
   // zero) would need 254 data bytes, more than any frame holds, so it fails here too.
-  for (uint8_t pos = start; pos < end;) {
+  for (uint8_t pos = start; pos < end && !chain_ok;) {
     const uint8_t c = buf_[pos];
     if (c > end - pos) return kBadCobs;
     pos = (uint8_t)(pos + c);

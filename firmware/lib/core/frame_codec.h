@@ -66,8 +66,8 @@ class FrameDecoder {
   bool end_of_chunk();
   // Checks buf_[start, fill_) as one encoded frame without modifying it. With
   // need_reason false the answer is only ok / not ok, and the CRC is skipped when a
-  // cheaper header check already fails.
-  Check check(uint8_t start, bool need_reason) const;
+  // cheaper header check already fails; chain_ok skips the COBS chain walk.
+  Check check(uint8_t start, bool need_reason, bool chain_ok) const;
   void accept(uint8_t start);  // decode buf_[start, fill_) in place to buf_[0..]
   void count(Check reason);
   void unwrap();  // rotate the ring so its oldest byte is at buf_[0]

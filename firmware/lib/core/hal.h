@@ -20,9 +20,12 @@ class Hal {
   virtual uint32_t micros() = 0;  // wraps every ~71.6 min
   virtual uint32_t millis() = 0;
   virtual void apply_outputs(const Outputs& out) = 0;
-  // ADS1115 single-shot conversion of AINch with the configured PGA and data rate; false
-  // when the chip did not answer or the conversion missed its deadline.
-  virtual bool adc_read(uint8_t ch, int16_t* counts) = 0;
+  // ADS1115 single-shot conversion of AINch with the configured PGA and data rate, in two
+  // halves so that other work overlaps the ~1.2 ms conversion: adc_start() begins it,
+  // adc_finish() waits for it (bounded) and reads the counts. False when the chip did not
+  // answer or the conversion missed its deadline.
+  virtual bool adc_start(uint8_t ch) = 0;
+  virtual bool adc_finish(int16_t* counts) = 0;
   virtual void adc_configure(uint8_t pga_code, uint8_t rate_code) = 0;
   // BNO055 Euler angles (heading, roll, pitch) in 1/16 degree and system calibration (0..3).
   virtual bool imu_read(int16_t euler_16[3], uint8_t* sys_cal) = 0;

@@ -73,19 +73,20 @@ bool check_cascade(const BlobReader& r, uint16_t* off, uint16_t end, uint8_t n) 
     bool wide = fl & kSecWide;
     uint16_t len = wide ? kSecLen32 : kSecLen16;
     if (uint32_t(*off) + len > end) return false;
-    // Bound the numerator sum so that it cannot overflow int32 in the step.
+    // Bound the numerator so that the step's int32 sums cannot overflow: |w| < 2^31 and
+    // |round(w / 2^sb)| <= 2^29 (limits below; spec.md "Model blob format").
     uint16_t p = uint16_t(*off + kSecFixedLen);
+    uint32_t sum = 0;
     if (wide) {
-      uint32_t sum = 0;
       for (uint8_t k = 0; k < 3; ++k) {
         uint32_t m = mag(rd32(r, uint16_t(p + 4 * k)));
         if (m > 0xFFFF0000UL - sum) return false;
         sum += m;
       }
+      if (sb < 2 && sum > (uint32_t(1) << (30 + sb)) - 65536UL) return false;
     } else {
-      uint32_t sum = 0;
       for (uint8_t k = 0; k < 3; ++k) sum += mag(rd16(r, uint16_t(p + 2 * k)));
-      if (sum > 65535UL) return false;
+      if (sum > 65535UL || (sb < 2 && sum > (uint32_t(1) << (14 + sb)))) return false;
     }
     *off = uint16_t(*off + len);
   }

@@ -55,10 +55,10 @@ constexpr uint8_t kSecLen16 = kSecFixedLen + 6 + 4;  // 14
 constexpr uint8_t kSecLen32 = kSecFixedLen + 12 + 4; // 20
 constexpr uint8_t kOutputRecLen = 4, kBranchRecLen = 6;
 
-// Section states are int32 in Q14 of the section's int16 output and saturate here.
-constexpr int32_t kStateMax = (int32_t(1) << 29) - 1;
-constexpr int32_t kStateMin = -(int32_t(1) << 29);
-constexpr uint8_t kStateFrac = 14;
+// Section states are int32 in Q13 of the section's int16 output and saturate here.
+constexpr int32_t kStateMax = (int32_t(1) << 28) - 1;
+constexpr int32_t kStateMin = -(int32_t(1) << 28);
+constexpr uint8_t kStateFrac = 13;
 
 inline uint16_t pwl_len(uint8_t n) { return uint16_t(1 + 4 * n + 3 * (n - 1)); }
 

@@ -5,6 +5,11 @@
 #include <stdint.h>
 #include <string.h>
 
+// <avr/io.h> defines ADC (the ADC data register) as a macro: keep it away from the
+// names below, so that this header may follow <avr/io.h> or Arduino.h.
+#pragma push_macro("ADC")
+#undef ADC
+
 namespace proto {
 
 constexpr uint8_t kVersionMajor = 1;
@@ -949,3 +954,5 @@ inline bool payload_bounds(uint8_t type, uint8_t* min_len, uint8_t* max_len) {
 }
 
 }  // namespace proto
+
+#pragma pop_macro("ADC")

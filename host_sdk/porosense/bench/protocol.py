@@ -35,6 +35,8 @@ class ProtocolBenchResult:
     cpp_encode_fps: float | None
     cpp_decode_fps: float | None
     cpp_note: str = ""
+    avr_cycles: dict | None = None  # decoder/encoder cycles per call on the Uno (simavr)
+    avr_note: str = ""
     summary: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
@@ -106,6 +108,23 @@ def _cpp_rates(n: int) -> tuple[float | None, float | None, str]:
     return figures["encode_frames_per_s"], figures["decode_frames_per_s"], "g++ -O2 on this host"
 
 
+def _avr_cycles() -> tuple[dict | None, str]:
+    """Cycles of the decoder on the ATmega328P in simavr (tools/bench/protocol/avr_decode.cpp)."""
+    if not (CPP_BENCH_DIR / "avr_decode.cpp").exists():
+        return None, "AVR benchmark source not found"
+    if shutil.which("avr-g++") is None or shutil.which("pkg-config") is None:
+        return None, "avr-g++ or pkg-config not installed"
+    build = subprocess.run(["make", "-s", "-C", str(CPP_BENCH_DIR), "avr"], capture_output=True, text=True)
+    if build.returncode != 0:
+        return None, f"AVR benchmark build failed: {build.stderr.strip()[-300:]}"
+    proc = subprocess.run([str(CPP_BENCH_DIR / "build" / "avr_cycles"), str(CPP_BENCH_DIR / "build" / "avr_decode.elf")],
+                          capture_output=True, text=True, timeout=120)
+    if proc.returncode != 0:
+        return None, f"simavr run failed: {proc.stderr.strip()[-300:]}"
+    figures = json.loads(proc.stdout.strip().splitlines()[-1])
+    return figures, "ATmega328P at 16 MHz in simavr"
+
+
 def run(size: str = "small") -> dict:
     """Run the benchmark; returns the figures as a dict with a ``summary`` of lines."""
     from porosense.protocol import Sample
@@ -117,6 +136,7 @@ def run(size: str = "small") -> dict:
     max_rate = BAUD / (BITS_PER_BYTE * frame_bytes)
     py_enc, py_dec = _python_rates(n_py)
     cpp_enc, cpp_dec, note = _cpp_rates(n_cpp)
+    avr, avr_note = _avr_cycles()
     result = ProtocolBenchResult(
         size=size,
         sample_payload_bytes=Sample.MIN_LEN,
@@ -128,6 +148,8 @@ def run(size: str = "small") -> dict:
         cpp_encode_fps=cpp_enc,
         cpp_decode_fps=cpp_dec,
         cpp_note=note,
+        avr_cycles=avr,
+        avr_note=avr_note,
     )
 
     def rate(x):
@@ -138,6 +160,15 @@ def run(size: str = "small") -> dict:
         f"{frame_bytes} bytes on the wire",
         f"highest SAMPLE rate at {BAUD} baud 8N1: {max_rate:.1f} Hz (200 Hz uses {200 / max_rate:.0%} of the link)",
         f"Python codec: encode {rate(py_enc)}, decode {rate(py_dec)} (SAMPLE frames, {n_py:,} each)",
-        f"C++ codec: encode {rate(cpp_enc)}, decode {rate(cpp_dec)} ({n_cpp:,} each, byte by byte)",
+        f"C++ codec on this host: encode {rate(cpp_enc)}, decode {rate(cpp_dec)} ({n_cpp:,} each, byte by byte)",
     ]
+    if avr:
+        us = 1e6 / avr["f_cpu_hz"]
+        result.summary.append(
+            f"on the Uno (16 MHz): encode a SAMPLE {avr['encode_sample'] * us:.0f} us, decode a SAMPLE "
+            f"{avr['valid_frame_delimiter'] * us:.0f} us at its delimiter, worst bad 129-byte chunk "
+            f"{max(avr['worst_bad_chunk_delimiter'], avr['adversarial_chunk_delimiter']) * us:.0f} us"
+        )
+    else:
+        result.summary.append(f"on the Uno: n/a ({avr_note})")
     return result.to_dict()

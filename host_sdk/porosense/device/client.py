@@ -57,6 +57,8 @@ _SLOW_COMMANDS = {
 }
 _DEFAULT_DEADLINE_S = 0.1
 _MARGIN_S = 0.03  # host scheduling and the UART transmit buffer ahead of the answer
+_MAX_QUEUE_WAIT_S = 0.5  # cap on the extra wait for telemetry queued ahead of an answer
+_SAMPLE_WIRE_BYTES = m.Sample.MIN_LEN + 8  # header, CRC, COBS byte, delimiter
 
 
 def _reply_type(cmd_type: int) -> int:
@@ -263,6 +265,13 @@ class Device:
             yield self._samples.popleft()
             count += 1
 
+    def drain_samples(self) -> list[Sample]:
+        """Samples received and not yet read, without waiting (e.g. after stop_stream)."""
+        self._pump(0.0)
+        out = list(self._samples)
+        self._samples.clear()
+        return out
+
     def read_samples(self, n: int, *, timeout_s: float | None = None) -> SampleBlock:
         """The next ``n`` samples as arrays, with the frames lost meanwhile in ``.lost``."""
         lost0 = self.stats.samples_lost
@@ -450,15 +459,22 @@ class Device:
             raise DeviceError(f"malformed {frame.name} from {self.url}: {exc}") from None
 
     def _await(self, seq: int, cmd_type: int, reply_type: int, timeout: float):
-        """The frame answering (seq, cmd_type), or None after ``timeout`` seconds."""
-        end = time.monotonic() + timeout
+        """The frame answering (seq, cmd_type), or None after ``timeout`` seconds.
+
+        Telemetry queued on the link ahead of the answer delays it by its transmission
+        time, so the deadline grows by that time (at most _MAX_QUEUE_WAIT_S).
+        """
+        start = time.monotonic()
+        samples0 = self.stats.samples
         while True:
-            for frame in self._pump(max(0.0, end - time.monotonic())):
+            queued_s = (self.stats.samples - samples0) * _SAMPLE_WIRE_BYTES * 10.0 / self.baudrate
+            left = start + timeout + min(queued_s, _MAX_QUEUE_WAIT_S) * self.timeout_scale - time.monotonic()
+            if left <= 0:
+                return None
+            for frame in self._pump(left):
                 if frame.seq == seq and self._answers(frame, cmd_type, reply_type):
                     return frame
                 self.stats.stale_replies += 1
-            if time.monotonic() >= end:
-                return None
 
     @staticmethod
     def _answers(frame, cmd_type: int, reply_type: int) -> bool:

@@ -186,7 +186,7 @@ def diagnose(estimation: list, validation: list, *, alpha: float = stats.DEFAULT
         f"{threshold:.3g} (each cause at {100 * per_cause_alpha:g} %, {100 * alpha:g} % family-wise).",
         "none", float(fit0), float(fit0), 0.0, float(rms0), float(rms0), 0.0, False)
     for c, f in findings.items():
-        f.confidence = float(np.clip(round(conf[c], 4), 0.0, 1.0))
+        f.confidence = float(np.clip(round(conf[c], 4), 0.0, 1.0)) + 0.0
     order = sorted(findings.values(), key=lambda f: (-f.confidence, f.cause))
     residual_tests = ctx.residual_tests(per_cause_alpha)
     curves = ctx.curves(results)

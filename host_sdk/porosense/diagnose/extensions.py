@@ -55,6 +55,7 @@ class Context:
         self.y_val = np.concatenate([r.y for r in self.val])
         self.u_est = np.vstack([r.u for r in self.est])
         self.pole = self._dominant_pole()
+        self.base_ba = self._base_dynamics()
         self.G0_est = self.stack(self.generic, self.est)
         self.G0_val = self.stack(self.generic, self.val)
         self._cache = {}
@@ -65,8 +66,9 @@ class Context:
         return np.vstack([np.asarray(fn(r), float).reshape(len(r.y), -1) for r in records])
 
     def lag_bank(self, x: np.ndarray, order: int = LAGUERRE_ORDER, pole: float | None = None) -> np.ndarray:
-        """Laguerre bank of x started at rest at x[0] (x - x[0] enters the filters)."""
-        return signals.laguerre_bank(x - x[0], self.pole if pole is None else pole, order)
+        """Laguerre bank of x started in steady state at x[0] (as if x had been x[0] for ever)."""
+        a = self.pole if pole is None else pole
+        return signals.laguerre_bank(x - x[0], a, order) + x[0] * np.sqrt(1.0 - a * a) / (1.0 - a)
 
     def generic(self, rec) -> np.ndarray:
         """G0: Laguerre bank of every used input and a constant (retunes the linear dynamics)."""
@@ -81,13 +83,51 @@ class Context:
             return 0.8
         for a in POLE_GRID:
             X = self.stack(lambda r: np.column_stack(
-                [signals.laguerre_bank(r.u[:, i] - r.u[0, i], a, LAGUERRE_ORDER) for i in range(self.n_in)]
+                [self.lag_bank(r.u[:, i], LAGUERRE_ORDER, a) for i in range(self.n_in)]
                 + [np.ones(len(r.y))]), self.est)
             c, *_ = np.linalg.lstsq(X, yh, rcond=None)
             rss = float(np.sum((yh - X @ c) ** 2))
             if rss < best[0] * 0.999:
                 best = (rss, a)
         return best[1]
+
+    def _base_dynamics(self, max_order: int = 6):
+        """ARX (b, a) from the first input to the prediction: the model's own linear dynamics.
+
+        For a linear model of a noise-free prediction this recovers its transfer function; for
+        a nonlinear one its best linear approximation. Order by BIC; None if none is stable.
+        """
+        best = None
+        for n in range(1, max_order + 1):
+            rows, target = [], []
+            for r in self.est:
+                y, x = r.yhat, r.u[:, 0]
+                N = len(y)
+                cols = [-y[n - j : N - j] for j in range(1, n + 1)] + [x[n - j : N - j] for j in range(0, n + 1)]
+                rows.append(np.column_stack(cols + [np.ones(N - n)]))
+                target.append(y[n:])
+            X, t = np.vstack(rows), np.concatenate(target)
+            c, *_ = np.linalg.lstsq(X, t, rcond=None)
+            rss = float(np.sum((t - X @ c) ** 2)) + 1e-300
+            a = np.concatenate([[1.0], c[:n]])
+            if np.any(np.abs(np.roots(a)) >= 0.9999):
+                continue
+            bic = len(t) * np.log(rss / len(t)) + (2 * n + 2) * np.log(len(t))
+            if best is None or bic < best[0]:
+                best = (bic, c[n : 2 * n + 1], a)
+        return None if best is None else (best[1], best[2])
+
+    def base_filter(self, x: np.ndarray) -> np.ndarray:
+        """x through the model's own linear dynamics (unit DC gain), from steady state at x[0]."""
+        from scipy import signal as sps
+
+        if self.base_ba is None:
+            return self.lag_bank(x, 1)[:, 0]
+        b, a = self.base_ba
+        dc = np.sum(b) / np.sum(a)
+        b = b / dc if abs(dc) > 1e-12 else b
+        zi = sps.lfilter_zi(b, a) * x[0]
+        return sps.lfilter(b, a, x, zi=zi)[0]
 
     @property
     def tau_s(self) -> float:
@@ -156,7 +196,8 @@ def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
         cols = []
         for i in range(ctx.n_in):
             h = signals.hinge_basis(r.u[:, i], knots_in[i])
-            cols += [ctx.lag_bank(h[:, j], 2) for j in range(h.shape[1])]
+            cols += [ctx.base_filter(h[:, j]) for j in range(h.shape[1])]
+            cols += [ctx.lag_bank(h[:, j], 1)[:, 0] for j in range(h.shape[1])]
         return np.column_stack(cols)
 
     t_out = ctx.f_test(ctx.stack(z_out, ctx.est))
@@ -182,7 +223,7 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
         cols = []
         for rad in radii:
             d = signals.play_operator(r.yhat, rad) - r.yhat
-            cols += [d, ctx.lag_bank(d, 1)[:, 0]]
+            cols += [d, ctx.base_filter(d)]
         return np.column_stack(cols)
 
     test = ctx.f_test(ctx.stack(z_h, ctx.est), extra_base=ctx.stack(z_static, ctx.est))

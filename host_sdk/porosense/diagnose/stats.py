@@ -241,54 +241,61 @@ def f_result(name: str, test: FTest, alpha: float, n_tests: int = 1, **detail) -
                       log10_p=min(0.0, test.log10_p + float(np.log10(n_tests))))
 
 
-def spectral_lines(e: np.ndarray, ts: float, alpha: float = DEFAULT_ALPHA, guard: int = 3,
-                   half_width: int = 12, min_bin: int = 6,
-                   exclude: np.ndarray | None = None) -> StatResult:
-    """Largest periodogram line of the residual against its local background (periodic disturbance).
-
-    Hann-tapered periodogram; each ordinate is divided by the median of its neighbours
-    (+-half_width bins, minus +-guard bins around it) over ln 2, which is Exp(1) distributed
-    for a smooth noise spectrum. The maximum over M tested bins has p = M exp(-ratio)
-    (Bonferroni). Bins below ``min_bin`` (trend) and bins flagged in ``exclude`` (lines the
-    input has too: input-driven, not disturbances) are not tested.
-    """
-    e = np.asarray(e, float) - np.mean(e)
-    n = len(e)
-    w = np.hanning(n)
-    P = np.abs(np.fft.rfft(e * w)) ** 2
-    freqs = np.fft.rfftfreq(n, ts)
-    ratio = np.zeros_like(P)
-    m = len(P)
-    for k in range(min_bin, m - 1):
-        lo, hi = max(1, k - half_width), min(m, k + half_width + 1)
-        idx = np.r_[lo : max(lo, k - guard), min(hi, k + guard + 1) : hi]
-        if len(idx) < 4:
-            continue
-        ratio[k] = P[k] / (np.median(P[idx]) / np.log(2.0) + 1e-300)
-    if exclude is not None:
-        ratio[np.asarray(exclude, bool)[: len(ratio)]] = 0.0
-    tested = int(np.sum(ratio > 0)) or 1
-    k = int(np.argmax(ratio))
-    r = float(ratio[k])
-    p = float(min(1.0, tested * np.exp(-r)))
-    return StatResult("periodogram line / local background", r, float(np.log(tested / alpha)), max(p, 1e-300),
-                      alpha, {"freq_hz": float(freqs[k]), "bin": k, "freqs": freqs.tolist(), "power": P.tolist()},
-                      log10_p=min(0.0, (np.log(tested) - r) / np.log(10.0)))
-
-
-def line_mask(x: np.ndarray, alpha: float = 1e-3, guard: int = 3, half_width: int = 12) -> np.ndarray:
-    """Boolean mask of periodogram bins (with +-guard neighbours) where ``x`` itself has a line."""
+def _line_ratios(x: np.ndarray, guard: int, half_width: int, min_bin: int):
+    """Hann periodogram P and, per bin, P / mean of its neighbours and that mean's dof."""
     x = np.asarray(x, float) - np.mean(x)
     n = len(x)
     P = np.abs(np.fft.rfft(x * np.hanning(n))) ** 2
     m = len(P)
-    mask = np.zeros(m, bool)
-    thr = np.log(m / alpha)
-    for k in range(1, m - 1):
+    ratio = np.zeros(m)
+    dof = np.zeros(m)
+    for k in range(min_bin, m - 1):
         lo, hi = max(1, k - half_width), min(m, k + half_width + 1)
         idx = np.r_[lo : max(lo, k - guard), min(hi, k + guard + 1) : hi]
-        if len(idx) >= 4 and P[k] / (np.median(P[idx]) / np.log(2.0) + 1e-300) > thr:
-            mask[max(0, k - guard) : k + guard + 1] = True
+        if len(idx) < 8:
+            continue
+        ratio[k] = P[k] / (np.mean(P[idx]) + 1e-300)
+        dof[k] = len(idx)  # Hann makes neighbours pairwise correlated: about len/2 independent chi2_2
+    return P, ratio, dof
+
+
+def spectral_lines(e: np.ndarray, ts: float, alpha: float = DEFAULT_ALPHA, guard: int = 3,
+                   half_width: int = 40, min_bin: int = 6,
+                   exclude: np.ndarray | None = None) -> StatResult:
+    """Largest periodogram line of the residual against its local background (periodic disturbance).
+
+    Hann-tapered periodogram; each ordinate is divided by the mean of its neighbours
+    (+-half_width bins, minus +-guard bins around it). For a smooth noise spectrum the ordinate
+    is Exp-distributed and the mean of its ~m/2 independent neighbours chi2 with m dof, so the
+    ratio is F(2, m). The largest over M tested bins has p = M sf_F (Bonferroni). Bins below
+    ``min_bin`` (trend) and bins flagged in ``exclude`` (lines the input has too: input-driven,
+    not disturbances) are not tested.
+    """
+    n = len(e)
+    P, ratio, dof = _line_ratios(e, guard, half_width, min_bin)
+    freqs = np.fft.rfftfreq(n, ts)
+    if exclude is not None:
+        ratio[np.asarray(exclude, bool)[: len(ratio)]] = 0.0
+    tested = max(int(np.sum(ratio > 0)), 1)
+    logsf = np.where(ratio > 0, sps.f.logsf(ratio, 2, np.maximum(dof, 1)), 0.0)
+    k = int(np.argmin(logsf))
+    log10_p = min(0.0, (float(logsf[k]) + np.log(tested)) / np.log(10.0))
+    thr = float(sps.f.isf(alpha / tested, 2, max(dof[k], 1))) if dof[k] > 0 else float("inf")
+    return StatResult("periodogram line / local background", float(ratio[k]), thr, max(10.0 ** log10_p, 1e-300),
+                      alpha, {"freq_hz": float(freqs[k]), "bin": k, "freqs": freqs.tolist(), "power": P.tolist()},
+                      log10_p=log10_p)
+
+
+def line_mask(x: np.ndarray, alpha: float = 1e-3, guard: int = 3, half_width: int = 40) -> np.ndarray:
+    """Boolean mask of periodogram bins (with +-guard neighbours) where ``x`` itself has a line."""
+    P, ratio, dof = _line_ratios(x, guard, half_width, 1)
+    m = len(P)
+    mask = np.zeros(m, bool)
+    ok = ratio > 0
+    p = np.ones(m)
+    p[ok] = sps.f.sf(ratio[ok], 2, dof[ok]) * max(int(ok.sum()), 1)
+    for k in np.flatnonzero(p < alpha):
+        mask[max(0, k - guard) : k + guard + 1] = True
     return mask
 
 

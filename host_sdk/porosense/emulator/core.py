@@ -36,7 +36,11 @@ R0_BOOT_SAMPLES = 16
 FREE_RAM_BYTES = 512  # reported in STATUS; the emulator has no stack to measure
 PLANT_MAX_STEP_S = 0.02
 RESET_POWER_ON, RESET_EXTERNAL, RESET_WATCHDOG = 0x01, 0x02, 0x08  # AVR MCUSR bits
-STICKY = F.WATCHDOG_TRIPPED | F.CONFIG_DEFAULTS | F.R0_UNCALIBRATED | F.STANDALONE
+# Plain ints for the per-sample path (enum arithmetic is slow).
+_ADC_FAULT, _IMU_FAULT, _ADC_CLIPPED = int(F.ADC_FAULT), int(F.IMU_FAULT), int(F.ADC_CLIPPED)
+_EST_SATURATED = int(F.ESTIMATOR_SATURATED)
+_CH_IMU, _CH_ESTIMATES = int(Channel.IMU), int(Channel.ESTIMATES)
+_ESTIMATOR_OFF, _OUTPUTS_ACTIVE, _OVERRUN = int(F.ESTIMATOR_OFF), int(F.OUTPUTS_ACTIVE), int(F.OVERRUN)
 
 
 def _sat16(v: int) -> int:
@@ -195,9 +199,9 @@ class BoardCore:
             return
         dt = max(dt, min_step_s, 1e-4)
         n = min(max(1, math.ceil(dt / PLANT_MAX_STEP_S)), 500)
-        sp = np.asarray(self.setpoint_dkpa, dtype=float) / 10.0
-        pump = np.array([bool(self.pump_mask >> i & 1) for i in range(3)])
-        valve = np.array([bool(self.valve_mask >> i & 1) for i in range(3)])
+        sp = [v / 10.0 for v in self.setpoint_dkpa]
+        pump = [bool(self.pump_mask >> i & 1) for i in range(3)]
+        valve = [bool(self.valve_mask >> i & 1) for i in range(3)]
         for _ in range(n):
             self._reading = self.plant.step(dt / n, sp, pump, valve)
         self._plant_T_us = max(self._plant_T_us, T_us)
@@ -434,14 +438,15 @@ class BoardCore:
         self._ack()
 
     def flags(self) -> int:
-        fl = self.sticky | self.sample_flags
+        """Status flags now: sticky ones, the latest sample's sensor flags, and the state."""
+        fl = int(self.sticky) | int(self.sample_flags)
         if self.model is None:
-            fl |= F.ESTIMATOR_OFF
-        if self.outputs_active:
-            fl |= F.OUTPUTS_ACTIVE
+            fl |= _ESTIMATOR_OFF
+        if self.pump_mask or self.valve_mask or any(self.setpoint_dkpa):
+            fl |= _OUTPUTS_ACTIVE
         if self.pending_overrun:
-            fl |= F.OVERRUN
-        return int(fl)
+            fl |= _OVERRUN
+        return fl
 
     def _cmd_status(self, msg, frame) -> None:
         d = self.decoder.counters
@@ -601,35 +606,32 @@ class BoardCore:
         mask = self.stream_mask
         t_us = (tick_T - self.boot_T_us) & 0xFFFFFFFF
         adc, dr_out, euler, est = [0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]
-        estimating = bool(mask & Channel.ESTIMATES) and self.model is not None
+        estimating = bool(mask & _CH_ESTIMATES) and self.model is not None
         adc_mask = (mask & 0x07) | (0x07 if estimating else 0)
         fl = 0
         dr = [0, 0, 0]
         if adc_mask:
             if not self.adc_present:
-                fl |= F.ADC_FAULT
+                fl |= _ADC_FAULT
             else:
-                counts = self._adc_counts()
-                pga = self.config[K.ADC_PGA]
+                r0 = [v * 0.001 for v in self.r0_mohm]
+                counts, dr, clip = sensors.sample_channels(self._reading.voltage_V, self.config[K.ADC_PGA], r0, adc_mask)
+                if clip:
+                    fl |= _ADC_CLIPPED
                 for ch in range(3):
-                    if not adc_mask >> ch & 1:
-                        continue
-                    c = counts[ch]
-                    if sensors.clipped(c):
-                        fl |= F.ADC_CLIPPED
-                    dr[ch] = sensors.counts_to_dr_centi(c, pga, self.r0_mohm[ch] * 0.001)
                     if mask >> ch & 1:
-                        adc[ch], dr_out[ch] = c, dr[ch]
-        if mask & Channel.IMU:
+                        adc[ch], dr_out[ch] = counts[ch], dr[ch]
+        if mask & _CH_IMU:
             if not self.imu_present:
-                fl |= F.IMU_FAULT
+                fl |= _IMU_FAULT
             else:
-                euler = list(sensors.euler_to_16(self._reading.euler_deg))
-        if estimating and not fl & F.ADC_FAULT:
+                e = self._reading.euler_deg
+                euler = [max(-32768, min(32767, round(float(e[i]) * 16.0))) for i in range(3)]
+        if estimating and not fl & _ADC_FAULT:
             est, efl = self.model.step(dr)
             if efl & 1:
-                fl |= F.ESTIMATOR_SATURATED
-        faults = F.ADC_FAULT | F.IMU_FAULT
+                fl |= _EST_SATURATED
+        faults = _ADC_FAULT | _IMU_FAULT
         new_faults = fl & faults & ~(self.sample_flags & faults)
         if fl & faults:
             self.counters["sensor_faults"] = _sat16(self.counters["sensor_faults"] + 1)

@@ -54,6 +54,8 @@ class Emulator:
 
     ``listen``: "tcp://127.0.0.1:0" (a free port) or "pty". ``faults``: a Faults, or None.
     ``proto_version``: the (major, minor) the board claims (tests of version refusal).
+    ``clock_offset_us``: the device clock's value at power-on. ``plant``: any object with the
+    porosense.sim plant interface instead of ``make_plant(actuator, ...)``.
     """
 
     def __init__(
@@ -70,6 +72,7 @@ class Emulator:
         faults: Faults | None = None,
         proto_version: tuple[int, int] | None = None,
         reset_on_connect: bool = False,
+        clock_offset_us: int = 0,
         plant=None,
     ):
         self.actuator = actuator
@@ -91,6 +94,8 @@ class Emulator:
             faults=self.faults,
             proto_version=proto_version,
         )
+        # Start the device clock late (tests of the 32-bit microsecond wrap).
+        self.core.boot_T_us -= int(clock_offset_us)
         self.endpoint = make_endpoint(listen)
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()

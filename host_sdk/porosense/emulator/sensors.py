@@ -1,7 +1,9 @@
 """The board's sensor chain in software: ADS1115 counts, divider resistance, dR, BNO055 angles.
 
-Same arithmetic as the firmware (firmware/lib/core/sensing.cpp), in float32 like the AVR:
-5.0 V -> 1 kOhm bias -> ADC node -> sensor -> GND, R = 1000 V / (5 - V), dR in 0.01 %.
+Same formulas as the firmware (firmware/lib/core/sensing.cpp): 5.0 V -> 1 kOhm bias -> ADC
+node -> sensor -> GND, R = 1000 V / (5 - V), dR in 0.01 % rounded half away from zero and
+saturated. The per-sample path (:func:`sample_channels`) uses double precision for speed; the
+AVR's float32 can differ by one 0.01 % step near a rounding boundary.
 """
 
 from __future__ import annotations
@@ -67,3 +69,35 @@ def counts_to_dr_centi(counts: int, pga_code: int, r0_ohm: float) -> int:
 def euler_to_16(deg) -> tuple[int, int, int]:
     """BNO055 Euler registers: degrees in 1/16 degree, int16."""
     return tuple(int(min(32767, max(-32768, round(float(d) * 16.0)))) for d in deg)
+
+
+_LSB = tuple(fs / 32768.0 for fs in PGA_FULL_SCALE_V)
+
+
+def sample_channels(volts, pga_code: int, r0_ohm, mask: int) -> tuple[list[int], list[int], bool]:
+    """Counts and dR (0.01 %) of the channels in ``mask`` (bits 0..2) and whether any clipped."""
+    lsb = _LSB[min(max(int(pga_code), 0), 5)]
+    counts, dr, clip = [0, 0, 0], [0, 0, 0], False
+    for ch in range(3):
+        if not mask >> ch & 1:
+            continue
+        c = round(float(volts[ch]) / lsb) if ch < len(volts) else 0
+        c = 32767 if c > 32767 else (-32768 if c < -32768 else c)
+        clip = clip or c >= 32767 or c <= -32768
+        v = c * lsb
+        if v <= 0.0:
+            r = 0.0
+        elif 5.0 - v <= 1e-6:
+            r = 1e9
+        else:
+            r = 1000.0 * v / (5.0 - v)
+        r0 = r0_ohm[ch]
+        d = (r - r0) / r0 * 10000.0 if r0 > 0 else 0.0
+        if d >= 32767.0:
+            q = 32767
+        elif d <= -32768.0:
+            q = -32768
+        else:
+            q = int(d + 0.5) if d >= 0 else int(d - 0.5)
+        counts[ch], dr[ch] = c, q
+    return counts, dr, clip

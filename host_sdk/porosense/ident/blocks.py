@@ -17,7 +17,10 @@ import numpy as np
 from scipy.signal import lfilter
 
 # |k| < _K_MAX keeps every pole a margin inside the unit circle in floating point too.
-_K_MAX = 1.0 - 1e-6
+_K_MAX = 1.0 - 1e-10
+
+
+_K_CLIP = 1.0 - 1e-12
 
 
 def n_sections(n_poles: int) -> int:
@@ -73,17 +76,17 @@ def theta_from_poly(a, n_poles: int) -> np.ndarray:
     a = a / a[0]
     roots = np.roots(a) if len(a) > 1 else np.array([])
     roots = np.concatenate([roots, np.zeros(max(n_poles - len(roots), 0))])[:n_poles]
-    big = np.abs(roots) > 0.995
-    roots[big] = 0.995 * roots[big] / np.abs(roots[big])
+    big = np.abs(roots) > 0.99995
+    roots[big] = 0.99995 * roots[big] / np.abs(roots[big])
     theta = np.zeros(n_poles)
     for s, grp in enumerate(_pair_roots(roots, n_poles)):
         poly = np.real(np.poly(grp))
         if len(grp) == 2:
             k2 = poly[2]
             k1 = poly[1] / (1.0 + k2)
-            theta[2 * s: 2 * s + 2] = np.arctanh(np.clip([k1, k2], -0.9999, 0.9999) / _K_MAX)
+            theta[2 * s: 2 * s + 2] = np.arctanh(np.clip(np.array([k1, k2]) / _K_MAX, -_K_CLIP, _K_CLIP))
         else:
-            theta[2 * s] = np.arctanh(np.clip(poly[1], -0.9999, 0.9999) / _K_MAX)
+            theta[2 * s] = np.arctanh(np.clip(poly[1] / _K_MAX, -_K_CLIP, _K_CLIP))
     return theta
 
 
@@ -100,6 +103,43 @@ def cascade(den, x, axis=0):
     for row in den:
         x = lfilter([1.0], row, x, axis=axis)
     return x
+
+
+def sos_rows(b, den) -> np.ndarray:
+    """SOS rows [b0 b1 b2 1 a1 a2] of B(z^-1) / prod(sections) without touching the poles.
+
+    The numerator is factored into quadratics (its roots); leading zeros of ``b`` (pure
+    delays) go into free numerator slots or extra delay sections.
+    """
+    b = np.atleast_1d(np.asarray(b, dtype=float))
+    nz = np.flatnonzero(b)
+    if len(nz) == 0:
+        rows = np.zeros((max(len(den), 1), 6))
+        rows[:, 3] = 1.0
+        rows[: len(den), 3:] = den
+        return rows
+    delay = int(nz[0])
+    bt = np.trim_zeros(b[delay:], "b")
+    gain = bt[0]
+    zeros = np.roots(bt) if len(bt) > 1 else np.array([])
+    quads = [np.real(np.poly(g)) for g in _pair_roots(zeros, len(zeros))]
+    quads = [np.pad(q, (0, 3 - len(q))) for q in quads]
+    n = max(len(den), len(quads), 1)
+    rows = np.zeros((n, 6))
+    rows[:, 0] = 1.0
+    rows[:, 3] = 1.0
+    for i, q in enumerate(quads):
+        rows[i, :3] = q
+    rows[: len(den), 3:] = den
+    rows[0, :3] *= gain
+    for _ in range(delay):
+        free = np.flatnonzero(rows[:, 2] == 0)
+        if len(free):
+            i = free[-1]
+            rows[i, :3] = [0.0, rows[i, 0], rows[i, 1]]
+        else:
+            rows = np.vstack([rows, [0.0, 1.0, 0.0, 1.0, 0.0, 0.0]])
+    return rows
 
 
 def stabilise(a) -> np.ndarray:

@@ -7,7 +7,9 @@ One output over n inputs (all in normalised units inside ident)::
 Blocks are switched on by :class:`ChainSpec`. The Jacobian of the simulated output with
 respect to every parameter is computed with filtered sensitivity signals (lfilter): for
 w = B/F v, dw/db_k = q^-k v/F and dw/da_k = -q^-k w/F; upstream sensitivities pass through
-the downstream blocks (times g'(s), then through H2). Everything simulates from rest.
+the downstream blocks (times g'(s), then through H2). Denominators are cascades of stable
+sections (:mod:`porosense.ident.blocks`); for a section F_s, dw/da_(s,j) = -q^-j w/F_s.
+Everything simulates from rest.
 """
 
 from __future__ import annotations
@@ -69,6 +71,22 @@ def _shift(x, k: int):
     return out
 
 
+def _filter(b, den, x):
+    """B(q) / prod F_s(q) applied to ``x`` (1-D, or 2-D along axis 0) from rest."""
+    return blocks.cascade(den, lfilter(b, [1.0], x, axis=0))
+
+
+def _den_sensitivity(den, dden, w, n_poles):
+    """dw/dtheta (N, n_poles) of w = B/F v with respect to the denominator parameters."""
+    out = np.zeros((len(w), n_poles))
+    for s, row in enumerate(den):
+        ws = lfilter([1.0], row, w)
+        cols = -np.column_stack([_shift(ws, 1), _shift(ws, 2)])
+        j = slice(2 * s, min(2 * s + 2, n_poles))
+        out[:, j] = cols @ dden[s][:, : j.stop - j.start]
+    return out
+
+
 def _lagged(x, n: int, start: int = 0):
     """Columns q^-start x .. q^-(start+n-1) x, shape (N, n)."""
     out = np.zeros((len(x), n))
@@ -94,16 +112,16 @@ class Chain:
                 self.f.append((x, t[sl[f"f{i}.y"]], dx))
             else:
                 self.f.append(None)
-            a, da = blocks.stable_poly_jacobian(t[sl[f"h1{i}.a"]])
-            self.h1.append((t[sl[f"h1{i}.b"]], a, da))
+            den, dden = blocks.sections(t[sl[f"h1{i}.a"]])
+            self.h1.append((t[sl[f"h1{i}.b"]], den, dden))
         self.g = None
         if spec.g_bp:
             x, dx = blocks.pwl_positions(t[sl["g.p"]])
             self.g = (x, t[sl["g.y"]], dx)
         self.h2 = None
         if spec.h2:
-            a, da = blocks.stable_poly_jacobian(t[sl["h2.a"]])
-            self.h2 = (t[sl["h2.b"]], a, da)
+            den, dden = blocks.sections(t[sl["h2.a"]])
+            self.h2 = (t[sl["h2.b"]], den, dden)
         self.offset = float(t[sl["offset"]][0])
 
     # -- forward ------------------------------------------------------------------
@@ -119,8 +137,8 @@ class Chain:
         s = self.linear_sum(u)
         z = blocks.pwl_eval(self.g[0], self.g[1], s) if self.g else s
         if self.h2:
-            b, a, _ = self.h2
-            z = lfilter(b, a, z)
+            b, den, _ = self.h2
+            z = _filter(b, den, z)
         return z + self.offset
 
     def linear_sum(self, u) -> np.ndarray:
@@ -130,8 +148,8 @@ class Chain:
         for i, x in enumerate(xs):
             if self.f[i] is not None:
                 x = blocks.pwl_eval(self.f[i][0], self.f[i][1], x)
-            b, a, _ = self.h1[i]
-            s += lfilter(b, a, x)
+            b, den, _ = self.h1[i]
+            s += _filter(b, den, x)
         return s
 
     # -- Jacobian -----------------------------------------------------------------
@@ -145,19 +163,19 @@ class Chain:
         s = np.zeros(n)
         # Columns that pass through g and H2 are collected first (sensitivities of s).
         for i, x in enumerate(xs):
-            b, a, da = self.h1[i]
+            b, den, dden = self.h1[i]
             if self.f[i] is not None:
                 fx, fy, dxdp = self.f[i]
                 v, _, dz_dx, dz_dy = blocks.pwl_eval(fx, fy, x, derivatives=True)
-                jac[:, sl[f"f{i}.p"]] = lfilter(b, a, dz_dx @ dxdp, axis=0)
-                jac[:, sl[f"f{i}.y"]] = lfilter(b, a, dz_dy, axis=0)
+                jac[:, sl[f"f{i}.p"]] = _filter(b, den, dz_dx @ dxdp)
+                jac[:, sl[f"f{i}.y"]] = _filter(b, den, dz_dy)
             else:
                 v = x
-            w = lfilter(b, a, v)
+            w = _filter(b, den, v)
             s += w
-            jac[:, sl[f"h1{i}.b"]] = _lagged(lfilter([1.0], a, v), len(b))
-            if len(a) > 1:
-                jac[:, sl[f"h1{i}.a"]] = -_lagged(lfilter([1.0], a, w), len(a) - 1, 1) @ da
+            jac[:, sl[f"h1{i}.b"]] = _lagged(blocks.cascade(den, v), len(b))
+            if spec.np1:
+                jac[:, sl[f"h1{i}.a"]] = _den_sensitivity(den, dden, w, spec.np1)
         upstream = slice(0, sl["g.p"].start if self.g else (sl["h2.a"].start if self.h2 else sl["offset"].start))
         z = s
         if self.g:
@@ -167,13 +185,13 @@ class Chain:
             jac[:, sl["g.p"]] = dz_dx @ dxdp
             jac[:, sl["g.y"]] = dz_dy
         if self.h2:
-            b, a, da = self.h2
+            b, den, dden = self.h2
             through = slice(0, sl["h2.a"].start)
-            jac[:, through] = lfilter(b, a, jac[:, through], axis=0)
-            y = lfilter(b, a, z)
-            jac[:, sl["h2.b"]] = _lagged(lfilter([1.0], a, z), len(b))
-            if len(a) > 1:
-                jac[:, sl["h2.a"]] = -_lagged(lfilter([1.0], a, y), len(a) - 1, 1) @ da
+            jac[:, through] = _filter(b, den, jac[:, through])
+            y = _filter(b, den, z)
+            jac[:, sl["h2.b"]] = _lagged(blocks.cascade(den, z), len(b))
+            if spec.np2:
+                jac[:, sl["h2.a"]] = _den_sensitivity(den, dden, y, spec.np2)
             z = y
         jac[:, sl["offset"]] = 1.0
         return z + self.offset, jac

@@ -11,10 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.signal import lfilter
 
 from porosense.ident import blocks
-from porosense.ident.chain import Chain, ChainSpec
+from porosense.ident.chain import Chain, ChainSpec, _filter
 from porosense.ident.linear_init import arx, iv, simulate_common
 
 
@@ -89,7 +88,7 @@ def _linear_theta(spec: ChainSpec, a_list, b_list, offset) -> np.ndarray:
     sl = spec.slices()
     for i in range(spec.n_inputs):
         a = np.asarray(a_list[i], dtype=float)
-        theta[sl[f"h1{i}.a"]] = blocks.poly_to_theta(a)[: spec.np1] if spec.np1 else []
+        theta[sl[f"h1{i}.a"]] = blocks.theta_from_poly(a, spec.np1)
         b = np.zeros(spec.nz1 + 1)
         bi = np.asarray(b_list[i], dtype=float)[: spec.nz1 + 1]
         b[: len(bi)] = bi
@@ -151,8 +150,8 @@ def _hammerstein_starts(lin: Fit, us, ys, n_bp, delay, opts):
         xin = lchain.branch_inputs(u)
         blocks_i = []
         for i in range(n_in):
-            b, a, _ = lchain.h1[i]
-            blocks_i.append(lfilter(b, a, _hat_basis(xs[i], xin[i]), axis=0))
+            b, den, _ = lchain.h1[i]
+            blocks_i.append(_filter(b, den, _hat_basis(xs[i], xin[i])))
         cols.append(np.hstack(blocks_i + [np.ones((len(u), 1))]))
     phi = np.vstack(cols)
     sol = lstsq(phi, np.concatenate(ys))
@@ -219,7 +218,7 @@ def fit_wh(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options) -> Fit:
     sl = spec.slices()
     starts = []
     # The two ways are the two starts; their own sub-fits get one start and a small budget.
-    inner = Options(max_nfev=max(opts.max_nfev // 4, 15), tol=opts.tol, skip=opts.skip, starts=1)
+    inner = Options(max_nfev=max(opts.max_nfev // 4, 15), tol=max(opts.tol, 1e-5), skip=opts.skip, starts=1)
 
     # Wiener + linear: H2 is an OE model from z = g(s) to y.
     lin = fit_linear(us, ys, np1, nz1, delay, inner)
@@ -259,7 +258,7 @@ def multistart(spec: ChainSpec, starts, us, ys, opts: Options) -> Fit:
     if len(starts) == 1:
         return refine(spec, starts[0], us, ys, opts)
     screen = max(opts.max_nfev // 6, 8)
-    short = Options(max_nfev=screen, tol=opts.tol, skip=opts.skip, starts=opts.starts)
+    short = Options(max_nfev=screen, tol=max(opts.tol, 1e-5), skip=opts.skip, starts=opts.starts)
     best = _best([refine(spec, t, us, ys, short) for t in starts])
     rest = Options(max_nfev=max(opts.max_nfev - screen, 1), tol=opts.tol, skip=opts.skip, starts=opts.starts)
     final = refine(spec, best.theta, us, ys, rest)

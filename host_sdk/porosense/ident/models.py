@@ -20,6 +20,7 @@ import numpy as np
 
 from porosense.errors import InputError, ModelError
 from porosense.ident import estimate
+from porosense.ident.blocks import sos_rows
 from porosense.ident.chain import Chain, ChainSpec
 from porosense.ident.metrics import fit_percent, information_criteria, rms_percent
 from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade
@@ -155,7 +156,7 @@ class Model:
         out_gain_on_h1 = c.g is None and c.h2 is None
         branches = []
         for i in range(self.spec.n_inputs):
-            b, a, _ = c.h1[i]
+            b, den, _ = c.h1[i]
             b = np.array(b, dtype=float)
             f = None
             if c.f[i] is not None:
@@ -164,14 +165,14 @@ class Model:
                 b = b / self.u_scale[i]
             if out_gain_on_h1:
                 b = b * self.y_std
-            branches.append(Branch(input=i, h1=SOSCascade.from_tf(b, a), f=f, delay=self.spec.delay))
+            branches.append(Branch(input=i, h1=SOSCascade(sos_rows(b, den)), f=f, delay=self.spec.delay))
         g = h2 = None
         if c.g is not None:
             gy = np.array(c.g[1], dtype=float) * (1.0 if c.h2 else self.y_std)
             g = PiecewiseLinear(np.array(c.g[0], dtype=float), gy)
         if c.h2 is not None:
-            b, a, _ = c.h2
-            h2 = SOSCascade.from_tf(np.array(b, dtype=float) * self.y_std, a)
+            b, den, _ = c.h2
+            h2 = SOSCascade(sos_rows(np.array(b, dtype=float) * self.y_std, den))
         return OutputChain(name=self.output, branches=tuple(branches), g=g, h2=h2,
                            offset=c.offset * self.y_std + self.y_mean)
 

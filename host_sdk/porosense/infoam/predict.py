@@ -49,7 +49,9 @@ def predict(design: Design, *, load_g: float = 0.0, vacuum_kpa=PAPER_VACUUM_KPA)
     rows = []
     for p in vacuum_kpa:
         ss = steady_state(design.actuator, porosity=phi, load_g=load_g, vacuum_kpa=p)
-        rows.append(PredictionRow(float(p), float(ss["dR_pct"]), _opt(ss, "strain_pct"), _opt(ss, "curvature_1pm")))
+        curvature = _opt(ss, "curvature_per_m")
+        strain = None if curvature is not None else _opt(ss, "strain_pct")
+        rows.append(PredictionRow(float(p), float(ss["dR_pct"]), strain, curvature))
     return Prediction(design.name, design.actuator, phi, load_g, tuple(rows))
 
 

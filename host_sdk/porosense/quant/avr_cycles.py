@@ -3,6 +3,7 @@ the ATmega328P around a model blob and run it in simavr (Timer1 at the CPU clock
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
@@ -10,7 +11,10 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from porosense.quant.blob import ModelBlob
+from porosense.quant.fixed import FixedPointEstimator
 
 ROOT = Path(__file__).resolve().parents[3]
 CORE = ROOT / "firmware" / "lib" / "core"
@@ -26,6 +30,25 @@ class CycleResult:
     estimator_ram: int  # sizeof(est::Estimator) on the AVR
     text: int  # flash bytes of the test program
     in_eeprom: bool
+    bit_exact: bool  # the AVR's estimates hash equals the Python reference's
+
+
+def program_inputs(steps: int) -> np.ndarray:
+    """The inputs cycles.cpp feeds the estimator (0.01 %), shape (steps, 3)."""
+    t = np.arange(steps)
+    level = np.where((t // 16) & 1, -8000, 500)
+    return np.stack([level, -level // 2, level + 37 * (t & 7)], axis=1)  # levels are even: // is C's /
+
+
+def reference_check(blob: ModelBlob, steps: int) -> int:
+    """The hash cycles.cpp computes, from the Python reference."""
+    est, flags = FixedPointEstimator(blob).run(program_inputs(steps))
+    check = 0
+    for row, fl in zip(est, flags):
+        for v in row:
+            check = (check * 31 + (int(v) & 0xFFFF)) & 0xFFFFFFFF
+        check = (check * 31 + int(fl)) & 0xFFFFFFFF
+    return check
 
 
 def available() -> str | None:
@@ -38,7 +61,9 @@ def available() -> str | None:
 
 def measure(blob: ModelBlob | bytes, *, in_eeprom: bool = False, steps: int = 64, timeout: float = 120.0) -> CycleResult:
     """Worst and mean cycles of one step over ``steps`` samples of switching inputs."""
-    data = blob.to_bytes() if isinstance(blob, ModelBlob) else bytes(blob)
+    if not isinstance(blob, ModelBlob):
+        blob = ModelBlob.from_bytes(bytes(blob), max_length=4096)
+    data = blob.to_bytes()
     with tempfile.TemporaryDirectory(prefix="porosense-cycles-") as tmp:
         tmp = Path(tmp)
         rows = ",\n".join("  " + ", ".join(f"0x{v:02X}" for v in data[i:i + 16]) for i in range(0, len(data), 16))
@@ -48,7 +73,7 @@ def measure(blob: ModelBlob | bytes, *, in_eeprom: bool = False, steps: int = 64
             f"#define MODEL_IN_EEPROM {int(in_eeprom)}\n"
             f"static const uint8_t MODEL_BLOB[{len(data)}] PROGMEM = {{\n{rows}\n}};\n")
         elf = tmp / "cycles.elf"
-        cmd = ["avr-g++", "-std=c++11", "-Os", "-mmcu=atmega328p", "-DF_CPU=16000000UL", "-fno-exceptions",
+        cmd = ["avr-g++", "-std=c++11", os.environ.get("POROSENSE_AVR_OPT", "-Os"), "-mmcu=atmega328p", "-DF_CPU=16000000UL", "-fno-exceptions",
                "-ffunction-sections", "-fdata-sections", "-Wl,--gc-sections", f"-I{CORE}", f"-I{tmp}",
                "-o", str(elf), str(PROGRAM), *[str(CORE / s) for s in CORE_SOURCES]]
         proc = subprocess.run(cmd, capture_output=True, text=True)
@@ -58,7 +83,8 @@ def measure(blob: ModelBlob | bytes, *, in_eeprom: bool = False, steps: int = 64
         run = subprocess.run(["simavr", "-m", "atmega328p", "-f", "16000000", str(elf)], capture_output=True,
                              text=True, timeout=timeout)
         out = run.stdout + run.stderr
-        m = re.search(r"cycles max=(\d+) mean=(\d+) steps=(\d+) ram=(\d+)", out)
+        m = re.search(r"cycles max=(\d+) mean=(\d+) steps=(\d+) ram=(\d+) check=(\d+)", out)
         if not m:
             raise RuntimeError(f"simavr gave no cycle count:\n{out[-2000:]}")
-        return CycleResult(int(m[1]), int(m[2]), int(m[3]), int(m[4]), int(size[0]), in_eeprom)
+        exact = int(m[5]) == reference_check(blob, steps)
+        return CycleResult(int(m[1]), int(m[2]), int(m[3]), int(m[4]), int(size[0]), in_eeprom, exact)

@@ -35,9 +35,16 @@ MAX_INPUTS = MAX_OUTPUTS = MAX_BRANCHES = 3
 MAX_BREAKPOINTS = 16
 MAX_SECTIONS = 5
 MAX_DELAY = 15
-STATE_FRAC = 14  # section states are Q14 of the section's int16 output
-STATE_MAX = (1 << 29) - 1
-STATE_MIN = -(1 << 29)
+STATE_FRAC = 13  # section states are Q13 of the section's int16 output
+STATE_MAX = (1 << 28) - 1
+STATE_MIN = -(1 << 28)
+
+
+def numerator_limit(wide: bool, sb: int) -> int:
+    """Largest sum of |b| the firmware accepts: keeps |round(w / 2^sb)| <= 2^29 and w in int32."""
+    if wide:
+        return 0xFFFF0000 if sb >= 2 else (1 << (30 + sb)) - 65536
+    return 65535 if sb >= 2 else 1 << (14 + sb)
 
 SEC_WIDE, SEC_DELTA = 0x01, 0x02
 OUT_HAS_G, OUT_HAS_H2 = 0x01, 0x02
@@ -70,7 +77,7 @@ class PwlQ:
 
 @dataclass(frozen=True)
 class SectionQ:
-    """One second-order section in fixed point (direct form I, int32 states in Q14).
+    """One second-order section in fixed point (direct form I, int32 states in Q13).
 
     y = round(w / 2^sb) + base + round(p1 * k1 / 2^n1) + round(p2 * k2 / 2^n2), where
     w = sum b_i x_i (16-bit b) or sum floor(b_i x_i / 2^16) (wide, 32-bit b);
@@ -294,7 +301,7 @@ def _read_cascade(r: _Reader, n: int) -> tuple[SectionQ, ...]:
         k = r.unpack("<2h")
         bad = flags & 0x80 or m1 > 2 or m2 > 1 or (delta and (m1 or m2)) or sb > 31
         bad = bad or not (16 <= n1 <= 47 and 16 <= n2 <= 47)
-        bad = bad or sum(abs(v) for v in b) > (0xFFFF0000 if wide else 65535)
+        bad = bad or sum(abs(v) for v in b) > numerator_limit(wide, sb)
         if bad:
             raise ModelError("model blob: section field out of range")
         out.append(SectionQ(tuple(b), tuple(k), sb, (n1, n2), wide, delta, (m1, m2)))

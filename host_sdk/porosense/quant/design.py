@@ -15,7 +15,7 @@ Choices (all automatic, each recorded in the report):
 * Denominators: 16-bit residues with a shift each; direct form with integer base weights
   (-a = m + k, |k| <= 1/2) or, for poles near z = 1, the delta form (alpha1 = 2 + a1,
   alpha0 = 1 + a1 + a2 stored separately, so A(1) keeps 15 significant bits). States are
-  32-bit (Q14 of the section output) everywhere.
+  32-bit (Q13 of the section output) everywhere.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from scipy import signal
 
 from porosense.errors import ModelError
 from porosense.quant.blob import (
-    MAX_BLOB_LEN, STATE_FRAC, BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, pwl_len, section_len,
+    MAX_BLOB_LEN, STATE_FRAC, BranchQ, numerator_limit, ModelBlob, OutputQ, PwlQ, SectionQ, pwl_len, section_len,
 )
 from porosense.structure import EstimatorStructure, PiecewiseLinear, SOSCascade
 
@@ -121,7 +121,7 @@ def _quantize_residue(k: float) -> tuple[int, int]:
 
 def quantize_section(row: np.ndarray, s_in: float, s_out: float, notes: list[str], name: str) -> SectionQ:
     """One float section (scipy sos row) with input/output scales -> SectionQ."""
-    b = np.asarray(row[:3], dtype=float) * (s_in / s_out) * 2.0 ** STATE_FRAC  # y Q14 per x LSB
+    b = np.asarray(row[:3], dtype=float) * (s_in / s_out) * 2.0 ** STATE_FRAC  # y Q13 per x LSB
     a1, a2 = float(row[4]), float(row[5])
     b16, sb16, err16 = _numerator(b, wide=False)
     if err16 <= DC_TOLERANCE:
@@ -154,19 +154,20 @@ def quantize_section(row: np.ndarray, s_in: float, s_out: float, notes: list[str
 
 
 def _numerator(b: np.ndarray, wide: bool) -> tuple[list[int], int, float]:
-    """Mantissas and shift for numerator values b (Q14 output per input LSB)."""
-    lim, total, extra = (2**31 - 1, 0xFFFF0000, 16) if wide else (32767, 65535, 0)
+    """Mantissas and shift for numerator values b (Q13 output per input LSB)."""
+    lim, extra = (2**31 - 1, 16) if wide else (32767, 0)
     peak = float(np.max(np.abs(b)))
     sb = 31
     if peak > 0:
         sb = int(np.clip(math.floor(math.log2(lim / peak)) - extra, 0, 31))
     while True:
         q = np.round(b * 2.0 ** (sb + extra))
-        if (np.all(np.abs(q) <= lim) and np.sum(np.abs(q)) <= total) or sb == 0:
+        if (np.all(np.abs(q) <= lim) and np.sum(np.abs(q)) <= numerator_limit(wide, sb)) or sb == 0:
             break
         sb -= 1
     q = np.clip(q, -lim - 1, lim)
-    if np.sum(np.abs(q)) > total:
+    total = numerator_limit(wide, sb)
+    if np.sum(np.abs(q)) > total:  # a numerator gain above 2 (int16 per int16): clipped
         q = np.trunc(q * (total / np.sum(np.abs(q))))
     dc, dcq = float(np.sum(b)), float(np.sum(q)) * 2.0 ** -(sb + extra)
     ref = abs(dc) if abs(dc) > 1e-12 * max(peak, 1e-300) else max(peak, 1e-300)
@@ -214,6 +215,27 @@ def quantize_pwl(f: PiecewiseLinear, s_x: float, s_y: float, notes: list[str], n
 
 # -- whole structure ---------------------------------------------------------------------
 
+MAX_NUMERATOR_GAIN = 1.99  # sum |b| in int16 output per int16 input the format allows (< 2)
+
+
+def _chain_scales(sos: np.ndarray, ivs, s_in: float) -> list[float]:
+    """Output scale of each section of a cascade (the last one: the smallest allowed)."""
+    out = []
+    for row, iv in zip(sos, ivs):
+        need = float(np.sum(np.abs(row[:3]))) * s_in / MAX_NUMERATOR_GAIN
+        s_in = max(_scale(*iv), need)
+        out.append(s_in)
+    return out
+
+
+def _f32_up(x: float) -> float:
+    """x rounded up to a float32 (the blob stores out_scale as float32)."""
+    f = np.float32(x)
+    if float(f) < x:
+        f = np.nextafter(f, np.float32(np.inf))
+    return float(f)
+
+
 def _scale(lo: float, hi: float) -> float:
     peak = max(abs(lo), abs(hi))
     return peak / FULL_SCALE if peak > 0 else 1.0 / FULL_SCALE
@@ -245,17 +267,29 @@ def design_blob(structure: EstimatorStructure, input_range: list[tuple[float, fl
         h2_sos = regroup(out.h2.sos) if out.h2 is not None else None
         h2_ivs = prefix_intervals(h2_sos, *g_iv) if h2_sos is not None else []
         last = h2_ivs[-1] if h2_ivs else g_iv
-        out_scale = float(np.float32(max(abs(last[0]), abs(last[1]), abs(last[0] + out.offset),
-                                         abs(last[1] + out.offset), 1e-12) / FULL_SCALE))
-        scales.append(out_scale)
-        # 2. Scales: the last node of the chain is the output's scale.
-        s_sum = max(worst_branch, abs(sum_lo), abs(sum_hi)) / FULL_SCALE or 1.0 / FULL_SCALE
+        out_l1 = max(abs(last[0]), abs(last[1]), abs(last[0] + out.offset), abs(last[1] + out.offset),
+                     1e-12) / FULL_SCALE
+        # 2. Scales: the l1 bound, raised where a section's numerator would need a gain above
+        #    MAX_NUMERATOR_GAIN (int16 per int16); the last node of the chain is the output's.
+        branch_scales = []
+        for br, x_iv, f_iv, sos, ivs in plans:
+            s_in = _scale(*f_iv) if br.f is not None else input_lsb
+            branch_scales.append(_chain_scales(sos, ivs, s_in))
+        s_sum = max([max(worst_branch, abs(sum_lo), abs(sum_hi)) / FULL_SCALE or 1.0 / FULL_SCALE]
+                    + [sc[-1] for sc in branch_scales])
+        if out.g is None and h2_sos is None:
+            out_l1 = s_sum = max(out_l1, s_sum)
+        s_g = _scale(*g_iv) if out.g is not None else s_sum
+        h2_scales = _chain_scales(h2_sos, h2_ivs, s_g) if h2_sos is not None else []
+        out_scale = _f32_up(max([out_l1] + h2_scales[-1:]))
         if out.g is None and h2_sos is None:
             s_sum = out_scale
-        s_g = out_scale if h2_sos is None else _scale(*g_iv)
+        if h2_sos is None:
+            s_g = out_scale
+        scales.append(out_scale)
         # 3. Quantize.
         branches = []
-        for br, x_iv, f_iv, sos, ivs in plans:
+        for (br, x_iv, f_iv, sos, ivs), chain in zip(plans, branch_scales):
             tag = f"{out.name}.b{br.input}"
             fq = None
             s_in = input_lsb
@@ -266,7 +300,7 @@ def design_blob(structure: EstimatorStructure, input_range: list[tuple[float, fl
                 s_in = s_f
             secs = []
             for k, (row, iv) in enumerate(zip(sos, ivs)):
-                s_out = s_sum if k == len(sos) - 1 else _scale(*iv)
+                s_out = s_sum if k == len(sos) - 1 else chain[k]
                 secs.append(quantize_section(row, s_in, s_out, notes, f"{tag}.h1[{k}]"))
                 nodes.append({"node": f"{tag}.h1[{k}]", "interval": iv, "scale": s_out})
                 s_in = s_out
@@ -281,7 +315,7 @@ def design_blob(structure: EstimatorStructure, input_range: list[tuple[float, fl
         if h2_sos is not None:
             s_in = s_g
             for k, (row, iv) in enumerate(zip(h2_sos, h2_ivs)):
-                s_out = out_scale if k == len(h2_sos) - 1 else _scale(*iv)
+                s_out = out_scale if k == len(h2_sos) - 1 else h2_scales[k]
                 h2.append(quantize_section(row, s_in, s_out, notes, f"{out.name}.h2[{k}]"))
                 nodes.append({"node": f"{out.name}.h2[{k}]", "interval": iv, "scale": s_out})
                 s_in = s_out
@@ -321,18 +355,22 @@ def orders_that_fit(structure: EstimatorStructure, section_bytes: float = 14.0, 
                 if blob_size(structure, h1_sections=s1, h2_sections=s2, breakpoints=bp,
                              section_bytes=section_bytes) <= MAX_BLOB_LEN:
                     fits.append((s1, s2 or 0, bp or 0))
-    # Keep the Pareto front.
-    front = [c for c in fits if not any(o != c and all(x >= y for x, y in zip(o, c)) for o in fits)]
-    front.sort(key=lambda c: (-(c[0] + c[1]), -c[2]))
+    # For each table size, the largest pole budget (balanced between H1 and H2 on ties).
     out = []
-    for s1, s2, bp in front[:limit]:
+    for bp in sorted({c[2] for c in fits}, reverse=True):
+        best = max((c for c in fits if c[2] == bp), key=lambda c: (c[0] + c[1], -abs(c[0] - c[1])))
+        if out and out[-1][:2] == best[:2]:
+            continue
+        out.append(best)
+    text = []
+    for s1, s2, bp in out[:limit]:
         parts = [f"H1 <= {2 * s1} poles"]
         if has_h2:
             parts.append(f"H2 <= {2 * s2} poles")
         if has_pwl:
             parts.append(f"{bp} breakpoints")
-        out.append(", ".join(parts))
-    return out
+        text.append(", ".join(parts))
+    return text
 
 
 def check_size(blob: ModelBlob, structure: EstimatorStructure) -> None:

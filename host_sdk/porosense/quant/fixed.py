@@ -2,7 +2,7 @@
 
 Every rounding, shift and saturation is the firmware's: ``round(v / 2^s)`` is
 ``(v + 2^(s-1)) >> s`` (ties up), products are exact integers, states saturate at
-+-2^29 (Q14 of an int16). ``run`` processes one block at a time over the whole record
++-2^28 (Q13 of an int16). ``run`` processes one block at a time over the whole record
 (numerators vectorised with numpy, the recursions in a tight integer loop), ``step`` one
 sample; both carry the same state, so any mix of calls gives the firmware's sequence.
 """
@@ -41,7 +41,7 @@ def _sat16(v: np.ndarray, sat: np.ndarray) -> np.ndarray:
 
 def _section(s: SectionQ, x: np.ndarray, xh: tuple[int, int], yh: list[int], sat: np.ndarray) -> np.ndarray:
     """Run one section over the int64 input ``x`` with input history ``xh`` = (x[-1], x[-2])
-    and state ``yh`` = [y[-1], y[-2]] (updated in place). Returns the Q14 states y (int64)."""
+    and state ``yh`` = [y[-1], y[-2]] (updated in place). Returns the Q13 states y (int64)."""
     ext = np.concatenate([[xh[1], xh[0]], x]).astype(np.int64)
     x0, x1, x2 = ext[2:], ext[1:-1], ext[:-2]
     b0, b1, b2 = s.b

@@ -91,14 +91,16 @@ def _as_recording(r, structure: EstimatorStructure, i: int):
             y = np.asarray(y, dtype=float)
             y = [y] if y.ndim == 1 else [y[:, j] for j in range(y.shape[1])]
         return str(name), u, y
-    names = getattr(r, "names", None) or list(getattr(r, "columns", r).keys())
+    cols = getattr(r, "columns", None)
+    cols = cols if isinstance(cols, dict) else r
+    names = list(cols.keys())
     missing = [n for n in structure.inputs if n not in names]
     if missing:
         raise InputError(f"recording {i} lacks the model's input column(s) {', '.join(missing)}")
-    u = np.column_stack([np.asarray(r[n], dtype=float) for n in structure.inputs])
-    y = [np.asarray(r[o.name], dtype=float) if o.name in names else None for o in structure.outputs]
+    u = np.column_stack([np.asarray(cols[n], dtype=float) for n in structure.inputs])
+    y = [np.asarray(cols[o.name], dtype=float) if o.name in names else None for o in structure.outputs]
     meta = getattr(r, "meta", {}) or {}
-    name = str(meta.get("name") or meta.get("experiment") or f"recording {i}")
+    name = str(meta.get("name") or meta.get("experiment") or getattr(r, "path", None) or f"recording {i}")
     return name, u, y
 
 

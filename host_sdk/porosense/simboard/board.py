@@ -71,14 +71,16 @@ class SimBoard:
     board "keeps its model"; None uses a temporary image. ``absent``: sensors that never
     acknowledge ("ads", "bno"). ``period_ms``: plant step in AVR time. ``max_speed``: cap on
     the speed relative to real time (None: as fast as possible). ``truth_every_ms``: spacing
-    of the ground-truth log in AVR time.
+    of the ground-truth log in AVR time. ``reset_on_connect``: reset the AVR whenever a
+    client opens the serial URL, as the Uno's DTR line does on a real port.
     """
 
     def __init__(self, elf: Path | str = DEFAULT_ELF, actuator: str = "contractor", porosity=None,
                  seed: int = 0, eeprom: Path | str | None = None, *, load_g: float = 0.0,
                  effects=None, plant=None, absent=(), period_ms: float = 1.0,
                  max_speed: float | None = None, bno_boot_ms: float = 0.0,
-                 truth_every_ms: float = 10.0, port: int = 0, harness: Path | str | None = None):
+                 truth_every_ms: float = 10.0, port: int = 0, reset_on_connect: bool = False,
+                 harness: Path | str | None = None):
         self.elf = Path(elf)
         self.harness = Path(harness) if harness else harness_path()
         if not self.harness.is_file():
@@ -87,20 +89,20 @@ class SimBoard:
         if not self.elf.is_file():
             raise DeviceError(f"firmware ELF not found at {self.elf}: build it with `make -C firmware`")
         self._tmpdir = None
-        if eeprom is None:
-            self._tmpdir = tempfile.mkdtemp(prefix="simboard-")
-            eeprom = Path(self._tmpdir) / "eeprom.bin"
-        self.eeprom_path = Path(eeprom)
+        self.eeprom_path = Path(eeprom) if eeprom is not None else None  # None: a temporary image
+        if self.eeprom_path is not None and not self.eeprom_path.parent.is_dir():
+            raise DeviceError(f"EEPROM image folder {self.eeprom_path.parent} does not exist")
         self.plant = plant if plant is not None else default_plant(
             actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects)
         self.actuator = actuator
         self.period_ms = float(period_ms)
         self._absent_mask = _absent_mask(absent)
         self._args = [str(self.harness), "--elf", str(self.elf), "--cosim", "--port", str(port),
-                      "--period-us", f"{self.period_ms * 1000.0:g}", "--eeprom", str(self.eeprom_path),
-                      "--bno-boot-ms", f"{bno_boot_ms:g}"]
+                      "--period-us", f"{self.period_ms * 1000.0:g}", "--bno-boot-ms", f"{bno_boot_ms:g}"]
         if max_speed:
             self._args += ["--max-speed", f"{max_speed:g}"]
+        if reset_on_connect:
+            self._args.append("--reset-on-connect")
         if self._absent_mask:
             self._args += ["--absent", ",".join(n for n, b in (("ads", 1), ("bno", 2)) if self._absent_mask & b)]
         self._truth_every = max(1, round(truth_every_ms / self.period_ms))
@@ -110,7 +112,6 @@ class SimBoard:
         self._commands = collections.deque()
         self._scheduled = []            # (time_s, cmd, arg8, arg16), time-ordered
         self._tick = None
-        self._events_seen = 0
         self._saves = 0
         self._error = None
         self._closed = False
@@ -128,14 +129,19 @@ class SimBoard:
 
     def start(self) -> SimBoard:
         """Starts the harness and the plant loop; returns once the UART port is listening."""
+        if self.eeprom_path is None:
+            self._tmpdir = tempfile.mkdtemp(prefix="simboard-")
+            self.eeprom_path = Path(self._tmpdir) / "eeprom.bin"
         self._stderr = tempfile.TemporaryFile()
-        self._proc = subprocess.Popen(self._args, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                      stderr=self._stderr)
+        self._proc = subprocess.Popen(self._args + ["--eeprom", str(self.eeprom_path)], stdin=subprocess.PIPE,
+                                      stdout=subprocess.PIPE, stderr=self._stderr)
         ready, _, _ = select.select([self._proc.stdout], [], [], _START_TIMEOUT_S)
         line = self._proc.stdout.readline() if ready else b""
         if not line.startswith(b"SIMBOARD 1 PORT "):
             self._proc.kill()
             self._proc.wait()
+            if self._tmpdir:
+                shutil.rmtree(self._tmpdir, ignore_errors=True)
             raise DeviceError(f"simboard harness did not start: {self._stderr_text() or 'no output'}")
         self.port = int(line.split()[3])
         self._wall_start = time.monotonic()
@@ -185,15 +191,15 @@ class SimBoard:
                     euler[:] = np.asarray(reading.euler_deg, float)[:3]
                     if tick.seq % self._truth_every == 0:
                         self.truth.append(_truth_row(pins, ain, euler, reading.truth))
-                cmd = self._next_command(tick.time_s)
-                wr.write(link.pack_reply(ain, euler, *cmd))
-                wr.flush()
+                # published before the reply: the harness forwards UART bytes only after it
                 with self._cond:
                     self._tick = tick
-                    self._events_seen |= tick.events
                     self._saves += bool(tick.events & link.EV_EEPROM_SAVED)
                     self.halted = bool(tick.events & link.EV_HALTED)
                     self._cond.notify_all()
+                cmd = self._next_command(tick.time_s)
+                wr.write(link.pack_reply(ain, euler, *cmd))
+                wr.flush()
                 if cmd[0] == link.CMD_QUIT:
                     break
         except (BrokenPipeError, ValueError, OSError) as e:
@@ -348,6 +354,40 @@ class SimBoard:
         wall = time.monotonic() - self._wall_start
         return {"sim_time_s": t.time_s, "cycles": t.cycles, "wall_s": wall,
                 "speed_ratio": t.time_s / wall if wall > 0 else 0.0, **self.counters}
+
+
+@dataclass(frozen=True)
+class SpeedReport:
+    """AVR time simulated against wall time for one firmware and plant."""
+
+    elf: str
+    sim_time_s: float
+    wall_s: float
+    cycles: int
+
+    @property
+    def ratio(self) -> float:
+        """Seconds of AVR time per second of wall time (> 1: faster than real time)."""
+        return self.sim_time_s / self.wall_s if self.wall_s > 0 else 0.0
+
+    def to_dict(self) -> dict:
+        return {**asdict(self), "ratio": self.ratio}
+
+    def __str__(self) -> str:
+        return (f"simboard: {self.sim_time_s:.2f} s of AVR time ({self.cycles} cycles) in "
+                f"{self.wall_s:.2f} s wall: {self.ratio:.2f} x real time")
+
+
+def measure_speed(elf: Path | str = DEFAULT_ELF, seconds: float = 2.0, **board_args) -> SpeedReport:
+    """Runs ``elf`` on a SimBoard for ``seconds`` of AVR time (plant in lock-step, no host
+    traffic) and reports the speed relative to real time."""
+    with SimBoard(elf, **board_args) as board:
+        start_s = board.sim_time_s
+        wall0 = time.monotonic()
+        end_s = board.run_for(seconds, timeout=max(60.0, seconds * 20))
+        wall = time.monotonic() - wall0
+        cycles = board.cycles
+    return SpeedReport(str(elf), end_s - start_s, wall, cycles)
 
 
 def _absent_mask(absent) -> int:

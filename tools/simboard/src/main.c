@@ -41,6 +41,7 @@ typedef struct options_t {
 	double bno_boot_ms;
 	unsigned baud;
 	int absent_mask;
+	int reset_on_connect;
 	plant_inputs_t inputs;
 } options_t;
 
@@ -264,7 +265,8 @@ static void usage(FILE *f)
 		"  --absent LIST     sensors that never acknowledge: ads,bno\n"
 		"  --bno-boot-ms MS  BNO055 start-up time after power-on (default 0: the Uno's\n"
 		"                    bootloader delay covers it on a real board; 650 after RST_SYS)\n"
-		"  --baud B          UART line rate used to pace input (default 115200)\n");
+		"  --baud B          UART line rate used to pace input (default 115200)\n"
+		"  --reset-on-connect  reset the AVR when a client connects, as the Uno's DTR does\n");
 }
 
 static void parse_floats(const char *s, float *dst, int n)
@@ -285,7 +287,8 @@ static int parse_options(int argc, char **argv)
 		{"euler", required_argument, 0, 'u'}, {"seconds", required_argument, 0, 's'},
 		{"max-speed", required_argument, 0, 'm'}, {"absent", required_argument, 0, 'a'},
 		{"bno-boot-ms", required_argument, 0, 'b'}, {"baud", required_argument, 0, 'B'},
-		{"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
+		{"reset-on-connect", no_argument, 0, 'R'}, {"help", no_argument, 0, 'h'},
+		{0, 0, 0, 0}};
 	opt.period_us = 1000.0;
 	opt.baud = 115200;
 	int c;
@@ -306,6 +309,7 @@ static int parse_options(int argc, char **argv)
 			break;
 		case 'b': opt.bno_boot_ms = atof(optarg); break;
 		case 'B': opt.baud = (unsigned)atoi(optarg); break;
+		case 'R': opt.reset_on_connect = 1; break;
 		case 'h': usage(stdout); exit(0);
 		default: usage(stderr); return -1;
 		}
@@ -424,9 +428,13 @@ int main(int argc, char **argv)
 		if (now >= next_tick) {
 			next_tick += period;
 			arm_tick_timer(next_tick);
-			uart_bridge_poll(&uart, now);
+			/* the plant side sees the board state before the host sees the bytes sent
+			 * up to now: counters read after a reply already include what caused it */
 			if (opt.cosim && cosim_tick(seq++, halted))
 				break;
+			uart_bridge_poll(&uart, now);
+			if (opt.reset_on_connect && uart.connected_since_poll)
+				reset_pending = 1;
 			if (now >= stop_at)
 				break;
 			if (opt.max_speed > 0) {

@@ -112,6 +112,7 @@ static void accept_client(uart_bridge_t *u)
 	setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
 	u->client_fd = fd;
 	u->connections++;
+	u->connected_since_poll = 1;
 }
 
 static void receive_from_host(uart_bridge_t *u)
@@ -152,6 +153,7 @@ static void send_to_host(uart_bridge_t *u)
 
 void uart_bridge_poll(uart_bridge_t *u, uint64_t now)
 {
+	u->connected_since_poll = 0;
 	accept_client(u);
 	receive_from_host(u);
 	if (now > u->last_feed_cycle)

@@ -23,6 +23,7 @@ typedef struct uart_bridge_t {
 	double cycles_per_byte;
 	uint64_t last_feed_cycle;
 	uint64_t rx_bytes, tx_bytes, dropped_bytes, connections;
+	int connected_since_poll; /* a client connected during the last poll */
 } uart_bridge_t;
 
 /* Listens on 127.0.0.1:port (0: the OS picks); returns 0 or -1 with errno set. */

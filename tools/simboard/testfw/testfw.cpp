@@ -3,7 +3,7 @@
 //   e<text>        echo                         -> e<text>
 //   a<cfg>         ADS1115 single shot (cfg hex) -> a <code> <us> <polls> <first_os>
 //   c<cfg>         write ADS1115 config only     -> c <status>
-//   r<ptr>         read an ADS1115 register      -> r <value hex> | r ERR <status>
+//   r<ptr>         read an ADS1115 register      -> r <value hex> <micros> | r ERR <status>
 //   b              BNO055 ids and pages          -> b <chip> <page> <p1 reg7> <p1 reg8> <page>
 //   m<mode>        BNO055 OPR_MODE switch, timed -> m <us> <polls> | m ERR <status>
 //   u              BNO055 Euler and status       -> u <heading> <roll> <pitch> <calib> <sys>
@@ -202,7 +202,9 @@ static void handle(char* s)
 			Serial.print(F("ERR "));
 			Serial.println(st);
 		} else {
-			Serial.println(be16(b), HEX);
+			Serial.print(be16(b), HEX);
+			Serial.print(' ');
+			Serial.println(micros());
 		}
 		break;
 	}

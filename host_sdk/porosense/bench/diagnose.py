@@ -1,0 +1,33 @@
+"""Diagnosis benchmark: hidden-effect trials, top-1 rate per cause and the false-alarm rate.
+
+small: 3 trials per cause (CI); full: 20 trials per cause (the issue's figure). The seeds are
+those of tests/diagnose/test_diagnose_hidden.py (1000, 1001, ...).
+"""
+
+from __future__ import annotations
+
+import time
+
+from porosense.diagnose import trials
+from porosense.diagnose.catalogue import NONE
+
+
+def run(size: str) -> dict:
+    n = 3 if size == "small" else 20
+    t0 = time.perf_counter()
+    res = trials.run_trials(n, seed=1000)
+    causes = [c for c in res if c != NONE]
+    out = {
+        "trials_per_cause": n,
+        "top1_rate": {c: res[c]["top1_rate"] for c in causes},
+        "positive_gain_rate": {c: res[c]["positive_gain_rate"] for c in causes},
+        "mean_gain_points": {c: round(res[c]["mean_gain"], 2) for c in causes},
+        "false_alarm_rate": 1.0 - res[NONE]["top1_rate"],
+        "seconds_per_trial": round((time.perf_counter() - t0) / (n * len(res)), 3),
+    }
+    out["summary"] = [
+        f"{c:<21} top-1 {100 * out['top1_rate'][c]:5.1f} %  positive gain {100 * out['positive_gain_rate'][c]:5.1f} %"
+        f"  mean gain {out['mean_gain_points'][c]:+.2f} fit points" for c in causes
+    ] + [f"clean data: top is not none in {100 * out['false_alarm_rate']:.1f} % of {n} trials",
+         f"{out['seconds_per_trial']} s per trial ({n} trials per cause)"]
+    return out

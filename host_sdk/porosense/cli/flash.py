@@ -1,0 +1,42 @@
+"""``porosense flash``: write a model blob to the device and read back its MODEL_INFO."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from porosense.errors import InputError
+
+
+def register(sub) -> argparse.ArgumentParser:
+    p = sub.add_parser(
+        "flash",
+        help="write a quantized model blob to the device's EEPROM",
+        description=(
+            "Send a model blob (porosense quantize) with MODEL_BEGIN, MODEL_CHUNK (112 bytes each) "
+            "and MODEL_COMMIT, then read MODEL_INFO back and check length and CRC. A reset during "
+            "the write leaves no model on the device, never a broken one: flash again."
+        ),
+        epilog="example: porosense flash --port socket://127.0.0.1:5555 model.bin",
+    )
+    p.add_argument("--port", required=True, metavar="URL", help="serial port or pyserial URL")
+    p.add_argument("blob", metavar="MODEL.bin", help="model blob")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args) -> int:
+    from porosense.device import Device
+    from porosense.quant import ModelBlob
+
+    path = Path(args.blob)
+    if not path.is_file():
+        raise InputError(f"model blob {path} not found")
+    data = path.read_bytes()
+    blob = ModelBlob.from_bytes(data)  # refuse a bad file before touching the device
+    with Device.open(args.port) as dev:
+        info = dev.write_model(data)
+    print(f"flashed {len(data)} bytes to {args.port}: model 0x{info.model_id:08X}, CRC 0x{info.crc:04X}, "
+          f"{blob.n_inputs} inputs, {blob.n_outputs} outputs, out_scale "
+          + ", ".join(f"{s:.6g}" for s in info.out_scale[: blob.n_outputs]))
+    return 0

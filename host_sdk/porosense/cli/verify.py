@@ -1,0 +1,74 @@
+"""``porosense verify``: replay a recording through the device and compare with the reference."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from porosense.errors import DeviceError, InputError
+
+
+def register(sub) -> argparse.ArgumentParser:
+    p = sub.add_parser(
+        "verify",
+        help="replay a recording through the device's estimator and compare bit for bit",
+        description=(
+            "Replay the dR columns (%, sent as 0.01 % steps) of a recording through the device's "
+            "estimator (REPLAY, 16 samples per frame) and compare its int16 estimates with the "
+            "Python bit-exact reference of the same blob. The device must hold this blob (porosense "
+            "flash). Exits 0 only when every sample of every output is identical."
+        ),
+        epilog="example: porosense verify --port socket://127.0.0.1:5555 model.bin --data step_20.csv",
+    )
+    p.add_argument("--port", required=True, metavar="URL", help="serial port or pyserial URL")
+    p.add_argument("blob", metavar="MODEL.bin", help="model blob flashed on the device")
+    p.add_argument("--data", required=True, metavar="FILE", help="CSV recording with dR_0..dR_2 columns (%%)")
+    p.add_argument("--inputs", nargs="*", metavar="COL", help="input columns (default dR_0 .. dR_{n-1})")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args) -> int:
+    import numpy as np
+
+    from porosense.data import read_table
+    from porosense.device import Device
+    from porosense.quant import FixedPointEstimator, ModelBlob
+
+    path = Path(args.blob)
+    if not path.is_file():
+        raise InputError(f"model blob {path} not found")
+    data = path.read_bytes()
+    blob = ModelBlob.from_bytes(data)
+    table = read_table(args.data)
+    cols = args.inputs or [f"dR_{i}" for i in range(blob.n_inputs)]
+    missing = [c for c in cols if c not in table.columns]
+    if missing:
+        raise InputError(f"{args.data}: no column(s) {', '.join(missing)}")
+    dr = np.zeros((len(table.columns[cols[0]]), 3))
+    for i, c in enumerate(cols):
+        dr[:, i] = table.columns[c]
+    if not np.all(np.isfinite(dr)):
+        raise InputError(f"{args.data}: empty or non-finite cells in {', '.join(cols)}")
+    counts = np.clip(np.round(dr * 100.0), -32768, 32767).astype(np.int64)
+    ref, _ = FixedPointEstimator(blob).run(counts)
+    with Device.open(args.port) as dev:
+        info = dev.model_info()
+        if not info.valid or info.crc != blob.crc:
+            raise DeviceError(f"the device holds model CRC 0x{info.crc:04X} ({info.status}), not this blob's "
+                              f"0x{blob.crc:04X}: run porosense flash first")
+        got = dev.replay(counts)
+    n_out = blob.n_outputs
+    diff = np.asarray(got[:, :n_out], dtype=np.int64) != ref[:, :n_out].astype(np.int64)
+    mismatches = int(np.count_nonzero(diff))
+    first = int(np.argmax(np.any(diff, axis=1))) if mismatches else None
+    result = {"samples": len(counts), "outputs": n_out, "mismatched_values": mismatches,
+              "first_mismatch_sample": first, "identical": mismatches == 0}
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        verdict = "identical" if mismatches == 0 else f"{mismatches} values differ (first at sample {first})"
+        print(f"replayed {len(counts)} samples x {n_out} outputs through {args.port}: {verdict}")
+    return 0 if mismatches == 0 else 1

@@ -1,0 +1,135 @@
+"""The real firmware in the simboard (simavr): outputs off at boot, the host-link watchdog
+cutting the outputs on the pins, a lost sensor flagged without stalling the sample clock,
+RESET through the AVR watchdog, stack headroom while estimating at 100 Hz."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from porosense.bench import firmware as fw
+
+pytestmark = [pytest.mark.simboard, pytest.mark.xdist_group("firmware-build")]
+
+ROOT = Path(__file__).resolve().parents[2]
+WATCHDOG_TRIPPED = 1 << 6
+ADC_FAULT = 1 << 0
+ESTIMATOR_OFF = 1 << 3
+SENSOR_FAULT = 9
+BAD_STATE = 8
+
+
+@pytest.fixture(scope="module")
+def elf() -> Path:
+    why = fw.toolchain_missing()
+    if why:
+        pytest.skip(why)
+    if not Path("/usr/include/simavr/sim_avr.h").is_file():
+        pytest.skip("libsimavr-dev not installed")
+    try:
+        from porosense.simboard import SimBoard  # noqa: F401
+    except ImportError as exc:
+        pytest.skip(f"porosense.simboard not available: {exc}")
+    proc = fw.build()
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    harness = ROOT / "tools" / "simboard"
+    if shutil.which("make"):
+        r = subprocess.run(["make", "-s", "-C", str(harness)], capture_output=True, text=True)
+        assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    return fw.ELF
+
+
+def _open(elf):
+    from porosense.device import Device
+    from porosense.simboard import SimBoard
+
+    board = SimBoard(elf).start()
+    try:
+        dev = Device.open(board.url)
+    except Exception:
+        board.close()
+        raise
+    return board, dev
+
+
+def test_outputs_off_at_boot_and_link_watchdog_cuts_them(elf) -> None:
+    board, dev = _open(elf)
+    try:
+        p = board.pins
+        assert not any(p.pumps) and not any(p.valves) and p.regulator_duty == (0, 0, 0)
+        dev.set_watchdog(200)
+        dev.set_outputs(-20.0, pumps=0b111, valves=0b101)
+        t_cmd = board.sim_time_s
+        board.run_for(0.02)
+        p = board.pins
+        assert p.pumps == (True, True, True) and p.valves == (True, False, True)
+        assert all(abs(d - 64) <= 1 for d in p.regulator_duty)  # 20/80 of 255
+        # No frame from the host: the outputs must drop 200 ms after the last one.
+        tick = board.wait_for(lambda t: not (t.pins >> 2 & 1), timeout=30)
+        silent_s = tick.time_s - t_cmd
+        p = board.pins
+        assert not any(p.pumps) and not any(p.valves) and p.regulator_duty == (0, 0, 0)
+        st = dev.status()
+        print(f"outputs cut after {silent_s * 1000:.1f} ms of silence (timeout 200 ms)")
+        assert 0.195 <= silent_s <= 0.23
+        assert st.watchdog_trips == 1 and st.flags & WATCHDOG_TRIPPED
+        assert any(e.code == BAD_STATE and e.detail == WATCHDOG_TRIPPED for e in dev.errors)
+        dev.set_outputs(0.0)  # clears the flag
+        assert not dev.status().flags & WATCHDOG_TRIPPED
+    finally:
+        dev.close()
+        board.close()
+
+
+def test_lost_adc_is_flagged_without_stalling_the_clock(elf) -> None:
+    board, dev = _open(elf)
+    try:
+        dev.start_stream(100, 0x1F)
+        before = list(dev.samples(30, timeout_s=15))
+        board.set_absent(ads=True)
+        during = list(dev.samples(60, timeout_s=15))
+        board.set_absent(ads=False)
+        after = list(dev.samples(60, timeout_s=15))
+        dev.stop_stream()
+        st = dev.status()
+        t = np.array([s.t_us for s in before + during + after], dtype=np.int64)
+        period = np.diff(t)
+        print(f"periods {period.min()}..{period.max()} us, overruns {st.overruns}, "
+              f"sensor faults {st.sensor_faults}")
+        assert not any(s.status & ADC_FAULT for s in before)
+        assert sum(bool(s.status & ADC_FAULT) for s in during) >= 50
+        assert not any(s.status & ADC_FAULT for s in after[-20:])  # back once reconnected
+        assert np.all(np.abs(period - 10_000) <= 8)  # never stalled or skipped
+        assert st.overruns == 0
+        assert any(e.code == SENSOR_FAULT and e.detail & ADC_FAULT for e in dev.errors)
+    finally:
+        dev.close()
+        board.close()
+
+
+def test_reset_command_and_stack_headroom_while_estimating(elf) -> None:
+    board, dev = _open(elf)
+    try:
+        resets = board.counters["resets"]
+        dev.write_model(fw.heavy_model_blob())
+        dev.start_stream(100, 0x1F)
+        samples = list(dev.samples(200, timeout_s=15))
+        dev.stop_stream()
+        assert not any(s.status & ESTIMATOR_OFF for s in samples)
+        st = dev.status()
+        print(f"free stack after 2 s at 100 Hz with a 917-byte model: {st.free_ram} B")
+        assert st.overruns == 0
+        assert st.free_ram >= 200
+        dev.reset()
+        assert board.counters["resets"] == resets + 1
+        st = dev.status()
+        assert st.reset_cause & 0x08  # WDRF: the AVR watchdog did it
+        assert st.uptime_ms < 2000
+        assert dev.model_info().status == 1  # the model survived the reset
+    finally:
+        dev.close()
+        board.close()

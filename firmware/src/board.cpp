@@ -12,12 +12,12 @@ Board::Board() : adc_(pins::kAds1115Addr), imu_(pins::kBno055Addr) {}
 
 void Board::outputs_safe() {
   for (uint8_t i = 0; i < 3; ++i) {
-    digitalWrite(pins::kPump[i], LOW);
-    pinMode(pins::kPump[i], OUTPUT);
-    digitalWrite(pins::kValve[i], LOW);  // vented
-    pinMode(pins::kValve[i], OUTPUT);
-    digitalWrite(pins::kRegulator[i], LOW);
-    pinMode(pins::kRegulator[i], OUTPUT);
+    digitalWrite(pins::pump(i), LOW);
+    pinMode(pins::pump(i), OUTPUT);
+    digitalWrite(pins::valve(i), LOW);  // vented
+    pinMode(pins::valve(i), OUTPUT);
+    digitalWrite(pins::regulator(i), LOW);
+    pinMode(pins::regulator(i), OUTPUT);
   }
 }
 
@@ -37,9 +37,9 @@ void Board::apply_outputs(const dev::Outputs& out) {
     int32_t sp = -(int32_t)out.setpoint_dkpa[i];
     if (sp < 0) sp = 0;
     if (sp > 800) sp = 800;
-    analogWrite(pins::kRegulator[i], (int)((sp * 255 + 400) / 800));
-    digitalWrite(pins::kPump[i], (out.pump_mask >> i) & 1 ? HIGH : LOW);
-    digitalWrite(pins::kValve[i], (out.valve_mask >> i) & 1 ? HIGH : LOW);
+    analogWrite(pins::regulator(i), (int)((sp * 255 + 400) / 800));
+    digitalWrite(pins::pump(i), (out.pump_mask >> i) & 1 ? HIGH : LOW);
+    digitalWrite(pins::valve(i), (out.valve_mask >> i) & 1 ? HIGH : LOW);
   }
 }
 

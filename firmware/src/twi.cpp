@@ -7,7 +7,7 @@ namespace twi {
 
 namespace {
 
-uint32_t g_scl_hz = 400000;
+uint8_t g_twbr = 12;  // 400 kHz
 uint16_t g_timeouts = 0;
 volatile uint8_t g_done = 0;
 
@@ -51,7 +51,9 @@ void recover_bus() {
   delayMicroseconds(5);
   pinMode(SDA, INPUT_PULLUP);
   pinMode(SCL, INPUT_PULLUP);
-  begin(g_scl_hz);
+  TWSR = 0;
+  TWBR = g_twbr;
+  TWCR = _BV(TWEN);
 }
 
 void stop() {
@@ -88,11 +90,11 @@ bool receive(uint8_t* b, bool ack) {
 }  // namespace
 
 void begin(uint32_t scl_hz) {
-  g_scl_hz = scl_hz;
+  g_twbr = (uint8_t)(((F_CPU / scl_hz) - 16) / 2);
   pinMode(SDA, INPUT_PULLUP);
   pinMode(SCL, INPUT_PULLUP);
   TWSR = 0;  // prescaler 1
-  TWBR = (uint8_t)(((F_CPU / scl_hz) - 16) / 2);
+  TWBR = g_twbr;
   TWCR = _BV(TWEN);
 }
 

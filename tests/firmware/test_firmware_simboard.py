@@ -69,7 +69,13 @@ def test_outputs_off_at_boot_and_link_watchdog_cuts_them(elf) -> None:
         assert p.pumps == (True, True, True) and p.valves == (True, False, True)
         assert all(abs(d - 64) <= 1 for d in p.regulator_duty)  # 20/80 of 255
         # No frame from the host: the outputs must drop 200 ms after the last one.
-        tick = board.wait_for(lambda t: not (t.pins >> 2 & 1), timeout=30)
+        from porosense.simboard.board import PinState
+
+        def all_off(t) -> bool:
+            q = PinState.from_tick(t)
+            return not any(q.pumps) and not any(q.valves) and q.regulator_duty == (0, 0, 0)
+
+        tick = board.wait_for(all_off, timeout=30)
         silent_s = tick.time_s - t_cmd
         p = board.pins
         assert not any(p.pumps) and not any(p.valves) and p.regulator_duty == (0, 0, 0)
@@ -129,7 +135,7 @@ def test_reset_command_and_stack_headroom_while_estimating(elf) -> None:
         st = dev.status()
         assert st.reset_cause & 0x08  # WDRF: the AVR watchdog did it
         assert st.uptime_ms < 2000
-        assert dev.model_info().status == 1  # the model survived the reset
+        assert dev.model_info().status == "valid"  # the model survived the reset
     finally:
         dev.close()
         board.close()

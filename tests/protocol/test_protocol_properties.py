@@ -157,9 +157,8 @@ def test_garbage_of_any_length_never_stops_the_next_frame_many(case):
 
 def test_header_is_covered_by_the_crc():
     """A frame whose header was altered but whose CRC was not recomputed is rejected."""
-    body = bytearray(HEADER_LEN) + bytearray(CRC_LEN)
-    assert len(body) == 6
     good = encode_frame(0x13, 9)  # STOP_STREAM, empty payload
+    assert len(_body_of(good)) == HEADER_LEN + CRC_LEN
     for i in range(HEADER_LEN):
         raw = bytearray(_body_of(good))
         raw[i] ^= 0x01

@@ -135,6 +135,10 @@ def test_missing_files_raise_device_error(testfw, tmp_path):
         SimBoard(tmp_path / "absent.elf", plant=BringupPlant())
     with pytest.raises(DeviceError, match="harness not found"):
         SimBoard(testfw, plant=BringupPlant(), harness=tmp_path / "simboard")
+    not_elf = tmp_path / "not.elf"
+    not_elf.write_text("not an ELF")
+    with pytest.raises(DeviceError, match="did not start.*not a loadable AVR ELF"):
+        SimBoard(not_elf, plant=BringupPlant()).start()
 
 
 def test_reset_on_connect_shows_the_boot_banner(testfw):
@@ -151,3 +155,15 @@ def test_measure_speed_reports_avr_time(testfw):
     report = measure_speed(testfw, seconds=0.5, plant=BringupPlant())
     assert 0.5 <= report.sim_time_s <= 0.5 + 0.0011       # one plant period of overshoot
     assert report.cycles >= 0.5 * 16e6 and report.to_dict()["ratio"] > 0
+
+
+def test_power_cycle_resets_the_sensors_too(board, console_for):
+    con = console_for(board)
+    assert con.ask("c" + "c583") == "c 0"                    # ADS1115: MUX AIN0, single shot
+    assert con.ask("m0c").startswith("m ")                   # BNO055 into NDOF
+    board.power_cycle()
+    board.run_for(0.7)                                       # the BNO055 boots for 650 ms
+    con.sync()
+    assert con.ask("r1").split()[1] == "8583"                # ADS1115 power-on config
+    assert con.ask("u") == "u 0 0 0 0 0"                     # BNO055 back in CONFIGMODE
+    assert board.counters["resets"] == 1

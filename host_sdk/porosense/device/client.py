@@ -229,7 +229,6 @@ class Device:
             self.stop_stream()
         mask = _channel_mask(channels)
         self._samples.clear()
-        self._next_tseq = 0  # the device restarts the telemetry sequence at each START_STREAM
         self._exchange(m.StartStream(rate_hz=int(rate_hz), channel_mask=mask))
         self._rate_hz = int(rate_hz)
         self._streaming = True
@@ -384,6 +383,7 @@ class Device:
     def reset(self, wait_s: float = 3.0) -> HelloInfo:
         """Reset the board, wait for it to boot and handshake again."""
         self._exchange(m.Reset())
+        self._next_tseq = None  # the telemetry sequence restarts with the firmware
         self._streaming = False
         self._outputs_active = False
         self._samples.clear()
@@ -494,6 +494,7 @@ class Device:
             if frame.type == MsgType.SAMPLE:
                 self._on_sample(frame)
             elif frame.type == MsgType.ERROR:
+                self._telemetry_seq(frame.seq)  # ERROR shares the telemetry sequence
                 try:
                     self.errors.append(frame.message())
                     self.stats.errors_received += 1
@@ -503,14 +504,18 @@ class Device:
                 others.append(frame)
         return others
 
+    def _telemetry_seq(self, seq: int) -> None:
+        """Count the telemetry frames (SAMPLE and ERROR) missing before ``seq``."""
+        if self._next_tseq is not None:
+            self.stats.samples_lost += (seq - self._next_tseq) & 0xFF
+        self._next_tseq = (seq + 1) & 0xFF
+
     def _on_sample(self, frame) -> None:
         try:
             t_us, mask, status, *vals = _SAMPLE.unpack(frame.payload)
         except struct.error:
             return
-        if self._next_tseq is not None:
-            self.stats.samples_lost += (frame.seq - self._next_tseq) & 0xFF
-        self._next_tseq = (frame.seq + 1) & 0xFF
+        self._telemetry_seq(frame.seq)
         if self._t_last_raw is not None and t_us < self._t_last_raw and self._t_last_raw - t_us > 1 << 31:
             self._t_wraps += 1
         self._t_last_raw = t_us

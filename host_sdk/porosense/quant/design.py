@@ -185,13 +185,18 @@ def quantize_pwl(f: PiecewiseLinear, s_x: float, s_y: float, notes: list[str], n
     """A float table with input scale s_x and output scale s_y -> PwlQ."""
     xq = np.clip(np.round(f.x / s_x), -32768, 32767).astype(int)
     keep = np.concatenate([[True], np.diff(xq) > 0])
+    # Breakpoints whose value does not fit an int16 lie outside the data range: leave them
+    # out, so such inputs extrapolate from the last representable point and saturate (flagged).
+    fits = np.abs(f(xq * s_x) / s_y) <= 32767
+    if np.count_nonzero(keep & fits) >= 2:
+        keep &= fits
     xq = xq[keep]
     if len(xq) < 2:
         lo = int(np.clip(xq[0], -32768, 32766))
         xq = np.array([lo, lo + 1])
     slopes_real = f.slopes
     yq, slope, shift = [], [], []
-    for k, xi in enumerate(xq):
+    for xi in xq:
         yq.append(int(np.clip(round(float(f(xi * s_x)) / s_y), -32768, 32767)))
     for k in range(len(xq) - 1):
         mid = 0.5 * (xq[k] + xq[k + 1]) * s_x

@@ -142,7 +142,9 @@ class SimBoard:
             self._proc.wait()
             if self._tmpdir:
                 shutil.rmtree(self._tmpdir, ignore_errors=True)
-            raise DeviceError(f"simboard harness did not start: {self._stderr_text() or 'no output'}")
+            text = self._stderr_text()
+            ours = [ln for ln in text.splitlines() if ln.startswith("simboard:")]
+            raise DeviceError(f"simboard harness did not start: {' '.join(ours) or text or 'no output'}")
         self.port = int(line.split()[3])
         self._wall_start = time.monotonic()
         self._thread = threading.Thread(target=self._loop, name="simboard-plant", daemon=True)

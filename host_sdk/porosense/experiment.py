@@ -1,0 +1,129 @@
+"""Run an experiment schedule on a board and record it.
+
+The host streams SAMPLE frames and, as the device clock passes each change of the schedule,
+sends SET_OUTPUTS, so the schedule runs on device time whatever the link's speed. The result
+is a :class:`porosense.data.Recording` with the commanded pressures, the ADC counts, dR, the
+IMU angles, the on-device estimates and, when the back-end knows it, the ground truth.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from porosense.data import Recording
+from porosense.device import Device
+from porosense.errors import DeviceError
+from porosense.sim.schedules import Schedule
+
+#: Device time (s) after which a silent host pings, well inside the 1 s host-link watchdog.
+KEEPALIVE_S = 0.25
+
+#: Ground truth by device time: maps an array of device times (us) to named columns.
+TruthSource = Callable[[np.ndarray], dict]
+
+
+def run_schedule(
+    dev: Device,
+    schedule: Schedule,
+    *,
+    rate_hz: int = 50,
+    n_channels: int = 1,
+    truth: TruthSource | None = None,
+    progress: bool = False,
+    meta: dict | None = None,
+    out_scale=None,
+    output_names=None,
+) -> Recording:
+    """Run ``schedule`` on ``dev`` at ``rate_hz`` (Hz) and return the recording.
+
+    ``truth`` adds ground-truth columns; ``out_scale`` (units per LSB) and ``output_names``
+    turn the on-device estimates into ``est_<name>`` columns. Outputs are switched off at the
+    end, even when the run fails.
+    """
+    n_total = int(round(schedule.duration_s * rate_hz))
+    changes = _change_times(schedule)
+    dev.set_outputs(setpoint_kpa=[0.0, 0.0, 0.0], pumps=0, valves=0)
+    dev.start_stream(rate_hz=rate_hz)
+    bar = _bar(progress, n_total, schedule.name)
+    rows = []
+    t0 = None
+    k_change = 0
+    last_cmd_t = 0.0
+    try:
+        for s in dev.samples(n_total):
+            if t0 is None:
+                t0 = s.t_us
+            t = (s.t_us - t0) * 1e-6
+            # Apply every change that is due by this sample's device time.
+            while k_change < len(changes) and changes[k_change] <= t + 1e-9:
+                k_change += 1
+                _apply(dev, schedule, changes[k_change - 1])
+                last_cmd_t = t
+            if t - last_cmd_t >= KEEPALIVE_S:
+                dev.ping()  # keeps the host-link watchdog from cutting the outputs
+                last_cmd_t = t
+            rows.append(s)
+            if bar is not None:
+                bar.update(1)
+    finally:
+        try:
+            dev.set_outputs(setpoint_kpa=[0.0, 0.0, 0.0], pumps=0, valves=0)
+            dev.stop_stream()
+        except DeviceError:
+            pass
+        if bar is not None:
+            bar.close()
+    if not rows:
+        raise DeviceError(f"no samples recorded from {dev.url}")
+    t_us = np.array([s.t_us for s in rows], dtype=np.int64)
+    t = (t_us - t_us[0]) * 1e-6
+    cols: dict[str, np.ndarray] = {}
+    units: dict[str, str] = {}
+    setpoints = schedule.setpoints(t)
+    adc = np.array([s.adc for s in rows], dtype=float)
+    dr = np.array([s.dr_centi for s in rows], dtype=float) / 100.0
+    for c in range(n_channels):
+        cols[f"p_cmd_{c}"], units[f"p_cmd_{c}"] = setpoints[:, c], "kPa"
+        cols[f"adc_{c}"], units[f"adc_{c}"] = adc[:, c], "counts"
+        cols[f"dR_{c}"], units[f"dR_{c}"] = dr[:, c], "%"
+    euler = np.array([s.euler_16 for s in rows], dtype=float) / 16.0
+    if n_channels == 3:
+        for i, name in enumerate(("imu_heading", "imu_roll", "imu_pitch")):
+            cols[name], units[name] = euler[:, i], "deg"
+    cols["t_dev_us"], units["t_dev_us"] = t_us.astype(float), "us"
+    cols["status"], units["status"] = np.array([s.status for s in rows], dtype=float), "flags"
+    if output_names:
+        est = np.array([s.estimate for s in rows], dtype=float)
+        scale = np.asarray(out_scale if out_scale is not None else np.ones(3), dtype=float)
+        for j, name in enumerate(output_names):
+            cols[f"est_{name}"] = est[:, j] * scale[j]
+    if truth is not None:
+        for name, values in truth(t_us).items():
+            cols[name] = np.asarray(values, dtype=float)
+    lost = dev.stats.samples_lost if hasattr(dev, "stats") else 0
+    info = {"schedule": schedule.name, "rate_hz": rate_hz, "device": dev.url, "samples_lost": int(lost),
+            "schedule_data": schedule.to_dict()}
+    info.update(meta or {})
+    return Recording(t, cols, meta=info, units=units)
+
+
+def _change_times(schedule: Schedule) -> list[float]:
+    times = sorted({float(tc) for ch in schedule.changes for tc, _ in ch})
+    return times
+
+
+def _apply(dev: Device, schedule: Schedule, t: float) -> None:
+    sp, pump, valve = schedule.actuation(np.array([t]))
+    mask_p = sum(1 << c for c in range(3) if pump[0, c])
+    mask_v = sum(1 << c for c in range(3) if valve[0, c])
+    dev.set_outputs(setpoint_kpa=list(sp[0]), pumps=mask_p, valves=mask_v)
+
+
+def _bar(enabled: bool, total: int, name: str):
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=f"  {name}", unit="sample", leave=False, dynamic_ncols=True)

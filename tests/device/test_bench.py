@@ -1,0 +1,19 @@
+"""`porosense bench device`: the figures it reports (timings are printed, not asserted)."""
+
+from __future__ import annotations
+
+import pytest
+
+
+@pytest.mark.bench
+def test_bench_device_small():
+    from porosense.bench.device import run
+
+    result = run("small")
+    emu = result["emulator"]
+    assert emu["samples"] == 4000 and emu["lost"] == 0
+    assert emu["device_s"] == pytest.approx(3999 / 200, abs=1e-6)
+    assert len(result["summary"]) == 3
+    if result["simboard"] is not None:
+        assert result["simboard"]["lost"] == 0
+    print("\n".join(result["summary"]))

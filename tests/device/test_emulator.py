@@ -1,0 +1,150 @@
+"""The emulator's own features: sensor faults, power loss, real-time pacing, pty, determinism."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from models import make_blob
+from porosense.device import Device, NakError
+from porosense.emulator import Emulator, Faults
+from porosense.errors import DeviceError
+from porosense.protocol import Result, StatusFlag
+
+
+def test_adc_unplugged_while_streaming_is_flagged_and_reported_once():
+    with Emulator(seed=1) as emu, Device.open(emu.url) as dev:
+        dev.start_stream(100)
+        before = list(dev.samples(20))
+        emu.disconnect(adc=True)
+        for first in dev.samples(20000):  # samples made before the unplug may still be on their way
+            if first.status & StatusFlag.ADC_FAULT:
+                break
+        faulty = [first] + list(dev.samples(29))
+        dev.stop_stream()
+        assert not any(s.status & StatusFlag.ADC_FAULT for s in before)
+        assert all(s.status & StatusFlag.ADC_FAULT and s.adc == (0, 0, 0) for s in faulty)
+        reports = [e for e in dev.errors if e.code == Result.SENSOR_FAULT]
+        assert len(reports) == 1 and reports[0].detail == StatusFlag.ADC_FAULT
+        assert reports[0].t_us == first.t_us
+        assert dev.stats.samples_lost == 0  # the ERROR frame is part of the telemetry sequence
+        assert dev.status().sensor_faults >= len(faulty)
+        with pytest.raises(NakError) as err:
+            dev.calibrate_r0(4, 1)
+        assert err.value.code == Result.SENSOR_FAULT
+        emu.disconnect(adc=False)
+        dev.start_stream(100)
+        assert not list(dev.samples(3))[-1].status & StatusFlag.ADC_FAULT
+        dev.stop_stream()
+
+
+def test_imu_unplugged_at_boot():
+    with Emulator(actuator="3dof", faults=Faults(imu_disconnect=True)) as emu, Device.open(emu.url) as dev:
+        assert "IMU" not in dev.info.capabilities and "ADC" in dev.info.capabilities
+        assert dev.info.n_channels == 3
+        dev.start_stream(50, channels=["ADC0", "ADC1", "ADC2", "IMU"])
+        s = list(dev.samples(5))[-1]
+        dev.stop_stream()
+        assert s.status & StatusFlag.IMU_FAULT and s.euler_16 == (0, 0, 0)
+        assert all(a > 0 for a in s.adc)
+
+
+def test_power_loss_in_the_middle_of_a_model_write_leaves_no_model():
+    old, new = make_blob(1), make_blob(3, model_id=7, poles=0.8)
+    faults = Faults(reset_after_model_bytes=len(old) + 150)  # inside the second chunk of `new`
+    with Emulator(faults=faults) as emu, Device.open(emu.url) as dev:
+        assert dev.write_model(old).valid
+        with pytest.raises(DeviceError):
+            dev.write_model(new)
+        assert emu.core.stats.reboots_injected == 1
+        assert dev.model_info().status == "none"
+        assert dev.status().reset_cause == 0x01  # power-on
+        assert dev.write_model(new).valid  # the store works after the loss
+
+
+def test_power_cut_while_streaming_stops_the_stream():
+    with Emulator() as emu, Device.open(emu.url) as dev:
+        dev.set_outputs(-20, pumps=1, valves=1)
+        dev.start_stream(100)
+        list(dev.samples(10))
+        emu.reset_now()
+        in_flight = 0
+        with pytest.raises(DeviceError, match="no SAMPLE"):
+            for _ in dev.samples(100_000, timeout_s=0.3):  # what was on its way, then silence
+                in_flight += 1
+        assert in_flight < 100_000
+        info = dev.hello()
+        assert info.streaming is False and info.uptime_ms < 2000
+        assert not dev.status().has(StatusFlag.OUTPUTS_ACTIVE)
+
+
+def test_realtime_pacing():
+    with Emulator(realtime=True) as emu, Device.open(emu.url) as dev:
+        dev.start_stream(50)
+        t0 = time.monotonic()
+        samples = list(dev.samples(25))
+        wall = time.monotonic() - t0
+        dev.stop_stream()
+    assert 0.3 < wall < 2.0, wall
+    assert np.all(np.diff([s.t_us for s in samples]) == 20_000)
+
+
+def test_lockstep_runs_faster_than_real_time():
+    with Emulator() as emu, Device.open(emu.url) as dev:
+        dev.start_stream(100)
+        t0 = time.monotonic()
+        samples = list(dev.samples(1000))  # 10 s of device time
+        wall = time.monotonic() - t0
+        dev.stop_stream()
+    assert (samples[-1].t_us - samples[0].t_us) == 999 * 10_000
+    assert wall < 9.0  # at least faster than real time, on any machine
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="no pseudo-terminals")
+def test_pty_endpoint():
+    with Emulator(listen="pty") as emu:
+        assert emu.url.startswith("/dev/")
+        with Device.open(emu.url, handshake_timeout_s=1.0) as dev:
+            dev.start_stream(100)
+            assert len(list(dev.samples(50))) == 50
+            dev.stop_stream()
+            assert dev.stats.samples_lost == 0
+
+
+def test_device_clock_wrap_is_unwrapped():
+    with Emulator(clock_offset_us=2**32 - 300_000) as emu, Device.open(emu.url) as dev:
+        dev.start_stream(100)
+        samples = list(dev.samples(100))
+        dev.stop_stream()
+    raw = [s.t_us & 0xFFFFFFFF for s in samples]
+    assert min(raw) < 1_000_000 < 2**32 - 1_000_000 < max(raw)  # the wrap happened inside
+    assert np.all(np.diff([s.t_us for s in samples]) == 10_000)
+
+
+def test_vacuum_collapses_the_foam_and_venting_recovers():
+    with Emulator(actuator="3dof", seed=3) as emu, Device.open(emu.url) as dev:
+        dev.set_watchdog(10000)
+        dev.start_stream(100)
+        rest = dev.read_samples(50)
+        dev.set_outputs([-40, -40, 0], pumps=0b011, valves=0b011)
+        on = dev.read_samples(600)
+        dev.set_outputs()
+        off = dev.read_samples(1500)
+        dev.stop_stream()
+    r0 = rest.dr_centi.mean(axis=0)
+    assert np.all(np.abs(r0[:3]) < 300)  # dR about 0 at rest after the boot R0 calibration
+    assert np.all(on.dr_centi[-50:, :2].mean(axis=0) < -2000)  # channels 0, 1 under vacuum
+    assert abs(on.dr_centi[-50:, 2].mean()) < 500  # channel 2 idle
+    assert np.all(np.abs(off.dr_centi[-50:, :2].mean(axis=0)) < 1000)  # back near R0
+    assert np.all(on.status[-1:] & StatusFlag.OUTPUTS_ACTIVE)
+
+
+def test_protocol_minor_differences_are_accepted_major_refused():
+    with Emulator(proto_version=(1, 3)) as emu, Device.open(emu.url) as dev:
+        assert dev.info.proto_minor == 3
+    with Emulator(proto_version=(2, 0)) as emu:
+        with pytest.raises(DeviceError, match=r"protocol 2\.0"):
+            Device.open(emu.url)

@@ -7,10 +7,12 @@
 namespace pins {
 
 // Functions rather than arrays: an array indexed at run time would be copied to RAM.
-inline uint8_t pump(uint8_t ch) { return ch == 0 ? 2 : ch == 1 ? 4 : 7; }          // HIGH = on
-inline uint8_t valve(uint8_t ch) { return ch == 0 ? 8 : ch == 1 ? 12 : 13; }       // HIGH = vacuum
-inline uint8_t regulator(uint8_t ch) { return ch == 0 ? 5 : ch == 1 ? 6 : 9; }     // PWM duty =
-                                                          // setpoint / -80 kPa * 255
+// Pumps D2, D4, D7: HIGH = pump on.
+inline uint8_t pump(uint8_t ch) { return ch == 0 ? 2 : ch == 1 ? 4 : 7; }
+// Valves D8, D12, D13: HIGH = chamber connected to vacuum, LOW = vented.
+inline uint8_t valve(uint8_t ch) { return ch == 0 ? 8 : ch == 1 ? 12 : 13; }
+// Regulator setpoints D5, D6, D9: PWM duty = setpoint / -80 kPa * 255.
+inline uint8_t regulator(uint8_t ch) { return ch == 0 ? 5 : ch == 1 ? 6 : 9; }
 
 constexpr uint8_t kAds1115Addr = 0x48;         // ADDR pin to GND; AIN0..AIN2 single-ended
 constexpr uint8_t kBno055Addr = 0x28;          // COM3 low

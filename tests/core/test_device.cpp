@@ -56,9 +56,10 @@ struct FakeHal : dev::Hal {
     ++apply_calls;
   }
   int adc_channel = -1;  // conversion in progress
+  int adc_dead_channel = -1;  // this channel's conversion never starts
   bool adc_start(uint8_t ch) override {
     ++adc_reads;
-    if (!adc_ok) return false;
+    if (!adc_ok || ch == adc_dead_channel) return false;
     adc_channel = ch;
     return true;
   }
@@ -411,6 +412,18 @@ void test_sensor_faults_do_not_stall() {
   for (const proto::Sample& x : s) CHECK((x.status & (f::ADC_FAULT | f::IMU_FAULT)) == (f::ADC_FAULT | f::IMU_FAULT));
   CHECK(rig.dev.counters().sensor_faults == 5);
   CHECK(rig.model.steps == 0);  // no estimate from missing inputs
+  // A channel lost in the middle of a sample keeps what was converted before it.
+  rig.hal.adc_ok = true;
+  rig.hal.imu_ok = true;
+  rig.hal.adc_dead_channel = 1;
+  rig.dev.on_sample_ticks(1, 60000);
+  s = samples_of(rig.received());
+  CHECK(s.size() == 1);
+  if (s.size() == 1) {
+    CHECK(s[0].adc[0] == 20000 && s[0].adc[1] == 0 && s[0].adc[2] == 0);
+    CHECK((s[0].status & f::ADC_FAULT) != 0 && (s[0].status & f::IMU_FAULT) == 0);
+  }
+  CHECK(rig.model.steps == 0);
 }
 
 void test_dr_math() {

@@ -3,7 +3,7 @@
 // f, g piecewise-linear (int16 -> int16); H1, H2 cascades of second-order sections with int16
 // inputs/outputs and int32 states; saturating arithmetic, no float, no heap. Coefficients stay
 // in the blob and are read through a BlobReader each step (EEPROM on the Uno).
-// Number formats: firmware/lib/core/MODEL_FORMAT.md (summary in protocol/spec.md, "Model blob format"); bit-exact twin: porosense.quant.
+// Number formats: MODEL_FORMAT.md (this directory); bit-exact twin: porosense.quant.
 #pragma once
 #include <stdint.h>
 

@@ -74,7 +74,7 @@ bool check_cascade(const BlobReader& r, uint16_t* off, uint16_t end, uint8_t n) 
     uint16_t len = wide ? kSecLen32 : kSecLen16;
     if (uint32_t(*off) + len > end) return false;
     // Bound the numerator so that the step's int32 sums cannot overflow: |w| < 2^31 and
-    // |round(w / 2^sb)| <= 2^29 (limits below; spec.md "Model blob format").
+    // |round(w / 2^sb)| <= 2^29 (limits: MODEL_FORMAT.md).
     uint16_t p = uint16_t(*off + kSecFixedLen);
     uint32_t sum = 0;
     if (wide) {

@@ -1,5 +1,5 @@
 // The EEPROM model store: MODEL_BEGIN / MODEL_CHUNK / MODEL_COMMIT / MODEL_ERASE / MODEL_READ
-// over a byte-wide EEPROM, with an atomic commit (firmware/lib/core/MODEL_FORMAT.md (summary in protocol/spec.md, "Model blob format")):
+// over a byte-wide EEPROM, with an atomic commit (MODEL_FORMAT.md):
 //
 //   region (base 64, 960 bytes) = store header (8 bytes) + blob (at most 952 bytes)
 //   store header: magic 'M' 'S', blob length u16, blob CRC u16, header CRC u16 (of bytes 0..5)

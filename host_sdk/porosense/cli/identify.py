@@ -68,26 +68,37 @@ def _columns(text: str, what: str) -> list[str]:
 
 
 def load_recordings(files, inputs, outputs, rng: slice):
-    """(list of (N, n_in) inputs, list of (N, n_out) outputs) from the CSV files, sliced by ``rng``."""
+    """(inputs, outputs, skip) from the CSV files for the sample range ``rng``.
+
+    Each file is kept from its first sample to the end of the range, so that models simulate
+    it from rest; ``skip`` is where the range starts (samples simulated but not scored), the
+    same for every file (all files must be long enough).
+    """
     import numpy as np
 
     from porosense.data import read_table
 
-    us, ys = [], []
+    us, ys, starts = [], [], []
     for f in files:
         table = read_table(f)
         for name in inputs + outputs:
             if name not in table.columns:
                 raise InputError(f"{f}: no column '{name}' (columns: {', '.join(table.names)})")
-        u = np.column_stack([table.columns[c] for c in inputs])[rng]
-        y = np.column_stack([table.columns[c] for c in outputs])[rng]
-        if len(u) < 10:
-            raise InputError(f"{f}: the range {rng.start}:{rng.stop} leaves {len(u)} samples (need >= 10)")
+        n = len(table)
+        start, stop, _ = rng.indices(n)
+        if stop - start < 10:
+            raise InputError(f"{f}: the range {rng.start}:{rng.stop} leaves {max(stop - start, 0)} samples "
+                             f"of {n} (need >= 10)")
+        u = np.column_stack([table.columns[c] for c in inputs])[:stop]
+        y = np.column_stack([table.columns[c] for c in outputs])[:stop]
         if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
             raise InputError(f"{f}: empty or non-finite cells in the selected columns and range")
         us.append(u)
         ys.append(y)
-    return us, ys
+        starts.append(start)
+    if len(set(starts)) > 1:
+        raise InputError("the sample range starts at different samples in different files (negative A?)")
+    return us, ys, starts[0]
 
 
 def run(args) -> int:
@@ -108,7 +119,7 @@ def run(args) -> int:
         raise InputError("--zeros must be smaller than --poles")
     if not 2 <= args.breakpoints <= 64:
         raise InputError("--breakpoints must be 2..64")
-    est_u, est_y = load_recordings(args.data, inputs, outputs, parse_range(args.estimation))
+    est_u, est_y, est_skip = load_recordings(args.data, inputs, outputs, parse_range(args.estimation))
     val = None
     if args.validation is not None:
         val = load_recordings(args.data, inputs, outputs, parse_range(args.validation))
@@ -132,6 +143,7 @@ def run(args) -> int:
                 u=est_u, y=[y[:, j] for y in est_y], ts=args.ts,
                 validation=(val[0], [y[:, j] for y in val[1]]) if val else None,
                 grid=grid, n_breakpoints=args.breakpoints, delay=args.delay, starts=args.starts,
+                skip=est_skip, validation_skip=val[2] if val else 0,
                 inputs=inputs, output=name, executor=executor, progress=not args.quiet)
             models.append(result.model)
             reports.append({"output": name, **result.to_dict()})

@@ -121,10 +121,14 @@ class Model:
             raise InputError(f"expected {len(self.inputs)} input columns, got {x.shape[1]}")
         return Chain(self.spec, self.theta).simulate(x / self.u_scale) * self.y_std + self.y_mean
 
-    def score(self, *, u, y) -> dict:
-        """Per recording fit % and RMS % (DESIGN.md metrics) of the simulated output."""
+    def score(self, *, u, y, skip: int = 0) -> dict:
+        """Per recording fit % and RMS % (DESIGN.md metrics) of the output simulated from rest.
+
+        The first ``skip`` samples of each recording are simulated but not scored.
+        """
         us, ys = as_recordings(u, y)
-        preds = [self.predict(u=x) for x in us]
+        preds = [self.predict(u=x)[skip:] for x in us]
+        ys = [v[skip:] for v in ys]
         return {"fit": [fit_percent(v, p) for v, p in zip(ys, preds)],
                 "rms": [rms_percent(v, p) for v, p in zip(ys, preds)]}
 

@@ -157,8 +157,8 @@ def _fit_candidate(structure, n_poles, n_zeros, kwargs, fit_args, val):
     t0 = time.perf_counter()
     model = make_model(structure, n_poles=n_poles, n_zeros=n_zeros, **kwargs)
     model.fit(**fit_args)
-    est = model.score(u=fit_args["u"], y=fit_args["y"])
-    vs = model.score(u=val[0], y=val[1]) if val else {"fit": [], "rms": []}
+    est = model.score(u=fit_args["u"], y=fit_args["y"], skip=kwargs["skip"])
+    vs = model.score(u=val[0], y=val[1], skip=val[2]) if val else {"fit": [], "rms": []}
     return Candidate(structure, n_poles, n_zeros, est["fit"], vs["fit"], est["rms"], vs["rms"],
                      model.aic, model.bic, model.n_params, time.perf_counter() - t0, True, model)
 
@@ -167,21 +167,22 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
            n_breakpoints: int = 10, delay: int = 0, starts: int = 2, max_nfev: int = 200, skip: int = 0,
            inputs=None, output: str = "y", executor: Executor | None = None, progress: bool = True,
            constraint=None, size_fn=None, max_bytes: int | None = None, grid=None,
-           tie_tol: float = 0.01) -> SearchResult:
+           tie_tol: float = 0.01, validation_skip: int = 0) -> SearchResult:
     """Estimate the whole grid and select by mean fit over estimation + validation recordings.
 
     u, y: estimation recordings (lists of (N, n_in) and (N,)); validation: (u_list, y_list) or
     None; ts in s. ``constraint(structure) -> bool`` or ``size_fn(structure) -> bytes`` with
     ``max_bytes`` mark candidates infeasible (they are reported, never selected unless no
     candidate is feasible). ``executor``: any concurrent.futures Executor; default a process
-    pool over the machine's cores (a single candidate runs in this process). ``grid``: an
+    pool over the machine's cores (a single candidate runs in this process). ``skip`` and
+    ``validation_skip``: leading samples of each recording simulated but not scored. ``grid``: an
     explicit list of (structure, n_poles, n_zeros) instead of structures/poles/zeros.
     """
     us, ys = as_recordings(u, y)
     val = None
     if validation is not None:
         vu, vy = as_recordings(*validation)
-        val = (vu, vy)
+        val = (vu, vy, int(validation_skip))
     grid = list(grid) if grid is not None else order_grid(structures, poles, zeros)
     if not grid:
         raise InputError("empty order grid")

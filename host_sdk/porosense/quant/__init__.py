@@ -5,7 +5,7 @@
     est = FixedPointEstimator(ModelBlob.from_bytes(data))
     y, flags = est.run(dr_centi)                             # int16 (N, 3), uint8 (N,)
 
-Formats: firmware/lib/core/MODEL_FORMAT.md (summary in protocol/spec.md, "Model blob format").
+Formats: firmware/lib/core/MODEL_FORMAT.md.
 """
 
 from porosense.quant.blob import FORMAT_VERSION, MAX_BLOB_LEN, ModelBlob

@@ -1,6 +1,6 @@
 """The model blob: fixed-point coefficients of the estimator, byte for byte as in EEPROM.
 
-Layout (all little-endian; firmware/lib/core/MODEL_FORMAT.md (summary in protocol/spec.md, "Model blob format") is the reference)::
+Layout (all little-endian; firmware/lib/core/MODEL_FORMAT.md is the reference)::
 
     header (24 bytes): magic "PW", format version (1), n_inputs, n_outputs, reserved 0,
                        length u16 (whole blob), model_id u32, out_scale f32[3]

@@ -1,0 +1,62 @@
+"""The identify and predict commands, driven as the project's checks drive them."""
+
+import json
+
+import numpy as np
+import pytest
+
+from porosense.cli import main
+from porosense.data import read_table
+from porosense.ident import fit_percent
+
+
+@pytest.fixture
+def csv_files(tmp_path, truth, make_recordings):
+    """Two recordings of the Wiener truth as CSV with a trailing comma on every line."""
+    system = truth("wiener")
+    us, ys, _ = make_recordings(system, 800, seeds=(21, 22))
+    paths = []
+    for k, (u, y) in enumerate(zip(us, ys)):
+        p = tmp_path / f"rec{k}.csv"
+        t = np.arange(len(y)) * system.ts
+        lines = ["t,dR_0,strain_0,"] + [f"{a!r},{b!r},{c!r}," for a, b, c in zip(t.tolist(), u[:, 0].tolist(), y.tolist())]
+        p.write_text("\n".join(lines) + "\n")
+        paths.append(p)
+    return paths
+
+
+def test_identify_then_predict(csv_files, tmp_path, capsys):
+    model, report, pred = tmp_path / "model.json", tmp_path / "report.json", tmp_path / "pred.csv"
+    rc = main(["identify", "--data", *map(str, csv_files), "--input", "dR_0", "--output", "strain_0",
+               "--ts", "0.02", "--structure", "wiener", "--poles", "2", "--zeros", "1", "--breakpoints", "5",
+               "--estimation", "0:500", "--validation", "500:", "--save", str(model), "--json", str(report),
+               "--quiet"])
+    assert rc == 0
+    rep = json.loads(report.read_text())
+    best = rep["results"][0]["best"]
+    assert best["structure"] == "wiener" and min(best["fit_validation"]) > 99.0
+    assert main(["predict", "--model", str(model), "--data", str(csv_files[1]), "--out", str(pred)]) == 0
+    out = read_table(pred)
+    src = read_table(csv_files[1])
+    assert out.names == ["t", "strain_0_pred"]
+    assert fit_percent(src.columns["strain_0"], out.columns["strain_0_pred"]) > 99.0
+
+
+def test_identify_reports_a_missing_column_in_one_line(csv_files, tmp_path, capsys):
+    rc = main(["identify", "--data", str(csv_files[0]), "--input", "dR_9", "--output", "strain_0",
+               "--ts", "0.02", "--structure", "linear", "--poles", "1", "--save", str(tmp_path / "m.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "dR_9" in err[0]
+
+
+def test_bad_range_is_a_user_error(csv_files, tmp_path, capsys):
+    rc = main(["identify", "--data", str(csv_files[0]), "--input", "dR_0", "--output", "strain_0",
+               "--ts", "0.02", "--structure", "linear", "--poles", "1", "--estimation", "a:b",
+               "--save", str(tmp_path / "m.json")])
+    assert rc == 2 and "sample range" in capsys.readouterr().err
+
+
+def test_predict_on_a_missing_model_file(tmp_path, csv_files, capsys):
+    rc = main(["predict", "--model", str(tmp_path / "none.json"), "--data", str(csv_files[0]),
+               "--out", str(tmp_path / "p.csv")])
+    assert rc == 4 and "not found" in capsys.readouterr().err

@@ -4,6 +4,7 @@
 #include <avr/eeprom.h>
 #include <avr/wdt.h>
 
+#include "gpio.h"
 #include "pins.h"
 #include "stack_paint.h"
 #include "twi.h"
@@ -12,12 +13,11 @@ Board::Board() : adc_(pins::kAds1115Addr), imu_(pins::kBno055Addr) {}
 
 void Board::outputs_safe() {
   for (uint8_t i = 0; i < 3; ++i) {
-    digitalWrite(pins::pump(i), LOW);
-    pinMode(pins::pump(i), OUTPUT);
-    digitalWrite(pins::valve(i), LOW);  // vented
-    pinMode(pins::valve(i), OUTPUT);
-    digitalWrite(pins::regulator(i), LOW);
-    pinMode(pins::regulator(i), OUTPUT);
+    gpio::write(pins::pump(i), false);
+    gpio::output(pins::pump(i));
+    gpio::write(pins::valve(i), false);  // vented
+    gpio::output(pins::valve(i));
+    gpio::pwm(pins::regulator(i), 0);
   }
 }
 
@@ -37,9 +37,9 @@ void Board::apply_outputs(const dev::Outputs& out) {
     int32_t sp = -(int32_t)out.setpoint_dkpa[i];
     if (sp < 0) sp = 0;
     if (sp > 800) sp = 800;
-    analogWrite(pins::regulator(i), (int)((sp * 255 + 400) / 800));
-    digitalWrite(pins::pump(i), (out.pump_mask >> i) & 1 ? HIGH : LOW);
-    digitalWrite(pins::valve(i), (out.valve_mask >> i) & 1 ? HIGH : LOW);
+    gpio::pwm(pins::regulator(i), (uint8_t)((sp * 255 + 400) / 800));
+    gpio::write(pins::pump(i), (out.pump_mask >> i) & 1);
+    gpio::write(pins::valve(i), (out.valve_mask >> i) & 1);
   }
 }
 

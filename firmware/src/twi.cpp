@@ -3,6 +3,8 @@
 #include <Arduino.h>
 #include <util/twi.h>
 
+#include "gpio.h"
+
 namespace twi {
 
 namespace {
@@ -34,23 +36,24 @@ uint8_t status() { return TW_STATUS; }
 // Clock SCL until a slave stuck in the middle of a byte releases SDA, then issue a STOP.
 void recover_bus() {
   TWCR = 0;
-  pinMode(SDA, INPUT_PULLUP);
-  pinMode(SCL, OUTPUT);
-  for (uint8_t i = 0; i < 9 && digitalRead(SDA) == LOW; ++i) {
-    digitalWrite(SCL, LOW);
+  gpio::input_pullup(SDA);
+  gpio::write(SCL, true);
+  gpio::output(SCL);
+  for (uint8_t i = 0; i < 9 && !gpio::read(SDA); ++i) {
+    gpio::write(SCL, false);
     delayMicroseconds(5);
-    digitalWrite(SCL, HIGH);
+    gpio::write(SCL, true);
     delayMicroseconds(5);
   }
-  pinMode(SDA, OUTPUT);
-  digitalWrite(SDA, LOW);
+  gpio::write(SDA, false);
+  gpio::output(SDA);
   delayMicroseconds(5);
-  digitalWrite(SCL, HIGH);
+  gpio::write(SCL, true);
   delayMicroseconds(5);
-  digitalWrite(SDA, HIGH);  // STOP: SDA rises while SCL is high
+  gpio::write(SDA, true);  // STOP: SDA rises while SCL is high
   delayMicroseconds(5);
-  pinMode(SDA, INPUT_PULLUP);
-  pinMode(SCL, INPUT_PULLUP);
+  gpio::input_pullup(SDA);
+  gpio::input_pullup(SCL);
   TWSR = 0;
   TWBR = g_twbr;
   TWCR = _BV(TWEN);
@@ -91,8 +94,8 @@ bool receive(uint8_t* b, bool ack) {
 
 void begin(uint32_t scl_hz) {
   g_twbr = (uint8_t)(((F_CPU / scl_hz) - 16) / 2);
-  pinMode(SDA, INPUT_PULLUP);
-  pinMode(SCL, INPUT_PULLUP);
+  gpio::input_pullup(SDA);
+  gpio::input_pullup(SCL);
   TWSR = 0;  // prescaler 1
   TWBR = g_twbr;
   TWCR = _BV(TWEN);

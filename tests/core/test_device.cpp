@@ -492,6 +492,14 @@ void test_other_commands() {
   CHECK(hr.proto_major == proto::kVersionMajor && hr.n_channels == 3 && hr.model_crc == 0xBEEF);
   CHECK((hr.capabilities & (proto::cap::ADC | proto::cap::IMU | proto::cap::ESTIMATOR)) ==
         (proto::cap::ADC | proto::cap::IMU | proto::cap::ESTIMATOR));
+  // HELLO with a payload (a later release) and another major version is still answered.
+  const uint8_t extra[3] = {1, 2, 3};
+  uint8_t frame[proto::kMaxFrameLen];
+  const uint8_t fl = proto::encode_frame(proto::msg::HELLO, 40, extra, 3, frame, 0x20);
+  rig.hal.rx.insert(rig.hal.rx.end(), frame, frame + fl);
+  rig.dev.poll();
+  fr = rig.one();
+  CHECK(fr.type == proto::msg::HELLO_REPLY && fr.seq == 40 && fr.payload[0] == proto::kVersionMajor);
   // A device-to-host type sent to the device.
   proto::Ack a;
   a.acked_type = 1;
@@ -507,6 +515,11 @@ void test_other_commands() {
   if (fr.payload.size() == 13) CHECK(proto::get_i16(fr.payload.data() + 1 + 2 * 5) == 501);
   rig.send(proto::msg::REPLAY, 4, p, 1 + 4);
   CHECK(nak_code(rig.one()) == r::BAD_LENGTH);
+  rig.send(proto::msg::REPLAY, 40, p, 2);  // half an int16
+  CHECK(nak_code(rig.one()) == r::BAD_LENGTH);
+  rig.send(proto::msg::REPLAY, 41, p, 1);  // no samples: an empty result
+  fr = rig.one();
+  CHECK(fr.type == proto::msg::REPLAY_RESULT && fr.payload.size() == 1);
   // Model writes are refused while streaming.
   proto::StartStream ss;
   ss.rate_hz = 50;

@@ -52,13 +52,16 @@ def simboard_backend():
         yield Backend("simboard", board.url, None, float(getattr(board, "timeout_scale", 5.0)))
 
 
-@pytest.fixture(
-    params=[
-        "emulator",
-        pytest.param("simboard", marks=pytest.mark.simboard),
-        pytest.param("hardware", marks=pytest.mark.hardware),
-    ]
-)
+def pytest_generate_tests(metafunc):
+    """Every conformance test runs on each back-end; the real board only with --port."""
+    if "backend" in metafunc.fixturenames:
+        params = ["emulator", pytest.param("simboard", marks=pytest.mark.simboard)]
+        if metafunc.config.getoption("--port", default=None):
+            params.append(pytest.param("hardware", marks=pytest.mark.hardware))
+        metafunc.parametrize("backend", params, indirect=True)
+
+
+@pytest.fixture
 def backend(request):
     if request.param == "emulator":
         from porosense.emulator import Emulator
@@ -69,10 +72,7 @@ def backend(request):
     elif request.param == "simboard":
         yield request.getfixturevalue("simboard_backend")
     else:
-        port = request.config.getoption("--port")
-        if not port:
-            pytest.skip("no real board: pass --port URL (e.g. --port /dev/ttyACM0)")
-        yield Backend("hardware", port, None, 1.0)
+        yield Backend("hardware", request.config.getoption("--port"), None, 1.0)
 
 
 @pytest.fixture

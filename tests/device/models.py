@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
+from porosense.quant import FixedPointEstimator, ModelBlob, quantize
 from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade
 
 INPUT_RANGE = (-1.0, 0.5)  # dR as a fraction (-100 % .. +50 %)
@@ -28,28 +29,11 @@ def wh_structure(n_outputs: int = 1, poles: float = 0.9) -> EstimatorStructure:
 def make_blob(n_outputs: int = 1, model_id: int = 0x5EED0001, poles: float = 0.9) -> bytes:
     """Blob bytes of :func:`wh_structure` quantized by porosense.quant."""
     structure = wh_structure(n_outputs, poles)
-    ranges = [INPUT_RANGE] * len(structure.inputs)
-    try:
-        from porosense.quant import quantize
-    except ImportError:
-        quantize = None
-    if quantize is not None:
-        result = quantize(structure, input_range=ranges, model_id=model_id)
-        blob = result.blob
-    else:
-        from porosense.quant.design import design_blob
-
-        blob, _ = design_blob(structure, ranges, INPUT_LSB, model_id, [])
-    return blob.to_bytes() if hasattr(blob, "to_bytes") else bytes(blob)
+    result = quantize(structure, input_range=INPUT_RANGE, input_lsb=INPUT_LSB, model_id=model_id)
+    return result.blob.to_bytes()
 
 
 def reference_run(blob: bytes, dr_centi) -> np.ndarray:
     """Estimates (N, 3) int16 of the bit-exact Python reference from rest."""
-    try:
-        from porosense.quant import FixedPointEstimator
-    except ImportError:
-        from porosense.quant.fixed import FixedPointEstimator
-    est = FixedPointEstimator(blob)
-    est.reset()
-    out, _ = est.run(np.asarray(dr_centi, dtype=np.int16))
+    out, _ = FixedPointEstimator(ModelBlob.from_bytes(blob)).run(np.asarray(dr_centi, dtype=np.int16))
     return np.asarray(out, dtype=np.int16)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 
 import pytest
 
@@ -14,11 +13,9 @@ from porosense.protocol import MsgType, Result, encode_message
 from porosense.protocol import _messages as m
 
 
-def test_nothing_answering_is_a_clear_error_within_the_timeout():
-    t0 = time.monotonic()
-    with pytest.raises(DeviceError, match="no answer to HELLO"):
+def test_nothing_answering_is_a_clear_error():
+    with pytest.raises(DeviceError, match="no answer to HELLO from loop://"):
         Device.open("loop://", handshake_timeout_s=0.5)
-    assert time.monotonic() - t0 < 2.0
 
 
 def test_unopenable_port_is_a_clear_error():
@@ -67,7 +64,6 @@ def test_closing_stops_the_stream_and_the_outputs():
             dev.set_outputs(-20, pumps=1, valves=1)
             dev.start_stream(50)
             list(dev.samples(3))
-        time.sleep(0.05)
         assert not emu.core.streaming and not emu.core.outputs_active
 
 

@@ -65,6 +65,14 @@ def test_power_loss_in_the_middle_of_a_model_write_leaves_no_model():
         assert dev.write_model(new).valid  # the store works after the loss
 
 
+def test_power_cut_after_a_number_of_received_bytes():
+    with Emulator(faults=Faults(reset_after_rx_bytes=100)) as emu, Device.open(emu.url) as dev:
+        for i in range(20):  # 12 bytes per PING: the cut lands in the 8th or 9th
+            assert dev.ping(nonce=i).nonce == i  # the retry reaches the rebooted board
+        assert emu.core.stats.boots == 2 and emu.core.stats.reboots_injected == 1
+        assert dev.status().reset_cause == 0x01
+
+
 def test_power_cut_while_streaming_stops_the_stream():
     with Emulator() as emu, Device.open(emu.url) as dev:
         dev.set_outputs(-20, pumps=1, valves=1)
@@ -82,25 +90,25 @@ def test_power_cut_while_streaming_stops_the_stream():
 
 
 def test_realtime_pacing():
+    """Real time: 25 samples at 50 Hz cannot arrive before 0.48 s of wall clock have passed."""
     with Emulator(realtime=True) as emu, Device.open(emu.url) as dev:
         dev.start_stream(50)
         t0 = time.monotonic()
         samples = list(dev.samples(25))
         wall = time.monotonic() - t0
         dev.stop_stream()
-    assert 0.3 < wall < 2.0, wall
+    assert wall >= 0.47
     assert np.all(np.diff([s.t_us for s in samples]) == 20_000)
 
 
-def test_lockstep_runs_faster_than_real_time():
+def test_lockstep_clock_advances_one_period_per_sample():
     with Emulator() as emu, Device.open(emu.url) as dev:
         dev.start_stream(100)
-        t0 = time.monotonic()
-        samples = list(dev.samples(1000))  # 10 s of device time
-        wall = time.monotonic() - t0
+        samples = list(dev.samples(1000))  # 10 s of device time, as fast as the host reads
         dev.stop_stream()
+        after = dev.ping().device_time_us
     assert (samples[-1].t_us - samples[0].t_us) == 999 * 10_000
-    assert wall < 9.0  # at least faster than real time, on any machine
+    assert after >= samples[-1].t_us
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="no pseudo-terminals")

@@ -31,7 +31,6 @@ def test_ping_echoes_nonce_and_device_clock_advances(dev):
     second = dev.ping(0x01020304)
     assert first.nonce == 0xDEADBEEF and second.nonce == 0x01020304
     assert second.device_time_us > first.device_time_us
-    assert first.rtt_s < 1.0 * dev.timeout_scale
 
 
 def test_uptime_restarts_after_reset(dev):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from models import reference_run
+from porosense.quant import FixedPointEstimator, ModelBlob
 
 
 def inputs(n: int, seed: int) -> np.ndarray:
@@ -52,8 +53,4 @@ def test_streamed_estimates_match_the_reference(dev, blob):
 
 
 def _reference_flags(blob, x):
-    try:
-        from porosense.quant import FixedPointEstimator
-    except ImportError:
-        from porosense.quant.fixed import FixedPointEstimator
-    return FixedPointEstimator(blob).run(x)[1] & 1
+    return FixedPointEstimator(ModelBlob.from_bytes(blob)).run(x)[1] & 1

@@ -27,14 +27,14 @@ def test_silence_trips_the_watchdog(dev):
 
 
 def test_regular_commands_keep_the_outputs_on(dev):
-    """Pings well within 300 ms of device time keep a 300 ms watchdog from tripping for 1 s."""
+    """Pings well within 500 ms of device time keep a 500 ms watchdog from tripping for 1.5 s."""
     trips = dev.status().watchdog_trips
-    dev.set_watchdog(300)
+    dev.set_watchdog(500)
     dev.set_outputs(-20.0, pumps=1, valves=1)
     start = last = dev.ping().device_time_us
-    while last - start < 1_000_000:
+    while last - start < 1_500_000:
         now = dev.ping().device_time_us
-        assert now - last < 300_000, "host too slow to feed the watchdog"
+        assert now - last < 500_000, "the host stalled longer than the watchdog timeout"
         last = now
         time.sleep(0.01)
     st = dev.status()

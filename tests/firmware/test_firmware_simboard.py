@@ -20,6 +20,7 @@ WATCHDOG_TRIPPED = 1 << 6
 ADC_FAULT = 1 << 0
 ESTIMATOR_OFF = 1 << 3
 SENSOR_FAULT = 9
+HANDSHAKE_S = 15.0  # wall time: the simulation runs slower than real time on a busy host
 BAD_STATE = 8
 
 
@@ -49,7 +50,7 @@ def _open(elf):
 
     board = SimBoard(elf).start()
     try:
-        dev = Device.open(board.url)
+        dev = Device.open(board.url, handshake_timeout_s=HANDSHAKE_S)
     except Exception:
         board.close()
         raise
@@ -136,6 +137,36 @@ def test_reset_command_and_stack_headroom_while_estimating(elf) -> None:
         assert st.reset_cause & 0x08  # WDRF: the AVR watchdog did it
         assert st.uptime_ms < 2000
         assert dev.model_info().status == "valid"  # the model survived the reset
+    finally:
+        dev.close()
+        board.close()
+
+
+def test_slow_imu_boot_is_waited_for(elf) -> None:
+    from porosense.device import Device
+    from porosense.simboard import SimBoard
+
+    # The BNO055 answers ~650 ms after power-on; the firmware waits up to 800 ms for it.
+    with SimBoard(elf, bno_boot_ms=650.0) as board, \
+            Device.open(board.url, handshake_timeout_s=HANDSHAKE_S) as dev:
+        hello = dev.hello()
+        print(hello)
+        assert "IMU" in str(hello)
+        assert not dev.status().flags & 0b10  # no IMU_FAULT
+
+
+def test_sample_clock_keeps_the_exact_mean_rate(elf) -> None:
+    board, dev = _open(elf)
+    try:
+        dev.start_stream(30, 0x01)  # 1000/30 ms: periods of 33 and 34 ms
+        t = np.array([s.t_us for s in dev.samples(91, timeout_s=15)], dtype=np.int64)
+        dev.stop_stream()
+        period = np.diff(t)
+        mean = (t[-1] - t[0]) / (len(t) - 1)
+        print(f"30 Hz: periods {sorted(set(np.round(period / 1000).astype(int).tolist()))} ms, "
+              f"mean {mean:.1f} us")
+        assert np.all((np.abs(period - 33_000) <= 8) | (np.abs(period - 34_000) <= 8))
+        assert abs(mean - 1e6 / 30) <= 2.0
     finally:
         dev.close()
         board.close()

@@ -190,7 +190,8 @@ void Device::handle_frame() {
     nak(r::UNKNOWN_TYPE, 0);  // a device-to-host type sent to the device
     return;
   }
-  if (len < lo || len > hi) {
+  // HELLO is answered whatever its payload (and version): a host of any release can ask.
+  if ((len < lo || len > hi) && type != proto::msg::HELLO) {
     nak(r::BAD_LENGTH, (int16_t)lo);
     return;
   }
@@ -334,8 +335,9 @@ void Device::stop_stream() {
 void Device::cmd_replay(const uint8_t* p, uint8_t len) {
   if (streaming_) return nak(r::BUSY, 0);
   if (!model_.estimator_loaded()) return nak(r::NO_MODEL, 0);
+  // Inputs must be whole int16 values and whole samples of three.
   const uint8_t values = (uint8_t)((len - 1) / 2);
-  if (values % kChannels != 0) return nak(r::BAD_LENGTH, 0);
+  if ((len - 1) % 2 != 0 || values % kChannels != 0) return nak(r::BAD_LENGTH, 0);
   if (p[0]) model_.estimator_reset();
   // Replies mirror the request: same length, estimates interleaved like the inputs.
   uint8_t out[proto::ReplayResult::kMaxLen];
@@ -347,7 +349,7 @@ void Device::cmd_replay(const uint8_t* p, uint8_t len) {
     for (uint8_t i = 0; i < kChannels; ++i) proto::put_i16(out + 1 + 2 * (s + i), est[i]);
   }
   out[0] = flags & 1;
-  reply(proto::ReplayResult::kType, out, len);
+  reply(proto::ReplayResult::kType, out, (uint8_t)(1 + 2 * values));
 }
 
 bool Device::calibrate_r0(uint8_t n_samples, uint8_t mask) {

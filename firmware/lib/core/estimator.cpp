@@ -1,8 +1,3 @@
-// The step is the firmware's hot loop; on the AVR it is compiled for speed (at -Os avr-gcc
-// keeps the word moves below in memory and calls every helper).
-#if defined(__AVR__)
-#pragma GCC optimize("O2")
-#endif
 #include "estimator.h"
 
 #include <string.h>
@@ -200,7 +195,7 @@ int16_t Estimator::pwl(uint16_t* off, int16_t x) {
   return sat16(int32_t(yk) + round_shift(p, seg[2]), &flags_);
 }
 
-int32_t Estimator::cascade(uint16_t* off, uint8_t n, int16_t x) {
+inline int32_t Estimator::cascade(uint16_t* off, uint8_t n, int16_t x) {
   int16_t* xh = xhist_[cascade_++];
   int16_t x0 = x, x1 = xh[0], x2 = xh[1];
   xh[1] = x1;
@@ -208,13 +203,15 @@ int32_t Estimator::cascade(uint16_t* off, uint8_t n, int16_t x) {
   int32_t y = 0;
   uint8_t rec[blob::kSecLen32];
   for (uint8_t s = 0; s < n; ++s) {
-    blob_->read(*off, rec, blob::kSecFixedLen);
+    // One read covers a 16-bit section; a wide one needs its last 6 bytes as well.
+    blob_->read(*off, rec, blob::kSecLen16);
     uint8_t fl = rec[0];
     bool wide = fl & blob::kSecWide;
-    uint8_t len = wide ? blob::kSecLen32 : blob::kSecLen16;
-    blob_->read(uint16_t(*off + blob::kSecFixedLen), rec + blob::kSecFixedLen,
-                uint8_t(len - blob::kSecFixedLen));
-    *off = uint16_t(*off + len);
+    if (wide) {
+      blob_->read(uint16_t(*off + blob::kSecLen16), rec + blob::kSecLen16,
+                  uint8_t(blob::kSecLen32 - blob::kSecLen16));
+    }
+    *off = uint16_t(*off + (wide ? blob::kSecLen32 : blob::kSecLen16));
     const uint8_t* c = rec + blob::kSecFixedLen;
     // Numerator (FIR part of direct form I) in Q13 of the output.
     int32_t w;

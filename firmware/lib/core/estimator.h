@@ -38,7 +38,7 @@ class Estimator {
 
  private:
   int16_t pwl(uint16_t* off, int16_t x);
-  int32_t cascade(uint16_t* off, uint8_t n, int16_t x);
+  inline int32_t cascade(uint16_t* off, uint8_t n, int16_t x) __attribute__((always_inline));
 
   const BlobReader* blob_;
   uint16_t length_;

@@ -5,7 +5,7 @@
 ...     print(dev.hello())
 """
 
-from porosense.device.client import ALL_CHANNELS, Device, NakError
+from porosense.device.client import ALL_CHANNELS, Device, NakError, blob_crc
 from porosense.device.ports import PortInfo, list_ports
 from porosense.device.results import (
     DeviceStatus,
@@ -21,6 +21,7 @@ __all__ = [
     "ALL_CHANNELS",
     "Device",
     "NakError",
+    "blob_crc",
     "PortInfo",
     "list_ports",
     "DeviceStatus",

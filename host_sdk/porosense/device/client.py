@@ -34,31 +34,27 @@ from porosense.protocol import (
     FrameDecoder,
     MsgType,
     Result,
+    check_compatible,
     crc16,
     encode_frame,
     encode_message,
+    split_version,
 )
 from porosense.protocol import _messages as m
-from porosense.protocol._messages import VERSION_BYTE, VERSION_MAJOR, VERSION_MINOR, ConfigKey
+from porosense.protocol._messages import VERSION_BYTE, ConfigKey
 
 DEFAULT_BAUD = 115200
 MODEL_CHUNK_BYTES = 112
 REPLAY_SAMPLES = 16
 ALL_CHANNELS = 0x1F
 
-# Device-side handling time (s): EEPROM writes take 3.3 ms per byte on the Uno.
-_SLOW_COMMANDS = {
-    MsgType.MODEL_BEGIN: 1.0,
-    MsgType.MODEL_CHUNK: 1.0,
-    MsgType.MODEL_COMMIT: 1.0,
-    MsgType.MODEL_ERASE: 1.0,
-    MsgType.CONFIG_SAVE: 1.0,
-    MsgType.CONFIG_RESET: 1.0,
-}
-_DEFAULT_DEADLINE_S = 0.1
-_MARGIN_S = 0.03  # host scheduling and the UART transmit buffer ahead of the answer
+# Host reply timeout = the command's deadline (DEADLINE_MS of the catalogue: 50 ms, 1000 ms
+# for EEPROM writes and CALIBRATE_R0) + both frames on the wire + USB-serial latency and an
+# interleaved SAMPLE (protocol/spec.md section 7).
+_LATENCY_S = 0.025
 _MAX_QUEUE_WAIT_S = 0.5  # cap on the extra wait for telemetry queued ahead of an answer
 _SAMPLE_WIRE_BYTES = m.Sample.MIN_LEN + 8  # header, CRC, COBS byte, delimiter
+_HELLO_REPEAT_S = 0.25  # while waiting for a booting board
 
 
 def _reply_type(cmd_type: int) -> int:
@@ -99,7 +95,7 @@ class Device:
         *,
         baudrate: int = DEFAULT_BAUD,
         timeout_scale: float = 1.0,
-        retries: int = 5,
+        retries: int = 3,
         seed: int | None = None,
     ):
         self.link = link
@@ -111,9 +107,11 @@ class Device:
         self.errors: list[m.Error] = []  # unsolicited ERROR reports, oldest first
         self.info: HelloInfo | None = None
         self._decoder = FrameDecoder()
+        self.stats.decoder = self._decoder.counters  # live view
         self._seq = random.Random(seed).randrange(256)
         self._samples: collections.deque[Sample] = collections.deque()
-        self._next_tseq: int | None = None
+        self._next_tseq: int | None = None  # next SAMPLE sequence number expected
+        self._next_eseq: int | None = None  # next ERROR sequence number expected
         self._t_last_raw: int | None = None
         self._t_wraps = 0
         self._rate_hz = 0
@@ -130,7 +128,7 @@ class Device:
         *,
         baudrate: int = DEFAULT_BAUD,
         timeout_scale: float = 1.0,
-        retries: int = 5,
+        retries: int = 3,
         handshake: bool = True,
         handshake_timeout_s: float | None = None,
         seed: int | None = None,
@@ -169,29 +167,21 @@ class Device:
                 self.set_outputs()
         except DeviceError:
             pass
-        self.stats.decoder = dict(self._decoder.counters)
         self.link.close()
 
     # ------------------------------------------------------------------ commands
 
     def hello(self, wait_s: float | None = None) -> HelloInfo:
-        """Handshake: versions, capabilities, model status. Refuses another protocol major."""
+        """Handshake: versions, capabilities, model status. A device speaking another protocol
+        major raises porosense.protocol.ProtocolVersionError (a DeviceError) naming both."""
         frame = self._exchange(m.Hello(), wait_total_s=wait_s, raw=True)
-        major = frame.version >> 4
-        if major != VERSION_MAJOR:
-            raise DeviceError(
-                f"device at {self.url} speaks protocol {major}.{frame.version & 0xF}, this host speaks "
-                f"{VERSION_MAJOR}.{VERSION_MINOR}: update the firmware or the porosense package"
-            )
+        # The header's version byte is checked first: another major may lay HELLO_REPLY out differently.
+        check_compatible(*split_version(frame.version))
         try:
             reply = frame.message()
         except ValueError as exc:
             raise DeviceError(f"malformed HELLO_REPLY from {self.url}: {exc}") from None
-        if reply.proto_major != VERSION_MAJOR:
-            raise DeviceError(
-                f"device at {self.url} speaks protocol {reply.proto_major}.{reply.proto_minor}, this host "
-                f"speaks {VERSION_MAJOR}.{VERSION_MINOR}: update the firmware or the porosense package"
-            )
+        check_compatible(reply.proto_major, reply.proto_minor)
         self.info = HelloInfo.from_message(reply)
         return self.info
 
@@ -229,6 +219,7 @@ class Device:
             self.stop_stream()
         mask = _channel_mask(channels)
         self._samples.clear()
+        self._next_tseq = 0  # each stream numbers its SAMPLE frames from 0
         self._exchange(m.StartStream(rate_hz=int(rate_hz), channel_mask=mask))
         self._rate_hz = int(rate_hz)
         self._streaming = True
@@ -343,8 +334,7 @@ class Device:
 
     def calibrate_r0(self, n_samples: int = 16, channels: int = 0b111) -> tuple[float, ...]:
         """Average ``n_samples`` (1..64) at rest and take them as R0; returns R0 per channel (ohm)."""
-        deadline = 0.3 + 0.05 * max(1, int(n_samples))
-        reply = self._exchange(m.CalibrateR0(n_samples=int(n_samples), channel_mask=int(channels)), deadline_s=deadline)
+        reply = self._exchange(m.CalibrateR0(n_samples=int(n_samples), channel_mask=int(channels)))
         return tuple(float(r) for r in reply.r0_ohm)
 
     def set_r0(self, r0_ohm: Sequence[float], channels: int = 0b111) -> None:
@@ -383,7 +373,7 @@ class Device:
     def reset(self, wait_s: float = 3.0) -> HelloInfo:
         """Reset the board, wait for it to boot and handshake again."""
         self._exchange(m.Reset())
-        self._next_tseq = None  # the telemetry sequence restarts with the firmware
+        self._next_tseq = self._next_eseq = None  # the counters restart with the firmware
         self._streaming = False
         self._outputs_active = False
         self._samples.clear()
@@ -418,9 +408,9 @@ class Device:
         return self._seq
 
     def _timeout_s(self, cmd_type: int, frame_len: int, deadline_s: float | None) -> float:
-        deadline = _SLOW_COMMANDS.get(cmd_type, _DEFAULT_DEADLINE_S) if deadline_s is None else deadline_s
+        deadline = MESSAGES[cmd_type].DEADLINE_MS / 1000.0 if deadline_s is None else deadline_s
         link_bytes = frame_len + _max_frame_bytes(_reply_type(cmd_type))
-        return (deadline + link_bytes * 10.0 / self.baudrate + _MARGIN_S) * self.timeout_scale
+        return (deadline + link_bytes * 10.0 / self.baudrate + _LATENCY_S) * self.timeout_scale
 
     def _exchange(self, message, *, seq=None, deadline_s=None, wait_total_s=None, raw=False):
         """Send ``message``, retry with the same sequence number, return the matching answer."""
@@ -433,7 +423,8 @@ class Device:
         data = encode_message(message, seq)
         timeout = self._timeout_s(cmd_type, len(data), deadline_s)
         attempts = self.retries + 1
-        if wait_total_s is not None:
+        if wait_total_s is not None:  # a board that may be booting: repeat every 250 ms
+            timeout = max(timeout, _HELLO_REPEAT_S)
             attempts = max(attempts, int(wait_total_s / timeout) + 1)
         self.stats.commands += 1
         for attempt in range(attempts):
@@ -494,7 +485,9 @@ class Device:
             if frame.type == MsgType.SAMPLE:
                 self._on_sample(frame)
             elif frame.type == MsgType.ERROR:
-                self._telemetry_seq(frame.seq)  # ERROR shares the telemetry sequence
+                if self._next_eseq is not None:  # ERROR frames have their own counter
+                    self.stats.errors_lost += (frame.seq - self._next_eseq) & 0xFF
+                self._next_eseq = (frame.seq + 1) & 0xFF
                 try:
                     self.errors.append(frame.message())
                     self.stats.errors_received += 1
@@ -504,18 +497,14 @@ class Device:
                 others.append(frame)
         return others
 
-    def _telemetry_seq(self, seq: int) -> None:
-        """Count the telemetry frames (SAMPLE and ERROR) missing before ``seq``."""
-        if self._next_tseq is not None:
-            self.stats.samples_lost += (seq - self._next_tseq) & 0xFF
-        self._next_tseq = (seq + 1) & 0xFF
-
     def _on_sample(self, frame) -> None:
         try:
             t_us, mask, status, *vals = _SAMPLE.unpack(frame.payload)
         except struct.error:
             return
-        self._telemetry_seq(frame.seq)
+        if self._next_tseq is not None:
+            self.stats.samples_lost += (frame.seq - self._next_tseq) & 0xFF
+        self._next_tseq = (frame.seq + 1) & 0xFF
         if self._t_last_raw is not None and t_us < self._t_last_raw and self._t_last_raw - t_us > 1 << 31:
             self._t_wraps += 1
         self._t_last_raw = t_us

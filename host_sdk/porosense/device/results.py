@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from porosense.protocol import MsgType, StatusFlag
+from porosense.protocol import StatusFlag
 from porosense.protocol._messages import Capability
 
 MODEL_STATUS_NAMES = {0: "none", 1: "valid", 2: "invalid"}
@@ -235,6 +235,7 @@ class LinkStats(_Dictable):
     samples: int = 0
     samples_lost: int = 0
     errors_received: int = 0
+    errors_lost: int = 0
     decoder: dict = field(default_factory=dict)
 
     def __str__(self) -> str:
@@ -243,16 +244,3 @@ class LinkStats(_Dictable):
             f"{self.commands} commands ({self.retries} retries, {self.stale_replies} stale replies), "
             f"{self.samples} samples received, {self.samples_lost} lost, {dropped} bad frames dropped"
         )
-
-
-REPLY_OF = {
-    MsgType.HELLO: MsgType.HELLO_REPLY,
-    MsgType.PING: MsgType.PONG,
-    MsgType.MODEL_INFO: MsgType.MODEL_INFO_REPLY,
-    MsgType.MODEL_READ: MsgType.MODEL_DATA,
-    MsgType.REPLAY: MsgType.REPLAY_RESULT,
-    MsgType.CALIBRATE_R0: MsgType.R0_REPLY,
-    MsgType.STATUS: MsgType.STATUS_REPLY,
-    MsgType.CONFIG_GET: MsgType.CONFIG_VALUE,
-}
-"""Commands answered by a data message; every other command is answered by ACK."""

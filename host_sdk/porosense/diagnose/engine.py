@@ -135,7 +135,7 @@ def _confidences(strengths: dict, qualified: dict, threshold: float) -> dict:
 
 
 def diagnose(estimation: list, validation: list, *, alpha: float = stats.DEFAULT_ALPHA,
-             min_gain: float = 0.0) -> Diagnosis:
+             min_gain: float = 0.05) -> Diagnosis:
     """Diagnose predictions against measurements.
 
     estimation, validation: lists of :class:`Record` (validation may repeat estimation if no

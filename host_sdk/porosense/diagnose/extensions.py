@@ -185,7 +185,15 @@ def _explained(test) -> str:
     return f"{100 * test.detail.get('explained', 0.0):.1f} % of the whitened residual"
 
 
-def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
+def _static_sets(ctx: Context) -> dict:
+    """Regressor builders of a static PWL map on each side of the model's dynamics.
+
+    output: hinge(yhat) (Wiener); input: the model's dynamics applied to hinge(u) (Hammerstein);
+    between: the model's dynamics applied to hinge(yhat) (a nonlinearity inside the loop or
+    between two linear blocks, Wiener-Hammerstein-like).
+    """
+    if "static_sets" in ctx._cache:
+        return ctx._cache["static_sets"]
     knots_out = signals.quantile_knots(ctx.yhat_est, 5)
     knots_in = [signals.quantile_knots(ctx.u_est[:, i], 5) for i in range(ctx.n_in)]
 
@@ -200,24 +208,42 @@ def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
             cols += [ctx.lag_bank(h[:, j], 1)[:, 0] for j in range(h.shape[1])]
         return np.column_stack(cols)
 
-    t_out = ctx.f_test(ctx.stack(z_out, ctx.est))
-    t_in = ctx.f_test(ctx.stack(z_in, ctx.est))
-    side, test, z = ("output", t_out, z_out) if t_out.log10_p <= t_in.log10_p else ("input", t_in, z_in)
-    res = stats.f_result(f"F(residual ~ PWL of the {side} level)", test, alpha, 2, side=side)
-    ctx._cache["static_z"] = z_out
+    x_mid = [ctx.lag_bank(ctx.u_est[:, i], 1)[:, 0] for i in range(ctx.n_in)]
+    knots_mid = [signals.quantile_knots(x, 5) for x in x_mid]
+
+    def z_mid(r):
+        h = signals.hinge_basis(r.yhat, knots_out)
+        cols = [ctx.base_filter(h[:, j]) for j in range(h.shape[1])]
+        for i in range(ctx.n_in):
+            hm = signals.hinge_basis(ctx.lag_bank(r.u[:, i], 1)[:, 0], knots_mid[i])
+            cols += [ctx.base_filter(hm[:, j]) for j in range(hm.shape[1])]
+        return np.column_stack(cols)
+
+    ctx._cache["static_sets"] = {"output": z_out, "input": z_in, "between": z_mid}
+    return ctx._cache["static_sets"]
+
+
+def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
+    sets = _static_sets(ctx)
+    tests = {side: ctx.f_test(ctx.stack(z, ctx.est)) for side, z in sets.items()}
+    side = min(tests, key=lambda k: tests[k].log10_p)
+    test, z = tests[side], sets[side]
+    res = stats.f_result(f"F(residual ~ PWL of the level, {side} side)", test, alpha, len(sets), side=side)
     pred, _ = ctx.fit_apply(z)
-    kind = "Wiener: PWL on the output side" if side == "output" else "Hammerstein: PWL on the input side"
-    return CauseResult(res, True, f"the residual depends on the {side} level ({_explained(res)})",
-                       f"{kind}, 5 breakpoints", pred, {"side": side, "p_output": t_out.p, "p_input": t_in.p})
+    kind = {"output": "Wiener: PWL on the output side", "input": "Hammerstein: PWL on the input side",
+            "between": "PWL between the linear blocks (Wiener-Hammerstein)"}[side]
+    return CauseResult(res, True, f"the residual depends on the signal level, best explained on the {side} side "
+                       f"({_explained(res)})", f"{kind}, 5 breakpoints", pred,
+                       {"side": side, **{f"p_{k}": t.p for k, t in tests.items()}})
 
 
 def hysteresis(ctx: Context, alpha: float) -> CauseResult:
     span = float(np.ptp(ctx.yhat_est)) or 1.0
     radii = span * np.array([0.03, 0.08, 0.15, 0.3])
-    knots_out = signals.quantile_knots(ctx.yhat_est, 5)
+    sets = _static_sets(ctx)
 
     def z_static(r):
-        return signals.hinge_basis(r.yhat, knots_out)
+        return np.column_stack([z(r) for z in sets.values()])
 
     def z_h(r):
         cols = []
@@ -226,9 +252,10 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
             cols += [d, ctx.base_filter(d)]
         return np.column_stack(cols)
 
+    # direction dependence beyond any static map on either side: hysteresis, not a level effect
     test = ctx.f_test(ctx.stack(z_h, ctx.est), extra_base=ctx.stack(z_static, ctx.est))
     res = stats.f_result("F(residual ~ direction of motion at equal level | level)", test, alpha)
-    pred, _ = ctx.fit_apply(lambda r: np.column_stack([z_static(r), z_h(r)]))
+    pred, _ = ctx.fit_apply(lambda r: np.column_stack([sets["output"](r), z_h(r)]))
     return CauseResult(res, True, "at equal output level the residual depends on the direction of motion "
                        f"({_explained(res)} beyond the level alone)",
                        "Prandtl-Ishlinskii play operators (4 radii) of the model output with a static PWL", pred)
@@ -242,7 +269,9 @@ def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
         a = float(np.exp(-ctx.ts / tau))
 
         def z(r, a=a):
-            return np.column_stack([ctx.lag_bank(r.u[:, i], 2, a) for i in range(ctx.n_in)])
+            # the slow mode may act on the input or on the (nonlinear) response: filter both
+            return np.column_stack([ctx.lag_bank(r.u[:, i], 2, a) for i in range(ctx.n_in)]
+                                   + [ctx.lag_bank(r.yhat, 2, a)])
 
         t = ctx.f_test(ctx.stack(z, ctx.est))
         if best is None or t.log10_p < best[0].log10_p:
@@ -333,15 +362,17 @@ def periodic_disturbance(ctx: Context, alpha: float) -> CauseResult:
         m = stats.line_mask(ctx.u_est[:, i])
         exclude = m if exclude is None else exclude | m
     line = stats.spectral_lines(ctx.e_est, ctx.ts, alpha, exclude=exclude)
-    n = len(ctx.e_est)
     f0 = line.detail["freq_hz"]
-    t_all = np.arange(n) * ctx.ts
+    n = len(ctx.e_est)
+    # refine the frequency on each record's own time axis (records have their own phases)
+    e_parts = np.split(ctx.e_est, np.cumsum(ctx.seg_est)[:-1])
     best = (-1.0, f0)
     for f in f0 + np.linspace(-1.0, 1.0, 41) / (n * ctx.ts):
         if f <= 0:
             continue
-        c, s = np.cos(2 * np.pi * f * t_all), np.sin(2 * np.pi * f * t_all)
-        amp = (ctx.e_est @ c) ** 2 + (ctx.e_est @ s) ** 2
+        amp = 0.0
+        for r, e in zip(ctx.est, e_parts):
+            amp += (e @ np.cos(2 * np.pi * f * r.t)) ** 2 + (e @ np.sin(2 * np.pi * f * r.t)) ** 2
         if amp > best[0]:
             best = (amp, f)
     f = best[1]
@@ -349,9 +380,15 @@ def periodic_disturbance(ctx: Context, alpha: float) -> CauseResult:
     def z(r):
         return np.column_stack([np.sin(2 * np.pi * f * r.t), np.cos(2 * np.pi * f * r.t)])
 
-    test = ctx.f_test(ctx.stack(z, ctx.est))
+    # amplitude and phase free in every record
+    blocks, start = [], 0
+    for r in ctx.est:
+        B = np.zeros((n, 2))
+        B[start : start + len(r.y)] = z(r)
+        blocks.append(B)
+        start += len(r.y)
+    test = ctx.f_test(np.column_stack(blocks))
     ftest = stats.f_result("F(residual ~ sinusoid)", test, alpha)
-    res = line if line.strength < ftest.strength else ftest
     res = stats.StatResult(line.name, line.value, line.threshold, line.p, alpha,
                            {**line.detail, "f_test": ftest.value}, log10_p=-min(line.strength, ftest.strength))
     pred_g0_val, pred_g0_est = ctx.fit_apply(None)
@@ -386,46 +423,63 @@ def _condition_columns(ctx: Context) -> list:
     return cols
 
 
-def load_dependence(ctx: Context, alpha: float) -> CauseResult:
-    cols = _condition_columns(ctx)
-    if not cols:
-        res = stats.StatResult("F(residual ~ load offset and load x output)", 0.0, np.inf, 1.0, alpha)
-        return CauseResult(res, False, "no varying condition column was given", "none", None)
+def _column_tests(ctx: Context) -> dict:
+    """Per varying condition column: F of its dynamics (additive) and of its interaction with the
+    model output beyond those dynamics (a gain that changes with the column)."""
+    if "columns" in ctx._cache:
+        return ctx._cache["columns"]
+    out = {}
     m, s = float(np.mean(ctx.yhat_est)), float(np.std(ctx.yhat_est)) or 1.0
-    best = None
-    for name, mu, sd in cols:
-        def z(r, name=name, mu=mu, sd=sd):
-            c = (r.conditions[name] - mu) / sd
-            return np.column_stack([c, c * (r.yhat - m) / s])
+    for name, mu, sd in _condition_columns(ctx):
+        def z_dyn(r, name=name, mu=mu, sd=sd):
+            return ctx.lag_bank((r.conditions[name] - mu) / sd, 3)
 
-        t = ctx.f_test(ctx.stack(z, ctx.est))
-        if best is None or t.log10_p < best[0].log10_p:
-            best = (t, z, name)
-    test, z, name = best
-    res = stats.f_result(f"F(residual ~ {name} offset and {name} x output)", test, alpha, len(cols), column=name)
-    pred, _ = ctx.fit_apply(z)
-    return CauseResult(res, True, f"the residual depends on the measured column {name} ({_explained(res)})",
-                       f"{name} as an extra input and a {name}-scheduled gain", pred, {"column": name})
+        def z_gain(r, name=name, mu=mu, sd=sd):
+            return ((r.conditions[name] - mu) / sd * (r.yhat - m) / s)[:, None]
+
+        dyn = ctx.f_test(ctx.stack(z_dyn, ctx.est))
+        inter = ctx.f_test(ctx.stack(z_gain, ctx.est), extra_base=ctx.stack(z_dyn, ctx.est))
+        both = ctx.f_test(np.column_stack([ctx.stack(z_dyn, ctx.est), ctx.stack(z_gain, ctx.est)]))
+        out[name] = {"dyn": dyn, "inter": inter, "both": both, "z_dyn": z_dyn, "z_gain": z_gain}
+    ctx._cache["columns"] = out
+    return out
+
+
+def _no_columns(alpha: float, name: str) -> CauseResult:
+    res = stats.StatResult(name, 0.0, np.inf, 1.0, alpha)
+    return CauseResult(res, False, "no varying condition column was given", "none", None)
+
+
+def load_dependence(ctx: Context, alpha: float) -> CauseResult:
+    cols = _column_tests(ctx)
+    if not cols:
+        return _no_columns(alpha, "F(residual ~ column and column x output)")
+    name = min(cols, key=lambda k: cols[k]["both"].log10_p)
+    c = cols[name]
+    res = stats.f_result(f"F(residual ~ {name} and {name} x output)", c["both"], alpha, len(cols), column=name)
+    inter = stats.f_result("interaction", c["inter"], alpha, len(cols))
+    pred, _ = ctx.fit_apply(lambda r: np.column_stack([c["z_dyn"](r), c["z_gain"](r)]))
+    # a load changes the gain: the column x output interaction must matter beyond additive dynamics
+    return CauseResult(res, inter.significant, f"the residual depends on the measured column {name}, and the "
+                       f"model's gain changes with it (interaction F = {c['inter'].f:.3g}, p = {inter.p:.2g}; "
+                       f"{_explained(res)})", f"{name} as an extra input and a {name}-scheduled gain", pred,
+                       {"column": name})
 
 
 def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
-    cols = _condition_columns(ctx)
+    cols = _column_tests(ctx)
     if not cols:
-        res = stats.StatResult("F(residual ~ filtered unused input)", 0.0, np.inf, 1.0, alpha)
-        return CauseResult(res, False, "no varying condition column was given", "none", None)
-    best = None
-    for name, mu, sd in cols:
-        def z(r, name=name, mu=mu, sd=sd):
-            return ctx.lag_bank((r.conditions[name] - mu) / sd, 3)
-
-        t = ctx.f_test(ctx.stack(z, ctx.est))
-        if best is None or t.log10_p < best[0].log10_p:
-            best = (t, z, name)
-    test, z, name = best
-    res = stats.f_result(f"F(residual ~ dynamics of unused input {name})", test, alpha, len(cols), column=name)
-    pred, _ = ctx.fit_apply(z)
-    return CauseResult(res, True, f"the residual follows the unused input {name} through dynamics "
-                       f"({_explained(res)})", f"{name} as an extra MISO input", pred, {"column": name})
+        return _no_columns(alpha, "F(residual ~ filtered unused input)")
+    name = min(cols, key=lambda k: cols[k]["dyn"].log10_p)
+    c = cols[name]
+    res = stats.f_result(f"F(residual ~ dynamics of unused input {name})", c["dyn"], alpha, len(cols), column=name)
+    inter = stats.f_result("interaction", c["inter"], alpha, len(cols))
+    pred, _ = ctx.fit_apply(c["z_dyn"])
+    # coupling adds the other channel's response; a gain change with the column is a load effect
+    return CauseResult(res, not inter.significant, f"the residual follows the unused input {name} through "
+                       f"dynamics, additively (interaction with the output F = {c['inter'].f:.3g}, "
+                       f"p = {inter.p:.2g}; {_explained(res)})", f"{name} as an extra MISO input", pred,
+                       {"column": name})
 
 
 def saturation(ctx: Context, alpha: float) -> CauseResult:

@@ -201,6 +201,7 @@ def gls_f_test(e: np.ndarray, Z: np.ndarray, base: np.ndarray | None = None, max
     scale = np.linalg.norm(Xw, axis=0)
     keep = scale > 1e-12 * max(scale.max(), 1e-300)
     keep[:nb] = True
+    scale = np.where(scale > 0, scale, 1.0)
     Xw = Xw[:, keep] / scale[keep]
     kz = int(keep[nb:].sum())
     c0, *_ = np.linalg.lstsq(Xw[:, :nb], ew, rcond=None)

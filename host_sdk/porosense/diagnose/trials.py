@@ -193,3 +193,79 @@ def run_trials(n_per_cause: int, seed: int = 1000, causes=None) -> dict:
             "seconds_per_trial": float(np.mean([t.seconds for t in trials])),
         }
     return out
+
+
+# -- the same with the actuator simulator (porosense.sim) and a calibrated simulation --------------
+SIM_RATE_HZ = 20.0
+#: Strength ranges of the causes hidden with porosense.sim's named effects (contractor, 20 Hz).
+#: static_nonlinearity and hysteresis are not simulator effects: they are applied to the
+#: measured dR as in the surrogate; cross_coupling needs the 3-DoF segment and is not drawn here.
+SIM_STRENGTHS = {
+    "drift": "rate_pct_per_min 1-3 % of R0 per minute",
+    "time_delay": "delay_s 0.15-0.5 s",
+    "periodic_disturbance": "amplitude_pct 1-3 % dR at freq_hz 1-9 Hz",
+    "saturation": "low_V 1.3-1.8 V (ADC input clipping; dR limited to about -75..-60 %)",
+    "load_dependence": "delta_g 200-500 g ramped in from 10-30 s over 5-15 s",
+    "slow_relaxation": "gain 0.1-0.2 of the change in dR, tau_s 15-40 s",
+    "outliers": "glitch_pct 10-30 % dR with probability 0.3-1 % per sample",
+    "static_nonlinearity": "bend s in [0.4, 0.9] on the normalised measured dR",
+    "hysteresis": "rate-independent lag of the measured dR, memory 5-15 %, weight 0.3-0.6",
+}
+SIM_CAUSES = tuple(SIM_STRENGTHS)
+
+
+def _sim_effect(rng, cause: str) -> dict | None:
+    u = rng.uniform
+    return {
+        "drift": lambda: {"drift": {"rate_pct_per_min": u(1.0, 3.0)}},
+        "time_delay": lambda: {"time_delay": {"delay_s": u(0.15, 0.5)}},
+        "periodic_disturbance": lambda: {"periodic_disturbance": {"amplitude_pct": u(1.0, 3.0), "freq_hz": u(1.0, 9.0)}},
+        "saturation": lambda: {"saturation": {"low_V": u(1.3, 1.8)}},
+        "load_dependence": lambda: {"load_dependence": {"delta_g": u(200.0, 500.0), "start_s": u(10.0, 30.0),
+                                                        "ramp_s": u(5.0, 15.0)}},
+        "slow_relaxation": lambda: {"slow_relaxation": {"gain": u(0.1, 0.2), "tau_s": u(15.0, 40.0)}},
+        "outliers": lambda: {"outliers": {"glitch_pct": u(10.0, 30.0), "glitch_prob": u(0.003, 0.01),
+                                          "drop_prob": 0.0}},
+    }.get(cause, lambda: None)()
+
+
+def _post(y: np.ndarray, cause: str, pr: dict) -> np.ndarray:
+    """Static nonlinearity or hysteresis applied to a measured dR record (not simulator effects)."""
+    full = 100.0
+    if cause == "static_nonlinearity":
+        v = y / full
+        return full * (v + pr["s"] * v * (1.0 + v))
+    if cause == "hysteresis":
+        z = np.empty_like(y)
+        zk = y[0]
+        rho = 1.0 / (pr["memory"] * full)
+        for k, yk in enumerate(y):
+            zk += (1.0 - np.exp(-rho * abs(yk - (y[k - 1] if k else yk)))) * (yk - zk)
+            z[k] = zk
+        return (1.0 - pr["h"]) * y + pr["h"] * z
+    return y
+
+
+def run_sim_trial(cause: str, seed: int) -> Trial:
+    """Hide ``cause`` in simulated contractor experiments, calibrate the simulator, diagnose."""
+    from porosense import sim
+    from porosense.diagnose.calibrate import calibrate
+
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    effects = _sim_effect(rng, cause)
+    post = {"s": rng.uniform(0.4, 0.9)} if cause == "static_nonlinearity" else (
+        {"memory": rng.uniform(0.05, 0.15), "h": rng.uniform(0.3, 0.6)} if cause == "hysteresis" else {})
+    porosity = rng.uniform(72.0, 86.0)
+    parts = []
+    for k, exp in enumerate(("staircase", "step_20", "step_40")):
+        rec = sim.run_experiment("contractor", exp, porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10 + k,
+                                 effects=effects)
+        parts.append((rec["p_cmd_0"][:, None], _post(rec["dR_0"], cause, post), {"load_g": rec["load_g"]}))
+    est, val = parts[:2], parts[2:]
+    ts = 1.0 / SIM_RATE_HZ
+    cal = calibrate("contractor", "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts)
+    recs = [[engine.Record(u, y, cal.predict(u, ts), ts, c) for u, y, c in part] for part in (est, val)]
+    d = engine.diagnose(recs[0], recs[1])
+    gain = d.finding(cause).gain if cause != NONE else 0.0
+    return Trial(cause, d.top, float(gain), time.perf_counter() - t0, d)

@@ -1,9 +1,9 @@
 """The emulated board: the firmware's command semantics over a simulated plant.
 
 Mirrors firmware/lib/core/device.cpp rule for rule: duplicate detection on (type, sequence)
-with the cached reply resent verbatim, NAK codes and details, output limits, the host-link
-watchdog, sample ticks from a 1 kHz clock, one telemetry sequence shared by SAMPLE and
-ERROR, and the model store rules. Times are integers in microseconds: ``T_us`` is emulator
+with the cached reply resent verbatim (HELLO excepted), NAK codes and details, output
+limits, the host-link watchdog, sample ticks from a 1 kHz clock, SAMPLE numbered from 0 in
+each stream and ERROR by its own counter, and the model store rules. Times are integers in microseconds: ``T_us`` is emulator
 time (the plant's clock, never reset) and the device clock restarts at each boot.
 """
 
@@ -92,7 +92,6 @@ class BoardCore:
         self._plant_T_us = 0
         self._reading = None
         self._reset_cause = RESET_POWER_ON
-        self.telemetry_seq = 0
         self.boot(0, RESET_POWER_ON)
 
     # ------------------------------------------------------------------ boot and clock
@@ -113,6 +112,7 @@ class BoardCore:
         self._tick_k = 0
         self._stream_T0_us = 0
         self.telemetry_seq = 0
+        self.error_seq = 0
         self.sticky = 0
         self.sample_flags = 0
         self.pending_overrun = False
@@ -260,8 +260,13 @@ class BoardCore:
         self._reply(m.Nak(acked_type=self.last_type, code=int(code), detail=int(detail)))
 
     def _send_unsolicited(self, msg, sample_t_us: int | None = None) -> None:
-        frame = encode_frame(msg.TYPE, self.telemetry_seq, msg.pack(), self._version_byte)
-        self.telemetry_seq = (self.telemetry_seq + 1) & 0xFF
+        # SAMPLE and ERROR number themselves with separate counters; a dropped frame still
+        # takes its number, so the host sees the gap.
+        if msg.TYPE == MsgType.SAMPLE:
+            seq, self.telemetry_seq = self.telemetry_seq, (self.telemetry_seq + 1) & 0xFF
+        else:
+            seq, self.error_seq = self.error_seq, (self.error_seq + 1) & 0xFF
+        frame = encode_frame(msg.TYPE, seq, msg.pack(), self._version_byte)
         if self._tx_room() < len(frame):
             self.counters["dropped_telemetry"] = _sat16(self.counters["dropped_telemetry"] + 1)
             return
@@ -294,7 +299,9 @@ class BoardCore:
 
     def _handle(self, frame) -> None:
         # A retry carries the same sequence number and type: answer it without executing again.
-        if self.cached is not None and frame.type == self.last_type and frame.seq == self.last_seq:
+        # HELLO is never a duplicate (a new host session must not collide with the last one).
+        if (self.cached is not None and frame.type == self.last_type and frame.seq == self.last_seq
+                and frame.type != MsgType.HELLO):
             self.stats.duplicates += 1
             self._send(self.cached)
             return
@@ -318,6 +325,10 @@ class BoardCore:
     # ------------------------------------------------------------------ commands
 
     def _cmd_hello(self, msg, frame) -> None:
+        self._hello_reply()
+        self.cached = None  # HELLO clears the duplicate cache
+
+    def _hello_reply(self) -> None:
         caps = Capability.ESTIMATOR | Capability.EMULATED
         if self.adc_present:
             caps |= Capability.ADC
@@ -379,6 +390,7 @@ class BoardCore:
             self.model.reset()
         self.stream_mask = mask
         self.rate_hz = rate_hz
+        self.telemetry_seq = 0  # each stream numbers its SAMPLE frames from 0
         self.pending_overrun = False
         self.streaming = True
         # The 1 kHz tick runs from the next whole millisecond.

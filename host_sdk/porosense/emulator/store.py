@@ -15,6 +15,7 @@ from porosense.protocol import Result
 from porosense.protocol._messages import CONFIG_SPECS
 
 MODEL_REGION_BYTES = 1024 - 64  # EEPROM 64..1023 (interfaces: header + blob)
+MIN_BLOB_BYTES = 24 + 2  # a blob's header and CRC
 
 
 def blob_crc(blob: bytes) -> int:
@@ -81,12 +82,11 @@ class ModelStore:
         return bytes(self.data[: self.header.length])
 
     def begin(self, length: int, crc: int, format_version: int) -> tuple[int, int]:
-        if length == 0:
-            return Result.OUT_OF_RANGE, 0
         if length > self.capacity:
             return Result.TOO_LARGE, min(length - self.capacity, 32767)
-        if self.format_version is not None and format_version != self.format_version:
-            return Result.BAD_MODEL, self.format_version
+        wrong_format = self.format_version is not None and format_version != self.format_version
+        if wrong_format or length < MIN_BLOB_BYTES:
+            return Result.BAD_MODEL, 0
         self.header = ModelHeader()  # invalidated before the first byte changes
         self._writing = ModelHeader(False, length, crc, format_version)
         self._offset = 0
@@ -113,7 +113,7 @@ class ModelStore:
             return Result.BAD_STATE, self._offset, None
         blob = bytes(self.data[: w.length])
         self._writing = None
-        if blob_crc(blob) != w.crc:
+        if blob_crc(blob) != w.crc or int.from_bytes(blob[-2:], "little") != w.crc:
             return Result.BAD_MODEL, 0, None
         try:
             model = self.parse(blob)

@@ -164,13 +164,15 @@ def pwl_positions(p) -> tuple[np.ndarray, np.ndarray]:
     """Breakpoint positions x and dx/dp (lower triangular) from unconstrained ``p``."""
     p = np.asarray(p, dtype=float)
     # The floor keeps breakpoints distinct (normalised units, so 2e-9 is negligible).
-    steps = np.exp(np.clip(p[1:], -20.0, 50.0))
+    raw = p[1:]
+    steps = np.exp(np.clip(raw, -20.0, 50.0))
+    dsteps = np.where((raw > -20.0) & (raw < 50.0), steps, 0.0)  # flat where clipped
     x = p[0] + np.concatenate([[0.0], np.cumsum(steps)])
     n = len(p)
     jac = np.zeros((n, n))
     jac[:, 0] = 1.0
     for j in range(1, n):
-        jac[j:, j] = steps[j - 1]
+        jac[j:, j] = dsteps[j - 1]
     return x, jac
 
 

@@ -161,9 +161,14 @@ def _hammerstein_starts(lin: Fit, us, ys, n_bp, delay, opts):
     return spec, starts[: max(opts.starts, 1)]
 
 
+def _bla_options(opts: Options) -> Options:
+    """A rough best linear approximation is enough to start a nonlinear model."""
+    return Options(max_nfev=max(opts.max_nfev // 5, 10), tol=max(opts.tol, 1e-5), skip=opts.skip, starts=1)
+
+
 def fit_hammerstein(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, lin: Fit | None = None) -> Fit:
     """f_i then B_i/F_i; best of the multi-start refinements from the best linear approximation."""
-    lin = lin or fit_linear(us, ys, n_poles, n_zeros, delay, opts)
+    lin = lin or fit_linear(us, ys, n_poles, n_zeros, delay, _bla_options(opts))
     spec, starts = _hammerstein_starts(lin, us, ys, n_bp, delay, opts)
     return multistart(spec, starts, us, ys, opts)
 
@@ -194,7 +199,7 @@ def _wiener_starts(lin: Fit, us, ys, n_bp, delay, opts):
 
 def fit_wiener(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, lin: Fit | None = None) -> Fit:
     """B_i/F_i summed, then g; multi-start from the best linear approximation."""
-    lin = lin or fit_linear(us, ys, n_poles, n_zeros, delay, opts)
+    lin = lin or fit_linear(us, ys, n_poles, n_zeros, delay, _bla_options(opts))
     spec, starts = _wiener_starts(lin, us, ys, n_bp, delay, opts)
     return multistart(spec, starts, us, ys, opts)
 
@@ -221,7 +226,7 @@ def fit_wh(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options) -> Fit:
     inner = Options(max_nfev=max(opts.max_nfev // 4, 15), tol=max(opts.tol, 1e-5), skip=opts.skip, starts=1)
 
     # Wiener + linear: H2 is an OE model from z = g(s) to y.
-    lin = fit_linear(us, ys, np1, nz1, delay, inner)
+    lin = fit_linear(us, ys, np1, nz1, delay, _bla_options(opts))
     wien = fit_wiener(us, ys, np1, nz1, n_bp, delay, inner, lin=lin)
     wchain = Chain(wien.spec, wien.theta)
     zs = [wchain.simulate(u) - wchain.offset for u in us]
@@ -257,7 +262,7 @@ def multistart(spec: ChainSpec, starts, us, ys, opts: Options) -> Fit:
     """Refine every start briefly, then continue the best one with the remaining budget."""
     if len(starts) == 1:
         return refine(spec, starts[0], us, ys, opts)
-    screen = max(opts.max_nfev // 6, 8)
+    screen = max(opts.max_nfev // 10, 8)
     short = Options(max_nfev=screen, tol=max(opts.tol, 1e-5), skip=opts.skip, starts=opts.starts)
     best = _best([refine(spec, t, us, ys, short) for t in starts])
     rest = Options(max_nfev=max(opts.max_nfev - screen, 1), tol=opts.tol, skip=opts.skip, starts=opts.starts)

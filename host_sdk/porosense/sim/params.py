@@ -45,15 +45,17 @@ class Piezo:
     """Piezoresistance of the carbon-black network: contacts close as pores collapse."""
 
     r0_ohm: float = 2200.0          # resistance of the unloaded actuator at rest
-    contact_strain: float = 0.25    # collapsed share of the strain capacity at which dR = -63 % of D
+    contact_strain: float = 0.22    # collapsed share of the strain capacity at which dR = -63 % of D
     contact_exponent: float = 1.4   # shape of the contact-formation curve (> 1: slow start)
-    floor_pct: float = 88.0         # largest resistance drop D (%): densified network + electrodes
+    floor_pct: float = 85.0         # largest static resistance drop D (%): densified network + electrodes
     tension_gauge_factor: float = 2.0  # dR/R per unit tensile strain (load pulling the foam)
-    contact_lag_s: float = 1.1      # pore-contact strain lags the marker strain (lead-lag pole)
-    contact_lead_s: float = 0.25    # ... lead-lag zero (instantaneous share = lead / lag)
-    relax_s: float = 2.5            # resistance relaxation time constant (network reformation)
-    relax_gain: float = 0.12        # relaxation overshoot as a fraction of the change in dR
-    relax_r_scaling: float = 0.0    # 1: relaxation proportional to R/R0 (keeps R > 0); 0: additive
+    contact_lag_s: float = 0.6      # pore-contact strain lags the marker strain (lead-lag pole)
+    contact_lead_s: float = 0.15    # ... lead-lag zero (instantaneous share = lead / lag)
+    relax_s: float = 3.0            # resistance relaxation time constant (network reformation)
+    relax_gain: float = 0.17        # relaxation overshoot as a fraction of the change in dR;
+                                    # D (1 + gain) < 100 keeps R > 0 during a loading undershoot
+    relax_r_scaling: float = 0.0    # 0: relaxation additive in dR (a linear block: the dR -> strain
+                                    # map is exactly Wiener-Hammerstein); 1: proportional to R/R0
     noise_pct: float = 0.04         # contact/flicker noise, dR % rms
 
 

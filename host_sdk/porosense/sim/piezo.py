@@ -10,10 +10,14 @@ Chain from the actuator strain ``eps`` (fraction) to dR (%):
    (< 100 %) leaves the resistance of the densified network and the electrodes; tension
    (a load stretching the foam) raises R with a gauge factor;
 3. network relaxation: after a change the carbon-black network slowly re-forms, so dR first
-   overshoots and then relaxes: ``dR = g + k (g - LP(g)) (1 + g/100)`` with a first-order LP
-   of time constant ``relax_s``; the factor ``1 + g/100 = R/R0`` scales the relaxation with the
-   present resistance (so R stays positive, k < 1). After a release this puts R above R0,
-   decaying before the next cycle.
+   overshoots and then relaxes: ``dR = g + k (g - LP(g))`` with a first-order LP of time
+   constant ``relax_s`` (optionally scaled by ``R/R0 = 1 + g/100``, ``relax_r_scaling``).
+   After a release this puts R above R0, decaying before the next cycle.
+
+Seen from dR to strain (what the estimator identifies) the chain is Wiener-Hammerstein: the
+inverse relaxation (linear), the inverse contact curve (static), the inverse contact lag
+(linear). Relaxation makes the loops rate dependent; the contact curve gives the static
+nonlinearity of pore collapse.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ Per channel and sample (first-order stages use ``a = exp(-dt/tau)``,
 2. foam: stress ``sigma = -p - sigma_load`` (kPa) -> static strain (collapse curve) -> creep
    modes -> strain ``eps`` (fraction of the unloaded length);
 3. piezo: contact strain ``eps_c = r eps + (1 - r) LP_lag(eps)`` (lead-lag) -> contact dR
-   (static, pore collapse) -> network relaxation ``dR = g + k (g - LP_relax(g)) (1 + g/100)``;
+   (static, pore collapse) -> network relaxation ``dR = g + k (g - LP_relax(g))``;
 4. electronics: ``R = R0 (1 + dR/100)``, divider voltage with noise;
 5. kinematics: strain, curvature or segment pose; BNO055 Euler angles.
 

@@ -1,0 +1,1 @@
+"""Device conformance suite and emulator tests (a package, so module names stay unique)."""

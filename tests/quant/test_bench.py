@@ -1,0 +1,39 @@
+"""porosense bench quant at CI size: the non-timing figures (fit loss, sizes, AVR cycles in simavr)."""
+
+import pytest
+
+from porosense.bench import quant as bench
+
+pytestmark = pytest.mark.bench
+
+
+@pytest.fixture(scope="module")
+def figures():
+    return bench.run("small")
+
+
+def test_fit_and_size_figures(figures):
+    assert figures["max_fit_loss_points"] <= 0.5
+    assert figures["saturated_samples"] == 0
+    assert "bytes too large" in figures["worst_case_refusal"]
+    assert figures["largest_fitting_3dof"]["blob_bytes"] <= 952
+    assert figures["summary"] and all(isinstance(line, str) for line in figures["summary"])
+
+
+def test_avr_estimator_is_bit_exact_and_within_budget_from_eeprom(figures):
+    avr = figures["avr"]
+    if "skipped" in avr:
+        pytest.skip(avr["skipped"])
+    assert avr["worst_case_bit_exact"] and avr["eeprom_model_bit_exact"] and avr["eeprom_most_sections_bit_exact"]
+    assert avr["eeprom_model_cycles"] <= bench.CYCLE_BUDGET
+    assert avr["estimator_ram_bytes"] <= 700
+
+
+@pytest.mark.xfail(strict=True, reason="known gap: the nominal worst case (3x3, 10+10 poles, 16 breakpoints, a "
+                   "2.3 KB blob from flash) takes about 65,000 cycles and the storable model with the most "
+                   "sections (57, from the EEPROM) about 54,000")
+def test_worst_cases_within_budget(figures):
+    avr = figures["avr"]
+    if "skipped" in avr:
+        pytest.skip(avr["skipped"])
+    assert max(avr["worst_case_cycles"], avr["eeprom_most_sections_cycles"]) <= bench.CYCLE_BUDGET

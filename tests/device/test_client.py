@@ -80,3 +80,15 @@ def test_list_ports_puts_likely_unos_first():
     ports = list_ports()
     flags = [p.likely_uno for p in ports]
     assert flags == sorted(flags, reverse=True)
+
+
+def test_sample_block_to_recording():
+    with Emulator(actuator="3dof") as emu, Device.open(emu.url) as dev:
+        dev.start_stream(100)
+        block = dev.read_samples(50)
+        dev.stop_stream()
+    rec = block.to_recording(n_channels=3, imu=True, outputs=("theta_x",), out_scale=(0.01,))
+    assert rec.t[0] == 0.0 and abs(rec.t[-1] - 0.49) < 1e-9
+    assert {"adc_0", "dR_2", "theta_x", "theta_y", "est_theta_x", "t_dev_us"} <= set(rec.names)
+    assert rec.units["dR_0"] == "%" and rec.meta["samples_lost"] == 0
+    assert abs(rec["dR_1"][0] - block.dr_centi[0, 1] / 100.0) < 1e-12

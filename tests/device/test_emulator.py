@@ -156,3 +156,20 @@ def test_protocol_minor_differences_are_accepted_major_refused():
     with Emulator(proto_version=(2, 0)) as emu:
         with pytest.raises(DeviceError, match=r"protocol 2\.0"):
             Device.open(emu.url)
+
+
+def test_realtime_link_runs_at_115200_baud():
+    """Real time: 20 MODEL_DATA replies of 120 bytes need at least 20 x 10.4 ms on the wire."""
+    blob = make_blob(3, model_id=7, poles=0.8)
+    with Emulator(realtime=True) as emu, Device.open(emu.url) as dev:
+        dev.write_model(blob)
+        t0 = time.monotonic()
+        for _ in range(4):
+            assert dev.read_model() == blob  # 575 bytes: 5 replies each
+        wall = time.monotonic() - t0
+        dev.start_stream(200)  # 39-byte SAMPLEs at 200 Hz fit in 115200 baud: nothing dropped
+        samples = list(dev.samples(100))
+        dev.stop_stream()
+        assert dev.status().dropped_telemetry == 0
+    assert wall >= 20 * 124 * 10 / 115200
+    assert np.all(np.diff([s.t_us for s in samples]) == 5_000)

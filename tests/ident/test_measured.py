@@ -6,7 +6,6 @@ sine). Every model simulates each record from rest, so the first 200 samples (2.
 each record are left out of the cost and of the test RMSE.
 """
 
-import numpy as np
 import pytest
 
 from porosense import ident

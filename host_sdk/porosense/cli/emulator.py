@@ -16,8 +16,9 @@ def register(sub) -> argparse.ArgumentParser:
             "NAKs, model store, host-link watchdog, SAMPLE telemetry) over a simulated actuator "
             "and the bit-exact fixed-point estimator. Clients connect with the printed pyserial "
             "URL. By default the board's clock follows the samples the host reads (as fast as "
-            "possible); --realtime paces it by the wall clock. Fault rates are probabilities "
-            "per byte (0..1)."
+            "possible); --realtime paces it by the wall clock and sends at 115200 baud from a "
+            "64-byte transmit buffer, dropping telemetry that does not fit, like the board. "
+            "Fault rates are probabilities per byte (0..1)."
         ),
         epilog=(
             "example: porosense emulator --listen tcp://127.0.0.1:5000 --actuator 3dof --realtime\n"
@@ -33,7 +34,7 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--porosity", type=float, default=None, help="porosity in %% (default: the actuator's)")
     p.add_argument("--load-g", type=float, default=0.0, help="hanging load in g (default: 0)")
     p.add_argument("--seed", type=int, default=0, help="noise seed of the plant and the faults")
-    p.add_argument("--realtime", action="store_true", help="pace the board by the wall clock")
+    p.add_argument("--realtime", action="store_true", help="pace the board and its UART by the wall clock")
     p.add_argument("--speed", type=float, default=1.0, help="with --realtime: time factor (default 1)")
     p.add_argument("--corrupt", type=float, default=0.0, metavar="RATE",
                    help="corrupt this fraction of bytes in both directions")

@@ -221,6 +221,33 @@ class SampleBlock(_Dictable):
     def __len__(self) -> int:
         return len(self.t_us)
 
+    def to_recording(self, *, n_channels: int = 3, imu: bool = False, outputs=(), out_scale=(), meta=None):
+        """A porosense.data.Recording with the conventions' columns.
+
+        ``t`` (s) counts from the first sample on the device clock (``t_dev_us`` keeps the raw
+        unwrapped timestamps); ``adc_i`` (counts) and ``dR_i`` (%) for the first
+        ``n_channels``; ``theta_x``/``theta_y`` (deg, BNO055 roll and pitch) when ``imu``;
+        ``est_<name>`` (output units) for each name of ``outputs`` with its ``out_scale``.
+        """
+        from porosense.data import Recording
+
+        t_us = self.t_us.astype(np.int64)
+        cols: dict[str, np.ndarray] = {"t_dev_us": t_us.astype(float)}
+        units = {"t_dev_us": "us"}
+        for i in range(n_channels):
+            cols[f"adc_{i}"] = self.adc[:, i].astype(float)
+            cols[f"dR_{i}"] = self.dr_centi[:, i] / 100.0
+            units |= {f"adc_{i}": "counts", f"dR_{i}": "%"}
+        if imu:
+            cols["theta_x"] = self.euler_16[:, 1] / 16.0
+            cols["theta_y"] = self.euler_16[:, 2] / 16.0
+            units |= {"theta_x": "deg", "theta_y": "deg"}
+        for j, (name, scale) in enumerate(zip(outputs, out_scale)):
+            cols[f"est_{name}"] = self.estimate[:, j] * float(scale)
+        t = (t_us - t_us[0]) * 1e-6 if len(t_us) else np.zeros(0)
+        info = {"source": "device", "samples_lost": int(self.lost)} | dict(meta or {})
+        return Recording(t, cols, info, units)
+
     def to_dict(self) -> dict:
         return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.__dict__.items()}
 

@@ -6,8 +6,9 @@ Two timings:
   period per SAMPLE and the next sample is made as soon as the previous one has left, so the
   host receives correctly timestamped samples as fast as it reads them (a host that stops
   reading stops the board's clock). When not streaming the clock follows the wall clock.
-* real time (``realtime=True``): the clock follows the wall clock (times ``speed``);
-  telemetry that does not fit the transmit buffer is dropped and counted, like on the board.
+* real time (``realtime=True``): the clock follows the wall clock (times ``speed``) and
+  the UART sends at 115200 baud from a 64-byte transmit buffer; telemetry that does not fit
+  is dropped and counted, like on the board.
 """
 
 from __future__ import annotations
@@ -21,8 +22,10 @@ from porosense.emulator.core import BoardCore
 from porosense.emulator.endpoints import make_endpoint
 from porosense.emulator.faults import Faults, FaultyLink
 
-# Real-time mode: bytes pending beyond this are a full UART buffer (telemetry dropped).
-REALTIME_TX_BUFFER = 2048
+# Real-time mode: the UART sends at BAUD (10 bits per byte) from a 64-byte transmit buffer;
+# a SAMPLE that does not fit in it is dropped, like on the board.
+REALTIME_TX_BUFFER = 64
+BAUD = 115200
 FAST_BATCH_BYTES = 1024
 IDLE_WAIT_S = 0.02
 
@@ -85,6 +88,8 @@ class Emulator:
             actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects
         )
         self._out = bytearray()
+        self._tokens = 0.0  # real time: bytes the UART may send now
+        self._t_tokens = time.monotonic()
         self._lock = threading.RLock()
         self._requests: list = []
         self.core = BoardCore(
@@ -175,11 +180,31 @@ class Emulator:
         return max(0, REALTIME_TX_BUFFER - len(self._out))
 
     def _flush(self) -> None:
+        if self.realtime:
+            self._flush_paced()
+            return
         while self._out:
             n = self.endpoint.send(bytes(self._out[:65536]))
             if n <= 0:
                 return
             del self._out[:n]
+
+    def _link_bytes_per_s(self) -> float:
+        return BAUD / 10.0 * self.speed
+
+    def _flush_paced(self) -> None:
+        """Real time: hand bytes to the endpoint no faster than the UART would send them."""
+        now = time.monotonic()
+        rate = self._link_bytes_per_s()
+        self._tokens = min(self._tokens + (now - self._t_tokens) * rate, REALTIME_TX_BUFFER)
+        self._t_tokens = now
+        n = min(int(self._tokens), len(self._out))
+        if n <= 0:
+            return
+        sent = self.endpoint.send(bytes(self._out[:n]))
+        if sent > 0:
+            del self._out[:sent]
+            self._tokens -= sent
 
     def _serve(self) -> None:
         try:
@@ -211,6 +236,9 @@ class Emulator:
                     due = core.next_tick_T_us()
                     wait = min(wait, max(0.0, (due - core.T_us) * 1e-6 / self.speed))
             wfds = ep.write_fds() if self._out else []
+            if self._out and self.realtime and self._tokens < 1.0:
+                wfds = []  # the UART is still shifting out earlier bytes
+                wait = min(wait, max(2e-4, (1.0 - self._tokens) / self._link_bytes_per_s()))
             try:
                 ready_r, ready_w, _ = select.select(ep.read_fds(), wfds, [], wait)
             except (OSError, ValueError):

@@ -14,7 +14,7 @@ from scipy.optimize import least_squares
 
 from porosense.ident import blocks
 from porosense.ident.chain import Chain, ChainSpec, _filter
-from porosense.ident.linear_init import arx, iv, simulate_common
+from porosense.ident.linear_init import arx, iv
 
 
 
@@ -119,10 +119,6 @@ def fit_linear(us, ys, n_poles, n_zeros, delay, opts: Options) -> Fit:
 def _hat_basis(x, u):
     """Columns of the PWL map through x with unit value at one breakpoint (N, len(x))."""
     return blocks.pwl_eval(x, np.zeros(len(x)), u, derivatives=True)[3]
-
-
-def _pwl_params(x, y):
-    return np.concatenate([blocks.positions_to_p(x), y])
 
 
 def _hammerstein_starts(lin: Fit, us, ys, n_bp, delay, opts):

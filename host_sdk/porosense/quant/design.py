@@ -27,7 +27,7 @@ from scipy import signal
 
 from porosense.errors import ModelError
 from porosense.quant.blob import (
-    MAX_BLOB_LEN, STATE_FRAC, BranchQ, numerator_limit, ModelBlob, OutputQ, PwlQ, SectionQ, pwl_len, section_len,
+    MAX_BLOB_LEN, STATE_FRAC, BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit, pwl_len,
 )
 from porosense.structure import EstimatorStructure, PiecewiseLinear, SOSCascade
 
@@ -391,6 +391,3 @@ def check_size(blob: ModelBlob, structure: EstimatorStructure) -> None:
         f"model blob is {length} bytes, {length - MAX_BLOB_LEN} bytes too large for the "
         f"{MAX_BLOB_LEN}-byte EEPROM model region; orders that fit: {hint}")
 
-
-def section_bytes_of(wide: bool) -> int:
-    return section_len(wide)

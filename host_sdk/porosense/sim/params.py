@@ -36,8 +36,8 @@ class Foam:
     bending_scale: float = 0.40         # wall-bending strain asymptote, x densification strain
     collapse_scale: float = 0.20        # strain released by full collapse, x densification strain
     load_area_mm2: float = 346.0        # chamber cross-section the vacuum and a load act on (21 mm)
-    creep_tau_s: tuple = (0.06, 0.7, 2.2)      # viscoelastic creep modes (time constants)
-    creep_weight: tuple = (0.72, 0.18, 0.10)   # their share of the static strain (sum 1)
+    creep_tau_s: tuple = (0.05, 0.35, 1.2)     # viscoelastic creep modes (time constants)
+    creep_weight: tuple = (0.75, 0.17, 0.08)  # their share of the static strain (sum 1)
 
 
 @dataclass(frozen=True)
@@ -45,14 +45,14 @@ class Piezo:
     """Piezoresistance of the carbon-black network: contacts close as pores collapse."""
 
     r0_ohm: float = 2200.0          # resistance of the unloaded actuator at rest
-    contact_strain: float = 0.22    # collapsed share of the strain capacity at which dR = -63 % of D
-    contact_exponent: float = 1.4   # shape of the contact-formation curve (> 1: slow start)
-    floor_pct: float = 85.0         # largest static resistance drop D (%): densified network + electrodes
+    contact_strain: float = 0.24    # collapsed share of the strain capacity at which dR = -63 % of D
+    contact_exponent: float = 1.3   # shape of the contact-formation curve (> 1: slow start)
+    floor_pct: float = 88.0         # largest static resistance drop D (%): densified network + electrodes
     tension_gauge_factor: float = 2.0  # dR/R per unit tensile strain (load pulling the foam)
-    contact_lag_s: float = 0.6      # pore-contact strain lags the marker strain (lead-lag pole)
-    contact_lead_s: float = 0.15    # ... lead-lag zero (instantaneous share = lead / lag)
+    contact_lag_s: float = 0.5      # pore-contact strain lags the marker strain (lead-lag pole)
+    contact_lead_s: float = 0.12    # ... lead-lag zero (instantaneous share = lead / lag)
     relax_s: float = 3.0            # resistance relaxation time constant (network reformation)
-    relax_gain: float = 0.17        # relaxation overshoot as a fraction of the change in dR;
+    relax_gain: float = 0.13        # relaxation overshoot as a fraction of the change in dR;
                                     # D (1 + gain) < 100 keeps R > 0 during a loading undershoot
     relax_r_scaling: float = 0.0    # 0: relaxation additive in dR (a linear block: the dR -> strain
                                     # map is exactly Wiener-Hammerstein); 1: proportional to R/R0

@@ -289,7 +289,7 @@ class Plant:
             g = contact_dr(eps_c[:, c], pz, self.curve.capacity)
             dr = g + pz.relax_gain * (g - first_order(g, al["relax"], g_rest)) * (1.0 + pz.relax_r_scaling * g / 100.0)
             if "slow_relaxation" in eff:
-                dr = dr + eff["slow_relaxation"]["gain"] * (g - first_order(g, al["slow"], g_rest)) * (1.0 + pz.relax_r_scaling * g / 100.0)
+                dr = dr + eff["slow_relaxation"]["gain"] * (g - first_order(g, al["slow"], g_rest)) * (1.0 + g / 100.0)
             out[f"R_{c}"] = pz.r0_ohm * (1.0 + dr / 100.0)
             out[f"dR_{c}"] = dr
             out[f"strain_{c}"] = 100.0 * eps[:, c]

@@ -79,7 +79,6 @@ class BoardCore:
         self._tx_room = tx_room
         self.faults = faults
         self.proto_version = proto_version or (VERSION_MAJOR, VERSION_MINOR)
-        self.n_wired = int(getattr(plant, "n_channels", N_CHANNELS))
         self.model_store = ModelStore(model_capacity(), parse_blob, supported_format_version())
         if faults and faults.reset_after_model_bytes is not None:
             self.model_store.power_fail_after = int(faults.reset_after_model_bytes)
@@ -146,9 +145,9 @@ class BoardCore:
         if not self.imu_present:
             self.sample_flags |= F.IMU_FAULT
         r0_stored = self.config[K.R0_MODE] == 1 and not (self.sticky & F.CONFIG_DEFAULTS)
-        # Calibrate the wired channels only: an unwired input reads 0 V and has no R0.
-        if not r0_stored and not self._calibrate_r0(R0_BOOT_SAMPLES, (1 << self.n_wired) - 1):
-            self.sticky |= F.R0_UNCALIBRATED
+        if not r0_stored:
+            self.sticky |= F.R0_UNCALIBRATED  # cleared when a channel gives a usable R0
+            self._calibrate_r0(R0_BOOT_SAMPLES, 0x07)
         if self.config[K.AUTOSTART] and self.model is not None:
             self._start_stream(self.config[K.SAMPLE_RATE_HZ], self.config[K.CHANNEL_MASK])
             self.sticky |= F.STANDALONE
@@ -222,8 +221,8 @@ class BoardCore:
             counts = self._adc_counts()
             for ch in range(3):
                 sums[ch] += counts[ch]
-        new = list(self.r0_mohm)
         pga = self.config[K.ADC_PGA]
+        usable = False
         for ch in range(3):
             if not mask >> ch & 1:
                 continue
@@ -231,12 +230,12 @@ class BoardCore:
             mohm = float(ohm) * 1000.0 + 0.5
             spec = m.CONFIG_SPECS[ConfigKey(K.R0_CH0_MOHM + ch)]
             if not spec.min <= mohm <= spec.max:
-                return False  # open or shorted input: keep the previous R0
-            new[ch] = int(mohm)
-        self.r0_mohm = new
-        for ch in range(3):
-            self.config[K.R0_CH0_MOHM + ch] = new[ch]
-        self.sticky &= ~F.R0_UNCALIBRATED
+                continue  # an open (unwired) or shorted input gives no usable R0: keep the old one
+            self.r0_mohm[ch] = int(mohm)
+            self.config[K.R0_CH0_MOHM + ch] = int(mohm)
+            usable = True
+        if usable:
+            self.sticky &= ~F.R0_UNCALIBRATED
         return True
 
     # ------------------------------------------------------------------ link
@@ -342,7 +341,7 @@ class BoardCore:
                 fw_minor=FW_VERSION[1],
                 fw_patch=FW_VERSION[2],
                 capabilities=int(caps),
-                n_channels=self.n_wired,
+                n_channels=N_CHANNELS,  # like the firmware: the board has three inputs
                 model_status=self.model_status,
                 model_crc=self.model_store.header.crc if self.model_store.header.valid else 0,
                 streaming=int(self.streaming),

@@ -164,7 +164,7 @@ def _fit_candidate(structure, n_poles, n_zeros, kwargs, fit_args, val):
 
 
 def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=range(1, 11), zeros=None,
-           n_breakpoints: int = 10, delay: int = 0, starts: int = 2, max_nfev: int = 200, skip: int = 0,
+           n_breakpoints: int = 10, delay: int = 0, starts: int = 2, max_nfev: int = 100, skip: int = 0,
            inputs=None, output: str = "y", executor: Executor | None = None, progress: bool = True,
            constraint=None, size_fn=None, max_bytes: int | None = None, grid=None,
            tie_tol: float = 0.01, validation_skip: int = 0) -> SearchResult:

@@ -49,6 +49,7 @@ class Piezo:
     contact_exponent: float = 1.3   # shape of the contact-formation curve (> 1: slow start)
     floor_pct: float = 88.0         # largest static resistance drop D (%): densified network + electrodes
     tension_gauge_factor: float = 2.0  # dR/R per unit tensile strain (load pulling the foam)
+    load_contact_coupling: float = 1.0  # contacts held open by a load: strain offset, x sigma_load / E
     contact_lag_s: float = 0.5      # pore-contact strain lags the marker strain (lead-lag pole)
     contact_lead_s: float = 0.12    # ... lead-lag zero (instantaneous share = lead / lag)
     relax_s: float = 3.0            # resistance relaxation time constant (network reformation)

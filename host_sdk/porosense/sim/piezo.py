@@ -3,7 +3,9 @@
 Chain from the actuator strain ``eps`` (fraction) to dR (%):
 
 1. pore-contact strain ``eps_c``: the contacts inside the foam lag the strain the markers see
-   (lead-lag ``(1 + lead s) / (1 + lag s)``), a linear dynamic block;
+   (lead-lag ``(1 + lead s) / (1 + lag s)``), a linear dynamic block; a hanging load's tension,
+   carried by the cell walls, holds contacts open (``eps_c`` lower by
+   ``load_contact_coupling * sigma_load / E``), which changes the dR-strain map under load;
 2. contact formation (static, the pore collapse nonlinearity): compression closes tunnelling
    gaps in proportion to the collapsed share of the pore space, ``n = eps_c / capacity``
    (capacity = the actuator's strain capacity), ``dR = -D (1 - exp(-(n / n0)^q))``, where D

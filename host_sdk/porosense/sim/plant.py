@@ -6,7 +6,8 @@ Per channel and sample (first-order stages use ``a = exp(-dt/tau)``,
 1. pneumatics: chamber pressure ``p`` (kPa) from setpoint, pump and valve;
 2. foam: stress ``sigma = -p - sigma_load`` (kPa) -> static strain (collapse curve) -> creep
    modes -> strain ``eps`` (fraction of the unloaded length);
-3. piezo: contact strain ``eps_c = r eps + (1 - r) LP_lag(eps)`` (lead-lag) -> contact dR
+3. piezo: contact strain ``eps_c = r eps + (1 - r) LP_lag(eps) - c sigma_load / E`` (lead-lag;
+   a load's tension in the cell walls holds contacts open) -> contact dR
    (static, pore collapse) -> network relaxation ``dR = g + k (g - LP_relax(g))``;
 4. electronics: ``R = R0 (1 + dR/100)``, divider voltage with noise;
 5. kinematics: strain, curvature or segment pose; BNO055 Euler angles.
@@ -108,6 +109,8 @@ class Plant:
         self.curve = FoamCurve.of(self.porosity, self.physics.foam)
         pz = self.physics.piezo
         self._lead_share = pz.contact_lead_s / pz.contact_lag_s
+        # strain by which a load's tension in the cell walls holds contacts open, per kPa
+        self._load_contact = pz.load_contact_coupling / self.curve.modulus_kpa
         self._pose = kinematics.SegmentPose(self.physics.geometry)
         self._alpha_cache: dict = {}
         self.reset()
@@ -135,8 +138,10 @@ class Plant:
 
     def _rest(self, load_g: float) -> tuple[float, float]:
         """Strain (fraction) and contact dR (%) at rest under ``load_g``."""
-        eps = self.curve.strain_scalar(-float(load_stress_kpa(load_g, self.physics.foam)))
-        return eps, contact_dr_scalar(eps, self.physics.piezo, self.curve.capacity)
+        sigma = float(load_stress_kpa(load_g, self.physics.foam))
+        eps = self.curve.strain_scalar(-sigma)
+        eps_c = eps - self._load_contact * sigma
+        return eps, contact_dr_scalar(eps_c, self.physics.piezo, self.curve.capacity)
 
     def reset(self) -> None:
         """Back to rest at t = 0 with the initial load and a fresh random stream."""
@@ -182,7 +187,7 @@ class Plant:
                 e += w * modes[i]
             self._lag[c] = a_lag * self._lag[c] + (1.0 - a_lag) * e
             eps[c] = e
-            eps_c[c] = r * e + (1.0 - r) * self._lag[c]
+            eps_c[c] = r * e + (1.0 - r) * self._lag[c] - self._load_contact * sigma_load
         if "cross_coupling" in eff and n > 1:
             k = eff["cross_coupling"]["gain"]
             rel = [e - self._eps_rest for e in eps]
@@ -278,7 +283,8 @@ class Plant:
             es = self.curve.strain(-p - sigma_load)
             e = sum(w * first_order(es, a, eps_rest) for a, w in zip(al["creep"], f.creep_weight))
             eps[:, c] = e
-            eps_c[:, c] = r * e + (1.0 - r) * first_order(e, al["lag"], eps_rest)
+            eps_c[:, c] = (r * e + (1.0 - r) * first_order(e, al["lag"], eps_rest)
+                           - self._load_contact * sigma_load)
         if "cross_coupling" in eff and n > 1:
             rel = eps - eps_rest
             eps_c = eps_c + eff["cross_coupling"]["gain"] * (rel.sum(axis=1, keepdims=True) - rel)

@@ -30,9 +30,11 @@ def steady_state(actuator: str, *, porosity=None, load_g: float = 0.0, vacuum_kp
     sigma_load = float(load_stress_kpa(load_g, ph.foam))
     sigma = -p - sigma_load
 
+    offset = ph.piezo.load_contact_coupling / plant.curve.modulus_kpa * sigma_load
+
     def dr_of(s):
         eps = plant.curve.strain(s)
-        return eps, float(contact_dr(eps, ph.piezo, plant.curve.capacity))
+        return eps, float(contact_dr(eps - offset, ph.piezo, plant.curve.capacity))
 
     eps, g = dr_of(sigma)
     eps_rest, g_rest = dr_of(-sigma_load)

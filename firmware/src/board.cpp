@@ -73,3 +73,4 @@ void Board::request_reset() {
 
 uint16_t Board::free_stack() { return stack_paint::untouched_bytes(); }
 uint8_t Board::reset_cause() { return stack_paint::reset_cause(); }
+void Board::analog_out(uint8_t pin, uint8_t duty) { gpio::pwm(pin, duty); }

@@ -30,6 +30,7 @@ class Board : public dev::Hal {
   void request_reset() override;
   uint16_t free_stack() override;
   uint8_t reset_cause() override;
+  void analog_out(uint8_t pin, uint8_t duty) override;
 
  private:
   Ads1115 adc_;

@@ -1,5 +1,7 @@
 #include "idle.h"
 
+#include <Arduino.h>
+#include <avr/sleep.h>
 #include <avr/wdt.h>
 
 namespace idle {
@@ -17,5 +19,18 @@ void run() {
     g_hook();
     g_running = false;
   }
+}
+void sleep(WorkCheck work_pending) {
+  set_sleep_mode(SLEEP_MODE_IDLE);
+  cli();
+  // Checked with interrupts off: an interrupt after the check stays pending, and the
+  // instruction after sei() (the sleep) always runs before it, so it wakes the CPU at once.
+  if (!work_pending() && !Serial.available()) {
+    sleep_enable();
+    sei();
+    sleep_cpu();
+    sleep_disable();
+  }
+  sei();
 }
 }  // namespace idle

@@ -26,6 +26,8 @@ uint16_t g_clock_rate = 0;
 
 void drain_serial() { g_device.poll_rx(); }
 
+bool work_pending() { return g_device.frame_pending() || sample_clock::pending(); }
+
 void sync_sample_clock() {
   if (g_device.rate_hz() != g_clock_rate) {
     g_clock_rate = g_device.rate_hz();
@@ -52,4 +54,5 @@ void loop() {
   uint32_t tick_us;
   const uint8_t n = sample_clock::take(&tick_us);
   if (n) g_device.on_sample_ticks(n, tick_us);
+  else idle::sleep(work_pending);
 }

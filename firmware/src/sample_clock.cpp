@@ -40,6 +40,8 @@ uint8_t take(uint32_t* tick_us) {
   return n;
 }
 
+bool pending() { return g_pending != 0; }  // one byte: read atomically
+
 }  // namespace sample_clock
 
 ISR(TIMER2_COMPA_vect) {

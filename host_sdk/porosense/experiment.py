@@ -35,12 +35,15 @@ def run_schedule(
     meta: dict | None = None,
     out_scale=None,
     output_names=None,
+    monitor: Callable[[dict], str] | None = None,
 ) -> Recording:
     """Run ``schedule`` on ``dev`` at ``rate_hz`` (Hz) and return the recording.
 
     ``truth`` adds ground-truth columns; ``out_scale`` (units per LSB) and ``output_names``
-    turn the on-device estimates into ``est_<name>`` columns. Outputs are switched off at the
-    end, even when the run fails.
+    turn the on-device estimates into ``est_<name>`` columns. ``monitor`` receives the columns
+    recorded so far (truth and estimates) every second of device time and returns a short text
+    for the progress bar (e.g. a running fit). Outputs are switched off at the end, even when
+    the run fails.
     """
     n_total = int(round(schedule.duration_s * rate_hz))
     changes = _change_times(schedule)
@@ -67,6 +70,10 @@ def run_schedule(
             rows.append(s)
             if bar is not None:
                 bar.update(1)
+                if monitor is not None and len(rows) % rate_hz == 0:
+                    text = monitor(_columns(rows, truth, out_scale, output_names))
+                    if text:
+                        bar.set_postfix_str(text, refresh=False)
     finally:
         try:
             dev.set_outputs(setpoint_kpa=[0.0, 0.0, 0.0], pumps=0, valves=0)
@@ -107,6 +114,19 @@ def run_schedule(
             "schedule_data": schedule.to_dict()}
     info.update(meta or {})
     return Recording(t, cols, meta=info, units=units)
+
+
+def _columns(rows, truth, out_scale, output_names) -> dict:
+    """Truth and estimate columns of the samples so far (for a live monitor)."""
+    cols = {}
+    if truth is not None:
+        cols.update(truth(np.array([s.t_us for s in rows], dtype=np.int64)))
+    if output_names:
+        est = np.array([s.estimate for s in rows], dtype=float)
+        scale = np.asarray(out_scale if out_scale is not None else np.ones(3), dtype=float)
+        for j, name in enumerate(output_names):
+            cols[f"est_{name}"] = est[:, j] * scale[j]
+    return cols
 
 
 def _change_times(schedule: Schedule) -> list[float]:

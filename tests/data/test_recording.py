@@ -19,6 +19,7 @@ def sample_recording(n=500, seed=3):
             "adc_0": rng.integers(-32768, 32767, n).astype(np.int16),
             "dR_0": rng.normal(-40, 20, n) * np.pi,  # full-precision floats
             "strain_0": np.concatenate([[np.nan], rng.random(n - 1) * 1e-300]),
+            "valve_0": t % 2 < 1,
         },
         meta={"actuator": "contractor", "porosity": 82.0, "seed": np.int64(seed),
               "truth": ["strain_0"], "effects": {"drift": {"rate_pct_per_min": 0.5}}},

@@ -1,6 +1,7 @@
 #include "device.h"
 
 #include "sensing.h"
+#include "standalone_out.h"
 
 namespace dev {
 
@@ -36,7 +37,9 @@ Device::Device(Hal& hal, ModelPort& model)
       error_seq_(0),
       sticky_flags_(0),
       sample_flags_(0),
-      pending_overrun_(0) {
+      pending_overrun_(0),
+      line_state_(0),
+      analog_pin_(0) {
   config_.set_defaults();
 }
 
@@ -50,6 +53,7 @@ void Device::begin() {
     sticky_flags_ |= f::CONFIG_DEFAULTS;
   }
   apply_config();
+  set_line_mode(config_.line_mode);
   if (!hal_.adc_present()) sample_flags_ |= f::ADC_FAULT;
   if (!hal_.imu_present()) sample_flags_ |= f::IMU_FAULT;
   const bool r0_stored = config_.r0_mode == 1 && !(sticky_flags_ & f::CONFIG_DEFAULTS);
@@ -67,6 +71,13 @@ void Device::begin() {
 void Device::apply_config() {
   link_.set_timeout(config_.watchdog_ms);
   hal_.adc_configure(config_.adc_pga, config_.adc_rate);
+  // A pin stored by an older build that this one cannot drive counts as off.
+  const uint8_t pin = config_.pwm_pin == kAnalogOutPin ? kAnalogOutPin : 0;
+  if (pin != analog_pin_) {
+    if (analog_pin_) hal_.analog_out(analog_pin_, 0);
+    analog_pin_ = pin;
+    if (pin) hal_.analog_out(pin, 0);
+  }
 }
 
 uint16_t Device::flags() const {
@@ -114,6 +125,7 @@ void Device::poll_rx() {
     if (c < 0) return;
     if (decoder_.feed((uint8_t)c)) {
       frame_ready_ = true;
+      line_state_ = 0;  // a host speaks frames: this session answers in frames
       counters_.rx_frames = sat_inc32(counters_.rx_frames);
       link_.feed(hal_.millis());
     }
@@ -276,7 +288,7 @@ void Device::cmd_hello() {
   h.fw_major = kFwMajor;
   h.fw_minor = kFwMinor;
   h.fw_patch = kFwPatch;
-  h.capabilities = proto::cap::ESTIMATOR;
+  h.capabilities = proto::cap::ESTIMATOR | proto::cap::PWM_OUT | proto::cap::LINE_MODE;
   if (hal_.adc_present()) h.capabilities |= proto::cap::ADC;
   if (hal_.imu_present()) h.capabilities |= proto::cap::IMU;
   h.n_channels = kChannels;
@@ -435,10 +447,18 @@ void Device::cmd_status() {
 }
 
 void Device::cmd_config_set(const uint8_t* p) {
+  namespace k = proto::config;
   const uint8_t key = p[0];
-  const uint8_t code = config_.set(key, proto::get_i32(p + 1));
+  const int32_t value = proto::get_i32(p + 1);
+  // Within the catalogue's limits but outside this build: stored schedules (no EEPROM room
+  // for them) and PWM pins whose timer the firmware uses.
+  if ((key == k::SCHEDULE_ENABLE && value != 0) ||
+      (key == k::PWM_PIN && value >= 0 && value <= 255 && !analog_out_pin_ok((uint8_t)value)))
+    return nak(r::UNSUPPORTED, 1);
+  const uint8_t code = config_.set(key, value);
   if (code == r::BAD_KEY) return nak(code, 0);
   if (code != r::OK) return nak(code, 1);
+  if (key == k::LINE_MODE) set_line_mode(value != 0);
   if (key >= proto::config::R0_CH0_MOHM && key <= proto::config::R0_CH2_MOHM)
     sticky_flags_ &= (uint16_t)~f::R0_UNCALIBRATED;
   apply_config();
@@ -543,6 +563,7 @@ void Device::on_sample_ticks(uint8_t n, uint32_t tick_us) {
   poll_rx();
   if (estimating && !(fl & f::ADC_FAULT)) {
     if (model_.estimator_step(dr, s.estimate) & 1) fl |= f::ESTIMATOR_SATURATED;
+    analog_out(s.estimate[0]);
   }
   // A sensor that stops answering is reported once, as it happens.
   const uint16_t faults = f::ADC_FAULT | f::IMU_FAULT;
@@ -551,10 +572,45 @@ void Device::on_sample_ticks(uint8_t n, uint32_t tick_us) {
   sample_flags_ = fl;
   s.status = flags();
   pending_overrun_ = 0;
-  uint8_t buf[proto::Sample::kMaxLen];
-  send_unsolicited(proto::Sample::kType, buf, s.encode(buf));
+  if (line_state_ & kLineOn) {
+    send_line(s, estimating);
+  } else {
+    uint8_t buf[proto::Sample::kMaxLen];
+    send_unsolicited(proto::Sample::kType, buf, s.encode(buf));
+  }
   if (new_faults) send_error(r::SENSOR_FAULT, (int16_t)new_faults, tick_us);
   poll_rx();
+}
+
+void Device::analog_out(int16_t estimate0) {
+  if (analog_pin_)
+    hal_.analog_out(analog_pin_, analog_out_duty(estimate0, config_.pwm_scale_milli, config_.pwm_offset));
+}
+
+// Kept out of line: its text buffer must not share a stack frame with a SAMPLE frame's.
+__attribute__((noinline)) void Device::send_line(const proto::Sample& s, bool estimating) {
+  char text[kHeaderMax + kLineMax];
+  const uint8_t dr_mask = (uint8_t)(s.channel_mask & 0x07);
+  proto::ModelInfoReply info;
+  model_.info(&info);
+  const uint8_t n_est = estimating ? info.n_outputs : 0;
+  uint8_t n = (line_state_ & kLineHeader) ? format_header(text, dr_mask, n_est) : 0;
+  int32_t est_milli[kChannels];
+  for (uint8_t j = 0; j < kChannels; ++j) {
+    // Output units with three decimals, saturated to what int32 holds.
+    float v = (float)s.estimate[j] * info.out_scale[j] * 1000.0f;
+    if (v > 2.0e9f) v = 2.0e9f;
+    if (v < -2.0e9f) v = -2.0e9f;
+    est_milli[j] = (int32_t)(v >= 0.0f ? v + 0.5f : v - 0.5f);
+  }
+  n = (uint8_t)(n + format_line(text + n, s.t_us / 1000UL, dr_mask, s.dr_centi, n_est, est_milli));
+  // Like a SAMPLE frame, a line that does not fit the transmit buffer is dropped whole.
+  if (hal_.serial_tx_free() < n) {
+    counters_.dropped_telemetry = sat_add16(counters_.dropped_telemetry, 1);
+    return;
+  }
+  hal_.serial_write((const uint8_t*)text, n);
+  line_state_ &= (uint8_t)~kLineHeader;
 }
 
 }  // namespace dev

@@ -48,6 +48,9 @@ class Device {
   const Config& config() const { return config_; }
   const Outputs& outputs() const { return outputs_; }
   bool reset_requested() const { return reset_requested_; }
+  // A received frame waits for poll(): the main loop must not sleep.
+  bool frame_pending() const { return frame_ready_; }
+  bool line_mode() const { return line_state_ & kLineOn; }
 
  private:
   void handle_frame();
@@ -69,6 +72,9 @@ class Device {
   void cmd_model(uint8_t type, const uint8_t* p, uint8_t len);
 
   void apply_config();
+  void set_line_mode(bool on) { line_state_ = on ? (uint8_t)(kLineOn | kLineHeader) : 0; }
+  void send_line(const proto::Sample& s, bool estimating);
+  void analog_out(int16_t estimate0);
   void outputs_off();
   bool outputs_active() const;
   void start_stream(uint16_t rate_hz, uint8_t mask);
@@ -104,6 +110,11 @@ class Device {
   uint16_t sticky_flags_;  // flags that persist until cleared (watchdog, config, R0, ...)
   uint16_t sample_flags_;  // sensor flags of the latest sample
   uint8_t pending_overrun_;  // an overrun happened since the previous SAMPLE
+  // CSV line mode of this session: on at boot when LINE_MODE is stored as 1, off after any
+  // valid frame from a host, switched by CONFIG_SET LINE_MODE.
+  static constexpr uint8_t kLineOn = 1, kLineHeader = 2;
+  uint8_t line_state_;
+  uint8_t analog_pin_;  // pin of the analogue estimate output now driven, 0 when off
 };
 
 }  // namespace dev

@@ -36,9 +36,9 @@ class Estimator {
   static constexpr uint16_t kStateBytes =
       blob::kMaxInputs * kDelayLen * 2 + blob::kMaxCascades * 4 + blob::kMaxTotalSections * 8;
 
- private:
-  int16_t pwl(uint16_t* off, int16_t x);
-  inline int32_t cascade(uint16_t* off, uint8_t n, int16_t x) __attribute__((always_inline));
+ public:
+  int16_t pwl(uint16_t xs, uint8_t n, int16_t x);
+  int32_t cascade(uint16_t* off, uint8_t n, int16_t x);
 
   const BlobReader* blob_;
   uint16_t length_;

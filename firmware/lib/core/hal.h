@@ -41,6 +41,11 @@ class Hal {
   virtual void request_reset() = 0;      // after the reply has been sent
   virtual uint16_t free_stack() = 0;     // never-touched stack bytes
   virtual uint8_t reset_cause() = 0;     // MCUSR at boot
+  // PWM duty 0..255 on an Arduino pin (the analogue estimate output); duty 0 drives it low.
+  virtual void analog_out(uint8_t pin, uint8_t duty) {
+    (void)pin;
+    (void)duty;
+  }
 };
 
 }  // namespace dev

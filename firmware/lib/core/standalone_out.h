@@ -27,7 +27,17 @@ inline uint8_t analog_out_duty(int16_t estimate, int32_t scale_milli, int16_t of
 // the number of characters (at most 12). No terminating zero.
 uint8_t format_fixed(char* out, int32_t v, uint8_t decimals);
 
-// Copies the zero-terminated text at out; returns its length.
-uint8_t format_text(char* out, const char* text);
+// Writes the CSV header naming the columns of format_line ("t_ms,dR0,dR1,dR2,est0,est1").
+// Built from packed character constants, not string literals: on the AVR a literal would
+// take RAM. Returns the length (at most 33, "\r\n" included).
+constexpr uint8_t kHeaderMax = 4 + 3 * 4 + 3 * 5 + 2;
+uint8_t format_header(char* out, uint8_t dr_mask, uint8_t n_est);
+
+// One CSV line: t_ms, dR in % (2 decimals) of the channels in dr_mask, then n_est estimates
+// in output units (3 decimals: est_milli = estimate * out_scale * 1000, rounded), "\r\n".
+// out must hold kLineMax characters.
+constexpr uint8_t kLineMax = 10 + 3 * 8 + 3 * 13 + 2;
+uint8_t format_line(char* out, uint32_t t_ms, uint8_t dr_mask, const int16_t dr_centi[3],
+                    uint8_t n_est, const int32_t est_milli[3]);
 
 }  // namespace dev

@@ -33,7 +33,9 @@ def register(sub) -> argparse.ArgumentParser:
             "simulated from rest) of one or more output columns from up to 3 input columns of CSV "
             "files with a header row. Without --poles the paper's order search runs (poles 1..10, "
             "zeros < poles) and the model with the best mean NRMSE fit over the estimation and "
-            "validation ranges is kept. Fit and RMS are in %; --ts is the sample period in seconds."
+            "validation ranges is kept. A:B ranges (Python slices, applied to every file) choose the samples "
+            "that are scored; each file is still simulated from its first sample. Fit and RMS are in %; "
+            "--ts is the sample period in seconds."
         ),
         epilog=("example: porosense identify --data step_10.csv step_60.csv --input dR_0 --output strain_0 "
                 "--ts 0.02 --structure wh --poles 4 --zeros 2 --estimation 0:2000 --validation 2000: "

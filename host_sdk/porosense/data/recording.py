@@ -165,7 +165,7 @@ class Recording:
         cols = [self.t] + [self.columns[n] for n in self.names]
         # repr of a Python float is the shortest text that reads back bit-identical.
         as_text = [list(map(repr, c.astype(float).tolist())) if c.dtype.kind == "f"
-                   else list(map(str, c.tolist())) for c in cols]
+                   else list(map(str, c.astype(int).tolist())) for c in cols]
         lines = [",".join(names)]
         lines.extend(",".join(row) for row in zip(*as_text))
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
@@ -200,7 +200,7 @@ class Recording:
             if dtype.kind in "iub":
                 if not np.all(np.isfinite(values)) or np.any(values != np.round(values)):
                     raise InputError(f"{path}: column '{name}' should hold integers")
-                values = values.astype(dtype)
+                values = values.astype(dtype) if dtype.kind != "b" else values != 0
             columns[name] = values
         return cls(table.columns["t"], columns, sidecar.get("meta", {}), sidecar.get("units", {}))
 
@@ -241,10 +241,14 @@ class Recording:
         order = sidecar.get("columns") or [k for k in content
                                            if not k.startswith("__") and k not in
                                            ("t", "units", "meta", "recording_json")]
+        dtypes = sidecar.get("dtypes", {})
         columns = {}
         for name in order:
             if name not in content:
                 raise InputError(f"{path}: variable '{name}' is missing")
-            columns[name] = np.asarray(content[name]).ravel()
+            values = np.asarray(content[name]).ravel()
+            if name in dtypes:  # MATLAB has no bool: logical columns come back as uint8
+                values = values.astype(np.dtype(dtypes[name]))
+            columns[name] = values
         return cls(np.asarray(content["t"], dtype=float).ravel(), columns,
                    sidecar.get("meta", {}), sidecar.get("units", {}))

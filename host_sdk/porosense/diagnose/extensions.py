@@ -30,13 +30,13 @@ class CauseResult:
 
 def _huber_lstsq(X: np.ndarray, y: np.ndarray, iters: int = 10) -> np.ndarray:
     """Huber-loss linear regression by iteratively reweighted least squares (k = 1.345 sigma)."""
-    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    coef = stats.lstsq(X, y)
     for _ in range(iters):
         r = y - X @ coef
         s = 1.4826 * np.median(np.abs(r - np.median(r))) or 1e-12
         w = np.minimum(1.0, 1.345 * s / np.maximum(np.abs(r), 1e-300))
         sw = np.sqrt(w)
-        coef, *_ = np.linalg.lstsq(X * sw[:, None], y * sw, rcond=None)
+        coef = stats.lstsq(X * sw[:, None], y * sw)
     return coef
 
 
@@ -85,7 +85,7 @@ class Context:
             X = self.stack(lambda r: np.column_stack(
                 [self.lag_bank(r.u[:, i], LAGUERRE_ORDER, a) for i in range(self.n_in)]
                 + [np.ones(len(r.y))]), self.est)
-            c, *_ = np.linalg.lstsq(X, yh, rcond=None)
+            c = stats.lstsq(X, yh)
             rss = float(np.sum((yh - X @ c) ** 2))
             if rss < best[0] * 0.999:
                 best = (rss, a)
@@ -107,7 +107,7 @@ class Context:
                 rows.append(np.column_stack(cols + [np.ones(N - n)]))
                 target.append(y[n:])
             X, t = np.vstack(rows), np.concatenate(target)
-            c, *_ = np.linalg.lstsq(X, t, rcond=None)
+            c = stats.lstsq(X, t)
             rss = float(np.sum((t - X @ c) ** 2)) + 1e-300
             a = np.concatenate([[1.0], c[:n]])
             if np.any(np.abs(np.roots(a)) >= 0.9999):
@@ -152,7 +152,7 @@ class Context:
         if robust:
             coef = _huber_lstsq(Xe[rows] / scale, e[rows])
         else:
-            coef, *_ = np.linalg.lstsq(Xe[rows] / scale, e[rows], rcond=None)
+            coef = stats.lstsq(Xe[rows] / scale, e[rows])
         coef = coef / scale
         return self.yhat_val + Xv @ coef, self.yhat_est + Xe @ coef
 

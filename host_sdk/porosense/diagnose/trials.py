@@ -204,7 +204,7 @@ SIM_STRENGTHS = {
     "drift": "rate_pct_per_min 1-3 % of R0 per minute",
     "time_delay": "delay_s 0.15-0.5 s",
     "periodic_disturbance": "amplitude_pct 1-3 % dR at freq_hz 1-9 Hz",
-    "saturation": "low_V 1.3-1.8 V (ADC input clipping; dR limited to about -75..-60 %)",
+    "saturation": "low_V at the divider voltage the clean staircase stays above for 80-95 % of its samples",
     "load_dependence": "delta_g 200-500 g ramped in from 10-30 s over 5-15 s",
     "slow_relaxation": "gain 0.1-0.2 of the change in dR, tau_s 15-40 s",
     "outliers": "glitch_pct 10-30 % dR with probability 0.3-1 % per sample",
@@ -220,7 +220,7 @@ def _sim_effect(rng, cause: str) -> dict | None:
         "drift": lambda: {"drift": {"rate_pct_per_min": u(1.0, 3.0)}},
         "time_delay": lambda: {"time_delay": {"delay_s": u(0.15, 0.5)}},
         "periodic_disturbance": lambda: {"periodic_disturbance": {"amplitude_pct": u(1.0, 3.0), "freq_hz": u(1.0, 9.0)}},
-        "saturation": lambda: {"saturation": {"low_V": u(1.3, 1.8)}},
+        "saturation": lambda: {"saturation": {"low_V": float("nan"), "quantile": u(0.05, 0.2)}},
         "load_dependence": lambda: {"load_dependence": {"delta_g": u(200.0, 500.0), "start_s": u(10.0, 30.0),
                                                         "ramp_s": u(5.0, 15.0)}},
         "slow_relaxation": lambda: {"slow_relaxation": {"gain": u(0.1, 0.2), "tau_s": u(15.0, 40.0)}},
@@ -257,8 +257,12 @@ def run_sim_trial(cause: str, seed: int) -> Trial:
     post = {"s": rng.uniform(0.4, 0.9)} if cause == "static_nonlinearity" else (
         {"memory": rng.uniform(0.05, 0.15), "h": rng.uniform(0.3, 0.6)} if cause == "hysteresis" else {})
     porosity = rng.uniform(72.0, 86.0)
+    if cause == "saturation":  # clip at the voltage a drawn share of the clean record lies below
+        clean = sim.run_experiment("contractor", "staircase", porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10)
+        volts = 5.0 * clean["R_0"] / (clean["R_0"] + 1000.0)
+        effects = {"saturation": {"low_V": float(np.quantile(volts, effects["saturation"]["quantile"]))}}
     parts = []
-    for k, exp in enumerate(("staircase", "step_20", "step_40")):
+    for k, exp in enumerate(("staircase", "step_40", "step_60")):
         rec = sim.run_experiment("contractor", exp, porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10 + k,
                                  effects=effects)
         parts.append((rec["p_cmd_0"][:, None], _post(rec["dR_0"], cause, post), {"load_g": rec["load_g"]}))

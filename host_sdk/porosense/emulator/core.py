@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from porosense.emulator import sensors
+from porosense.emulator import lines, sensors
 from porosense.emulator.model import model_capacity, parse_blob, supported_format_version
 from porosense.emulator.store import (
     ConfigStore,
@@ -33,6 +33,7 @@ K = ConfigKey
 N_CHANNELS = 3
 FW_VERSION = (1, 0, 0)
 R0_BOOT_SAMPLES = 16
+ANALOG_OUT_PIN = 10  # the one PWM pin whose timer the firmware leaves free
 FREE_RAM_BYTES = 512  # reported in STATUS; the emulator has no stack to measure
 PLANT_MAX_STEP_S = 0.02
 RESET_POWER_ON, RESET_EXTERNAL, RESET_WATCHDOG = 0x01, 0x02, 0x08  # AVR MCUSR bits
@@ -148,6 +149,9 @@ class BoardCore:
         if not r0_stored:
             self.sticky |= F.R0_UNCALIBRATED  # cleared when a channel gives a usable R0
             self._calibrate_r0(R0_BOOT_SAMPLES, 0x07)
+        # CSV line mode of this session (firmware: Device::set_line_mode): off after any frame.
+        self.line_mode = bool(self.config[K.LINE_MODE])
+        self.line_header = True
         if self.config[K.AUTOSTART] and self.model is not None:
             self._start_stream(self.config[K.SAMPLE_RATE_HZ], self.config[K.CHANNEL_MASK])
             self.sticky |= F.STANDALONE
@@ -288,6 +292,7 @@ class BoardCore:
 
     def _feed(self, data: bytes) -> None:
         for frame in self.decoder.feed(data):
+            self.line_mode = False  # a host speaks frames: this session answers in frames
             self.counters["rx_frames"] += 1
             self._link_fed_ms = self.now_ms
             try:
@@ -328,7 +333,7 @@ class BoardCore:
         self.cached = None  # HELLO clears the duplicate cache
 
     def _hello_reply(self) -> None:
-        caps = Capability.ESTIMATOR | Capability.EMULATED
+        caps = Capability.ESTIMATOR | Capability.EMULATED | Capability.LINE_MODE
         if self.adc_present:
             caps |= Capability.ADC
         if self.imu_present:
@@ -488,6 +493,13 @@ class BoardCore:
         self._reply(m.ConfigValue(key=msg.key, value=self.config[msg.key]))
 
     def _cmd_config_set(self, msg, frame) -> None:
+        # Within the catalogue's limits but outside this board, checked first like the
+        # firmware: stored schedules and PWM pins other than D10.
+        if (
+            (msg.key == K.SCHEDULE_ENABLE and msg.value != 0)
+            or (msg.key == K.PWM_PIN and 0 <= msg.value <= 255 and msg.value not in (0, ANALOG_OUT_PIN))
+        ):
+            return self._nak(Result.UNSUPPORTED, 1)
         code = check_config(msg.key, msg.value)
         if code == Result.BAD_KEY:
             return self._nak(code, 0)
@@ -498,6 +510,8 @@ class BoardCore:
             self.r0_mohm[msg.key - K.R0_CH0_MOHM] = msg.value
             self.sticky &= ~F.R0_UNCALIBRATED
         self.watchdog_ms = self.config[K.WATCHDOG_MS]
+        if msg.key == K.LINE_MODE:
+            self.line_mode, self.line_header = bool(msg.value), True
         self._ack()
 
     def _cmd_config_save(self, msg, frame) -> None:
@@ -654,6 +668,22 @@ class BoardCore:
             euler_16=tuple(euler), estimate=tuple(est),
         )
         self.stats.samples += 1
-        self._send_unsolicited(sample, sample_t_us=t_us)
+        if self.line_mode:
+            self._send_line(sample, estimating)
+        else:
+            self._send_unsolicited(sample, sample_t_us=t_us)
         if new_faults:
             self._send_error(Result.SENSOR_FAULT, int(new_faults), t_us)
+
+    def _send_line(self, sample, estimating: bool) -> None:
+        """The CSV line (and the header first) that replaces a SAMPLE in line mode."""
+        n_est = self.model.n_outputs if estimating else 0
+        scale = self.model.out_scale if self.model is not None else (0.0, 0.0, 0.0)
+        text = lines.format_header(sample.channel_mask & 7, n_est) if self.line_header else b""
+        text += lines.format_line(sample.t_us // 1000, sample.channel_mask & 7, sample.dr_centi, n_est,
+                                  sample.estimate, scale)
+        if self._tx_room() < len(text):
+            self.counters["dropped_telemetry"] = _sat16(self.counters["dropped_telemetry"] + 1)
+            return
+        self.line_header = False
+        self._send_raw(text, sample.t_us)

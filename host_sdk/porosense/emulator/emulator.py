@@ -89,7 +89,7 @@ class Emulator:
         )
         self._out = bytearray()
         self._tokens = 0.0  # real time: bytes the UART may send now
-        self._t_tokens = time.monotonic()
+        self._t_tokens_us = 0  # device time of that credit
         self._lock = threading.RLock()
         self._requests: list = []
         self.core = BoardCore(
@@ -192,12 +192,15 @@ class Emulator:
     def _link_bytes_per_s(self) -> float:
         return BAUD / 10.0 * self.speed
 
-    def _flush_paced(self) -> None:
-        """Real time: hand bytes to the endpoint no faster than the UART would send them."""
-        now = time.monotonic()
-        rate = self._link_bytes_per_s()
-        self._tokens = min(self._tokens + (now - self._t_tokens) * rate, REALTIME_TX_BUFFER)
-        self._t_tokens = now
+    def _flush_paced(self, upto_us: int | None = None) -> None:
+        """Real time: hand bytes to the endpoint no faster than the UART sends them, counted
+        in device time up to ``upto_us`` (a late loop catches up: the UART kept shifting)."""
+        T = self.core.T_us if upto_us is None else upto_us
+        if T < self._t_tokens_us:
+            T = self._t_tokens_us
+        credit = (T - self._t_tokens_us) * (BAUD / 10.0) * 1e-6
+        self._tokens = min(self._tokens + max(credit, 0.0), max(REALTIME_TX_BUFFER, len(self._out)))
+        self._t_tokens_us = T
         n = min(int(self._tokens), len(self._out))
         if n <= 0:
             return
@@ -270,7 +273,7 @@ class Emulator:
             late = core.T_us - due
             if late > 2 * period_us:
                 core.skip_ticks(int(late // period_us))
-            T = core.T_us
+                due = core.next_tick_T_us()
+            self._flush_paced(upto_us=due)  # what the UART sent before this tick
             core.sample()
-            core.set_time(T)
             due = core.next_tick_T_us()

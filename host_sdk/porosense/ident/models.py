@@ -86,6 +86,8 @@ class Model:
         n_in = us[0].shape[1]
         if not 1 <= n_in <= MAX_INPUTS or any(x.shape[1] != n_in for x in us):
             raise InputError(f"every recording needs the same 1..{MAX_INPUTS} input columns")
+        if min(len(v) for v in ys) < self.skip + 10:
+            raise InputError(f"every recording needs at least skip + 10 = {self.skip + 10} samples")
         self.ts = float(ts)
         self.inputs = tuple(inputs) if inputs is not None else tuple(f"u{i}" for i in range(n_in))
         self.output = output

@@ -7,8 +7,9 @@ Each effect has parameters with units (defaults below). Pass them to ``make_plan
 - ``drift``: slow baseline change of the sensor resistance, ``rate_pct_per_min`` (% of R0
   per minute).
 - ``time_delay``: the resistance reading lags the physics by ``delay_s`` (s).
-- ``periodic_disturbance``: a sinusoid on dR, ``amplitude_pct`` (dR %) at ``freq_hz`` (Hz;
-  e.g. pump vibration, or 50 Hz mains hum aliased by the sample rate).
+- ``periodic_disturbance``: a sinusoid on dR, ``amplitude_pct`` (dR %) at ``freq_hz`` (Hz)
+  and ``phase_deg`` (deg) on the plant clock; e.g. pump vibration, or 50 Hz mains hum aliased
+  by the sample rate (at exactly fs/2 choose a phase other than 0 to see it).
 - ``saturation``: the ADC input clips to ``[low_V, high_V]`` (V) (divider or PGA range).
 - ``load_dependence``: the load changes by ``delta_g`` (g) during a record, ramping from
   ``start_s`` over ``ramp_s`` (s).
@@ -28,7 +29,7 @@ from porosense.errors import InputError
 DEFAULTS: dict[str, dict[str, float]] = {
     "drift": {"rate_pct_per_min": 1.5},
     "time_delay": {"delay_s": 0.25},
-    "periodic_disturbance": {"amplitude_pct": 1.5, "freq_hz": 7.3},
+    "periodic_disturbance": {"amplitude_pct": 1.5, "freq_hz": 7.3, "phase_deg": 0.0},
     "saturation": {"low_V": 1.2, "high_V": 4.096},
     "load_dependence": {"delta_g": 400.0, "start_s": 20.0, "ramp_s": 10.0},
     "slow_relaxation": {"tau_s": 25.0, "gain": 0.12},

@@ -88,7 +88,7 @@ class Geometry:
     bending_lever_mm: float = 14.0           # section centroid to the neutral axis in the base
     bending_efficiency: float = 0.5          # share of the free section strain the base lets bend
     segment_side_mm: float = 52.0            # triangle on which the three contractors stand
-    segment_height_mm: float = 80.0          # contractor height in the 3-DoF segment
+    segment_height_mm: float = 95.0          # contractor height in the 3-DoF segment (dz up to ~16 mm)
     segment_porosity: float = 76.0
 
 

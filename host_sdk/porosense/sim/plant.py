@@ -111,6 +111,7 @@ class Plant:
         self._lead_share = pz.contact_lead_s / pz.contact_lag_s
         # strain by which a load's tension in the cell walls holds contacts open, per kPa
         self._load_contact = pz.load_contact_coupling / self.curve.modulus_kpa
+        self._sigma_load0 = float(load_stress_kpa(self.load_g, self.physics.foam))
         self._pose = kinematics.SegmentPose(self.physics.geometry)
         self._alpha_cache: dict = {}
         self.reset()
@@ -133,6 +134,8 @@ class Plant:
                  "lag": math.exp(-dt / pz.contact_lag_s),
                  "relax": math.exp(-dt / pz.relax_s),
                  "slow": math.exp(-dt / slow["tau_s"])}
+            if len(self._alpha_cache) > 64:  # callers with a jittering dt: keep the cache small
+                self._alpha_cache.clear()
             self._alpha_cache[dt] = a
         return a
 
@@ -170,7 +173,7 @@ class Plant:
         f, pz, el = ph.foam, ph.piezo, ph.electronics
         al = self._alphas(dt)
         sigma_load = float(load_stress_kpa(self.load_at(t), f)) if "load_dependence" in eff else \
-            float(load_stress_kpa(self.load_g, f))
+            self._sigma_load0
         n = self.n_channels
         eps, eps_c = [0.0] * n, [0.0] * n
         r = self._lead_share
@@ -211,7 +214,8 @@ class Plant:
             dr_seen = dr + (pz.noise_pct * nb.normal() if noisy else 0.0)
             if "periodic_disturbance" in eff:
                 pd = eff["periodic_disturbance"]
-                dr_seen += pd["amplitude_pct"] * math.sin(2.0 * math.pi * pd["freq_hz"] * t)
+                dr_seen += pd["amplitude_pct"] * math.sin(2.0 * math.pi * pd["freq_hz"] * t
+                                                          + math.radians(pd["phase_deg"]))
             if "outliers" in eff and nb.uniform() < eff["outliers"]["glitch_prob"]:
                 dr_seen += eff["outliers"]["glitch_pct"] * (1.0 if nb.uniform() < 0.5 else -1.0)
             volts[c] = max(pz.r0_ohm * drift * (1.0 + dr_seen / 100.0), 1.0)  # R for now
@@ -302,7 +306,8 @@ class Plant:
             dr_seen = dr + (pz.noise_pct * rng.standard_normal(N) if noisy else 0.0)
             if "periodic_disturbance" in eff:
                 pd = eff["periodic_disturbance"]
-                dr_seen = dr_seen + pd["amplitude_pct"] * np.sin(2.0 * np.pi * pd["freq_hz"] * t)
+                dr_seen = dr_seen + pd["amplitude_pct"] * np.sin(2.0 * np.pi * pd["freq_hz"] * t
+                                                                 + np.radians(pd["phase_deg"]))
             if "outliers" in eff:
                 o = eff["outliers"]
                 hit = rng.random(N) < o["glitch_prob"]

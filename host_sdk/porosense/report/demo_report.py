@@ -1,0 +1,102 @@
+"""The demo's report folder: the figures this field expects and a summary page."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from porosense.report.figures import (
+    fit_power_law,
+    plot_fit_bars,
+    plot_hysteresis,
+    plot_power_law,
+    plot_reconstruction,
+)
+from porosense.report.page import Section, write_report
+
+PAPER_POROSITIES = (68.0, 76.0, 82.0, 86.0)
+
+
+def write_demo_report(result, searches, live, structure, out: Path, labels) -> Path:
+    """Write figures and summary pages for one actuator's demo; returns the folder."""
+    from porosense.demo import SIGNALS
+
+    inputs, outputs, _ = SIGNALS[result.actuator]
+    recs = result.recordings
+    figs = Path(out) / "figures"
+    figs.mkdir(parents=True, exist_ok=True)
+    sections = []
+
+    # Reconstruction on the first validation recording, every structure's best model.
+    val_name = [n for n in recs if n.startswith(("step_20", "sequential_20"))][0]
+    vrec = recs[val_name]
+    u = np.column_stack([vrec[c] / 100.0 for c in inputs])
+    recon = []
+    for j, (o, res) in enumerate(zip(outputs, searches)):
+        est = {s: c.model.predict(u=u) for s, c in res.best_per_structure().items()}
+        path = figs / f"reconstruction_{o}.png"
+        plot_reconstruction(vrec.t, vrec[o], est, ylabel=labels[j],
+                            title=f"{result.actuator}: {o} on {val_name} (validation)", path=path)
+        recon.append(path)
+    sections.append(Section("Measured versus estimated", "Each structure's best model of the order search, "
+                            "simulated from rest on a validation recording.", result.table, recon))
+
+    # Hysteresis loops: a step and the staircase.
+    loops = []
+    for name in [n for n in recs if n.startswith(("step_20", "staircase", "sequential_20"))][:2]:
+        r = recs[name]
+        path = figs / f"hysteresis_{name}.png"
+        plot_hysteresis(r[inputs[0]], r[outputs[0]], ylabel=labels[0], title=f"{name}: dR versus {outputs[0]}",
+                        path=path)
+        loops.append(path)
+    sections.append(Section("Hysteresis", "The loop area is the rate-dependent hysteresis and relaxation that "
+                            "the Wiener-Hammerstein model captures and the linear model cannot.", figures=loops))
+
+    # Fit bar chart per structure and recording.
+    bars = []
+    for o, res in zip(outputs, searches):
+        per = res.best_per_structure()
+        names = list(recs)
+        fits = {s: dict(zip(names, c.fit_estimation + c.fit_validation))
+                for s, c in sorted(per.items(), key=lambda kv: ("linear", "hammerstein", "wiener", "wh").index(kv[0]))}
+        path = figs / f"fit_bars_{o}.png"
+        plot_fit_bars(fits, title=f"{result.actuator}: fit of {o} per structure and recording", path=path)
+        bars.append(path)
+    sections.append(Section("Fit per structure", "", figures=bars))
+
+    # On-device estimate, live.
+    live_figs = []
+    for j, o in enumerate(outputs):
+        path = figs / f"on_device_{o}.png"
+        plot_reconstruction(live.t, live[o], {"wh": live[f"est_{o}"]}, ylabel=labels[j],
+                            title=f"on-device estimate of {o}, streamed live", path=path)
+        live_figs.append(path)
+    text = "\n\n".join(
+        f"{o}: on-device fit {a:.2f} %, host float model {b:.2f} % ({a - b:+.2f} points)."
+        for o, a, b in zip(outputs, result.on_device_fit, result.float_fit))
+    verify = result.verify
+    text += (f"\n\nModel blob {result.quant['bytes']} bytes; replay of {verify['samples']} samples through the "
+             f"board: {verify['mismatches']} mismatches with the bit-exact reference.")
+    sections.append(Section("On the device", text, figures=live_figs))
+
+    if result.actuator == "contractor":
+        from porosense.sim import steady_state
+
+        ss = [steady_state("contractor", porosity=p, load_g=0.0, vacuum_kpa=-60.0) for p in PAPER_POROSITIES]
+        strain = [s["strain_pct"] for s in ss]
+        dr = [s["dR_pct"] for s in ss]
+        fits = {"strain at -60 kPa (%)": fit_power_law(PAPER_POROSITIES, strain),
+                "dR at -60 kPa (%)": fit_power_law(PAPER_POROSITIES, dr)}
+        path = figs / "porosity_power_law.png"
+        plot_power_law(PAPER_POROSITIES, {"strain at -60 kPa (%)": strain, "dR at -60 kPa (%)": dr}, fits,
+                       title="contractor: p = C (1 - phi/100)^n", path=path)
+        sections.append(Section("Porosity", "Stroke and sensitivity of contractors printed at 68, 76, 82 and "
+                                "86 % porosity (simulated).", figures=[path]))
+
+    sel = "; ".join(f"{o}: {v['structure']} with {v['poles']} poles and {v['zeros']} zeros, mean fit "
+                    f"{v['mean_fit']:.1f} %" for o, v in result.selected.items())
+    intro = (f"Actuator: {result.actuator}; board: {result.board}. Selected by mean fit over estimation and "
+             f"validation recordings: {sel}.")
+    write_report(out, f"porosense demo: {result.actuator}", sections, intro=intro)
+    return Path(out)

@@ -24,8 +24,9 @@ firmware: env
 simboard: env
 	$(MAKE) -C tools/simboard
 
+DEMO_ARGS ?=
 demo: env
-	$(VENV)/bin/porosense demo
+	$(VENV)/bin/porosense demo $(DEMO_ARGS)
 
 # The full suite: default tests, slow tests (with CI-sized parameters) and benchmarks.
 test: env

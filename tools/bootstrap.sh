@@ -6,7 +6,8 @@ set -euo pipefail
 top="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$top"
 
-APT_PACKAGES="gcc-avr avr-libc binutils-avr arduino-core-avr simavr libsimavr-dev libelf-dev pkg-config"
+# chromium renders the demo's HTML report in its test.
+APT_PACKAGES="gcc-avr avr-libc binutils-avr arduino-core-avr simavr libsimavr-dev libelf-dev pkg-config chromium"
 
 missing=()
 if [ "${1:-}" != "--no-apt" ]; then

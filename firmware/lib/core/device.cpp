@@ -53,7 +53,6 @@ void Device::begin() {
     sticky_flags_ |= f::CONFIG_DEFAULTS;
   }
   apply_config();
-  set_line_mode(config_.line_mode);
   if (!hal_.adc_present()) sample_flags_ |= f::ADC_FAULT;
   if (!hal_.imu_present()) sample_flags_ |= f::IMU_FAULT;
   const bool r0_stored = config_.r0_mode == 1 && !(sticky_flags_ & f::CONFIG_DEFAULTS);
@@ -65,6 +64,7 @@ void Device::begin() {
     start_stream(config_.sample_rate_hz, config_.channel_mask);
     sticky_flags_ |= f::STANDALONE;
   }
+  set_line_mode(config_.line_mode);
   link_.feed(hal_.millis());
 }
 
@@ -587,30 +587,43 @@ void Device::analog_out(int16_t estimate0) {
     hal_.analog_out(analog_pin_, analog_out_duty(estimate0, config_.pwm_scale_milli, config_.pwm_offset));
 }
 
+uint8_t Device::line_estimates(proto::ModelInfoReply* info, uint8_t mask) {
+  model_.info(info);
+  return (mask & proto::chan::ESTIMATES) && model_.estimator_loaded() ? info->n_outputs : 0;
+}
+
+void Device::set_line_mode(bool on) {
+  line_state_ = on ? kLineOn : 0;
+  if (!on) return;
+  char text[kHeaderMax];
+  proto::ModelInfoReply info;
+  const uint8_t mask = streaming_ ? stream_mask_ : config_.channel_mask;
+  hal_.serial_write((const uint8_t*)text, format_header(text, (uint8_t)(mask & 0x07), line_estimates(&info, mask)));
+}
+
 // Kept out of line: its text buffer must not share a stack frame with a SAMPLE frame's.
 __attribute__((noinline)) void Device::send_line(const proto::Sample& s, bool estimating) {
-  char text[kHeaderMax + kLineMax];
+  char text[kLineMax];
   const uint8_t dr_mask = (uint8_t)(s.channel_mask & 0x07);
   proto::ModelInfoReply info;
-  model_.info(&info);
-  const uint8_t n_est = estimating ? info.n_outputs : 0;
-  uint8_t n = (line_state_ & kLineHeader) ? format_header(text, dr_mask, n_est) : 0;
+  const uint8_t n_est = estimating ? line_estimates(&info, s.channel_mask) : 0;
   int32_t est_milli[kChannels];
-  for (uint8_t j = 0; j < kChannels; ++j) {
+  for (uint8_t j = 0; j < n_est; ++j) {
     // Output units with three decimals, saturated to what int32 holds.
     float v = (float)s.estimate[j] * info.out_scale[j] * 1000.0f;
     if (v > 2.0e9f) v = 2.0e9f;
     if (v < -2.0e9f) v = -2.0e9f;
     est_milli[j] = (int32_t)(v >= 0.0f ? v + 0.5f : v - 0.5f);
   }
-  n = (uint8_t)(n + format_line(text + n, s.t_us / 1000UL, dr_mask, s.dr_centi, n_est, est_milli));
-  // Like a SAMPLE frame, a line that does not fit the transmit buffer is dropped whole.
-  if (hal_.serial_tx_free() < n) {
+  const uint8_t n = format_line(text, s.t_us / 1000UL, dr_mask, s.dr_centi, n_est, est_milli);
+  // Like a SAMPLE frame, a line that does not fit the transmit buffer is dropped whole; one
+  // longer than the whole buffer (63 bytes) goes out when the buffer is empty.
+  const uint8_t room = hal_.serial_tx_free();
+  if (room < n && room < kTxBufferFree) {
     counters_.dropped_telemetry = sat_add16(counters_.dropped_telemetry, 1);
     return;
   }
   hal_.serial_write((const uint8_t*)text, n);
-  line_state_ &= (uint8_t)~kLineHeader;
 }
 
 }  // namespace dev

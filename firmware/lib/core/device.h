@@ -72,7 +72,10 @@ class Device {
   void cmd_model(uint8_t type, const uint8_t* p, uint8_t len);
 
   void apply_config();
-  void set_line_mode(bool on) { line_state_ = on ? (uint8_t)(kLineOn | kLineHeader) : 0; }
+  // Switches this session's line mode; switching on prints the CSV header at once (blocking
+  // write: at boot, or after a command's reply, when the transmit buffer has room).
+  void set_line_mode(bool on);
+  uint8_t line_estimates(proto::ModelInfoReply* info, uint8_t mask);
   void send_line(const proto::Sample& s, bool estimating);
   void analog_out(int16_t estimate0);
   void outputs_off();
@@ -112,7 +115,7 @@ class Device {
   uint8_t pending_overrun_;  // an overrun happened since the previous SAMPLE
   // CSV line mode of this session: on at boot when LINE_MODE is stored as 1, off after any
   // valid frame from a host, switched by CONFIG_SET LINE_MODE.
-  static constexpr uint8_t kLineOn = 1, kLineHeader = 2;
+  static constexpr uint8_t kLineOn = 1;
   uint8_t line_state_;
   uint8_t analog_pin_;  // pin of the analogue estimate output now driven, 0 when off
 };

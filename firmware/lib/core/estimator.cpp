@@ -253,8 +253,8 @@ ALWAYS_INLINE int32_t clamp_state(int32_t v, uint8_t* flags) {
 // this section's outputs at k, k-1, k-2 on return (the next section's inputs: the cascade
 // shares them instead of storing them twice). ys: states y[k-1], y[k-2] in Q13, updated.
 // Returns y[k]. Not inlined: one copy serves every section of every cascade.
-__attribute__((noinline)) int32_t run_section(const uint8_t* rec, int16_t x[3], int32_t ys[2],
-                                              uint8_t* flags) {
+ALWAYS_INLINE int32_t run_section(const uint8_t* rec, int16_t x[3], int32_t ys[2],
+                                uint8_t* flags) {
   const uint8_t fl = rec[0];
   const uint8_t* c = rec + blob::kSecFixedLen;
   // Numerator in Q13 of the output: exact int32 for 16-bit b, floored partial products for

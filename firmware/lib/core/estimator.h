@@ -36,7 +36,7 @@ class Estimator {
   static constexpr uint16_t kStateBytes =
       blob::kMaxInputs * kDelayLen * 2 + blob::kMaxCascades * 4 + blob::kMaxTotalSections * 8;
 
- public:
+ private:
   int16_t pwl(uint16_t xs, uint8_t n, int16_t x);
   int32_t cascade(uint16_t* off, uint8_t n, int16_t x);
 

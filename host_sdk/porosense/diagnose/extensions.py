@@ -252,8 +252,11 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
             cols += [d, ctx.base_filter(d)]
         return np.column_stack(cols)
 
-    # direction dependence beyond any static map on either side: hysteresis, not a level effect
-    test = ctx.f_test(ctx.stack(z_h, ctx.est), extra_base=ctx.stack(z_static, ctx.est))
+    # direction dependence beyond any static map on either side (a level effect) and beyond a
+    # slow mode (fading, rate-dependent memory): hysteresis is memory that does not fade
+    (_, z_slow, _), _ = _slow_sets(ctx)
+    base = np.column_stack([ctx.stack(z_static, ctx.est), ctx.stack(z_slow, ctx.est), ctx.yhat_est])
+    test = ctx.f_test(ctx.stack(z_h, ctx.est), extra_base=base)
     res = stats.f_result("F(residual ~ direction of motion at equal level | level)", test, alpha)
     pred, _ = ctx.fit_apply(lambda r: np.column_stack([sets["output"](r), z_h(r)]))
     return CauseResult(res, True, "at equal output level the residual depends on the direction of motion "
@@ -261,24 +264,34 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
                        "Prandtl-Ishlinskii play operators (4 radii) of the model output with a static PWL", pred)
 
 
-def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
+def _slow_sets(ctx: Context):
+    """(builder, tau) of the best slow-mode regressors: slow Laguerre filters of the inputs and of
+    the model output (a slow mode may act on the nonlinear response), tau on a grid of 8, 25, 80
+    times the model's own time constant (below half the record)."""
+    if "slow" in ctx._cache:
+        return ctx._cache["slow"]
     t_total = sum(ctx.seg_est) * ctx.ts / len(ctx.seg_est)
     taus = [f * ctx.tau_s for f in (8.0, 25.0, 80.0) if f * ctx.tau_s < t_total / 2] or [t_total / 4]
+    yhat_est = ctx.yhat_est[:, None]
     best = None
     for tau in taus:
         a = float(np.exp(-ctx.ts / tau))
 
         def z(r, a=a):
-            # the slow mode may act on the input or on the (nonlinear) response: filter both
             return np.column_stack([ctx.lag_bank(r.u[:, i], 2, a) for i in range(ctx.n_in)]
                                    + [ctx.lag_bank(r.yhat, 2, a)])
 
-        t = ctx.f_test(ctx.stack(z, ctx.est))
+        t = ctx.f_test(ctx.stack(z, ctx.est), extra_base=yhat_est)
         if best is None or t.log10_p < best[0].log10_p:
             best = (t, z, tau)
-    test, z, tau = best
-    res = stats.f_result("F(residual ~ slowly filtered input)", test, alpha, len(taus), tau_s=tau)
-    pred, _ = ctx.fit_apply(z)
+    ctx._cache["slow"] = (best, len(taus))
+    return ctx._cache["slow"]
+
+
+def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
+    (test, z, tau), n_taus = _slow_sets(ctx)
+    res = stats.f_result("F(residual ~ slowly filtered input)", test, alpha, n_taus, tau_s=tau)
+    pred, _ = ctx.fit_apply(lambda r: np.column_stack([z(r), r.yhat]))
     return CauseResult(res, True, f"the residual follows the input through a slow mode of about {tau:.3g} s "
                        f"({_explained(res)}; the model's own time constant is {ctx.tau_s:.3g} s)",
                        f"an extra relaxation pole at tau = {tau:.3g} s", pred, {"tau_s": tau})

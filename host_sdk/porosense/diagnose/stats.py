@@ -323,29 +323,32 @@ def line_mask(x: np.ndarray, alpha: float = 1e-3, guard: int = 3, half_width: in
 
 
 def limit_clustering(x: np.ndarray, alpha: float = DEFAULT_ALPHA, tol_frac: float = 1e-6,
-                     band_frac: float = 0.02) -> StatResult:
+                     n_levels: int = 5) -> StatResult:
     """Samples piled up at the smallest or largest value of x (clipping at an ADC/divider limit).
 
-    k_at = samples within tol_frac * range of the extreme, k_near = samples in the next
-    band_frac * range. A continuous signal thins out towards its extremes, so under no clipping
-    k_at is at most a few and is not more likely than a sample of the band next to it; the
-    statistic is k_at and its p-value the binomial tail P(K >= k_at | k_at + k_near, 1/2) (two
-    ends, Bonferroni). At least 10 samples at the limit are required.
+    k_at = samples within tol_frac * range of the extreme; k_ref = the largest count among the
+    next ``n_levels`` distinct values inside it (quantisation levels, or single samples for a
+    continuous signal). A signal thins out towards its extremes, so without clipping the extreme
+    level holds no more samples than its neighbours; the p-value is the binomial tail
+    P(K >= k_at | k_at + k_ref, 1/2) (two ends, Bonferroni). At least 10 samples at the limit
+    are required.
     """
     x = np.asarray(x, float)
     span = float(np.ptp(x)) or 1.0
     best = None
     for side, ext in (("low", x.min()), ("high", x.max())):
         d = np.abs(x - ext)
-        k_at = int(np.sum(d <= tol_frac * span))
-        k_near = int(np.sum((d > tol_frac * span) & (d <= band_frac * span)))
-        p = float(sps.binom.sf(k_at - 1, k_at + k_near, 0.5)) * 2.0 if k_at >= 10 else 1.0
+        at = d <= tol_frac * span
+        k_at = int(np.sum(at))
+        values, counts = np.unique(np.round(d[~at] / (tol_frac * span)), return_counts=True)
+        k_ref = int(counts[:n_levels].max()) if len(counts) else 0
+        p = float(sps.binom.sf(k_at - 1, k_at + k_ref, 0.5)) * 2.0 if k_at >= 10 else 1.0
         p = min(1.0, p)
         if best is None or p < best[0]:
-            best = (p, side, float(ext), k_at, k_near)
-    p, side, ext, k_at, k_near = best
+            best = (p, side, float(ext), k_at, k_ref)
+    p, side, ext, k_at, k_ref = best
     return StatResult("samples at the limit", float(k_at), 10.0, max(p, 1e-300), alpha,
-                      {"side": side, "limit": ext, "k_at": k_at, "k_near": k_near,
+                      {"side": side, "limit": ext, "k_at": k_at, "k_near": k_ref,
                        "fraction": k_at / len(x)})
 
 

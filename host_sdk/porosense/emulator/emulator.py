@@ -27,6 +27,7 @@ from porosense.emulator.faults import Faults, FaultyLink
 REALTIME_TX_BUFFER = 64
 BAUD = 115200
 FAST_BATCH_BYTES = 1024
+MAX_CATCH_UP_S = 1.0
 IDLE_WAIT_S = 0.02
 
 
@@ -266,12 +267,13 @@ class Emulator:
                 self._flush()
 
     def _sample_due(self, core: BoardCore) -> None:
-        """Real time: every tick up to now; ticks more than two periods late are overruns."""
+        """Real time: every tick up to now. A loop that fell behind (a busy host computer)
+        catches up with the right timestamps; beyond MAX_CATCH_UP_S the ticks are overruns."""
         period_us = 1e6 / max(core.rate_hz, 1)
         due = core.next_tick_T_us()
         while due is not None and due <= core.T_us:
             late = core.T_us - due
-            if late > 2 * period_us:
+            if late > MAX_CATCH_UP_S * 1e6:
                 core.skip_ticks(int(late // period_us))
                 due = core.next_tick_T_us()
             self._flush_paced(upto_us=due)  # what the UART sent before this tick

@@ -61,6 +61,10 @@ def write_report(directory, title: str, sections: list[Section], *, intro: str =
             data = base64.b64encode(Path(f).read_bytes()).decode("ascii")
             parts.append(f'<figure><img alt="{html.escape(Path(f).stem)}" src="data:image/png;base64,{data}">'
                          f"<figcaption>{html.escape(Path(f).stem.replace('_', ' '))}</figcaption></figure>")
+    # Marks the page once every figure has decoded, so a headless browser can check it.
+    parts.append("<script>window.addEventListener('load',function(){var i=document.images,n=0;"
+                 "for(var k=0;k<i.length;k++){if(i[k].complete&&i[k].naturalWidth>0)n++;}"
+                 "document.body.setAttribute('data-figures-loaded',n+'/'+i.length);});</script>")
     parts.append("</body></html>")
     html_path = directory / "summary.html"
     html_path.write_text("\n".join(parts))

@@ -81,9 +81,11 @@ def test_unknown_channel_bits_are_refused(dev):
 
 
 def test_stream_limits_are_accepted(dev):
+    """10 and 200 Hz are accepted; samples fall on whole periods (a board may overrun at 200 Hz)."""
     for rate in (10, 200):
         dev.start_stream(rate)
         samples = list(dev.samples(5))
         dev.stop_stream()
-        spacing = np.diff([s.t_us for s in samples])
-        assert np.all(np.abs(spacing - 1e6 / rate) <= max(50.0, 1e4 / rate))
+        periods = np.diff([s.t_us for s in samples]) * rate / 1e6
+        assert np.all(periods >= 0.99), periods
+        assert np.all(np.abs(periods - np.round(periods)) <= 0.01), periods

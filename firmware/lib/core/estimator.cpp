@@ -252,9 +252,9 @@ ALWAYS_INLINE int32_t clamp_state(int32_t v, uint8_t* flags) {
 // One second-order section (record `rec`, MODEL_FORMAT.md). x: inputs at k, k-1, k-2 on entry,
 // this section's outputs at k, k-1, k-2 on return (the next section's inputs: the cascade
 // shares them instead of storing them twice). ys: states y[k-1], y[k-2] in Q13, updated.
-// Returns y[k]. Not inlined: one copy serves every section of every cascade.
-ALWAYS_INLINE int32_t run_section(const uint8_t* rec, int16_t x[3], int32_t ys[2],
-                                uint8_t* flags) {
+// Returns y[k]. The portable definition of a section; on the AVR the cascade runs the same
+// steps in assembly (avr_cascade below).
+ALWAYS_INLINE int32_t run_section(const uint8_t* rec, int16_t x[3], int32_t ys[2], uint8_t* flags) {
   const uint8_t fl = rec[0];
   const uint8_t* c = rec + blob::kSecFixedLen;
   // Numerator in Q13 of the output: exact int32 for 16-bit b, floored partial products for
@@ -299,9 +299,534 @@ ALWAYS_INLINE int32_t run_section(const uint8_t* rec, int16_t x[3], int32_t ys[2
   return y;
 }
 
+#if defined(__AVR__)
+// A whole cascade in assembly: `n` section records back to back at `recs` (14 or 20 bytes
+// each), the cascade's inputs x[k], x[k-1], x[k-2] at `x`, the section states at `ys`.
+// Exactly run_section() applied section after section (tests/quant/avr checks it against the
+// portable code); returns the saturation flag. One prologue per cascade, the section inputs
+// stay in registers, and the shift, product and rounding steps are shared subroutines.
+//   r2 sections left, r3 bits 8..15 of a product, r4 zero, r5 saturation flag,
+//   r6-r9 accumulator, r10-r15 section inputs x0 x1 x2 (then y1 in r10-r13, n1 n2 in r14 r15),
+//   r16-r19 product operand p (32 bit), r20-r21 operand k (16 bit) / shift count,
+//   r22-r25 product >> 16 / rounding shift, X spare, Y states, Z records.
+extern "C" uint8_t est_avr_cascade(const uint8_t* recs, uint8_t n, const int16_t* x, int32_t* ys);
+asm(R"AVR(
+  .pushsection .text.est_avr_cascade,"ax",@progbits
+  .global est_avr_cascade
+  .type est_avr_cascade, @function
+est_avr_cascade:
+  push r2
+  push r3
+  push r4
+  push r5
+  push r6
+  push r7
+  push r8
+  push r9
+  push r10
+  push r11
+  push r12
+  push r13
+  push r14
+  push r15
+  push r16
+  push r17
+  push r28
+  push r29
+  movw r30, r24
+  mov r2, r22
+  movw r26, r20
+  movw r28, r18
+  clr r4
+  clr r5
+  ld r10, X+
+  ld r11, X+
+  ld r12, X+
+  ld r13, X+
+  ld r14, X+
+  ld r15, X
+.Lsec:
+  ; numerator w = sum b_i x_i into r6-r9 (16 x 16 products: Atmel AVR201)
+  ld r20, Z
+  bst r20, 0
+  clr r6
+  clr r7
+  movw r8, r6
+  brtc .Lnarrow
+  ldd r16, Z+4
+  ldd r17, Z+5
+  ldd r18, Z+6
+  ldd r19, Z+7
+  movw r20, r10
+  rcall .Lwacc
+  ldd r16, Z+8
+  ldd r17, Z+9
+  ldd r18, Z+10
+  ldd r19, Z+11
+  movw r20, r12
+  rcall .Lwacc
+  ldd r16, Z+12
+  ldd r17, Z+13
+  ldd r18, Z+14
+  ldd r19, Z+15
+  movw r20, r14
+  rcall .Lwacc
+  rjmp .Lnum
+.Lnarrow:
+  movw r16, r10
+  ldd r20, Z+4
+  ldd r21, Z+5
+  muls r17, r21
+  add r8, r0
+  adc r9, r1
+  mul r16, r20
+  add r6, r0
+  adc r7, r1
+  adc r8, r4
+  adc r9, r4
+  mulsu r17, r20
+  sbc r9, r4
+  add r7, r0
+  adc r8, r1
+  adc r9, r4
+  mulsu r21, r16
+  sbc r9, r4
+  add r7, r0
+  adc r8, r1
+  adc r9, r4
+  movw r16, r12
+  ldd r20, Z+6
+  ldd r21, Z+7
+  muls r17, r21
+  add r8, r0
+  adc r9, r1
+  mul r16, r20
+  add r6, r0
+  adc r7, r1
+  adc r8, r4
+  adc r9, r4
+  mulsu r17, r20
+  sbc r9, r4
+  add r7, r0
+  adc r8, r1
+  adc r9, r4
+  mulsu r21, r16
+  sbc r9, r4
+  add r7, r0
+  adc r8, r1
+  adc r9, r4
+  movw r16, r14
+  ldd r20, Z+8
+  ldd r21, Z+9
+  muls r17, r21
+  add r8, r0
+  adc r9, r1
+  mul r16, r20
+  add r6, r0
+  adc r7, r1
+  adc r8, r4
+  adc r9, r4
+  mulsu r17, r20
+  sbc r9, r4
+  add r7, r0
+  adc r8, r1
+  adc r9, r4
+  mulsu r21, r16
+  sbc r9, r4
+  add r7, r0
+  adc r8, r1
+  adc r9, r4
+.Lnum:
+  ; W = round(w / 2^sb)
+  movw r22, r6
+  movw r24, r8
+  ldd r20, Z+1
+  rcall .Lround
+  movw r6, r22
+  movw r8, r24
+  ; y1 -> r10-r13
+  ldd r10, Y+0
+  ldd r11, Y+1
+  ldd r12, Y+2
+  ldd r13, Y+3
+  ld r21, Z
+  sbrs r21, 1
+  rjmp .Ldirect
+  ; delta form: p = y1 - y2, acc += y1 + p
+  movw r16, r10
+  movw r18, r12
+  ldd r0, Y+4
+  sub r16, r0
+  ldd r0, Y+5
+  sbc r17, r0
+  ldd r0, Y+6
+  sbc r18, r0
+  ldd r0, Y+7
+  sbc r19, r0
+  add r6, r10
+  adc r7, r11
+  adc r8, r12
+  adc r9, r13
+  add r6, r16
+  adc r7, r17
+  adc r8, r18
+  adc r9, r19
+  rjmp .Lterms
+.Ldirect:
+  ; base weight m1 = bits 2-4 minus 2 on y1
+  mov r20, r21
+  lsr r20
+  lsr r20
+  andi r20, 7
+  cpi r20, 2
+  breq .Lm2
+  brlo .Lm1neg
+  add r6, r10
+  adc r7, r11
+  adc r8, r12
+  adc r9, r13
+  cpi r20, 4
+  brne .Lm2
+  add r6, r10
+  adc r7, r11
+  adc r8, r12
+  adc r9, r13
+  rjmp .Lm2
+.Lm1neg:
+  sub r6, r10
+  sbc r7, r11
+  sbc r8, r12
+  sbc r9, r13
+  tst r20
+  brne .Lm2
+  sub r6, r10
+  sbc r7, r11
+  sbc r8, r12
+  sbc r9, r13
+.Lm2:
+  ; base weight m2 = bits 5-6 minus 1 on y2
+  ldd r16, Y+4
+  ldd r17, Y+5
+  ldd r18, Y+6
+  ldd r19, Y+7
+  sbrc r21, 6
+  rjmp .Lm2add
+  sbrc r21, 5
+  rjmp .Lm2done
+  sub r6, r16
+  sbc r7, r17
+  sbc r8, r18
+  sbc r9, r19
+  rjmp .Lm2done
+.Lm2add:
+  add r6, r16
+  adc r7, r17
+  adc r8, r18
+  adc r9, r19
+.Lm2done:
+  movw r16, r10
+  movw r18, r12
+.Lterms:
+  ; acc += round(p k1 / 2^n1) + round(y2 k2 / 2^n2)
+  ldd r14, Z+2
+  ldd r15, Z+3
+  brtc 1f
+  adiw r30, 6
+1:
+  ldd r20, Z+10
+  ldd r21, Z+11
+  rcall .Lfb
+  add r6, r22
+  adc r7, r23
+  adc r8, r24
+  adc r9, r25
+  ldd r16, Y+4
+  ldd r17, Y+5
+  ldd r18, Y+6
+  ldd r19, Y+7
+  ldd r20, Z+12
+  ldd r21, Z+13
+  mov r14, r15
+  rcall .Lfb
+  add r6, r22
+  adc r7, r23
+  adc r8, r24
+  adc r9, r25
+  ; clamp to [-2^28, 2^28 - 1]: in range when bits 28-31 agree
+  mov r20, r9
+  subi r20, 0xF0
+  andi r20, 0xE0
+  breq .Lin
+  ldi r20, 1
+  or r5, r20
+  sbrc r9, 7
+  rjmp .Lneg
+  ldi r20, 0xFF
+  mov r6, r20
+  mov r7, r20
+  mov r8, r20
+  ldi r20, 0x0F
+  mov r9, r20
+  rjmp .Lin
+.Lneg:
+  clr r6
+  clr r7
+  clr r8
+  ldi r20, 0xF0
+  mov r9, r20
+.Lin:
+  ; next inputs floor(y / 2^13): x2 from y2, then the states, x1 from y1, x0 from y
+  ldd r0, Y+5
+  ldd r14, Y+6
+  ldd r15, Y+7
+  lsl r0
+  rol r14
+  rol r15
+  lsl r0
+  rol r14
+  rol r15
+  lsl r0
+  rol r14
+  rol r15
+  std Y+4, r10
+  std Y+5, r11
+  std Y+6, r12
+  std Y+7, r13
+  st Y+, r6
+  st Y+, r7
+  st Y+, r8
+  st Y+, r9
+  adiw r28, 4
+  mov r0, r11
+  lsl r0
+  rol r12
+  rol r13
+  lsl r0
+  rol r12
+  rol r13
+  lsl r0
+  rol r12
+  rol r13
+  mov r0, r7
+  mov r10, r8
+  mov r11, r9
+  lsl r0
+  rol r10
+  rol r11
+  lsl r0
+  rol r10
+  rol r11
+  lsl r0
+  rol r10
+  rol r11
+  adiw r30, 14
+  dec r2
+  breq .Ldone
+  rjmp .Lsec
+.Ldone:
+  mov r24, r5
+  clr r1
+  pop r29
+  pop r28
+  pop r17
+  pop r16
+  pop r15
+  pop r14
+  pop r13
+  pop r12
+  pop r11
+  pop r10
+  pop r9
+  pop r8
+  pop r7
+  pop r6
+  pop r5
+  pop r4
+  pop r3
+  pop r2
+  ret
+
+  ; r6-r9 += floor(p k / 2^16)
+.Lwacc:
+  rcall .Lmul48
+  add r6, r22
+  adc r7, r23
+  adc r8, r24
+  adc r9, r25
+  ret
+
+  ; r22-r25 = floor(p k / 2^16), r3 = bits 8..15 of p k: p r16-r19 (signed), k r20-r21
+  ; (signed); eight multiplies, sign extension of the mixed ones by sbc of the carry.
+.Lmul48:
+  mul r16, r20
+  mov r3, r1
+  mul r18, r20
+  movw r22, r0
+  muls r19, r21
+  movw r24, r0
+  mul r17, r20
+  add r3, r0
+  adc r22, r1
+  adc r23, r4
+  adc r24, r4
+  adc r25, r4
+  mulsu r19, r20
+  sbc r25, r4
+  add r23, r0
+  adc r24, r1
+  adc r25, r4
+  mulsu r21, r16
+  sbc r23, r4
+  sbc r24, r4
+  sbc r25, r4
+  add r3, r0
+  adc r22, r1
+  adc r23, r4
+  adc r24, r4
+  adc r25, r4
+  mulsu r21, r17
+  sbc r24, r4
+  sbc r25, r4
+  add r22, r0
+  adc r23, r1
+  adc r24, r4
+  adc r25, r4
+  mulsu r21, r18
+  sbc r25, r4
+  add r23, r0
+  adc r24, r1
+  adc r25, r4
+  ret
+
+  ; r22-r25 = round(p k / 2^n), n (16..47) in r14: the product of .Lmul48, then rounded
+.Lfb:
+  mul r16, r20
+  mov r3, r1
+  mul r18, r20
+  movw r22, r0
+  muls r19, r21
+  movw r24, r0
+  mul r17, r20
+  add r3, r0
+  adc r22, r1
+  adc r23, r4
+  adc r24, r4
+  adc r25, r4
+  mulsu r19, r20
+  sbc r25, r4
+  add r23, r0
+  adc r24, r1
+  adc r25, r4
+  mulsu r21, r16
+  sbc r23, r4
+  sbc r24, r4
+  sbc r25, r4
+  add r3, r0
+  adc r22, r1
+  adc r23, r4
+  adc r24, r4
+  adc r25, r4
+  mulsu r21, r17
+  sbc r24, r4
+  sbc r25, r4
+  add r22, r0
+  adc r23, r1
+  adc r24, r4
+  adc r25, r4
+  mulsu r21, r18
+  sbc r25, r4
+  add r23, r0
+  adc r24, r1
+  adc r25, r4
+  mov r20, r14
+  subi r20, 16
+  brne .Lround1
+  lsl r3
+  adc r22, r4
+  adc r23, r4
+  adc r24, r4
+  adc r25, r4
+  ret
+
+  ; r22-r25 = round(v / 2^s), ties up, s (0..31) in r20: floor(v / 2^(s-1)) + 1, halved
+.Lround:
+  tst r20
+  breq 4f
+.Lround1:
+  dec r20
+  sbrs r20, 4
+  rjmp 1f
+  movw r22, r24
+  clr r24
+  sbrc r23, 7
+  com r24
+  mov r25, r24
+1:
+  sbrs r20, 3
+  rjmp 2f
+  mov r22, r23
+  mov r23, r24
+  mov r24, r25
+  lsl r25
+  sbc r25, r25
+2:
+  sbrs r20, 2
+  rjmp 3f
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+3:
+  sbrs r20, 1
+  rjmp 5f
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+5:
+  sbrs r20, 0
+  rjmp 6f
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+6:
+  ; u = floor(v / 2^(s-1)) is complete: (u + 1) / 2 = (u >> 1) + the bit shifted out
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+  adc r22, r4
+  adc r23, r4
+  adc r24, r4
+  adc r25, r4
+4:
+  ret
+  .size est_avr_cascade, .-est_avr_cascade
+  .popsection
+)AVR");
+#endif
+
 }  // namespace
 
-Estimator::Estimator() : blob_(0), length_(0), n_in_(0), n_out_(0), head_(0), flags_(0) {
+Estimator::Estimator()
+    : blob_(0), length_(0), n_in_(0), n_out_(0), head_(0), flags_(0), off_(0), xh_(0), ys_(0) {
   memset(&header_, 0, sizeof(header_));
   reset();
 }
@@ -332,18 +857,23 @@ void Estimator::reset() {
   head_ = 0;
 }
 
-// Table with n breakpoints whose x[] starts at `xs` (after the count byte).
-int16_t Estimator::pwl(uint16_t xs, uint8_t n, int16_t x) {
-  // Segment k: the last breakpoint <= x among 0..n-2 (segment 0 also left of x[0]); the
-  // search keeps the x[k] it read, so only x[0] may need a read of its own.
-  uint8_t lo = 0, hi = uint8_t(n - 2);
+// Table with n breakpoints; off_ is at x[0] (after the count byte) and moves past the table.
+int16_t Estimator::pwl(uint8_t n, int16_t x) {
+  const uint16_t xs = off_;
+  off_ = uint16_t(off_ + blob::pwl_len(n) - 1);
+  // Segment k: the last breakpoint <= x among 0..n-2 (segment 0 also left of x[0]), found
+  // with steps of 8, 4, 2, 1 (at most 4 reads for 16 breakpoints); the search keeps the x[k]
+  // it read, so only x[0] may need a read of its own.
+  const uint8_t last = uint8_t(n - 2);
+  uint8_t lo = 0;
   uint8_t b[3];
   int16_t xk = 0;
-  while (lo < hi) {
-    uint8_t mid = uint8_t((lo + hi + 1) >> 1);
-    blob_->read(uint16_t(xs + 2 * mid), b, 2);
-    int16_t xm = le16(b);
-    if (xm <= x) { lo = mid; xk = xm; } else hi = uint8_t(mid - 1);
+  for (uint8_t step = 8; step; step >>= 1) {
+    const uint8_t t = uint8_t(lo + step);
+    if (t > last) continue;
+    blob_->read(uint16_t(xs + 2 * t), b, 2);
+    const int16_t xt = le16(b);
+    if (xt <= x) { lo = t; xk = xt; }
   }
   if (lo == 0) { blob_->read(xs, b, 2); xk = le16(b); }
   blob_->read(uint16_t(xs + 2 * n + 2 * lo), b, 2);
@@ -356,28 +886,43 @@ int16_t Estimator::pwl(uint16_t xs, uint8_t n, int16_t x) {
   return sat16(int32_t(yk) + round_shift(p, b[2]), &flags_);
 }
 
-__attribute__((noinline)) int32_t Estimator::cascade(uint16_t* off, uint8_t n, int16_t x) {
-  int16_t* xh = xhist_[cascade_++];
+int32_t Estimator::cascade(uint8_t n, int16_t x) {
+  // Every record of the cascade in as few reads as possible: n 16-bit sections first, then
+  // 6 more bytes for each wide one met on the walk (the bytes read are always a prefix of
+  // the cascade, so each record's flags byte is in the buffer when it is examined).
+  uint8_t recs[blob::kMaxSections * blob::kSecLen32];
+  uint8_t* end = recs + n * blob::kSecLen16;
+  blob_->read(off_, recs, uint8_t(end - recs));
+  for (uint8_t* p = recs; p != end;) {
+    if (*p & blob::kSecWide) {
+      const uint8_t extra = blob::kSecLen32 - blob::kSecLen16;
+      blob_->read(uint16_t(off_ + (end - recs)), end, extra);
+      end += extra;
+      p += blob::kSecLen32;
+    } else {
+      p += blob::kSecLen16;
+    }
+  }
+  off_ = uint16_t(off_ + (end - recs));
+  int16_t* xh = xh_;
+  xh_ += 2;
+  int32_t* ys = ys_;
+  ys_ += 2 * n;
   int16_t xs[3] = {x, xh[0], xh[1]};
   xh[1] = xh[0];
   xh[0] = x;
-  int32_t* ys = ystate_[section_];
-  section_ = uint8_t(section_ + n);
+#if defined(__AVR__)
+  flags_ |= est_avr_cascade(recs, n, xs, ys);
+  return ys[2 * (n - 1)];
+#else
   int32_t y = 0;
-  uint8_t rec[blob::kSecLen32];
-  uint16_t at = *off;
+  const uint8_t* rec = recs;
   for (uint8_t s = 0; s < n; ++s, ys += 2) {
-    // One read covers a 16-bit section; a wide one needs its last 6 bytes as well.
-    blob_->read(at, rec, blob::kSecLen16);
-    at = uint16_t(at + blob::kSecLen16);
-    if (rec[0] & blob::kSecWide) {
-      blob_->read(at, rec + blob::kSecLen16, uint8_t(blob::kSecLen32 - blob::kSecLen16));
-      at = uint16_t(at + (blob::kSecLen32 - blob::kSecLen16));
-    }
     y = run_section(rec, xs, ys, &flags_);
+    rec += (rec[0] & blob::kSecWide) ? blob::kSecLen32 : blob::kSecLen16;
   }
-  *off = at;
   return y;
+#endif
 }
 
 uint8_t Estimator::step(const int16_t dr_centi[3], int16_t estimate[3]) {
@@ -386,42 +931,42 @@ uint8_t Estimator::step(const int16_t dr_centi[3], int16_t estimate[3]) {
   flags_ = 0;
   head_ = uint8_t((head_ + 1) & (kDelayLen - 1));
   for (uint8_t i = 0; i < n_in_; ++i) delay_[i][head_] = dr_centi[i];
-  cascade_ = 0;
-  section_ = 0;
-  uint16_t off = blob::kHeaderLen;
-  // A branch record and the byte after it (a table's breakpoint count) in one read.
+  xh_ = xhist_[0];
+  ys_ = ystate_[0];
+  off_ = blob::kHeaderLen;
+  // A record and the byte after it (a table's breakpoint count or H2's section count) in
+  // one read.
   uint8_t rec[blob::kBranchRecLen + 1];
   for (uint8_t j = 0; j < n_out_; ++j) {
-    blob_->read(off, rec, blob::kOutputRecLen);
-    off = uint16_t(off + blob::kOutputRecLen);
-    uint8_t nb = rec[0], ofl = rec[1];
-    int16_t out_offset = le16(rec + 2);
+    blob_->read(off_, rec, blob::kOutputRecLen);
+    off_ = uint16_t(off_ + blob::kOutputRecLen);
+    const uint8_t nb = rec[0], ofl = rec[1];
+    const int16_t out_offset = le16(rec + 2);
     int32_t sum = 0;  // Q13, |.| <= 3 * 2^28
     for (uint8_t b = 0; b < nb; ++b) {
-      blob_->read(off, rec, blob::kBranchRecLen + 1);
-      off = uint16_t(off + blob::kBranchRecLen);
+      blob_->read(off_, rec, blob::kBranchRecLen + 1);
+      off_ = uint16_t(off_ + blob::kBranchRecLen);
       int16_t u = delay_[rec[0]][(head_ - rec[1]) & (kDelayLen - 1)];
       int16_t x = sat16(int32_t(u) - le16(rec + 2), &flags_);
-      uint8_t ns = rec[5];
+      const uint8_t ns = rec[5];
       if (rec[4] & blob::kBranchHasF) {
-        uint8_t n = rec[6];
-        x = pwl(uint16_t(off + 1), n, x);
-        off = uint16_t(off + blob::pwl_len(n));
+        off_ = uint16_t(off_ + 1);
+        x = pwl(rec[6], x);
       }
-      sum += cascade(&off, ns, x);
+      sum += cascade(ns, x);
     }
-    int16_t v = sat16(sum >> blob::kStateFrac, &flags_);
-    if (ofl & blob::kOutHasG) {
-      uint8_t n;
-      blob_->read(off, &n, 1);
-      v = pwl(uint16_t(off + 1), n, v);
-      off = uint16_t(off + blob::pwl_len(n));
-    }
-    if (ofl & blob::kOutHasH2) {
-      uint8_t ns;
-      blob_->read(off, &ns, 1);
-      off = uint16_t(off + 1);
-      v = q13(cascade(&off, ns, v));
+    int16_t v = sat16(asr(sum, blob::kStateFrac), &flags_);
+    if (ofl & (blob::kOutHasG | blob::kOutHasH2)) {
+      blob_->read(off_, rec, 1);
+      off_ = uint16_t(off_ + 1);
+      if (ofl & blob::kOutHasG) {
+        v = pwl(rec[0], v);
+        if (ofl & blob::kOutHasH2) {
+          blob_->read(off_, rec, 1);
+          off_ = uint16_t(off_ + 1);
+        }
+      }
+      if (ofl & blob::kOutHasH2) v = q13(cascade(rec[0], v));
     }
     estimate[j] = sat16(int32_t(v) + out_offset, &flags_);
   }

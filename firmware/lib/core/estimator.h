@@ -37,8 +37,8 @@ class Estimator {
       blob::kMaxInputs * kDelayLen * 2 + blob::kMaxCascades * 4 + blob::kMaxTotalSections * 8;
 
  private:
-  int16_t pwl(uint16_t xs, uint8_t n, int16_t x);
-  int32_t cascade(uint16_t* off, uint8_t n, int16_t x);
+  int16_t pwl(uint8_t n, int16_t x);
+  int32_t cascade(uint8_t n, int16_t x);
 
   const BlobReader* blob_;
   uint16_t length_;
@@ -46,7 +46,10 @@ class Estimator {
   blob::Header header_;
   uint8_t head_;
   uint8_t flags_;
-  uint8_t cascade_, section_;  // running indices during a step
+  // Running positions during a step: blob offset, next cascade's input history and states.
+  uint16_t off_;
+  int16_t* xh_;
+  int32_t* ys_;
   int16_t delay_[blob::kMaxInputs][kDelayLen];
   int16_t xhist_[blob::kMaxCascades][2];       // inputs k-1, k-2 of each cascade
   int32_t ystate_[blob::kMaxTotalSections][2];  // outputs k-1, k-2 of each section (Q13)

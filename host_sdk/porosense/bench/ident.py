@@ -56,9 +56,10 @@ def grid_benchmark(size: str) -> dict:
     seconds = time.perf_counter() - t0
     best = result.best
     per = {k: round(v.mean_fit, 3) for k, v in result.best_per_structure().items()}
-    cpu = sum(c.seconds for c in result.candidates)
+    cpu = sum(c.cpu_seconds for c in result.candidates)
     return {"grid_models": len(result.candidates), "grid_seconds": seconds, "grid_cores": os.cpu_count(),
-            "grid_model_seconds_sum": cpu, "grid_seconds_each": seconds_each,
+            "grid_cpu_seconds": cpu, "grid_seconds_each": seconds_each,
+            "load_average_1min": os.getloadavg()[0],
             "grid_samples": int(sum(len(r[1]) for r in recs)),
             "grid_best": f"{best.structure} {best.n_poles}p{best.n_zeros}z", "grid_best_fit": best.mean_fit,
             "grid_best_fit_per_structure": per}
@@ -107,7 +108,8 @@ def run(size: str = "full") -> dict:
     out.update(grid_benchmark(size))
     s = [f"order grid: {out['grid_models']} models (4 structures, poles <= {10 if size == 'full' else 2}, "
          f"zeros < poles, 2 starts), 5 x {out['grid_seconds_each']:.0f} s at 50 Hz: {out['grid_seconds']:.1f} s "
-         f"on {out['grid_cores']} cores (sum over models {out['grid_model_seconds_sum']:.1f} s); "
+         f"on {out['grid_cores']} cores (CPU time of the models {out['grid_cpu_seconds']:.1f} s, "
+         f"load average {out['load_average_1min']:.1f}); "
          f"best {out['grid_best']} mean fit {out['grid_best_fit']:.2f} %",
          f"linear OE, {out['oe_samples']} samples: porosense {out['oe_porosense_seconds'] * 1e3:.1f} ms, "
          f"fit {out['oe_porosense_fit']:.2f} %"]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import textwrap
 
 from porosense.errors import DeviceError, InputError
 
@@ -20,8 +21,8 @@ UNITS = {
     "MIN_SETPOINT_DKPA": "0.1 kPa",
     "WATCHDOG_MS": "ms",
     "AUTOSTART": "0/1",
-    "PWM_PIN": "pin",
-    "PWM_SCALE_MILLI": "duty/LSB/1000",
+    "PWM_PIN": "pin (0 or 10)",
+    "PWM_SCALE_MILLI": "0.001 duty/LSB",
     "PWM_OFFSET": "duty",
     "LINE_MODE": "0/1",
     "SCHEDULE_ENABLE": "0/1",
@@ -32,7 +33,7 @@ def register(sub) -> argparse.ArgumentParser:
     p = sub.add_parser(
         "config",
         help="show, set or reset the device configuration (EEPROM)",
-        description=(
+        description=textwrap.fill(
             "The device configuration lives in EEPROM (two 32-byte slots with a CRC, written "
             "atomically). 'show' lists every key with its value, unit, default and accepted range "
             "(sample rate in Hz, R0 in milliohm, setpoint limit in 0.1 kPa, watchdog in ms, PWM "
@@ -92,11 +93,11 @@ def config_table(values: dict[str, int]) -> list[dict]:
 
 def format_table(rows: list[dict]) -> str:
     """The rows as aligned text; '*' marks a value that differs from its default."""
-    lines = [f"{'key':<18} {'value':>11}  {'unit':<14} {'default':>9}  range"]
+    lines = [f"{'key':<18} {'value':>11}  {'unit':<15} {'default':>9}  range"]
     for r in rows:
         mark = "*" if r["value"] is not None and r["value"] != r["default"] else " "
         value = "?" if r["value"] is None else str(r["value"])
-        lines.append(f"{r['key']:<18} {value:>11}{mark} {r['unit']:<14} {r['default']:>9}  {r['min']}..{r['max']}")
+        lines.append(f"{r['key']:<18} {value:>11}{mark} {r['unit']:<15} {r['default']:>9}  {r['min']}..{r['max']}")
     return "\n".join(lines)
 
 

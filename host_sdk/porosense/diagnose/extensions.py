@@ -495,9 +495,18 @@ def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
                        {"column": name})
 
 
+def _record_limit(y: np.ndarray, side: str, default: float) -> float:
+    """The record's own clip level: its extreme on ``side`` if at least 10 samples sit there
+    exactly (each file's dR has its own R0 calibration, so the same ADC limit moves), else default."""
+    ext = float(y.min() if side == "low" else y.max())
+    at = np.abs(y - ext) <= 1e-6 * (float(np.ptp(y)) or 1.0)
+    return ext if at.sum() >= 10 else default
+
+
 def saturation(ctx: Context, alpha: float) -> CauseResult:
     y_est = np.concatenate([r.y for r in ctx.est])
-    candidates = [("output", None, stats.limit_clustering(y_est, alpha))]
+    # tested per record: a limit in dR moves with each record's R0 calibration
+    candidates = [("output", None, stats.limit_clustering(r.y, alpha)) for r in ctx.est]
     for i in range(ctx.n_in):
         if not stats.is_piecewise_constant(ctx.u_est[:, i]):
             candidates.append((f"input {i}", i, stats.limit_clustering(ctx.u_est[:, i], alpha)))
@@ -506,7 +515,7 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
     limit, side = clus.detail["limit"], clus.detail["side"]
     if idx is None:
         def z(r):
-            over = r.yhat - limit
+            over = r.yhat - _record_limit(r.y, side, limit)
             return np.maximum(over, 0.0) if side == "high" else np.minimum(over, 0.0)
     else:
         span = float(np.ptp(ctx.u_est[:, idx])) or 1.0
@@ -523,14 +532,16 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
                            {**clus.detail, "f_test": ftest.value}, log10_p=-strength)
     if idx is None:
         # clipped samples are censored: they say only that the output is beyond the limit
-        censored = np.abs(y_est - limit) <= 1e-6 * (float(np.ptp(y_est)) or 1.0)
+        lim_est = np.concatenate([np.full(len(r.y), _record_limit(r.y, side, limit)) for r in ctx.est])
+        lim_val = np.concatenate([np.full(len(r.y), _record_limit(r.y, side, limit)) for r in ctx.val])
+        censored = np.abs(y_est - lim_est) <= 1e-6 * (float(np.ptp(y_est)) or 1.0)
         pred, _ = ctx.fit_apply(None, mask_est=censored)
-        pred = np.maximum(pred, limit) if side == "low" else np.minimum(pred, limit)
+        pred = np.maximum(pred, lim_val) if side == "low" else np.minimum(pred, lim_val)
     else:
         pred, _ = ctx.fit_apply(z)
-    return CauseResult(res, p < alpha, f"{clus.detail['k_at']} samples ({100 * clus.detail['fraction']:.1f} %) "
-                       f"sit exactly at the {side} limit {limit:.4g} of the {where}",
-                       f"clipping of the {where} at {limit:.4g}", pred, {"limit": limit, "where": where})
+    return CauseResult(res, p < alpha, f"{clus.detail['k_at']} samples ({100 * clus.detail['fraction']:.1f} % of "
+                       f"the record) sit exactly at the {side} limit {limit:.4g} of the {where}",
+                       f"clipping of the {where} at its limit (ADC/divider)", pred, {"limit": limit, "where": where})
 
 
 def outliers(ctx: Context, alpha: float) -> CauseResult:

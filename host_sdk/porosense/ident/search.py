@@ -40,6 +40,7 @@ class Candidate:
     seconds: float
     feasible: bool = True
     model: Model | None = field(default=None, repr=False)
+    cpu_seconds: float = float("nan")
 
     @property
     def mean_fit(self) -> float:
@@ -58,7 +59,7 @@ class Candidate:
                 "fit_estimation": self.fit_estimation, "fit_validation": self.fit_validation,
                 "rms_estimation": self.rms_estimation, "rms_validation": self.rms_validation,
                 "aic": self.aic, "bic": self.bic, "n_params": self.n_params,
-                "seconds": self.seconds, "feasible": self.feasible}
+                "seconds": self.seconds, "cpu_seconds": self.cpu_seconds, "feasible": self.feasible}
 
 
 @dataclass
@@ -154,13 +155,14 @@ def order_grid(structures=STRUCTURES, poles=range(1, 11), zeros=None) -> list[tu
 
 def _fit_candidate(structure, n_poles, n_zeros, kwargs, fit_args, val):
     """Worker: estimate one model and score it (top level so process pools can pickle it)."""
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     model = make_model(structure, n_poles=n_poles, n_zeros=n_zeros, **kwargs)
     model.fit(**fit_args)
     est = model.score(u=fit_args["u"], y=fit_args["y"], skip=kwargs["skip"])
     vs = model.score(u=val[0], y=val[1], skip=val[2]) if val else {"fit": [], "rms": []}
     return Candidate(structure, n_poles, n_zeros, est["fit"], vs["fit"], est["rms"], vs["rms"],
-                     model.aic, model.bic, model.n_params, time.perf_counter() - t0, True, model)
+                     model.aic, model.bic, model.n_params, time.perf_counter() - t0, True, model,
+                     time.process_time() - c0)
 
 
 def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=range(1, 11), zeros=None,

@@ -79,12 +79,10 @@ def open_board(board: str, actuator: str, *, seed: int = 0):
 
     if board == "emulator":
         from porosense.emulator import Emulator
-        from porosense.sim import make_plant
 
-        plant = TruthLog(make_plant(actuator, seed=seed))
-        with Emulator(actuator, realtime=True, speed=EMULATOR_SPEED, plant=plant) as emu:
+        with Emulator(actuator, realtime=True, speed=EMULATOR_SPEED, seed=seed, truth_log=True) as emu:
             with Device.open(emu.url) as dev:
-                yield dev, plant.truth
+                yield dev, emu.truth
     elif board == "simboard":
         from porosense.simboard import DEFAULT_ELF, SimBoard
 
@@ -94,37 +92,6 @@ def open_board(board: str, actuator: str, *, seed: int = 0):
     else:
         with Device.open(board) as dev:
             yield dev, None
-
-
-class TruthLog:
-    """A plant that remembers its ground truth against its own clock (us since power-on),
-    which is the emulator's device clock."""
-
-    def __init__(self, plant):
-        self._plant = plant
-        self.n_channels = plant.n_channels
-        self._t_us = 0.0
-        self._times: list[float] = []
-        self._rows: list[dict] = []
-
-    def reset(self) -> None:
-        self._plant.reset()
-
-    def step(self, dt_s, setpoint_kpa, pump, valve):
-        reading = self._plant.step(dt_s, setpoint_kpa, pump, valve)
-        self._t_us += dt_s * 1e6
-        self._times.append(self._t_us)
-        self._rows.append({k: float(v) for k, v in reading.truth.items() if np.ndim(v) == 0})
-        return reading
-
-    def truth(self, t_us: np.ndarray) -> dict:
-        """Ground-truth columns interpolated at device times ``t_us`` (us)."""
-        t = np.asarray(self._times)
-        keys = self._rows[0].keys() if self._rows else ()
-        return {k: np.interp(t_us, t, [r[k] for r in self._rows]) for k in keys}
-
-    def __getattr__(self, name):
-        return getattr(self._plant, name)
 
 
 def _simboard_truth(sb):

@@ -41,7 +41,7 @@ def run_schedule(
 
     ``truth`` adds ground-truth columns; ``out_scale`` (units per LSB) and ``output_names``
     turn the on-device estimates into ``est_<name>`` columns. ``monitor`` receives the columns
-    recorded so far (truth and estimates) every second of device time and returns a short text
+    recorded so far (truth and estimates) every two seconds of device time and returns a short text
     for the progress bar (e.g. a running fit). Outputs are switched off at the end, even when
     the run fails.
     """
@@ -70,7 +70,7 @@ def run_schedule(
             rows.append(s)
             if bar is not None:
                 bar.update(1)
-                if monitor is not None and len(rows) % rate_hz == 0:
+                if monitor is not None and len(rows) % (2 * rate_hz) == 0:
                     text = monitor(_columns(rows, truth, out_scale, output_names))
                     if text:
                         bar.set_postfix_str(text, refresh=False)

@@ -58,6 +58,18 @@ def test_cli_baseline_and_model_paths(tmp_path):
     assert rc == 0
     assert json.loads(out.read_text())["top"] == "time_delay"
 
+    from porosense import ident
+
+    model = ident.make_model("linear", n_poles=1, n_zeros=0).fit(
+        u=[rec.u[:1440]], y=[rec.y[:1440]], ts=trials.TS, inputs=["p_cmd_0"], output="dR_0")
+    model.save(tmp_path / "m.json")
+    out2 = tmp_path / "model.json"
+    rc = main(["diagnose", "--data", str(path), "--input", "p_cmd_0", "--output", "dR_0", "--ts", str(trials.TS),
+               "--model", str(tmp_path / "m.json"), "--estimation", "0:1440", "--validation", "1440:",
+               "--json", str(out2)])
+    assert rc == 0
+    assert json.loads(out2.read_text())["top"] == "time_delay"
+
 
 def test_cli_errors_are_one_line(tmp_path, capsys):
     path = tmp_path / "d.csv"

@@ -301,16 +301,184 @@ ALWAYS_INLINE int32_t run_section(const uint8_t* rec, int16_t x[3], int32_t ys[2
 
 #if defined(__AVR__)
 // A whole cascade in assembly: `n` section records back to back at `recs` (14 or 20 bytes
-// each), the cascade's inputs x[k], x[k-1], x[k-2] at `x`, the section states at `ys`.
-// Exactly run_section() applied section after section (tests/quant/avr checks it against the
-// portable code); returns the saturation flag. One prologue per cascade, the section inputs
-// stay in registers, and the shift, product and rounding steps are shared subroutines.
+// each), the cascade's input x[k] in `x`, its history x[k-1], x[k-2] at `xh` (updated), the
+// section states at `ys`. Exactly run_section() applied section after section
+// (tests/quant/avr/primitives.cpp checks it against the portable code in simavr); returns the
+// last section's state and ORs the saturation flag into *flags. One prologue per cascade; the
+// section inputs stay in registers.
 //   r2 sections left, r3 bits 8..15 of a product, r4 zero, r5 saturation flag,
 //   r6-r9 accumulator, r10-r15 section inputs x0 x1 x2 (then y1 in r10-r13, n1 n2 in r14 r15),
 //   r16-r19 product operand p (32 bit), r20-r21 operand k (16 bit) / shift count,
-//   r22-r25 product >> 16 / rounding shift, X spare, Y states, Z records.
-extern "C" uint8_t est_avr_cascade(const uint8_t* recs, uint8_t n, const int16_t* x, int32_t* ys);
+//   r22-r25 product >> 16 / rounding shift, X the flags pointer, Y states, Z records.
+extern "C" int32_t est_avr_cascade(const uint8_t* recs, uint8_t n, int16_t* xh, int32_t* ys,
+                                   int16_t x, uint8_t* flags);
 asm(R"AVR(
+  ; r22-r25 = round(v / 2^s), ties up, for 1 <= s (r20) <= 31: u = floor(v / 2^(s-1)) by byte
+  ; moves and 4-2-1 bit steps, then (u + 1) / 2 = (u >> 1) + the bit shifted out
+  .macro EST_ROUND
+  dec r20
+  sbrs r20, 4
+  rjmp 1f
+  movw r22, r24
+  clr r24
+  sbrc r23, 7
+  com r24
+  mov r25, r24
+1:
+  sbrs r20, 3
+  rjmp 2f
+  mov r22, r23
+  mov r23, r24
+  mov r24, r25
+  lsl r25
+  sbc r25, r25
+2:
+  sbrs r20, 2
+  rjmp 3f
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+3:
+  sbrs r20, 1
+  rjmp 4f
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+4:
+  sbrs r20, 0
+  rjmp 5f
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+5:
+  asr r25
+  ror r24
+  ror r23
+  ror r22
+  adc r22, r4
+  adc r23, r4
+  adc r24, r4
+  adc r25, r4
+  .endm
+
+  ; r22-r25 = floor(p k / 2^16), r3 = bits 8..15 of p k: p r16-r19 (signed), k r20-r21
+  ; (signed); eight multiplies, the mixed-sign ones sign-extended by sbc of the carry (bit 15).
+  .macro EST_MUL48
+  mul r16, r20
+  mov r3, r1
+  mul r18, r20
+  movw r22, r0
+  muls r19, r21
+  movw r24, r0
+  mul r17, r20
+  add r3, r0
+  adc r22, r1
+  adc r23, r4
+  adc r24, r4
+  adc r25, r4
+  mulsu r19, r20
+  sbc r25, r4
+  add r23, r0
+  adc r24, r1
+  adc r25, r4
+  mulsu r21, r16
+  sbc r23, r4
+  sbc r24, r4
+  sbc r25, r4
+  add r3, r0
+  adc r22, r1
+  adc r23, r4
+  adc r24, r4
+  adc r25, r4
+  mulsu r21, r17
+  sbc r24, r4
+  sbc r25, r4
+  add r22, r0
+  adc r23, r1
+  adc r24, r4
+  adc r25, r4
+  mulsu r21, r18
+  sbc r25, r4
+  add r23, r0
+  adc r24, r1
+  adc r25, r4
+  .endm
+
+  ; r6-r9 += round(p k / 2^n), n (16..47) in r14
+  .macro EST_FEEDBACK
+  EST_MUL48
+  mov r20, r14
+  subi r20, 16
+  brne 6f
+  lsl r3
+  adc r22, r4
+  adc r23, r4
+  adc r24, r4
+  adc r25, r4
+  rjmp 7f
+6:
+  EST_ROUND
+7:
+  add r6, r22
+  adc r7, r23
+  adc r8, r24
+  adc r9, r25
+  .endm
+
+  ; r6-r9 += r17:r16 * r21:r20 (signed 16 x 16, Atmel AVR201)
+  .macro EST_MAC
+  muls r17, r21
+  add r8, r0
+  adc r9, r1
+  mul r16, r20
+  add r6, r0
+  adc r7, r1
+  adc r8, r4
+  adc r9, r4
+  mulsu r17, r20
+  sbc r9, r4
+  add r7, r0
+  adc r8, r1
+  adc r9, r4
+  mulsu r21, r16
+  sbc r9, r4
+  add r7, r0
+  adc r8, r1
+  adc r9, r4
+  .endm
+
+  ; floor(v / 2^13) of a state v in place: bytes 1..3 of v in \b1 \lo \hi, shifted left by 3
+  .macro EST_Q13 b1, lo, hi
+  lsl \b1
+  rol \lo
+  rol \hi
+  lsl \b1
+  rol \lo
+  rol \hi
+  lsl \b1
+  rol \lo
+  rol \hi
+  .endm
+
   .pushsection .text.est_avr_cascade,"ax",@progbits
   .global est_avr_cascade
   .type est_avr_cascade, @function
@@ -333,26 +501,31 @@ est_avr_cascade:
   push r17
   push r28
   push r29
-  movw r30, r24
   mov r2, r22
-  movw r26, r20
   movw r28, r18
   clr r4
   clr r5
-  ld r10, X+
-  ld r11, X+
-  ld r12, X+
-  ld r13, X+
-  ld r14, X+
-  ld r15, X
+  ; inputs: x0 = x, x1 x2 from the history, which becomes x0 x1; X keeps the flags pointer
+  movw r30, r20
+  movw r10, r16
+  ld r12, Z
+  ldd r13, Z+1
+  movw r26, r14
+  ldd r14, Z+2
+  ldd r15, Z+3
+  std Z+2, r12
+  std Z+3, r13
+  st Z, r10
+  std Z+1, r11
+  movw r30, r24
 .Lsec:
-  ; numerator w = sum b_i x_i into r6-r9 (16 x 16 products: Atmel AVR201)
+  ; numerator w = sum b_i x_i into r6-r9 (T: wide, 32-bit b)
   ld r20, Z
   bst r20, 0
+  brtc .Lnarrow
   clr r6
   clr r7
   movw r8, r6
-  brtc .Lnarrow
   ldd r16, Z+4
   ldd r17, Z+5
   ldd r18, Z+6
@@ -373,17 +546,14 @@ est_avr_cascade:
   rcall .Lwacc
   rjmp .Lnum
 .Lnarrow:
+  ; the first product fills the accumulator (no carries between its halves)
   movw r16, r10
   ldd r20, Z+4
   ldd r21, Z+5
   muls r17, r21
-  add r8, r0
-  adc r9, r1
+  movw r8, r0
   mul r16, r20
-  add r6, r0
-  adc r7, r1
-  adc r8, r4
-  adc r9, r4
+  movw r6, r0
   mulsu r17, r20
   sbc r9, r4
   add r7, r0
@@ -397,53 +567,22 @@ est_avr_cascade:
   movw r16, r12
   ldd r20, Z+6
   ldd r21, Z+7
-  muls r17, r21
-  add r8, r0
-  adc r9, r1
-  mul r16, r20
-  add r6, r0
-  adc r7, r1
-  adc r8, r4
-  adc r9, r4
-  mulsu r17, r20
-  sbc r9, r4
-  add r7, r0
-  adc r8, r1
-  adc r9, r4
-  mulsu r21, r16
-  sbc r9, r4
-  add r7, r0
-  adc r8, r1
-  adc r9, r4
+  EST_MAC
   movw r16, r14
   ldd r20, Z+8
   ldd r21, Z+9
-  muls r17, r21
-  add r8, r0
-  adc r9, r1
-  mul r16, r20
-  add r6, r0
-  adc r7, r1
-  adc r8, r4
-  adc r9, r4
-  mulsu r17, r20
-  sbc r9, r4
-  add r7, r0
-  adc r8, r1
-  adc r9, r4
-  mulsu r21, r16
-  sbc r9, r4
-  add r7, r0
-  adc r8, r1
-  adc r9, r4
+  EST_MAC
 .Lnum:
   ; W = round(w / 2^sb)
+  ldd r20, Z+1
+  tst r20
+  breq 8f
   movw r22, r6
   movw r24, r8
-  ldd r20, Z+1
-  rcall .Lround
+  EST_ROUND
   movw r6, r22
   movw r8, r24
+8:
   ; y1 -> r10-r13
   ldd r10, Y+0
   ldd r11, Y+1
@@ -530,16 +669,12 @@ est_avr_cascade:
   ; acc += round(p k1 / 2^n1) + round(y2 k2 / 2^n2)
   ldd r14, Z+2
   ldd r15, Z+3
-  brtc 1f
+  brtc 8f
   adiw r30, 6
-1:
+8:
   ldd r20, Z+10
   ldd r21, Z+11
-  rcall .Lfb
-  add r6, r22
-  adc r7, r23
-  adc r8, r24
-  adc r9, r25
+  EST_FEEDBACK
   ldd r16, Y+4
   ldd r17, Y+5
   ldd r18, Y+6
@@ -547,18 +682,13 @@ est_avr_cascade:
   ldd r20, Z+12
   ldd r21, Z+13
   mov r14, r15
-  rcall .Lfb
-  add r6, r22
-  adc r7, r23
-  adc r8, r24
-  adc r9, r25
+  EST_FEEDBACK
   ; clamp to [-2^28, 2^28 - 1]: in range when bits 28-31 agree
   mov r20, r9
   subi r20, 0xF0
   andi r20, 0xE0
   breq .Lin
-  ldi r20, 1
-  or r5, r20
+  inc r5
   sbrc r9, 7
   rjmp .Lneg
   ldi r20, 0xFF
@@ -575,19 +705,11 @@ est_avr_cascade:
   ldi r20, 0xF0
   mov r9, r20
 .Lin:
-  ; next inputs floor(y / 2^13): x2 from y2, then the states, x1 from y1, x0 from y
+  ; next inputs floor(y / 2^13): x2 from y2 (before the states move), x1 from y1, x0 from y
   ldd r0, Y+5
   ldd r14, Y+6
   ldd r15, Y+7
-  lsl r0
-  rol r14
-  rol r15
-  lsl r0
-  rol r14
-  rol r15
-  lsl r0
-  rol r14
-  rol r15
+  EST_Q13 r0, r14, r15
   std Y+4, r10
   std Y+5, r11
   std Y+6, r12
@@ -597,34 +719,24 @@ est_avr_cascade:
   st Y+, r8
   st Y+, r9
   adiw r28, 4
-  mov r0, r11
-  lsl r0
-  rol r12
-  rol r13
-  lsl r0
-  rol r12
-  rol r13
-  lsl r0
-  rol r12
-  rol r13
+  EST_Q13 r11, r12, r13
   mov r0, r7
   mov r10, r8
   mov r11, r9
-  lsl r0
-  rol r10
-  rol r11
-  lsl r0
-  rol r10
-  rol r11
-  lsl r0
-  rol r10
-  rol r11
+  EST_Q13 r0, r10, r11
   adiw r30, 14
   dec r2
   breq .Ldone
   rjmp .Lsec
 .Ldone:
-  mov r24, r5
+  tst r5
+  breq 9f
+  ld r20, X
+  ori r20, 1
+  st X, r20
+9:
+  movw r22, r6
+  movw r24, r8
   clr r1
   pop r29
   pop r28
@@ -646,182 +758,27 @@ est_avr_cascade:
   pop r2
   ret
 
-  ; r6-r9 += floor(p k / 2^16)
+  ; r6-r9 += floor(p k / 2^16) (32-bit numerator coefficients)
 .Lwacc:
-  rcall .Lmul48
+  EST_MUL48
   add r6, r22
   adc r7, r23
   adc r8, r24
   adc r9, r25
   ret
-
-  ; r22-r25 = floor(p k / 2^16), r3 = bits 8..15 of p k: p r16-r19 (signed), k r20-r21
-  ; (signed); eight multiplies, sign extension of the mixed ones by sbc of the carry.
-.Lmul48:
-  mul r16, r20
-  mov r3, r1
-  mul r18, r20
-  movw r22, r0
-  muls r19, r21
-  movw r24, r0
-  mul r17, r20
-  add r3, r0
-  adc r22, r1
-  adc r23, r4
-  adc r24, r4
-  adc r25, r4
-  mulsu r19, r20
-  sbc r25, r4
-  add r23, r0
-  adc r24, r1
-  adc r25, r4
-  mulsu r21, r16
-  sbc r23, r4
-  sbc r24, r4
-  sbc r25, r4
-  add r3, r0
-  adc r22, r1
-  adc r23, r4
-  adc r24, r4
-  adc r25, r4
-  mulsu r21, r17
-  sbc r24, r4
-  sbc r25, r4
-  add r22, r0
-  adc r23, r1
-  adc r24, r4
-  adc r25, r4
-  mulsu r21, r18
-  sbc r25, r4
-  add r23, r0
-  adc r24, r1
-  adc r25, r4
-  ret
-
-  ; r22-r25 = round(p k / 2^n), n (16..47) in r14: the product of .Lmul48, then rounded
-.Lfb:
-  mul r16, r20
-  mov r3, r1
-  mul r18, r20
-  movw r22, r0
-  muls r19, r21
-  movw r24, r0
-  mul r17, r20
-  add r3, r0
-  adc r22, r1
-  adc r23, r4
-  adc r24, r4
-  adc r25, r4
-  mulsu r19, r20
-  sbc r25, r4
-  add r23, r0
-  adc r24, r1
-  adc r25, r4
-  mulsu r21, r16
-  sbc r23, r4
-  sbc r24, r4
-  sbc r25, r4
-  add r3, r0
-  adc r22, r1
-  adc r23, r4
-  adc r24, r4
-  adc r25, r4
-  mulsu r21, r17
-  sbc r24, r4
-  sbc r25, r4
-  add r22, r0
-  adc r23, r1
-  adc r24, r4
-  adc r25, r4
-  mulsu r21, r18
-  sbc r25, r4
-  add r23, r0
-  adc r24, r1
-  adc r25, r4
-  mov r20, r14
-  subi r20, 16
-  brne .Lround1
-  lsl r3
-  adc r22, r4
-  adc r23, r4
-  adc r24, r4
-  adc r25, r4
-  ret
-
-  ; r22-r25 = round(v / 2^s), ties up, s (0..31) in r20: floor(v / 2^(s-1)) + 1, halved
-.Lround:
-  tst r20
-  breq 4f
-.Lround1:
-  dec r20
-  sbrs r20, 4
-  rjmp 1f
-  movw r22, r24
-  clr r24
-  sbrc r23, 7
-  com r24
-  mov r25, r24
-1:
-  sbrs r20, 3
-  rjmp 2f
-  mov r22, r23
-  mov r23, r24
-  mov r24, r25
-  lsl r25
-  sbc r25, r25
-2:
-  sbrs r20, 2
-  rjmp 3f
-  asr r25
-  ror r24
-  ror r23
-  ror r22
-  asr r25
-  ror r24
-  ror r23
-  ror r22
-  asr r25
-  ror r24
-  ror r23
-  ror r22
-  asr r25
-  ror r24
-  ror r23
-  ror r22
-3:
-  sbrs r20, 1
-  rjmp 5f
-  asr r25
-  ror r24
-  ror r23
-  ror r22
-  asr r25
-  ror r24
-  ror r23
-  ror r22
-5:
-  sbrs r20, 0
-  rjmp 6f
-  asr r25
-  ror r24
-  ror r23
-  ror r22
-6:
-  ; u = floor(v / 2^(s-1)) is complete: (u + 1) / 2 = (u >> 1) + the bit shifted out
-  asr r25
-  ror r24
-  ror r23
-  ror r22
-  adc r22, r4
-  adc r23, r4
-  adc r24, r4
-  adc r25, r4
-4:
-  ret
   .size est_avr_cascade, .-est_avr_cascade
   .popsection
 )AVR");
 #endif
+
+// y[k] + round((x - x[k]) * slope / 2^shift), saturated; seg = slope (i16), shift (u8).
+// |x - x[k]| <= 65535 and |slope| <= 32768, so the product fits an int32: sign and magnitude.
+ALWAYS_INLINE int16_t interpolate(int16_t x, int16_t xk, int16_t yk, const uint8_t* seg, uint8_t* flags) {
+  const int16_t slope = le16(seg);
+  const int32_t dx = int32_t(x) - xk;
+  const int32_t p = dx >= 0 ? mul_su(slope, uint16_t(dx)) : -mul_su(slope, uint16_t(-dx));
+  return sat16(int32_t(yk) + round_shift(p, seg[2]), flags);
+}
 
 }  // namespace
 
@@ -860,33 +817,29 @@ void Estimator::reset() {
 // Table with n breakpoints; off_ is at x[0] (after the count byte) and moves past the table.
 int16_t Estimator::pwl(uint8_t n, int16_t x) {
   const uint16_t xs = off_;
-  off_ = uint16_t(off_ + blob::pwl_len(n) - 1);
+  off_ = uint16_t(xs + blob::pwl_len(n) - 1);
   // Segment k: the last breakpoint <= x among 0..n-2 (segment 0 also left of x[0]), found
   // with steps of 8, 4, 2, 1 (at most 4 reads for 16 breakpoints); the search keeps the x[k]
   // it read, so only x[0] may need a read of its own.
   const uint8_t last = uint8_t(n - 2);
-  uint8_t lo = 0;
+  uint8_t k = 0;
   uint8_t b[3];
   int16_t xk = 0;
   for (uint8_t step = 8; step; step >>= 1) {
-    const uint8_t t = uint8_t(lo + step);
+    const uint8_t t = uint8_t(k + step);
     if (t > last) continue;
     blob_->read(uint16_t(xs + 2 * t), b, 2);
     const int16_t xt = le16(b);
-    if (xt <= x) { lo = t; xk = xt; }
+    if (xt <= x) { k = t; xk = xt; }
   }
-  if (lo == 0) { blob_->read(xs, b, 2); xk = le16(b); }
-  blob_->read(uint16_t(xs + 2 * n + 2 * lo), b, 2);
-  int16_t yk = le16(b);
-  blob_->read(uint16_t(xs + 4 * n + 3 * lo), b, 3);
-  int16_t slope = le16(b);
-  // |x - x[k]| <= 65535 and |slope| <= 32768, so the product fits an int32: sign and magnitude.
-  int32_t dx = int32_t(x) - xk;
-  int32_t p = dx >= 0 ? mul_su(slope, uint16_t(dx)) : -mul_su(slope, uint16_t(-dx));
-  return sat16(int32_t(yk) + round_shift(p, b[2]), &flags_);
+  if (k == 0) { blob_->read(xs, b, 2); xk = le16(b); }
+  blob_->read(uint16_t(xs + 2 * n + 2 * k), b, 2);
+  const int16_t yk = le16(b);
+  blob_->read(uint16_t(xs + 4 * n + 3 * k), b, 3);
+  return interpolate(x, xk, yk, b, &flags_);
 }
 
-int32_t Estimator::cascade(uint8_t n, int16_t x) {
+inline __attribute__((always_inline)) int32_t Estimator::cascade(uint8_t n, int16_t x) {
   // Every record of the cascade in as few reads as possible: n 16-bit sections first, then
   // 6 more bytes for each wide one met on the walk (the bytes read are always a prefix of
   // the cascade, so each record's flags byte is in the buffer when it is examined).
@@ -908,13 +861,12 @@ int32_t Estimator::cascade(uint8_t n, int16_t x) {
   xh_ += 2;
   int32_t* ys = ys_;
   ys_ += 2 * n;
+#if defined(__AVR__)
+  return est_avr_cascade(recs, n, xh, ys, x, &flags_);
+#else
   int16_t xs[3] = {x, xh[0], xh[1]};
   xh[1] = xh[0];
   xh[0] = x;
-#if defined(__AVR__)
-  flags_ |= est_avr_cascade(recs, n, xs, ys);
-  return ys[2 * (n - 1)];
-#else
   int32_t y = 0;
   const uint8_t* rec = recs;
   for (uint8_t s = 0; s < n; ++s, ys += 2) {

@@ -76,6 +76,9 @@ class BoardCore:
 
     def __init__(self, plant, *, send, tx_room=lambda: 1 << 30, faults=None, proto_version=None):
         self.plant = plant
+        # Ground truth at each sample's device time (us since boot), when asked for:
+        # {"t_us": [...], key: [...]}, one list per scalar truth value.
+        self.truth_log: dict | None = None
         self._send_raw = send
         self._tx_room = tx_room
         self.faults = faults
@@ -630,6 +633,12 @@ class BoardCore:
         self._advance_plant(tick_T)
         mask = self.stream_mask
         t_us = (tick_T - self.boot_T_us) & 0xFFFFFFFF
+        if self.truth_log is not None:
+            log = self.truth_log
+            log.setdefault("t_us", []).append(float(tick_T - self.boot_T_us))
+            for k, v in self._reading.truth.items():
+                if np.ndim(v) == 0:
+                    log.setdefault(k, []).append(float(v))
         adc, dr_out, euler, est = [0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]
         estimating = bool(mask & _CH_ESTIMATES) and self.model is not None
         adc_mask = (mask & 0x07) | (0x07 if estimating else 0)

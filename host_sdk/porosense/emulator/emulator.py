@@ -13,10 +13,13 @@ Two timings:
 
 from __future__ import annotations
 
+import bisect
 import select
 import threading
 import time
 from dataclasses import dataclass
+
+import numpy as np
 
 from porosense.emulator.core import BoardCore
 from porosense.emulator.endpoints import make_endpoint
@@ -78,6 +81,7 @@ class Emulator:
         reset_on_connect: bool = False,
         clock_offset_us: int = 0,
         plant=None,
+        truth_log: bool = False,
     ):
         self.actuator = actuator
         self.realtime = realtime
@@ -100,6 +104,8 @@ class Emulator:
             faults=self.faults,
             proto_version=proto_version,
         )
+        if truth_log:
+            self.core.truth_log = {}
         # Start the device clock late (tests of the 32-bit microsecond wrap).
         self.core.boot_T_us -= int(clock_offset_us)
         self.endpoint = make_endpoint(listen)
@@ -148,6 +154,24 @@ class Emulator:
                 link=self.link.damage.to_dict(),
                 connections=self.endpoint.connections,
             )
+
+    def truth(self, t_us) -> dict[str, np.ndarray]:
+        """Ground truth of the plant at device times ``t_us`` (us, as in SAMPLE; needs
+        ``truth_log=True``): one array per scalar truth key, interpolated between samples."""
+        log = self.core.truth_log
+        if log is None:
+            raise ValueError("the emulator was started without truth_log=True")
+        t_us = np.asarray(t_us, dtype=float)
+        with self._lock:
+            times = log.get("t_us", [])
+            if not times or t_us.size == 0:
+                return {}
+            # Only the part of the log that the query spans (the log grows all run long).
+            lo = max(0, bisect.bisect_left(times, float(t_us.min())) - 1)
+            hi = min(len(times), bisect.bisect_right(times, float(t_us.max())) + 1)
+            window = {k: np.asarray(v[lo:hi]) for k, v in log.items()}
+        t = window.pop("t_us")
+        return {k: np.interp(t_us, t, v) for k, v in window.items()}
 
     def disconnect(self, adc: bool | None = None, imu: bool | None = None) -> None:
         """Unplug (True) or replug (False) the ADC and/or the IMU while running."""

@@ -1,5 +1,7 @@
 """Measure Estimator::step in AVR cycles: build tests/quant/avr/cycles.cpp with avr-g++ -Os for
-the ATmega328P around a model blob and run it in simavr (Timer1 at the CPU clock)."""
+the ATmega328P around a model blob and run it in simavr (Timer1 at the CPU clock). Also checks
+the AVR build (assembly included) bit for bit against the Python reference on many models
+(tests/quant/avr/vectors.cpp)."""
 
 from __future__ import annotations
 
@@ -19,6 +21,7 @@ from porosense.quant.fixed import FixedPointEstimator
 ROOT = Path(__file__).resolve().parents[3]
 CORE = ROOT / "firmware" / "lib" / "core"
 PROGRAM = ROOT / "tests" / "quant" / "avr" / "cycles.cpp"
+VECTORS_PROGRAM = ROOT / "tests" / "quant" / "avr" / "vectors.cpp"
 CORE_SOURCES = ("estimator.cpp", "model_blob.cpp", "frame_codec.cpp")
 
 
@@ -72,13 +75,7 @@ def measure(blob: ModelBlob | bytes, *, in_eeprom: bool = False, steps: int = 64
             f"#define MODEL_LEN {len(data)}u\n#define MODEL_STEPS {steps}u\n"
             f"#define MODEL_IN_EEPROM {int(in_eeprom)}\n"
             f"static const uint8_t MODEL_BLOB[{len(data)}] PROGMEM = {{\n{rows}\n}};\n")
-        elf = tmp / "cycles.elf"
-        cmd = ["avr-g++", "-std=c++11", os.environ.get("POROSENSE_AVR_OPT", "-Os"), "-mmcu=atmega328p", "-DF_CPU=16000000UL", "-fno-exceptions",
-               "-ffunction-sections", "-fdata-sections", "-Wl,--gc-sections", f"-I{CORE}", f"-I{tmp}",
-               "-o", str(elf), str(PROGRAM), *[str(CORE / s) for s in CORE_SOURCES]]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        if proc.returncode:
-            raise RuntimeError(f"avr-g++ failed:\n{proc.stderr}")
+        elf = _build(PROGRAM, tmp, tmp / "cycles.elf", "atmega328p")
         size = subprocess.run(["avr-size", str(elf)], capture_output=True, text=True).stdout.split("\n")[1].split()
         run = subprocess.run(["simavr", "-m", "atmega328p", "-f", "16000000", str(elf)], capture_output=True,
                              text=True, timeout=timeout)
@@ -88,3 +85,49 @@ def measure(blob: ModelBlob | bytes, *, in_eeprom: bool = False, steps: int = 64
             raise RuntimeError(f"simavr gave no cycle count:\n{out[-2000:]}")
         exact = int(m[5]) == reference_check(blob, steps)
         return CycleResult(int(m[1]), int(m[2]), int(m[3]), int(m[4]), int(size[0]), in_eeprom, exact)
+
+
+def _build(program: Path, include: Path, elf: Path, mcu: str) -> Path:
+    """avr-g++ -Os of ``program`` with the estimator's sources (``include`` holds its header)."""
+    cmd = ["avr-g++", "-std=c++11", os.environ.get("POROSENSE_AVR_OPT", "-Os"), f"-mmcu={mcu}", "-DF_CPU=16000000UL",
+           "-fno-exceptions", "-ffunction-sections", "-fdata-sections", "-Wl,--gc-sections", f"-I{CORE}",
+           f"-I{include}", "-o", str(elf), str(program), *[str(CORE / s) for s in CORE_SOURCES]]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode:
+        raise RuntimeError(f"avr-g++ failed:\n{proc.stderr}")
+    return elf
+
+
+def _hash(est: np.ndarray, flags: np.ndarray) -> int:
+    check = 0
+    for row, fl in zip(est, flags):
+        for v in row:
+            check = (check * 31 + (int(v) & 0xFFFF)) & 0xFFFFFFFF
+        check = (check * 31 + int(fl)) & 0xFFFFFFFF
+    return check
+
+
+def check_vectors(cases, *, timeout: float = 300.0) -> list[bool]:
+    """Run bit-exactness cases [(blob bytes, inputs (N, 3), estimates (N, 3), flags (N,))] (all
+    with the same N, as tests/quant/vectors.make_cases gives) through the AVR build in simavr
+    (an ATmega1284P, for the flash the cases need; same core and multiplier as the ATmega328P).
+    Returns, per case, whether the AVR's estimates and flags hash to the reference's."""
+    n = len(cases[0][1])
+    lines = ["#pragma once", "#include <avr/pgmspace.h>", f"#define N_CASES {len(cases)}u", f"#define N_SAMPLES {n}u"]
+    for i, (blob, u, _, _) in enumerate(cases):
+        lines.append(f"static const uint8_t BLOB{i}[] PROGMEM = {{{', '.join(str(b) for b in bytes(blob))}}};")
+        flat = np.asarray(u, dtype=np.int64).reshape(-1)
+        lines.append(f"static const int16_t IN{i}[] PROGMEM = {{{', '.join(str(int(v)) for v in flat)}}};")
+    lines.append(f"static const uint16_t CASE_LEN[] PROGMEM = {{{', '.join(str(len(c[0])) for c in cases)}}};")
+    lines.append("static const uint8_t* const CASE_BLOB[] PROGMEM = {"
+                 + ", ".join(f"BLOB{i}" for i in range(len(cases))) + "};")
+    lines.append("static const int16_t* const CASE_INPUTS[] PROGMEM = {"
+                 + ", ".join(f"IN{i}" for i in range(len(cases))) + "};")
+    with tempfile.TemporaryDirectory(prefix="porosense-vectors-") as tmp:
+        tmp = Path(tmp)
+        (tmp / "vectors.h").write_text("\n".join(lines) + "\n")
+        elf = _build(VECTORS_PROGRAM, tmp, tmp / "vectors.elf", "atmega1284p")
+        run = subprocess.run(["simavr", "-m", "atmega1284p", "-f", "16000000", str(elf)], capture_output=True,
+                             text=True, timeout=timeout)
+    got = {int(m[1]): int(m[2]) for m in re.finditer(r"case (\d+) check=(\d+)", run.stdout + run.stderr)}
+    return [got.get(i) == _hash(est, flags) for i, (_, _, est, flags) in enumerate(cases)]

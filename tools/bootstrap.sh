@@ -40,10 +40,12 @@ if [ ! -x "$venv/bin/python" ]; then
   echo "bootstrap: creating $venv"
   "$PY" -m venv "$venv"
 fi
+# pip on some machines warns about local index folders that do not exist: noise, not news.
+quiet_pip() { "$venv/bin/python" -m pip "$@" 2> >(grep -v "is ignored: it is neither a file nor a directory" >&2); }
 echo "bootstrap: installing pinned Python dependencies"
-"$venv/bin/python" -m pip install -q --disable-pip-version-check -r host_sdk/requirements.lock
-"$venv/bin/python" -m pip install -q --disable-pip-version-check --no-deps -e host_sdk
+quiet_pip install -q --disable-pip-version-check -r host_sdk/requirements.lock
+quiet_pip install -q --disable-pip-version-check --no-deps -e host_sdk
 # The benchmark peer (SIPPY) is optional: benchmarks report it as absent when it cannot install.
-"$venv/bin/python" -m pip install -q --disable-pip-version-check "sippy-unipi==1.0.1" \
+quiet_pip install -q --disable-pip-version-check "sippy-unipi==1.0.1" \
   || echo "bootstrap: sippy-unipi not installed; the identification benchmark will skip its peer"
 echo "$want" > "$stamp"

@@ -80,7 +80,9 @@ def open_board(board: str, actuator: str, *, seed: int = 0):
     if board == "emulator":
         from porosense.emulator import Emulator
 
-        with Emulator(actuator, realtime=True, speed=EMULATOR_SPEED, seed=seed, truth_log=True) as emu:
+        # A busy host computer delays samples but never skips them: the recordings stay regular.
+        with Emulator(actuator, realtime=True, speed=EMULATOR_SPEED, seed=seed, truth_log=True,
+                      max_catch_up_s=3600.0) as emu:
             with Device.open(emu.url) as dev:
                 yield dev, emu.truth
     elif board == "simboard":

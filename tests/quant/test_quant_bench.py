@@ -29,11 +29,22 @@ def test_avr_estimator_is_bit_exact_and_within_budget_from_eeprom(figures):
     assert avr["estimator_ram_bytes"] <= 700
 
 
-@pytest.mark.xfail(strict=True, reason="known gap: the nominal worst case (3x3, 10+10 poles, 16 breakpoints, a "
-                   "2.3 KB blob from flash) takes about 65,000 cycles and the storable model with the most "
-                   "sections (57, from the EEPROM) about 54,000")
-def test_worst_cases_within_budget(figures):
+def test_storable_worst_case_within_budget(figures):
+    """The storable model with the most sections (57, 917 B, read from the EEPROM as on the
+    device): the real worst case of a stored model, measured at about 43,700 cycles."""
     avr = figures["avr"]
     if "skipped" in avr:
         pytest.skip(avr["skipped"])
-    assert max(avr["worst_case_cycles"], avr["eeprom_most_sections_cycles"]) <= bench.CYCLE_BUDGET
+    assert avr["eeprom_most_sections_bit_exact"]
+    assert avr["eeprom_most_sections_cycles"] <= bench.CYCLE_BUDGET
+
+
+@pytest.mark.xfail(strict=True, reason="known gap: the nominal worst case (3x3, 10+10 poles, 16 breakpoints, a "
+                   "2.3 KB blob that cannot be stored, read from flash with memcpy_P) takes about 51,600 cycles "
+                   "(65,100 before the assembly cascade); about 13,000 of them are the blob reads")
+def test_nominal_worst_case_within_budget(figures):
+    avr = figures["avr"]
+    if "skipped" in avr:
+        pytest.skip(avr["skipped"])
+    assert avr["worst_case_bit_exact"]
+    assert avr["worst_case_cycles"] <= bench.CYCLE_BUDGET

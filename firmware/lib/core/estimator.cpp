@@ -22,11 +22,12 @@ ALWAYS_INLINE int32_t le32(const uint8_t* p) {
 #endif
 
 // ---------------------------------------------------------------------------------------------
-// Arithmetic primitives. Each has a portable C++ definition (the reference the host tests run,
-// identical to porosense.quant.fixed) and, on the AVR, an equivalent with the hardware
-// multiplier in inline assembly: gcc 5.4 would otherwise call libgcc for 32- and 64-bit
-// products and loop bit by bit for variable shifts. tests/quant/avr/primitives.cpp checks every
-// AVR version against the portable one in simavr.
+// Arithmetic. The portable definitions below are the reference (identical to
+// porosense.quant.fixed; the host tests run them). On the AVR the sections run in the
+// assembly cascade (est_avr_cascade, below) with the hardware multiplier, and the few
+// primitives the tables and the output stage need have inline-assembly versions: gcc 5.4
+// would otherwise call libgcc for 32- and 64-bit products and shift bit by bit.
+// tests/quant/test_avr_bitexact.py runs the AVR build in simavr against the Python reference.
 
 // floor(v / 2^s), 0 <= s <= 31.
 ALWAYS_INLINE int32_t asr_portable(int32_t v, uint8_t s) { return v >> s; }
@@ -45,8 +46,8 @@ ALWAYS_INLINE int16_t q13_portable(int32_t y) { return int16_t(y >> 13); }
 
 #if defined(__AVR__)
 
-// Shared (not inlined) so that the four call sites cost one copy of the shift code: byte moves
-// for 16 and 8, then at most 7 single-bit steps.
+// Shared (not inlined): one copy of the shift code for the tables and the output stage; byte
+// moves for 16 and 8, then at most 7 single-bit steps.
 __attribute__((noinline)) int32_t asr(int32_t v, uint8_t s) {
   asm("sbrs %[s], 4"          "\n\t"
       "rjmp 1f"               "\n\t"
@@ -76,98 +77,6 @@ __attribute__((noinline)) int32_t asr(int32_t v, uint8_t s) {
       "4:"
       : [v] "+r"(v), [s] "+d"(s));
   return v;
-}
-
-// acc + a * b with four hardware multiplies (Atmel AVR201 signed 16x16).
-ALWAYS_INLINE int32_t mac(int32_t acc, int16_t a, int16_t b) {
-  uint8_t z;
-  asm("clr %[z]"              "\n\t"
-      "muls %B[a], %B[b]"     "\n\t"
-      "add %C[acc], r0"       "\n\t"
-      "adc %D[acc], r1"       "\n\t"
-      "mul %A[a], %A[b]"      "\n\t"
-      "add %A[acc], r0"       "\n\t"
-      "adc %B[acc], r1"       "\n\t"
-      "adc %C[acc], %[z]"     "\n\t"
-      "adc %D[acc], %[z]"     "\n\t"
-      "mulsu %B[a], %A[b]"    "\n\t"
-      "sbc %D[acc], %[z]"     "\n\t"
-      "add %B[acc], r0"       "\n\t"
-      "adc %C[acc], r1"       "\n\t"
-      "adc %D[acc], %[z]"     "\n\t"
-      "mulsu %B[b], %A[a]"    "\n\t"
-      "sbc %D[acc], %[z]"     "\n\t"
-      "add %B[acc], r0"       "\n\t"
-      "adc %C[acc], r1"       "\n\t"
-      "adc %D[acc], %[z]"     "\n\t"
-      "clr __zero_reg__"
-      : [acc] "+r"(acc), [z] "=&r"(z)
-      : [a] "a"(a), [b] "a"(b));
-  return acc;
-}
-
-// The 48-bit product p * k (signed 32 x signed 16, eight hardware multiplies) as
-// hi = floor(p * k / 2^16) and g = bits 8..15 (the rounding bit is its top bit); bits 0..7
-// are never needed, nothing is added to them.
-ALWAYS_INLINE int32_t mul48_hi(int32_t p, int16_t k, uint8_t* guard) {
-  int32_t hi;
-  uint8_t g, z;
-  asm("clr %[z]"              "\n\t"
-      "mul %A[p], %A[k]"      "\n\t"   // bytes 0-1
-      "mov %[g], r1"          "\n\t"
-      "mul %C[p], %A[k]"      "\n\t"   // bytes 2-3
-      "movw %A[h], r0"        "\n\t"
-      "muls %D[p], %B[k]"     "\n\t"   // bytes 4-5, signed
-      "movw %C[h], r0"        "\n\t"
-      "mul %B[p], %A[k]"      "\n\t"   // bytes 1-2
-      "add %[g], r0"          "\n\t"
-      "adc %A[h], r1"         "\n\t"
-      "adc %B[h], %[z]"       "\n\t"
-      "adc %C[h], %[z]"       "\n\t"
-      "adc %D[h], %[z]"       "\n\t"
-      "mulsu %D[p], %A[k]"    "\n\t"   // bytes 3-4, signed: C = sign, extended by sbc
-      "sbc %D[h], %[z]"       "\n\t"
-      "add %B[h], r0"         "\n\t"
-      "adc %C[h], r1"         "\n\t"
-      "adc %D[h], %[z]"       "\n\t"
-      "mulsu %B[k], %A[p]"    "\n\t"   // bytes 1-2, signed
-      "sbc %B[h], %[z]"       "\n\t"
-      "sbc %C[h], %[z]"       "\n\t"
-      "sbc %D[h], %[z]"       "\n\t"
-      "add %[g], r0"          "\n\t"
-      "adc %A[h], r1"         "\n\t"
-      "adc %B[h], %[z]"       "\n\t"
-      "adc %C[h], %[z]"       "\n\t"
-      "adc %D[h], %[z]"       "\n\t"
-      "mulsu %B[k], %B[p]"    "\n\t"   // bytes 2-3, signed
-      "sbc %C[h], %[z]"       "\n\t"
-      "sbc %D[h], %[z]"       "\n\t"
-      "add %A[h], r0"         "\n\t"
-      "adc %B[h], r1"         "\n\t"
-      "adc %C[h], %[z]"       "\n\t"
-      "adc %D[h], %[z]"       "\n\t"
-      "mulsu %B[k], %C[p]"    "\n\t"   // bytes 3-4, signed
-      "sbc %D[h], %[z]"       "\n\t"
-      "add %B[h], r0"         "\n\t"
-      "adc %C[h], r1"         "\n\t"
-      "adc %D[h], %[z]"       "\n\t"
-      "clr __zero_reg__"
-      : [h] "=&r"(hi), [g] "=&r"(g), [z] "=&r"(z)
-      : [p] "a"(p), [k] "a"(k));
-  *guard = g;
-  return hi;
-}
-
-ALWAYS_INLINE int32_t mul_wide(int32_t b, int16_t x) {
-  uint8_t g;
-  return mul48_hi(b, x, &g);
-}
-
-ALWAYS_INLINE int32_t mul_round(int32_t p, int16_t k, uint8_t n) {
-  uint8_t g;
-  int32_t hi = mul48_hi(p, k, &g);  // floor(p k / 2^16)
-  if (n == 16) return hi + (g >> 7);
-  return (asr(hi, uint8_t(n - 17)) + 1) >> 1;
 }
 
 // Signed s times unsigned d.
@@ -218,9 +127,6 @@ ALWAYS_INLINE int16_t q13(int32_t y) {
 #else
 
 ALWAYS_INLINE int32_t asr(int32_t v, uint8_t s) { return asr_portable(v, s); }
-ALWAYS_INLINE int32_t mac(int32_t acc, int16_t a, int16_t b) { return mac_portable(acc, a, b); }
-ALWAYS_INLINE int32_t mul_wide(int32_t b, int16_t x) { return mul_wide_portable(b, x); }
-ALWAYS_INLINE int32_t mul_round(int32_t p, int16_t k, uint8_t n) { return mul_round_portable(p, k, n); }
 ALWAYS_INLINE int32_t mul_su(int16_t s, uint16_t d) { return mul_su_portable(s, d); }
 ALWAYS_INLINE int16_t q13(int32_t y) { return q13_portable(y); }
 
@@ -238,6 +144,7 @@ ALWAYS_INLINE int16_t sat16(int32_t v, uint8_t* flags) {
   return int16_t(v);
 }
 
+#if !defined(__AVR__)
 // Clamp of a state to [-2^28, 2^28 - 1]: in range exactly when bits 28..31 agree, i.e. when
 // the top byte plus 0x10 is below 0x20 (one byte test instead of two 32-bit compares).
 ALWAYS_INLINE int32_t clamp_state(int32_t v, uint8_t* flags) {
@@ -253,7 +160,7 @@ ALWAYS_INLINE int32_t clamp_state(int32_t v, uint8_t* flags) {
 // this section's outputs at k, k-1, k-2 on return (the next section's inputs: the cascade
 // shares them instead of storing them twice). ys: states y[k-1], y[k-2] in Q13, updated.
 // Returns y[k]. The portable definition of a section; on the AVR the cascade runs the same
-// steps in assembly (avr_cascade below).
+// steps in assembly (est_avr_cascade below).
 ALWAYS_INLINE int32_t run_section(const uint8_t* rec, int16_t x[3], int32_t ys[2], uint8_t* flags) {
   const uint8_t fl = rec[0];
   const uint8_t* c = rec + blob::kSecFixedLen;
@@ -262,9 +169,9 @@ ALWAYS_INLINE int32_t run_section(const uint8_t* rec, int16_t x[3], int32_t ys[2
   // |P1| <= 2^28 + 1, |P2| <= 2^27 + 1), so the int32 sums cannot overflow.
   int32_t w = 0;
   if (fl & blob::kSecWide) {
-    for (uint8_t i = 0; i < 3; ++i, c += 4) w += mul_wide(le32(c), x[i]);
+    for (uint8_t i = 0; i < 3; ++i, c += 4) w += mul_wide_portable(le32(c), x[i]);
   } else {
-    for (uint8_t i = 0; i < 3; ++i, c += 2) w = mac(w, x[i], le16(c));
+    for (uint8_t i = 0; i < 3; ++i, c += 2) w = mac_portable(w, x[i], le16(c));
   }
   const int32_t y1 = ys[0], y2 = ys[1];
   int32_t acc = round_shift(w, rec[1]);
@@ -288,8 +195,8 @@ ALWAYS_INLINE int32_t run_section(const uint8_t* rec, int16_t x[3], int32_t ys[2
       default: break;
     }
   }
-  acc += mul_round(p1, le16(c), rec[2]);
-  acc += mul_round(y2, le16(c + 2), rec[3]);
+  acc += mul_round_portable(p1, le16(c), rec[2]);
+  acc += mul_round_portable(y2, le16(c + 2), rec[3]);
   const int32_t y = clamp_state(acc, flags);
   ys[1] = y1;
   ys[0] = y;
@@ -299,12 +206,12 @@ ALWAYS_INLINE int32_t run_section(const uint8_t* rec, int16_t x[3], int32_t ys[2
   return y;
 }
 
-#if defined(__AVR__)
+#else
 // A whole cascade in assembly: `n` section records back to back at `recs` (14 or 20 bytes
 // each), the cascade's input x[k] in `x`, its history x[k-1], x[k-2] at `xh` (updated), the
-// section states at `ys`. Exactly run_section() applied section after section
-// (tests/quant/avr/primitives.cpp checks it against the portable code in simavr); returns the
-// last section's state and ORs the saturation flag into *flags. One prologue per cascade; the
+// section states at `ys`. Exactly run_section() applied section after section (checked in
+// simavr against the Python reference by tests/quant/test_avr_bitexact.py); returns the last
+// section's state and ORs the saturation flag into *flags. One prologue per cascade; the
 // section inputs stay in registers.
 //   r2 sections left, r3 bits 8..15 of a product, r4 zero, r5 saturation flag,
 //   r6-r9 accumulator, r10-r15 section inputs x0 x1 x2 (then y1 in r10-r13, n1 n2 in r14 r15),

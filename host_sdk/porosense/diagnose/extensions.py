@@ -364,9 +364,27 @@ def drift(ctx: Context, alpha: float) -> CauseResult:
         if best is None or rss < best[0]:
             best = (rss, a, tau)
     _, a, tau = best
-    pred = pred_g0_val + _track_per_record(ctx.val, r_val, lambda rec, x: _ema_causal(x, a))
-    return CauseResult(res, True, f"the residual has a slow trend over time ({_explained(res)})",
-                       f"a drift state tracked from the measured output (time constant {tau:.3g} s)", pred)
+    trk_est = _track_per_record(ctx.est, r_est, lambda rec, x: _ema_causal(x, a))
+    pred_trk = pred_g0_val + _track_per_record(ctx.val, r_val, lambda rec, x: _ema_causal(x, a))
+
+    # the other drift model: a deterministic trend since the start of each record (offset and
+    # gain drifting at constant rates, as a sensor's R0 after calibration at the record start)
+    def z_trend(r):
+        return np.column_stack([r.t, r.t * r.yhat])
+
+    holdout = np.concatenate([np.arange(len(r.y)) >= 0.7 * len(r.y) for r in ctx.est])
+    _, pred_trend_est = ctx.fit_apply(z_trend, mask_est=holdout)
+    y_est = np.concatenate([r.y for r in ctx.est])
+    rss_trend = float(np.sum((y_est - pred_trend_est)[holdout] ** 2))
+    rss_trk = float(np.sum((r_est - trk_est)[holdout] ** 2))
+    # chosen on the last 30 % of every estimation record, fitted on the first 70 %
+    if rss_trend < rss_trk:
+        pred, _ = ctx.fit_apply(z_trend)
+        ext = "a drift state: offset and gain drifting linearly from the start of each record"
+    else:
+        pred = pred_trk
+        ext = f"a drift state tracked from the measured output (time constant {tau:.3g} s)"
+    return CauseResult(res, True, f"the residual has a slow trend over time ({_explained(res)})", ext, pred)
 
 
 def periodic_disturbance(ctx: Context, alpha: float) -> CauseResult:

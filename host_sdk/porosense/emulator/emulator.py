@@ -61,6 +61,9 @@ class Emulator:
 
     ``listen``: "tcp://127.0.0.1:0" (a free port) or "pty". ``faults``: a Faults, or None.
     ``proto_version``: the (major, minor) the board claims (tests of version refusal).
+    ``truth_log``: remember the plant's ground truth at every sample (see :meth:`truth`).
+    ``max_catch_up_s``: in real time, how far (device s) a late loop catches up before the
+    missed ticks count as overruns.
     ``clock_offset_us``: the device clock's value at power-on. ``plant``: any object with the
     porosense.sim plant interface instead of ``make_plant(actuator, ...)``.
     """
@@ -82,6 +85,7 @@ class Emulator:
         clock_offset_us: int = 0,
         plant=None,
         truth_log: bool = False,
+        max_catch_up_s: float = MAX_CATCH_UP_S,
     ):
         self.actuator = actuator
         self.realtime = realtime
@@ -104,6 +108,7 @@ class Emulator:
             faults=self.faults,
             proto_version=proto_version,
         )
+        self.max_catch_up_s = float(max_catch_up_s)
         if truth_log:
             self.core.truth_log = {}
         # Start the device clock late (tests of the 32-bit microsecond wrap).
@@ -292,12 +297,13 @@ class Emulator:
 
     def _sample_due(self, core: BoardCore) -> None:
         """Real time: every tick up to now. A loop that fell behind (a busy host computer)
-        catches up with the right timestamps; beyond MAX_CATCH_UP_S the ticks are overruns."""
+        catches up with the right timestamps; beyond ``max_catch_up_s`` (device time) the ticks
+        are overruns."""
         period_us = 1e6 / max(core.rate_hz, 1)
         due = core.next_tick_T_us()
         while due is not None and due <= core.T_us:
             late = core.T_us - due
-            if late > MAX_CATCH_UP_S * 1e6:
+            if late > self.max_catch_up_s * 1e6:
                 core.skip_ticks(int(late // period_us))
                 due = core.next_tick_T_us()
             self._flush_paced(upto_us=due)  # what the UART sent before this tick

@@ -34,6 +34,7 @@ class Fit:
     theta: np.ndarray
     sse: float
     nfev: int = 0
+    build: str = ""
 
 
 @dataclass(frozen=True)
@@ -200,58 +201,108 @@ def fit_wiener(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, lin: Fit | 
     return multistart(spec, starts, us, ys, opts)
 
 
-def split_orders(n_poles: int, n_zeros: int) -> tuple[int, int, int, int]:
-    """Split a WH order between H1 and H2: (np1, nz1, np2, nz2), H1 gets the larger half."""
-    np1 = (n_poles + 1) // 2
-    nz1 = (n_zeros + 1) // 2
-    return np1, nz1, n_poles - np1, n_zeros - nz1
+# ------------------------------------------------------------------ Wiener-Hammerstein
+#
+# Order convention: WH(p, z) has one linear block of p poles and z zeros and one first-order
+# section (1 pole, 1 zero). Built "Wiener + linear", H1 carries (p, z) and H2 is the
+# first-order section; built "linear + Hammerstein", H2 carries (p, z) and H1 is the
+# first-order section (SISO), or, for several inputs, each branch keeps the Hammerstein's
+# f_i -> H1_i (p, z) and g plus the first-order H2 follow the sum. Started at identity, the
+# extra section and g leave the Wiener / Hammerstein model of the same order unchanged, so
+# the WH class contains both and its estimate is never worse than either start.
+
+IDENTITY_SECTION_B = (1.0, 0.0)  # b0 + b1 q^-1 of the first-order section at identity (a1 = 0)
 
 
-def _wh_spec(n_in, np1, nz1, np2, nz2, n_bp, delay):
-    return ChainSpec(n_in, np1, nz1, g_bp=n_bp, h2=True, np2=np2, nz2=nz2, delay=delay)
+def _identity_section():
+    """(a parameters, b) of a first-order section equal to the identity: a1 = 0, b = [1, 0]."""
+    return np.zeros(1), np.array(IDENTITY_SECTION_B)
 
 
-def fit_wh(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options) -> Fit:
-    """H1, g, H2 built both ways (Wiener + linear, linear + Hammerstein), refined jointly."""
-    n_in = us[0].shape[1]
-    np1, nz1, np2, nz2 = split_orders(n_poles, n_zeros)
-    spec = _wh_spec(n_in, np1, nz1, np2, nz2, n_bp, delay)
-    sl = spec.slices()
-    starts = []
-    # The two ways are the two starts; their own sub-fits get one start and a small budget.
-    inner = Options(max_nfev=max(opts.max_nfev // 4, 15), tol=max(opts.tol, 1e-5), skip=opts.skip, starts=1)
-
-    # Wiener + linear: H2 is an OE model from z = g(s) to y.
-    lin = fit_linear(us, ys, np1, nz1, delay, _bla_options(opts))
-    wien = fit_wiener(us, ys, np1, nz1, n_bp, delay, inner, lin=lin)
-    wchain = Chain(wien.spec, wien.theta)
-    zs = [wchain.simulate(u) - wchain.offset for u in us]
-    h2 = fit_linear([z[:, None] for z in zs], ys, np2, nz2, 0, inner)
+def wiener_plus_linear(wien: Fit) -> tuple[ChainSpec, np.ndarray]:
+    """The WH start equal to the Wiener model ``wien``: H1 (p, z) -> g -> H2 = identity."""
+    ws = wien.spec
+    spec = ChainSpec(ws.n_inputs, ws.np1, ws.nz1, g_bp=ws.g_bp, h2=True, np2=1, nz2=1, delay=ws.delay)
+    sl, wsl = spec.slices(), ws.slices()
     theta = np.zeros(spec.n_params)
-    wsl = wien.spec.slices()
     theta[: wsl["offset"].start] = wien.theta[: wsl["offset"].start]
-    hsl = h2.spec.slices()
-    theta[sl["h2.a"]] = h2.theta[hsl["h10.a"]]
-    theta[sl["h2.b"]] = h2.theta[hsl["h10.b"]]
-    theta[sl["offset"]] = h2.theta[hsl["offset"]]
-    starts.append(theta)
+    theta[sl["h2.a"]], theta[sl["h2.b"]] = _identity_section()
+    theta[sl["offset"]] = wien.theta[wsl["offset"]]
+    return spec, theta
 
-    # linear + Hammerstein: H1 from the linear fit, then (g, H2) as a Hammerstein model of s.
-    if opts.starts >= 2:
-        lchain = Chain(lin.spec, lin.theta)
-        ss = [lchain.linear_sum(u)[:, None] for u in us]
-        ham = fit_hammerstein(ss, ys, np2, nz2, n_bp, 0, inner)
-        msl = ham.spec.slices()
+
+def linear_plus_hammerstein(ham: Fit, us, n_bp: int) -> tuple[ChainSpec, np.ndarray]:
+    """The WH start equal to the Hammerstein model ``ham``.
+
+    One input: H1 = identity section -> g = f -> H2 = the Hammerstein's (p, z) block.
+    Several inputs: f_i -> H1_i (p, z) kept per branch, then g = identity over the range of
+    the sum (exact: linear beyond its ends) and H2 = identity section.
+    """
+    hs = ham.spec
+    hsl = hs.slices()
+    theta_h = ham.theta
+    if hs.n_inputs == 1:
+        spec = ChainSpec(1, 1, 1, g_bp=hs.f_bp, h2=True, np2=hs.np1, nz2=hs.nz1, delay=hs.delay)
+        sl = spec.slices()
         theta = np.zeros(spec.n_params)
-        lsl = lin.spec.slices()
-        theta[: lsl["offset"].start] = lin.theta[: lsl["offset"].start]
-        theta[sl["g.p"]] = ham.theta[msl["f0.p"]]
-        theta[sl["g.y"]] = ham.theta[msl["f0.y"]]
-        theta[sl["h2.a"]] = ham.theta[msl["h10.a"]]
-        theta[sl["h2.b"]] = ham.theta[msl["h10.b"]]
-        theta[sl["offset"]] = ham.theta[msl["offset"]]
-        starts.append(theta)
-    return multistart(spec, starts, us, ys, opts)
+        theta[sl["h10.a"]], theta[sl["h10.b"]] = _identity_section()
+        theta[sl["g.p"]] = theta_h[hsl["f0.p"]]
+        theta[sl["g.y"]] = theta_h[hsl["f0.y"]]
+        theta[sl["h2.a"]] = theta_h[hsl["h10.a"]]
+        theta[sl["h2.b"]] = theta_h[hsl["h10.b"]]
+        theta[sl["offset"]] = theta_h[hsl["offset"]]
+        return spec, theta
+    spec = ChainSpec(hs.n_inputs, hs.np1, hs.nz1, f_bp=hs.f_bp, g_bp=n_bp, h2=True, np2=1, nz2=1,
+                     delay=hs.delay)
+    sl = spec.slices()
+    theta = np.zeros(spec.n_params)
+    theta[: hsl["offset"].start] = theta_h[: hsl["offset"].start]
+    hchain = Chain(hs, theta_h)
+    x = blocks.initial_breakpoints(np.concatenate([hchain.linear_sum(u) for u in us]), n_bp)
+    theta[sl["g.p"]] = blocks.positions_to_p(x)
+    theta[sl["g.y"]] = x
+    theta[sl["h2.a"]], theta[sl["h2.b"]] = _identity_section()
+    theta[sl["offset"]] = theta_h[hsl["offset"]]
+    return spec, theta
+
+
+def fit_wh(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | None = None,
+           hammerstein: Fit | None = None) -> Fit:
+    """H1, g, H2 built both ways (Wiener + linear, linear + Hammerstein), each refined jointly.
+
+    ``wiener`` / ``hammerstein``: the Wiener and Hammerstein fits of the same order on the same
+    (normalised) data when already at hand (the order search reuses them); otherwise they are
+    estimated here from one shared best linear approximation. Each build starts exactly at its
+    model (same simulation error) and the refinement never returns a higher cost, so the
+    result's error is at most min(Wiener, Hammerstein). ``Fit.build`` names the winner.
+    """
+    return wh_fits(us, ys, n_poles, n_zeros, n_bp, delay, opts, wiener, hammerstein)[0]
+
+
+def wh_fits(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | None = None,
+            hammerstein: Fit | None = None) -> list[Fit]:
+    """As :func:`fit_wh`, but every member: the best refinement first, then the other
+    refinement and the two starting models (``build`` ends in " start")."""
+    if wiener is None or hammerstein is None:
+        lin = fit_linear(us, ys, n_poles, n_zeros, delay, _bla_options(opts))
+        wiener = wiener or fit_wiener(us, ys, n_poles, n_zeros, n_bp, delay, opts, lin=lin)
+        hammerstein = hammerstein or fit_hammerstein(us, ys, n_poles, n_zeros, n_bp, delay, opts, lin=lin)
+    fits, starts = [], []
+    for build, (spec, theta0), parent in (
+            ("wiener+linear", wiener_plus_linear(wiener), wiener),
+            ("linear+hammerstein", linear_plus_hammerstein(hammerstein, us, n_bp), hammerstein)):
+        start = sse(spec, theta0, us, ys, opts.skip)
+        # The start is the parent model itself; only rounding may separate the two errors.
+        if not start <= parent.sse * (1 + 1e-9) + 1e-12:
+            raise ArithmeticError(f"WH start {build}: error {start} above its model's {parent.sse}")
+        fit = refine(spec, theta0, us, ys, opts)
+        if not fit.sse <= start:  # refine keeps the start when it cannot improve on it
+            raise ArithmeticError(f"WH refinement {build}: error {fit.sse} above its start {start}")
+        fit.build = build
+        fits.append(fit)
+        starts.append(Fit(spec, theta0, start, 0, build + " start"))
+    fits.sort(key=lambda f: f.sse if np.isfinite(f.sse) else np.inf)
+    return fits + starts
 
 
 def multistart(spec: ChainSpec, starts, us, ys, opts: Options) -> Fit:

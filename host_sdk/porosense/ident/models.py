@@ -12,6 +12,7 @@ blocks by :meth:`to_structure`, so the structure works on the raw units of the d
 
 from __future__ import annotations
 
+import copy
 import json
 from dataclasses import asdict
 from pathlib import Path
@@ -101,12 +102,17 @@ class Model:
         nys = [(v - self.y_mean) / self.y_std for v in ys]
         opts = estimate.Options(max_nfev=self.max_nfev, skip=self.skip, starts=self.starts)
         result = self._estimate(nus, nys, opts)
+        self._set_result(result, sum(len(v) - self.skip for v in ys))
+        return self
+
+    def _set_result(self, result: estimate.Fit, n: int) -> None:
+        """Take the parameters of ``result`` (normalised units) and its criteria over n samples."""
         self.spec, self.theta = result.spec, np.asarray(result.theta, dtype=float)
-        n = sum(len(v) - self.skip for v in ys)
         sse = result.sse * self.y_std**2
         aic, bic = information_criteria(sse, n, self.n_params)
         self.info = {"sse": sse, "n_samples": n, "aic": aic, "bic": bic, "nfev": result.nfev}
-        return self
+        if result.build:
+            self.info["build"] = result.build
 
     # -- use --------------------------------------------------------------------------
 
@@ -285,12 +291,61 @@ class Wiener(Model):
 
 
 class WienerHammerstein(Model):
-    """y = H2(g(sum_i H1_i u_i)) + c; n_poles/n_zeros are split between H1 and H2."""
+    """y = H2(g(sum_i H1_i(f_i(u_i)))) + c, the better of the paper's two builds.
+
+    Order convention: one linear block carries ``n_poles`` poles and ``n_zeros`` zeros, the
+    other is a first-order section (1 pole, 1 zero). "Wiener + linear": H1_i (n_poles,
+    n_zeros) -> g -> H2 first order, started from the Wiener model of the same order.
+    "linear + Hammerstein": H1 first order -> g -> H2 (n_poles, n_zeros), started from the
+    Hammerstein model of the same order (its f becomes g); with several inputs the branches
+    keep the Hammerstein's f_i -> H1_i (n_poles, n_zeros) and g, H2 follow the sum. Both
+    starts are refined jointly, so the fit is at least that of the Wiener and of the
+    Hammerstein model of the same order. ``info["build"]`` names the build kept.
+    """
 
     kind = "wh"
 
+    def fit(self, *, u, y, ts: float = 1.0, inputs=None, output: str = "y", wiener: Wiener | None = None,
+            hammerstein: Hammerstein | None = None) -> Model:
+        """As :meth:`Model.fit`; ``wiener`` / ``hammerstein``: models of the same orders already
+        fitted on the same data (reused as the starts instead of being estimated again)."""
+        self._parts = (wiener, hammerstein)
+        try:
+            return super().fit(u=u, y=y, ts=ts, inputs=inputs, output=output)
+        finally:
+            self._parts = (None, None)
+
+    def _part_fit(self, model):
+        if model is None:
+            return None
+        same = (model.theta is not None and model.n_poles == self.n_poles and model.n_zeros == self.n_zeros
+                and model.n_breakpoints == self.n_breakpoints and model.delay == self.delay and model.skip == self.skip
+                and np.array_equal(model.u_scale, self.u_scale) and model.y_mean == self.y_mean
+                and model.y_std == self.y_std)
+        if not same:
+            raise InputError(f"the {model.kind} model to start from must be fitted on the same data "
+                             "with the same orders")
+        return estimate.Fit(model.spec, model.theta, model.info["sse"] / self.y_std**2)
+
     def _estimate(self, us, ys, opts):
-        return estimate.fit_wh(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts)
+        wiener, hammerstein = (self._part_fit(m) for m in getattr(self, "_parts", (None, None)))
+        fits = estimate.wh_fits(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts,
+                                wiener=wiener, hammerstein=hammerstein)
+        self.alternatives = fits[1:]
+        return fits[0]
+
+    def alternative_models(self) -> list:
+        """The other members of this fit: the other build's refinement and both starting models
+        (each a WH model with identity blocks, equal to the Wiener / Hammerstein model it came
+        from). The order search scores them too and keeps the best by its selection rule."""
+        self._require_fitted()
+        out = []
+        for fit in getattr(self, "alternatives", []):
+            m = copy.copy(self)
+            m.alternatives = []
+            m._set_result(fit, self.info["n_samples"])
+            out.append(m)
+        return out
 
 
 KINDS = {"linear": Linear, "hammerstein": Hammerstein, "wiener": Wiener, "wh": WienerHammerstein}

@@ -1,7 +1,8 @@
 """Order search over structures, with the paper's selection rule.
 
 Every (structure, n_poles, n_zeros) of the grid is estimated on the estimation recordings as
-one task on a concurrent.futures Executor (a local process pool by default; a Dask client's
+a task on a concurrent.futures Executor (a WH order shares its task with the Wiener and
+Hammerstein models of that order, which are its starting points) (a local process pool by default; a Dask client's
 ``get_executor()`` works unchanged). The model picked is the one with the highest mean NRMSE
 fit over all estimation and validation recordings (the paper's rule); AIC and BIC are
 reported for each candidate. An optional ``constraint(structure) -> bool`` (or a size
@@ -153,16 +154,77 @@ def order_grid(structures=STRUCTURES, poles=range(1, 11), zeros=None) -> list[tu
     return grid
 
 
+def _score(structure, n_poles, n_zeros, model, kwargs, fit_args, val, seconds, cpu_seconds) -> Candidate:
+    est = model.score(u=fit_args["u"], y=fit_args["y"], skip=kwargs["skip"])
+    vs = model.score(u=val[0], y=val[1], skip=val[2]) if val else {"fit": [], "rms": []}
+    return Candidate(structure, n_poles, n_zeros, est["fit"], vs["fit"], est["rms"], vs["rms"],
+                     model.aic, model.bic, model.n_params, seconds, True, model, cpu_seconds)
+
+
 def _fit_candidate(structure, n_poles, n_zeros, kwargs, fit_args, val):
     """Worker: estimate one model and score it (top level so process pools can pickle it)."""
     t0, c0 = time.perf_counter(), time.process_time()
     model = make_model(structure, n_poles=n_poles, n_zeros=n_zeros, **kwargs)
     model.fit(**fit_args)
-    est = model.score(u=fit_args["u"], y=fit_args["y"], skip=kwargs["skip"])
-    vs = model.score(u=val[0], y=val[1], skip=val[2]) if val else {"fit": [], "rms": []}
-    return Candidate(structure, n_poles, n_zeros, est["fit"], vs["fit"], est["rms"], vs["rms"],
-                     model.aic, model.bic, model.n_params, time.perf_counter() - t0, True, model,
-                     time.process_time() - c0)
+    return _score(structure, n_poles, n_zeros, model, kwargs, fit_args, val,
+                  time.perf_counter() - t0, time.process_time() - c0)
+
+
+def _fit_wh_group(structures, n_poles, n_zeros, kwargs, fit_args, val) -> list:
+    """Worker: the Wiener and Hammerstein models of one order, then the WH model started from them.
+
+    Returns the candidates of ``structures`` (which contains "wh"). The WH candidate is the
+    member with the best selection score among the jointly refined builds and their two
+    starting points (WH models with identity blocks equal to the Wiener and Hammerstein
+    models), so it scores at least as well as both. The WH candidate's times
+    are those of its joint refinements plus the parts that are not candidates themselves.
+    """
+    out, extra = [], [0.0, 0.0]
+    parts = {}
+    for s in ("wiener", "hammerstein"):
+        t0, c0 = time.perf_counter(), time.process_time()
+        parts[s] = make_model(s, n_poles=n_poles, n_zeros=n_zeros, **kwargs).fit(**fit_args)
+        dt, dc = time.perf_counter() - t0, time.process_time() - c0
+        if s in structures:
+            out.append(_score(s, n_poles, n_zeros, parts[s], kwargs, fit_args, val, dt, dc))
+        else:
+            extra[0] += dt
+            extra[1] += dc
+    t0, c0 = time.perf_counter(), time.process_time()
+    wh = make_model("wh", n_poles=n_poles, n_zeros=n_zeros, **kwargs).fit(**fit_args, **parts)
+    # The refined model and the WH members it was refined from, scored by the selection rule:
+    # the WH candidate of this order is never below the Wiener and Hammerstein candidates.
+    members = [_score("wh", n_poles, n_zeros, m, kwargs, fit_args, val, 0.0, 0.0)
+               for m in [wh] + wh.alternative_models()]
+    best = max(members, key=lambda c: c.mean_fit)
+    best.model.alternatives = []
+    best.seconds = time.perf_counter() - t0 + extra[0]
+    best.cpu_seconds = time.process_time() - c0 + extra[1]
+    out.append(best)
+    return out
+
+
+def _tasks(grid) -> list[tuple[tuple[str, ...], int, int]]:
+    """Group the grid into tasks: a WH order together with the Wiener and Hammerstein models of
+    that order (the WH starts from them), every other candidate alone."""
+    orders_with_wh = {(p, z) for s, p, z in grid if s == "wh"}
+    groups: dict = {}
+    tasks = []
+    for s, p, z in grid:
+        if (p, z) in orders_with_wh and s in ("wh", "wiener", "hammerstein"):
+            if (p, z) not in groups:
+                groups[(p, z)] = []
+                tasks.append(((p, z), groups[(p, z)]))
+            groups[(p, z)].append(s)
+        else:
+            tasks.append(((p, z), [s]))
+    return [(tuple(ss), p, z) for (p, z), ss in tasks]
+
+
+def _run_task(structures, n_poles, n_zeros, kwargs, fit_args, val) -> list:
+    if "wh" in structures:
+        return _fit_wh_group(structures, n_poles, n_zeros, kwargs, fit_args, val)
+    return [_fit_candidate(structures[0], n_poles, n_zeros, kwargs, fit_args, val)]
 
 
 def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=range(1, 11), zeros=None,
@@ -192,29 +254,33 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     kwargs = {"n_breakpoints": n_breakpoints, "delay": delay, "starts": starts, "max_nfev": max_nfev, "skip": skip}
     fit_args = {"u": us, "y": ys, "ts": ts, "inputs": inputs, "output": output}
     # Most expensive first so that the pool stays busy to the end.
-    weight = {"wh": 4, "hammerstein": 2, "wiener": 2, "linear": 1}
-    grid.sort(key=lambda g: -(weight[g[0]] * (g[1] + g[2] + 1)))
-    if executor is None and len(grid) == 1:
+    weight = {"wh": 2, "hammerstein": 2, "wiener": 2, "linear": 1}
+    tasks = _tasks(grid)
+    tasks.sort(key=lambda t: -(sum(weight[s] for s in t[0]) + (2 if "wh" in t[0] else 0)) * (t[1] + t[2] + 1))
+    if executor is None and len(tasks) == 1:
         t0 = time.perf_counter()
-        c = _fit_candidate(*grid[0], kwargs, fit_args, val)
-        c.feasible = _feasible(c.model, constraint, size_fn, max_bytes)
-        return SearchResult([c], time.perf_counter() - t0, tie_tol)
+        candidates = _run_task(*tasks[0], kwargs, fit_args, val)
+        for c in candidates:
+            c.feasible = _feasible(c.model, constraint, size_fn, max_bytes)
+        candidates.sort(key=lambda c: rank[(c.structure, c.n_poles, c.n_zeros)])
+        return SearchResult(candidates, time.perf_counter() - t0, tie_tol)
     own = executor is None
     if own:
-        executor = ProcessPoolExecutor(max_workers=os.cpu_count() or 1)
+        executor = ProcessPoolExecutor(max_workers=min(os.cpu_count() or 1, len(tasks)))
     t0 = time.perf_counter()
     candidates = []
     try:
-        futures = [executor.submit(_fit_candidate, s, p, z, kwargs, fit_args, val) for s, p, z in grid]
+        futures = [executor.submit(_run_task, ss, p, z, kwargs, fit_args, val) for ss, p, z in tasks]
         bar = None
         if progress:
             from tqdm.auto import tqdm
 
-            bar = tqdm(total=len(futures), desc="order search", unit="model", leave=False)
+            bar = tqdm(total=len(grid), desc="order search", unit="model", leave=False)
         for fut in as_completed(futures):
-            candidates.append(fut.result())
+            done = fut.result()
+            candidates.extend(done)
             if bar is not None:
-                bar.update(1)
+                bar.update(len(done))
         if bar is not None:
             bar.close()
     finally:

@@ -112,6 +112,19 @@ def check_vectors(cases, *, timeout: float = 300.0) -> list[bool]:
     with the same N, as tests/quant/vectors.make_cases gives) through the AVR build in simavr
     (an ATmega1284P, for the flash the cases need; same core and multiplier as the ATmega328P).
     Returns, per case, whether the AVR's estimates and flags hash to the reference's."""
+    # Program-memory data must stay below 64 KB (16-bit pgm_read pointers): batches of cases.
+    batches, size = [[]], 0
+    for case in cases:
+        nbytes = len(case[0]) + 6 * len(case[1])
+        if batches[-1] and size + nbytes > 48_000:
+            batches.append([])
+            size = 0
+        batches[-1].append(case)
+        size += nbytes
+    return [ok for batch in batches for ok in _check_batch(batch, timeout)]
+
+
+def _check_batch(cases, timeout: float) -> list[bool]:
     n = len(cases[0][1])
     lines = ["#pragma once", "#include <avr/pgmspace.h>", f"#define N_CASES {len(cases)}u", f"#define N_SAMPLES {n}u"]
     for i, (blob, u, _, _) in enumerate(cases):

@@ -112,7 +112,7 @@ constexpr uint8_t ADC_RATE = 8;  // ADS1115 data-rate code (0 = 8 SPS ... 4 = 12
 constexpr uint8_t MIN_SETPOINT_DKPA = 9;  // Most negative vacuum setpoint accepted, in 0.1 kPa.
 constexpr uint8_t WATCHDOG_MS = 10;  // Host-link watchdog timeout in ms while outputs are active.
 constexpr uint8_t AUTOSTART = 11;  // 1: stream and estimate at power-up when a valid model is stored.
-constexpr uint8_t PWM_PIN = 12;  // Arduino pin of the analogue estimate output (0 = off; 3, 5, 6, 9, 10, 11 are PWM).
+constexpr uint8_t PWM_PIN = 12;  // Arduino pin of the analogue estimate output: 0 = off, 10 = D10 (the only PWM pin whose timer the firmware leaves free; others are refused with UNSUPPORTED).
 constexpr uint8_t PWM_SCALE_MILLI = 13;  // Duty counts per estimate LSB, times 1000.
 constexpr uint8_t PWM_OFFSET = 14;  // Duty counts added after scaling.
 constexpr uint8_t LINE_MODE = 15;  // 1: print one CSV line per sample instead of SAMPLE frames.

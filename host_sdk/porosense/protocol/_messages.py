@@ -125,7 +125,7 @@ class ConfigKey(enum.IntEnum):
     MIN_SETPOINT_DKPA = 9  # Most negative vacuum setpoint accepted, in 0.1 kPa.
     WATCHDOG_MS = 10  # Host-link watchdog timeout in ms while outputs are active.
     AUTOSTART = 11  # 1: stream and estimate at power-up when a valid model is stored.
-    PWM_PIN = 12  # Arduino pin of the analogue estimate output (0 = off; 3, 5, 6, 9, 10, 11 are PWM).
+    PWM_PIN = 12  # Arduino pin of the analogue estimate output: 0 = off, 10 = D10 (the only PWM pin whose timer the firmware leaves free; others are refused with UNSUPPORTED).
     PWM_SCALE_MILLI = 13  # Duty counts per estimate LSB, times 1000.
     PWM_OFFSET = 14  # Duty counts added after scaling.
     LINE_MODE = 15  # 1: print one CSV line per sample instead of SAMPLE frames.
@@ -155,7 +155,7 @@ CONFIG_SPECS: dict[ConfigKey, ConfigSpec] = {
     ConfigKey.MIN_SETPOINT_DKPA: ConfigSpec(ConfigKey.MIN_SETPOINT_DKPA, -600, -800, 0, 'Most negative vacuum setpoint accepted, in 0.1 kPa.'),
     ConfigKey.WATCHDOG_MS: ConfigSpec(ConfigKey.WATCHDOG_MS, 1000, 100, 10000, 'Host-link watchdog timeout in ms while outputs are active.'),
     ConfigKey.AUTOSTART: ConfigSpec(ConfigKey.AUTOSTART, 0, 0, 1, '1: stream and estimate at power-up when a valid model is stored.'),
-    ConfigKey.PWM_PIN: ConfigSpec(ConfigKey.PWM_PIN, 0, 0, 13, 'Arduino pin of the analogue estimate output (0 = off; 3, 5, 6, 9, 10, 11 are PWM).'),
+    ConfigKey.PWM_PIN: ConfigSpec(ConfigKey.PWM_PIN, 0, 0, 13, 'Arduino pin of the analogue estimate output: 0 = off, 10 = D10 (the only PWM pin whose timer the firmware leaves free; others are refused with UNSUPPORTED).'),
     ConfigKey.PWM_SCALE_MILLI: ConfigSpec(ConfigKey.PWM_SCALE_MILLI, 1000, -1000000, 1000000, 'Duty counts per estimate LSB, times 1000.'),
     ConfigKey.PWM_OFFSET: ConfigSpec(ConfigKey.PWM_OFFSET, 0, -255, 255, 'Duty counts added after scaling.'),
     ConfigKey.LINE_MODE: ConfigSpec(ConfigKey.LINE_MODE, 0, 0, 1, '1: print one CSV line per sample instead of SAMPLE frames.'),

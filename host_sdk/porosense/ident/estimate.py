@@ -296,8 +296,8 @@ def wh_fits(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | 
         if not start <= parent.sse * (1 + 1e-9) + 1e-12:
             raise ArithmeticError(f"WH start {build}: error {start} above its model's {parent.sse}")
         fit = refine(spec, theta0, us, ys, opts)
-        if not fit.sse <= start:  # refine keeps the start when it cannot improve on it
-            raise ArithmeticError(f"WH refinement {build}: error {fit.sse} above its start {start}")
+        if not fit.sse <= start:  # a failed (or rounding-only) refinement: keep the start
+            fit = Fit(spec, theta0, start, fit.nfev)
         fit.build = build
         fits.append(fit)
         starts.append(Fit(spec, theta0, start, 0, build + " start"))

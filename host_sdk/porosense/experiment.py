@@ -39,7 +39,8 @@ def run_schedule(
 ) -> Recording:
     """Run ``schedule`` on ``dev`` at ``rate_hz`` (Hz) and return the recording.
 
-    ``truth`` adds ground-truth columns; ``out_scale`` (units per LSB) and ``output_names``
+    ``truth`` adds ground-truth columns (``<name>_true`` where the device measures the same
+    quantity, e.g. dR_0_true); ``out_scale`` (units per LSB) and ``output_names``
     turn the on-device estimates into ``est_<name>`` columns. ``monitor`` receives the columns
     recorded so far (truth and estimates) every two seconds of device time and returns a short text
     for the progress bar (e.g. a running fit). Outputs are switched off at the end, even when
@@ -108,7 +109,9 @@ def run_schedule(
             cols[f"est_{name}"] = est[:, j] * scale[j]
     if truth is not None:
         for name, values in truth(t_us).items():
-            cols[name] = np.asarray(values, dtype=float)
+            # The device's own measurements (dR) stay: models are identified and judged on
+            # what the estimator will see; a ground-truth copy goes to <name>_true.
+            cols[f"{name}_true" if name in cols else name] = np.asarray(values, dtype=float)
     lost = dev.stats.samples_lost if hasattr(dev, "stats") else 0
     info = {"schedule": schedule.name, "rate_hz": rate_hz, "device": dev.url, "samples_lost": int(lost),
             "schedule_data": schedule.to_dict()}

@@ -2,7 +2,8 @@
 
 (a) 4 structures x poles 1..10 x zeros < poles, 2 starts per nonlinear model, on a SISO
     problem of 5 recordings x 60 s at 50 Hz (3 estimation, 2 validation) from a known
-    Wiener-Hammerstein system driven by vacuum-step-like inputs; wall time on a process pool.
+    Wiener-Hammerstein system driven by vacuum-step-like inputs; wall time on a process pool
+    (each WH order runs in one task with the Wiener and Hammerstein fits it starts from).
 (b) a linear output-error fit on 10,000 samples, porosense versus sippy_unipi's OE (when
     installed), wall times, their ratio and both simulation fits on the same data.
 ``size="small"`` runs a reduced grid (poles <= 2) on 5 x 20 s and 2,000 samples for (b).

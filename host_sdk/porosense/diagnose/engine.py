@@ -177,6 +177,11 @@ def diagnose(estimation: list, validation: list, *, alpha: float = stats.DEFAULT
     # the level dependence it causes is evidence for saturation, not for a smooth nonlinearity.
     if qualified["saturation"]:
         strengths["saturation"] += strengths["static_nonlinearity"]
+    # Likewise a measured load that changes during the record shifts the level map (where along
+    # its stroke the actuator collapses): the level and direction dependence that follows is
+    # evidence for the load, which a measured column explains and a static map cannot.
+    if qualified["load_dependence"]:
+        strengths["load_dependence"] += max(strengths["static_nonlinearity"], strengths["hysteresis"])
     conf = _confidences(strengths, qualified, threshold)
     worst = max(results.values(), key=lambda r: r.test.strength).test
     findings[NONE] = Finding(

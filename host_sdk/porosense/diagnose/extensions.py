@@ -237,13 +237,11 @@ def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
                        {"side": side, **{f"p_{k}": t.p for k, t in tests.items()}})
 
 
-def hysteresis(ctx: Context, alpha: float) -> CauseResult:
+def _play_set(ctx: Context):
+    """Regressors of rate-independent memory: play operators (4 radii) of the model output minus
+    the output, raw and through the model's own dynamics."""
     span = float(np.ptp(ctx.yhat_est)) or 1.0
     radii = span * np.array([0.03, 0.08, 0.15, 0.3])
-    sets = _static_sets(ctx)
-
-    def z_static(r):
-        return np.column_stack([z(r) for z in sets.values()])
 
     def z_h(r):
         cols = []
@@ -251,6 +249,32 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
             d = signals.play_operator(r.yhat, rad) - r.yhat
             cols += [d, ctx.base_filter(d)]
         return np.column_stack(cols)
+
+    return z_h
+
+
+def _trend(r) -> np.ndarray:
+    """Offset and gain drifting linearly from the start of the record (time in s)."""
+    return np.column_stack([r.t, r.t * r.yhat])
+
+
+def _output_shape(ctx: Context):
+    """yhat and its square (normalised): the static output-side shape a slow mode multiplies."""
+    m, s = float(np.mean(ctx.yhat_est)), float(np.std(ctx.yhat_est)) or 1.0
+
+    def z(r):
+        yn = (r.yhat - m) / s
+        return np.column_stack([r.yhat, yn * yn])
+
+    return z, m, s
+
+
+def hysteresis(ctx: Context, alpha: float) -> CauseResult:
+    sets = _static_sets(ctx)
+    z_h = _play_set(ctx)
+
+    def z_static(r):
+        return np.column_stack([z(r) for z in sets.values()])
 
     # direction dependence beyond any static map on either side (a level effect) and beyond a
     # slow mode (fading, rate-dependent memory): hysteresis is memory that does not fade
@@ -265,33 +289,55 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
 
 
 def _slow_sets(ctx: Context):
-    """(builder, tau) of the best slow-mode regressors: slow Laguerre filters of the inputs and of
-    the model output (a slow mode may act on the nonlinear response), tau on a grid of 8, 25, 80
-    times the model's own time constant (below half the record)."""
+    """(test, builder, tau) of the best slow-mode regressors, and the number of taus tried.
+
+    A slow viscoelastic mode leaves a long exponential tail after every step: the residual
+    follows the input after the model's own dynamics (the base filter) and the model output,
+    both through a first-order lag of time constant tau, also scaled by the output level (the
+    mode's share changes with the level). tau on a geometric grid from 5 times the model's own
+    time constant (at least 3 s) up to half a record. The test is conditional on static PWL maps
+    of the level on every side, a linear drift in time and play operators: what remains is memory that fades
+    with tau and follows the input, which neither drift nor hysteresis has.
+    """
     if "slow" in ctx._cache:
         return ctx._cache["slow"]
-    t_total = sum(ctx.seg_est) * ctx.ts / len(ctx.seg_est)
-    taus = [f * ctx.tau_s for f in (8.0, 25.0, 80.0) if f * ctx.tau_s < t_total / 2] or [t_total / 4]
-    yhat_est = ctx.yhat_est[:, None]
+    t_rec = sum(ctx.seg_est) * ctx.ts / len(ctx.seg_est)
+    tau = max(5.0 * ctx.tau_s, 3.0)
+    taus = []
+    while tau < t_rec / 2:
+        taus.append(tau)
+        tau *= 2.0
+    taus = taus or [t_rec / 4]
+    shape, m, s = _output_shape(ctx)
+    filtered = [np.column_stack([ctx.base_filter(r.u[:, i]) for i in range(ctx.n_in)]) for r in ctx.est + ctx.val]
+    by_id = {id(r): f for r, f in zip(ctx.est + ctx.val, filtered)}
+    z_h = _play_set(ctx)
+    static = _static_sets(ctx)
+    base = np.column_stack([ctx.stack(shape, ctx.est), ctx.stack(_trend, ctx.est), ctx.stack(z_h, ctx.est)]
+                           + [ctx.stack(zs, ctx.est) for zs in static.values()])
     best = None
     for tau in taus:
         a = float(np.exp(-ctx.ts / tau))
 
-        def z(r, a=a):
-            return np.column_stack([ctx.lag_bank(r.u[:, i], 2, a) for i in range(ctx.n_in)]
-                                   + [ctx.lag_bank(r.yhat, 2, a)])
+        def z(r, a=a, scaled=False):
+            ly = ctx.lag_bank(r.yhat, 1, a)[:, 0]
+            lu = [ctx.lag_bank(by_id[id(r)][:, i], 1, a)[:, 0] for i in range(ctx.n_in)]
+            return np.column_stack([ly] + lu + ([ly * (r.yhat - m) / s] if scaled else []))
 
-        t = ctx.f_test(ctx.stack(z, ctx.est), extra_base=yhat_est)
+        # tested without the level-scaled tail (a static map of a dynamic output mimics it);
+        # hysteresis is tested beyond the full set, and the extension uses it
+        t = ctx.f_test(ctx.stack(z, ctx.est), extra_base=base)
         if best is None or t.log10_p < best[0].log10_p:
-            best = (t, z, tau)
+            best = (t, lambda r, z=z: z(r, scaled=True), tau)
     ctx._cache["slow"] = (best, len(taus))
     return ctx._cache["slow"]
 
 
 def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
     (test, z, tau), n_taus = _slow_sets(ctx)
-    res = stats.f_result("F(residual ~ slowly filtered input)", test, alpha, n_taus, tau_s=tau)
-    pred, _ = ctx.fit_apply(lambda r: np.column_stack([z(r), r.yhat]))
+    shape, _, _ = _output_shape(ctx)
+    res = stats.f_result("F(residual ~ slowly filtered input | drift, hysteresis)", test, alpha, n_taus, tau_s=tau)
+    pred, _ = ctx.fit_apply(lambda r: np.column_stack([z(r), shape(r)]))
     return CauseResult(res, True, f"the residual follows the input through a slow mode of about {tau:.3g} s "
                        f"({_explained(res)}; the model's own time constant is {ctx.tau_s:.3g} s)",
                        f"an extra relaxation pole at tau = {tau:.3g} s", pred, {"tau_s": tau})
@@ -349,8 +395,12 @@ def drift(ctx: Context, alpha: float) -> CauseResult:
         B[start : start + n] = signals.cosine_trend_basis(n, n_terms)
         blocks.append(B)
         start += n
-    test = ctx.f_test(np.column_stack(blocks))
-    res = stats.f_result("F(residual ~ slow trend in time)", test, alpha)
+    # a trend that no input explains: conditional on the slow mode of the inputs
+    (_, z_slow, _), _ = _slow_sets(ctx)
+    shape, _, _ = _output_shape(ctx)
+    base = np.column_stack([ctx.stack(z_slow, ctx.est), ctx.stack(shape, ctx.est)])
+    test = ctx.f_test(np.column_stack(blocks), extra_base=base)
+    res = stats.f_result("F(residual ~ slow trend in time | slow mode)", test, alpha)
     pred_g0_val, pred_g0_est = ctx.fit_apply(None)
     r_est = np.concatenate([r.y for r in ctx.est]) - pred_g0_est
     r_val = ctx.y_val - pred_g0_val
@@ -369,9 +419,7 @@ def drift(ctx: Context, alpha: float) -> CauseResult:
 
     # the other drift model: a deterministic trend since the start of each record (offset and
     # gain drifting at constant rates, as a sensor's R0 after calibration at the record start)
-    def z_trend(r):
-        return np.column_stack([r.t, r.t * r.yhat])
-
+    z_trend = _trend
     holdout = np.concatenate([np.arange(len(r.y)) >= 0.7 * len(r.y) for r in ctx.est])
     _, pred_trend_est = ctx.fit_apply(z_trend, mask_est=holdout)
     y_est = np.concatenate([r.y for r in ctx.est])
@@ -461,6 +509,7 @@ def _column_tests(ctx: Context) -> dict:
         return ctx._cache["columns"]
     out = {}
     m, s = float(np.mean(ctx.yhat_est)), float(np.std(ctx.yhat_est)) or 1.0
+    knots_out = signals.quantile_knots(ctx.yhat_est, 5)
     for name, mu, sd in _condition_columns(ctx):
         def z_dyn(r, name=name, mu=mu, sd=sd):
             return ctx.lag_bank((r.conditions[name] - mu) / sd, 3)
@@ -468,10 +517,29 @@ def _column_tests(ctx: Context) -> dict:
         def z_gain(r, name=name, mu=mu, sd=sd):
             return ((r.conditions[name] - mu) / sd * (r.yhat - m) / s)[:, None]
 
+        lo = float(np.min(np.concatenate([r.conditions[name] for r in ctx.est])))
+
+        def z_sched(r, name=name, lo=lo, sd=sd):
+            # the gain scheduled by the column at every output level: the column times a PWL
+            # map of the model output (a load shifts where along its stroke the actuator
+            # collapses, not only its overall gain)
+            c = (r.conditions[name] - lo) / sd  # from the smallest value: zero load changes nothing
+            cols = [c * (r.yhat - m) / s] + [c * h / s for h in signals.hinge_basis(r.yhat, knots_out).T]
+            return np.column_stack(cols)
+
+        def z_load(r, name=name, lo=lo, sd=sd, z_sched=z_sched):
+            return np.column_stack([(r.conditions[name] - lo) / sd, z_sched(r)])
+
         dyn = ctx.f_test(ctx.stack(z_dyn, ctx.est))
         inter = ctx.f_test(ctx.stack(z_gain, ctx.est), extra_base=ctx.stack(z_dyn, ctx.est))
-        both = ctx.f_test(np.column_stack([ctx.stack(z_dyn, ctx.est), ctx.stack(z_gain, ctx.est)]))
-        out[name] = {"dyn": dyn, "inter": inter, "both": both, "z_dyn": z_dyn, "z_gain": z_gain}
+        Zd, Zs = ctx.stack(z_dyn, ctx.est), ctx.stack(z_sched, ctx.est)
+        both = ctx.f_test(ctx.stack(z_load, ctx.est))
+        # load-specific: beyond the column's additive dynamics and any static map of the level
+        static = _static_sets(ctx)
+        Zst = np.column_stack([ctx.stack(z, ctx.est) for z in static.values()])
+        sched = ctx.f_test(Zs, extra_base=np.column_stack([Zd, Zst]))
+        out[name] = {"dyn": dyn, "inter": inter, "both": both, "sched": sched, "z_dyn": z_dyn,
+                     "z_gain": z_gain, "z_load": z_load}
     ctx._cache["columns"] = out
     return out
 
@@ -488,11 +556,11 @@ def load_dependence(ctx: Context, alpha: float) -> CauseResult:
     name = min(cols, key=lambda k: cols[k]["both"].log10_p)
     c = cols[name]
     res = stats.f_result(f"F(residual ~ {name} and {name} x output)", c["both"], alpha, len(cols), column=name)
-    inter = stats.f_result("interaction", c["inter"], alpha, len(cols))
-    pred, _ = ctx.fit_apply(lambda r: np.column_stack([c["z_dyn"](r), c["z_gain"](r)]))
+    inter = stats.f_result("interaction", c["sched"], alpha, len(cols))
+    pred, _ = ctx.fit_apply(c["z_load"])
     # a load changes the gain: the column x output interaction must matter beyond additive dynamics
     return CauseResult(res, inter.significant, f"the residual depends on the measured column {name}, and the "
-                       f"model's gain changes with it (interaction F = {c['inter'].f:.3g}, p = {inter.p:.2g}; "
+                       f"model's gain changes with it (interaction F = {c['sched'].f:.3g}, p = {inter.p:.2g}; "
                        f"{_explained(res)})", f"{name} as an extra input and a {name}-scheduled gain", pred,
                        {"column": name})
 

@@ -15,6 +15,11 @@ from porosense.quant.report import QuantReport, RecordingFit, fit_percent
 from porosense.structure import EstimatorStructure
 
 DEFAULT_INPUT_RANGE = (-100.0, 100.0)  # dR in %, when neither a range nor data is given
+# The noise probe: white noise of this RMS (device LSB, 0.01 % of dR) on the device inputs. The
+# board's dR readings carry a few LSB of noise (ADS1115 and contact noise), so a model whose fit
+# drops by points at 1 LSB is unusable on the device even when its fixed-point loss is nil.
+NOISE_PROBE_LSB = 1.0
+NOISE_PROBE_SEED = 7
 
 
 @dataclass
@@ -27,7 +32,7 @@ class QuantResult:
 
 
 def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None, input_lsb: float | None = None,
-             model_id: int | None = None) -> QuantResult:
+             model_id: int | None = None, noise_lsb: float | None = None) -> QuantResult:
     """Quantize ``structure`` for the firmware.
 
     recordings: recordings (porosense.data.Recording or mappings name -> column) holding the
@@ -40,7 +45,13 @@ def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None
     input_lsb: structure input units per device LSB (default 0.01: inputs are dR in %, the
         device sends 0.01 %); taken from ``structure.meta["input_lsb"]`` when present.
     model_id: tag stored in the blob (default: CRC-32 of the structure's repr, 32 bits).
+    noise_lsb: RMS of the white noise (device input LSB) of the report's noise probe
+        (default NOISE_PROBE_LSB; 0 skips it).
+
+    The report's fits are what the device computes: the bit-exact fixed-point estimator on
+    the recordings' inputs converted exactly as the device converts them (:func:`evaluate`).
     """
+    noise_lsb = NOISE_PROBE_LSB if noise_lsb is None else float(noise_lsb)
     lsb = float(input_lsb or structure.meta.get("input_lsb", DEFAULT_INPUT_LSB))
     recs = [_as_recording(r, structure, i) for i, r in enumerate(recordings or [])]
     ranges = _input_ranges(structure, recs, input_range, lsb)
@@ -55,31 +66,69 @@ def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None
     report = QuantReport(blob_bytes=blob.length, capacity_bytes=MAX_BLOB_LEN, n_sections=len(secs),
                          wide_numerators=sum(s.wide for s in secs), delta_sections=sum(s.delta for s in secs),
                          out_scale=list(blob.out_scale), scaling=scaling, nodes=nodes, notes=notes)
+    guessed = [name for name, u, _ in recs if off_grid(u, lsb)]
+    if guessed:
+        notes.append(f"inputs not on the device's {lsb:g}-unit grid in {', '.join(guessed)}: not what a device "
+                     "measured (noise-free truth or a simulation?); the fits use them rounded as the device "
+                     "rounds, and the noise probe shows what sensor noise would cost")
     for name, u, y in recs:
-        report.fits.extend(evaluate(structure, blob, u, y, name, lsb))
+        report.fits.extend(evaluate(structure, blob, u, y, name, lsb, noise_lsb))
     return QuantResult(blob, report)
 
 
+def device_inputs(u, input_lsb: float = DEFAULT_INPUT_LSB) -> np.ndarray:
+    """What the device feeds its estimator for inputs ``u`` (structure input units, (N, n_in)):
+    int64 counts of ``input_lsb``, rounded half away from zero and saturated to int16, as the
+    firmware's dR conversion does (sensing.cpp)."""
+    v = np.asarray(u, dtype=float) / input_lsb
+    return np.clip(np.sign(v) * np.floor(np.abs(v) + 0.5), -32768, 32767).astype(np.int64)
+
+
+def off_grid(u, input_lsb: float = DEFAULT_INPUT_LSB) -> bool:
+    """True when ``u`` is not on the device's input grid, i.e. not a device recording (for
+    example a noise-free ground truth or a simulation): the report then rests on inputs the
+    device never sees, so it says so."""
+    v = np.asarray(u, dtype=float) / input_lsb
+    return bool(np.any(np.abs(v - np.round(v)) > 1e-3))
+
+
 def evaluate(structure: EstimatorStructure, blob: ModelBlob, u: np.ndarray, y, name: str,
-             input_lsb: float = DEFAULT_INPUT_LSB) -> list[RecordingFit]:
-    """Fit of the fixed-point reference against the float model and the data, per output."""
-    counts = np.clip(np.round(np.asarray(u, dtype=float) / input_lsb), -32768, 32767).astype(np.int64)
-    u_dev = counts * input_lsb  # what the device sees: dR quantized to 0.01 %
-    y_float = structure.simulate(u_dev)
-    full = np.zeros((len(counts), 3), dtype=np.int64)
-    full[:, : counts.shape[1]] = counts
-    est, flags = FixedPointEstimator(blob).run(full)
+             input_lsb: float = DEFAULT_INPUT_LSB, noise_lsb: float = NOISE_PROBE_LSB) -> list[RecordingFit]:
+    """Fit of the fixed-point reference against the float model and the data, per output.
+
+    Both models run on exactly the device's inputs (:func:`device_inputs`). ``noise_lsb``: RMS
+    (device LSB) of the white noise added to those inputs for the noise probe, which shows how
+    many fit points sensor noise of that size costs on the device (a model with a steep table
+    or a large high-frequency gain amplifies it; 0 skips the probe)."""
+    counts = device_inputs(u, input_lsb)
+    y_float = structure.simulate(counts * input_lsb)
+    est, flags = _run_device(blob, counts)
+    noisy = None
+    if noise_lsb > 0:
+        rng = np.random.default_rng(NOISE_PROBE_SEED)
+        noisy_counts = device_inputs((counts + rng.normal(0.0, noise_lsb, counts.shape)) * input_lsb, input_lsb)
+        noisy, _ = _run_device(blob, noisy_counts)
     out = []
     for j, o in enumerate(structure.outputs):
         y_fixed = est[:, j].astype(float) * blob.out_scale[j]
         yd = None if y is None or y[j] is None else np.asarray(y[j], dtype=float)
+        y_noisy = None if noisy is None else noisy[:, j].astype(float) * blob.out_scale[j]
         out.append(RecordingFit(
             recording=name, output=o.name,
             fit_float_vs_data=None if yd is None else fit_percent(yd, y_float[:, j]),
             fit_fixed_vs_data=None if yd is None else fit_percent(yd, y_fixed),
             fit_fixed_vs_float=fit_percent(y_float[:, j], y_fixed),
-            saturated_samples=int(np.count_nonzero(flags))))
+            saturated_samples=int(np.count_nonzero(flags)),
+            noise_lsb=float(noise_lsb),
+            fit_noisy_vs_data=None if yd is None or y_noisy is None else fit_percent(yd, y_noisy),
+            fit_noisy_vs_fixed=None if y_noisy is None else fit_percent(y_fixed, y_noisy)))
     return out
+
+
+def _run_device(blob: ModelBlob, counts: np.ndarray):
+    full = np.zeros((len(counts), 3), dtype=np.int64)
+    full[:, : counts.shape[1]] = counts
+    return FixedPointEstimator(blob).run(full)
 
 
 def _as_recording(r, structure: EstimatorStructure, i: int):
@@ -115,7 +164,9 @@ def _input_ranges(structure, recs, input_range, lsb) -> list[tuple[float, float]
     elif recs:
         u = np.concatenate([r[1] for r in recs], axis=0)
         lo, hi = np.min(u, axis=0), np.max(u, axis=0)
-        span = np.maximum(hi - lo, 1.0)
+        # At least 1 % of dR (100 device LSB) of span: a floor in the structure's own unit
+        # would widen a range given in fractions (input_lsb 1e-4) a hundredfold too much.
+        span = np.maximum(hi - lo, 100.0 * lsb)
         pairs = list(zip(lo - 0.25 * span, hi + 0.25 * span))
     else:
         pairs = [DEFAULT_INPUT_RANGE] * n

@@ -27,6 +27,9 @@ class RecordingFit:
     fit_fixed_vs_data: float | None
     fit_fixed_vs_float: float
     saturated_samples: int
+    noise_lsb: float = 0.0  # RMS (device LSB) of the noise probe's white input noise
+    fit_noisy_vs_data: float | None = None  # the fixed-point model on the noisy inputs
+    fit_noisy_vs_fixed: float | None = None
 
     @property
     def loss_points(self) -> float | None:
@@ -34,6 +37,13 @@ class RecordingFit:
         if self.fit_float_vs_data is None or self.fit_fixed_vs_data is None:
             return None
         return self.fit_float_vs_data - self.fit_fixed_vs_data
+
+    @property
+    def noise_loss_points(self) -> float | None:
+        """Fit points that ``noise_lsb`` of white sensor noise costs the device (against the data)."""
+        if self.fit_fixed_vs_data is None or self.fit_noisy_vs_data is None:
+            return None
+        return self.fit_fixed_vs_data - self.fit_noisy_vs_data
 
 
 @dataclass
@@ -58,12 +68,19 @@ class QuantReport:
         losses = [f.loss_points for f in self.fits if f.loss_points is not None]
         return max(losses) if losses else None
 
+    @property
+    def worst_noise_loss_points(self) -> float | None:
+        losses = [f.noise_loss_points for f in self.fits if f.noise_loss_points is not None]
+        return max(losses) if losses else None
+
     def to_dict(self) -> dict:
         d = asdict(self)
         d["saturated_samples"] = self.saturated_samples
         d["worst_loss_points"] = self.worst_loss_points
+        d["worst_noise_loss_points"] = self.worst_noise_loss_points
         for f, fd in zip(self.fits, d["fits"]):
             fd["loss_points"] = f.loss_points
+            fd["noise_loss_points"] = f.noise_loss_points
         d["nodes"] = [{**n, "interval": [float(v) for v in n["interval"]], "scale": float(n["scale"])}
                       for n in self.nodes]
         return d
@@ -79,12 +96,18 @@ class QuantReport:
         out = [f"blob {self.blob_bytes} of {self.capacity_bytes} bytes; {self.n_sections} sections "
                f"({self.wide_numerators} with 32-bit numerators, {self.delta_sections} in delta form)",
                f"scaling: {self.scaling}",
-               "out_scale: " + ", ".join(f"{s:.6g}" for s in self.out_scale)]
+               "out_scale: " + ", ".join(f"{s:.6g}" for s in self.out_scale),
+               "fits: the bit-exact fixed-point estimator on the device's inputs (rounded to its LSB "
+               "as the device rounds)"]
+        out += [f"note: {n}" for n in self.notes if n.startswith("inputs not on the device")]
         for f in self.fits:
             parts = [f"{f.recording} {f.output}: fixed vs float {f.fit_fixed_vs_float:.2f} %"]
             if f.fit_float_vs_data is not None:
                 parts.append(f"float vs data {f.fit_float_vs_data:.2f} %, fixed vs data "
                              f"{f.fit_fixed_vs_data:.2f} % (loss {f.loss_points:+.3f} points)")
+            if f.noise_loss_points is not None:
+                parts.append(f"with {f.noise_lsb:g} LSB RMS input noise fixed vs data {f.fit_noisy_vs_data:.2f} % "
+                             f"(noise costs {f.noise_loss_points:+.3f} points)")
             parts.append(f"saturated samples {f.saturated_samples}")
             out.append("; ".join(parts))
         return out

@@ -216,6 +216,10 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
         loss = q.report.worst_loss_points
         log(f"  quantized: {blob.length} bytes, worst fixed-point fit loss "
             f"{loss if loss is not None else float('nan'):.3f} points, {q.report.saturated_samples} saturated samples")
+        from porosense.ident import save_models
+
+        save_models([r.model for r in searches], out / "model.json")
+        (out / "model.bin").write_bytes(blob.to_bytes())
         info = dev.write_model(blob.to_bytes())
         log(f"  flashed: {info}")
 
@@ -243,6 +247,7 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
                             progress=progress, out_scale=blob.out_scale, output_names=outputs,
                             monitor=_live_fit(outputs), meta={"actuator": actuator, "experiment": live_exp})
         clock["stream"] = time.perf_counter() - t2
+        live.to_csv(out / "recordings" / f"live_{live_exp}.csv")
     on_device = [fit_percent(live[o], live[f"est_{o}"]) for o in outputs]
     u_live = np.column_stack([live[c] / 100.0 for c in inputs])
     y_float = structure.simulate(u_live)

@@ -179,9 +179,11 @@ def diagnose(estimation: list, validation: list, *, alpha: float = stats.DEFAULT
         strengths["saturation"] += strengths["static_nonlinearity"]
     # Likewise a measured load that changes during the record shifts the level map (where along
     # its stroke the actuator collapses): the level and direction dependence that follows is
-    # evidence for the load, which a measured column explains and a static map cannot.
-    if qualified["load_dependence"]:
-        strengths["load_dependence"] += max(strengths["static_nonlinearity"], strengths["hysteresis"])
+    # evidence for the load, which a measured column explains and a static map cannot -- when
+    # the load's extension predicts the validation data better than those causes' extensions.
+    rivals = ("static_nonlinearity", "hysteresis")
+    if qualified["load_dependence"] and all(findings["load_dependence"].gain > findings[c].gain for c in rivals):
+        strengths["load_dependence"] += max(strengths[c] for c in rivals)
     conf = _confidences(strengths, qualified, threshold)
     worst = max(results.values(), key=lambda r: r.test.strength).test
     findings[NONE] = Finding(

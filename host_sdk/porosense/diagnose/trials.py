@@ -199,7 +199,8 @@ def run_trials(n_per_cause: int, seed: int = 1000, causes=None) -> dict:
 SIM_RATE_HZ = 20.0
 #: Strength ranges of the causes hidden with porosense.sim's named effects (contractor, 20 Hz).
 #: static_nonlinearity and hysteresis are not simulator effects: they are applied to the
-#: measured dR as in the surrogate; cross_coupling needs the 3-DoF segment and is not drawn here.
+#: measured dR as in the surrogate; cross_coupling is hidden in the 3-DoF segment.
+#: Contractor records: estimation = staircase + step_60, validation = step_40 (porosity 72-86 %).
 SIM_STRENGTHS = {
     "drift": "rate_pct_per_min 1-3 % of R0 per minute",
     "time_delay": "delay_s 0.15-0.5 s",
@@ -210,6 +211,8 @@ SIM_STRENGTHS = {
     "outliers": "glitch_pct 10-30 % dR with probability 0.3-1 % per sample",
     "static_nonlinearity": "bend s in [0.4, 0.9] on the normalised measured dR",
     "hysteresis": "rate-independent lag of the measured dR, memory 5-15 %, weight 0.3-0.6",
+    "cross_coupling": "3-DoF segment (porosity 70-82 %): gain 0.1-0.3 of the neighbours' strain leaks into "
+                      "contractor 0's contact strain",
 }
 SIM_CAUSES = tuple(SIM_STRENGTHS)
 

@@ -20,10 +20,14 @@ def fit_percent(y, yhat) -> float:
 
 
 def rms_percent(y, yhat) -> float:
-    """RMS error in % of max(y), as the paper reports it."""
+    """RMS error in % of the output's peak, as the paper reports it (100 / max(y) RMSE).
+
+    The peak is taken as max(|y|): for outputs that swing both ways or stay negative (a tilt
+    angle), max(y) can be near zero and would blow the figure up.
+    """
     y = np.asarray(y, dtype=float).ravel()
     yhat = np.asarray(yhat, dtype=float).ravel()
-    peak = np.max(y)
+    peak = np.max(np.abs(y))
     if peak == 0.0:
         return float("nan")
     return float(100.0 / peak * np.sqrt(np.mean((y - yhat) ** 2)))

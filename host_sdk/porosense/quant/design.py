@@ -181,9 +181,25 @@ def _fmt_roots(r: np.ndarray) -> str:
 
 # -- tables ------------------------------------------------------------------------------
 
-def quantize_pwl(f: PiecewiseLinear, s_x: float, s_y: float, notes: list[str], name: str) -> PwlQ:
-    """A float table with input scale s_x and output scale s_y -> PwlQ."""
-    xq = np.clip(np.round(f.x / s_x), -32768, 32767).astype(int)
+def _table_points(f: PiecewiseLinear, s_x: float, x_range) -> np.ndarray:
+    """Breakpoints (LSB of the input) for the input interval ``x_range``: the ones inside, and
+    the interval's ends in place of the breakpoints beyond them (outside the interval the table
+    only extrapolates, so no more points than the float table). Without the ends, a breakpoint
+    beyond the range whose value does not fit an int16 would be dropped and the segment inside
+    the range would take the wrong slope."""
+    x = f.x / s_x
+    if x_range is None:
+        return x
+    lo, hi = math.floor(x_range[0] / s_x), math.ceil(x_range[1] / s_x)
+    inside = x[(x > lo) & (x < hi)]
+    return np.concatenate([[lo] if np.any(x <= lo) else [], inside, [hi] if np.any(x >= hi) else []])
+
+
+def quantize_pwl(f: PiecewiseLinear, s_x: float, s_y: float, notes: list[str], name: str,
+                 x_range: tuple[float, float] | None = None) -> PwlQ:
+    """A float table with input scale s_x and output scale s_y -> PwlQ; ``x_range``: the input
+    interval (input units) the node's scaling guarantees."""
+    xq = np.clip(np.round(_table_points(f, s_x, x_range)), -32768, 32767).astype(int)
     keep = np.concatenate([[True], np.diff(xq) > 0])
     # Breakpoints whose value does not fit an int16 lie outside the data range: leave them
     # out, so such inputs extrapolate from the last representable point and saturate (flagged).
@@ -300,7 +316,7 @@ def design_blob(structure: EstimatorStructure, input_range: list[tuple[float, fl
             s_in = input_lsb
             if br.f is not None:
                 s_f = _scale(*f_iv)
-                fq = quantize_pwl(br.f, input_lsb, s_f, notes, f"{tag}.f")
+                fq = quantize_pwl(br.f, input_lsb, s_f, notes, f"{tag}.f", x_iv)
                 nodes.append({"node": f"{tag}.f", "interval": f_iv, "scale": s_f})
                 s_in = s_f
             secs = []
@@ -314,7 +330,7 @@ def design_blob(structure: EstimatorStructure, input_range: list[tuple[float, fl
         nodes.append({"node": f"{out.name}.sum", "interval": v_iv, "scale": s_sum})
         gq = None
         if out.g is not None:
-            gq = quantize_pwl(out.g, s_sum, s_g, notes, f"{out.name}.g")
+            gq = quantize_pwl(out.g, s_sum, s_g, notes, f"{out.name}.g", v_iv)
             nodes.append({"node": f"{out.name}.g", "interval": g_iv, "scale": s_g})
         h2 = []
         if h2_sos is not None:

@@ -1,0 +1,22 @@
+"""The paper's metrics: fit % (NRMSE, simulation) and RMS % of the peak."""
+
+import numpy as np
+
+from porosense.ident import fit_percent, rms_percent
+
+
+def test_fit_and_rms_follow_the_paper_formulas():
+    rng = np.random.default_rng(2)
+    y = 10 + 5 * np.sin(np.linspace(0, 20, 500))
+    yhat = y + rng.normal(0, 0.5, y.size)
+    fit = 100 * (1 - np.linalg.norm(y - yhat) / np.linalg.norm(y - y.mean()))
+    rms = 100 / y.max() * np.sqrt(np.mean((y - yhat) ** 2))
+    assert abs(fit_percent(y, yhat) - fit) < 1e-9
+    assert abs(rms_percent(y, yhat) - rms) < 1e-9
+    assert fit_percent(y, y) == 100.0
+
+
+def test_rms_percent_of_a_negative_output_uses_its_peak_magnitude():
+    y = -np.abs(np.sin(np.linspace(0, 6, 300))) * 8.0  # a tilt that only goes negative
+    yhat = y + 0.08
+    assert abs(rms_percent(y, yhat) - 1.0) < 1e-6  # 0.08 of a peak of 8

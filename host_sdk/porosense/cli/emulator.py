@@ -44,6 +44,7 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--no-imu", action="store_true", help="boot with the BNO055 disconnected")
     p.add_argument("--reset-after-model-bytes", type=int, default=None, metavar="N",
                    help="cut the power after N bytes of a model write reach the EEPROM")
+    p.add_argument("--json", action="store_true", help="announce the board's URL as one JSON line")
     p.add_argument("--duration", type=float, default=None, metavar="S",
                    help="stop after S seconds (default: run until Ctrl-C)")
     p.set_defaults(func=run)
@@ -67,7 +68,12 @@ def run(args) -> int:
         realtime=args.realtime, speed=args.speed, faults=faults,
     )
     mode = f"real time x{args.speed:g}" if args.realtime else "lockstep (as fast as the host reads)"
-    print(f"porosense emulator: {args.actuator} board at {emu.url} ({mode}); Ctrl-C stops", flush=True)
+    if args.json:  # one line that scripts can read before connecting
+        import json
+
+        print(json.dumps({"url": emu.url, "actuator": args.actuator, "mode": mode}), flush=True)
+    else:
+        print(f"porosense emulator: {args.actuator} board at {emu.url} ({mode}); Ctrl-C stops", flush=True)
     if args.duration is None:
         emu.serve_forever()
         return 0

@@ -21,6 +21,7 @@ def register(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--port", required=True, metavar="URL", help="serial port or pyserial URL")
     p.add_argument("blob", metavar="MODEL.bin", help="model blob")
+    p.add_argument("--json", action="store_true", help="print the stored model's info as JSON")
     p.set_defaults(func=run)
     return p
 
@@ -36,6 +37,11 @@ def run(args) -> int:
     blob = ModelBlob.from_bytes(data)  # refuse a bad file before touching the device
     with Device.open(args.port) as dev:
         info = dev.write_model(data)
+    if args.json:
+        import json
+
+        print(json.dumps({"port": args.port, "bytes": len(data), **info.to_dict()}, default=float))
+        return 0
     print(f"flashed {len(data)} bytes to {args.port}: model 0x{info.model_id:08X}, CRC 0x{info.crc:04X}, "
           f"{blob.n_inputs} inputs, {blob.n_outputs} outputs, out_scale "
           + ", ".join(f"{s:.6g}" for s in info.out_scale[: blob.n_outputs]))

@@ -23,6 +23,7 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--model", required=True, metavar="MODEL.json", help="model file")
     p.add_argument("--data", required=True, metavar="FILE", help="CSV file with the model's input columns")
     p.add_argument("--out", required=True, metavar="PRED.csv", help="where to write the predictions")
+    p.add_argument("--json", action="store_true", help="print what was written as JSON")
     p.set_defaults(func=run)
     return p
 
@@ -56,5 +57,10 @@ def run(args) -> int:
         fh.write(",".join(names) + "\n")
         for row in data:
             fh.write(",".join(repr(float(v)) for v in row) + "\n")
-    print(f"{len(data)} samples of {', '.join(names[-yhat.shape[1]:])} written to {args.out}")
+    if getattr(args, "json", False):
+        import json
+
+        print(json.dumps({"out": str(args.out), "samples": int(len(data)), "columns": names}))
+    else:
+        print(f"{len(data)} samples of {', '.join(names[-yhat.shape[1]:])} written to {args.out}")
     return 0

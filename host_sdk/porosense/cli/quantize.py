@@ -30,6 +30,7 @@ def register(sub) -> argparse.ArgumentParser:
                    help="input range in %% dR that must never overflow (default: data range + 25 %%, "
                         "or -100..100 without data)")
     p.add_argument("--model-id", type=lambda v: int(v, 0), help="32-bit tag stored in the blob")
+    p.add_argument("--json", action="store_true", help="print the quantization report as JSON")
     p.set_defaults(func=run)
     return p
 
@@ -47,6 +48,13 @@ def run(args) -> int:
         result.report.to_json(args.report)
     if args.header:
         Path(args.header).write_text(c_header(result.blob, Path(args.header).stem))
+    if args.json:
+        import json
+
+        print(json.dumps({"out": str(args.out), "bytes": result.blob.length, "crc": result.blob.crc,
+                          "model_id": result.blob.model_id, "report": result.report.to_dict()}, indent=2,
+                         default=float))
+        return 0
     for line in result.report.lines():
         print(line)
     print(f"blob written to {args.out} ({result.blob.length} bytes, CRC 0x{result.blob.crc:04X}, "

@@ -44,6 +44,7 @@ def register(sub) -> argparse.ArgumentParser:
                    help="file format (default csv with a JSON sidecar)")
     p.add_argument("--no-noise", action="store_true", help="noiseless sensors (for checks)")
     p.add_argument("--out", required=True, help="output directory (created if needed)")
+    p.add_argument("--json", action="store_true", help="print the files written as JSON")
     p.set_defaults(func=run)
     return p
 
@@ -92,6 +93,7 @@ def run(args) -> int:
         else:
             jobs += [(name, k) for k in range(args.repeats)]
     out = Path(args.out)
+    listing = []
     for name, k in jobs:
         seed = args.seed + k
         rec = run_experiment(args.actuator, name, porosity=args.porosity, load_g=args.load,
@@ -103,5 +105,12 @@ def run(args) -> int:
         if args.format in ("mat", "both"):
             written.append(rec.to_mat(out / f"{stem}.mat"))
         for path in written:
-            print(f"{path}  ({len(rec)} samples, {rec.duration:.1f} s)")
+            listing.append({"path": str(path), "experiment": name, "seed": seed, "samples": len(rec),
+                            "duration_s": rec.duration})
+            if not args.json:
+                print(f"{path}  ({len(rec)} samples, {rec.duration:.1f} s)")
+    if args.json:
+        import json
+
+        print(json.dumps(listing, indent=2))
     return 0

@@ -621,8 +621,18 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
         lim_est = np.concatenate([np.full(len(r.y), _record_limit(r.y, side, limit)) for r in ctx.est])
         lim_val = np.concatenate([np.full(len(r.y), _record_limit(r.y, side, limit)) for r in ctx.val])
         censored = np.abs(y_est - lim_est) <= 1e-6 * (float(np.ptp(y_est)) or 1.0)
-        pred, _ = ctx.fit_apply(None, mask_est=censored)
-        pred = np.maximum(pred, lim_val) if side == "low" else np.minimum(pred, lim_val)
+        clip = np.maximum if side == "low" else np.minimum
+        # the clip alone, or the clip after the generic correction refitted on unclipped samples:
+        # chosen on the last 30 % of every estimation record, fitted on the first 70 %
+        holdout = np.concatenate([np.arange(len(r.y)) >= 0.7 * len(r.y) for r in ctx.est])
+        _, refit_est = ctx.fit_apply(None, mask_est=censored | holdout)
+        rss_refit = float(np.sum((y_est - clip(refit_est, lim_est))[holdout] ** 2))
+        rss_clip = float(np.sum((y_est - clip(ctx.yhat_est, lim_est))[holdout] ** 2))
+        if rss_refit < rss_clip:
+            pred, _ = ctx.fit_apply(None, mask_est=censored)
+            pred = clip(pred, lim_val)
+        else:
+            pred = clip(ctx.yhat_val, lim_val)
     else:
         pred, _ = ctx.fit_apply(z)
     return CauseResult(res, p < alpha, f"{clus.detail['k_at']} samples ({100 * clus.detail['fraction']:.1f} % of "

@@ -16,6 +16,8 @@ Choices (all automatic, each recorded in the report):
   (-a = m + k, |k| <= 1/2) or, for poles near z = 1, the delta form (alpha1 = 2 + a1,
   alpha0 = 1 + a1 + a2 stored separately, so A(1) keeps 15 significant bits). States are
   32-bit (Q13 of the section output) everywhere.
+* Tables: the breakpoints inside the node's input interval plus the interval's ends (in place
+  of the breakpoints beyond them), so segments inside the range keep their slopes.
 """
 
 from __future__ import annotations

@@ -194,12 +194,22 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
         val_names = [n for n in recs if n not in est_names]
         searches = []
         t1 = time.perf_counter()
+        # The outputs share the EEPROM's model region: each output's chain gets an equal share,
+        # counted with wide (20-byte) sections so the quantized blob always fits.
+        from functools import partial
+
+        from porosense.quant.blob import MAX_BLOB_LEN
+        from porosense.quant.design import blob_size
+
+        share = (MAX_BLOB_LEN - 26) // len(outputs) + 26
+        size_fn = partial(blob_size, section_bytes=20.0)
         for j, name in enumerate(outputs):
             u, y = _io(recs, actuator, est_names, j)
             vu, vy = _io(recs, actuator, val_names, j)
             log(f"  identifying {name}: 4 structures, poles 1..{max_poles}, zeros < poles, 2 starts")
             searches.append(search(u=u, y=y, ts=1.0 / rate_hz, validation=(vu, vy), poles=range(1, max_poles + 1),
-                                   inputs=inputs, output=name, progress=progress))
+                                   inputs=inputs, output=name, progress=progress, size_fn=size_fn,
+                                   max_bytes=share))
         clock["identify"] = time.perf_counter() - t1
         table = paper_table(searches, est_names, val_names, outputs)
         log("")

@@ -1,9 +1,27 @@
 """Hidden effects in the actuator simulator: porosense.sim effects, diagnosed against the
 simulator calibrated on the estimation experiments (the ``--sim`` path).
 
-Strength ranges: porosense.diagnose.trials.SIM_STRENGTHS. Only the causes for which the
-calibrated-simulation diagnosis meets the bound are asserted here; the measured rates of the
-others are reported by the benchmark (see the module docstring of porosense.bench.diagnose).
+Trial (porosense.diagnose.trials.run_sim_trial): contractor, porosity drawn in 72-86 %, 20 Hz;
+estimation = staircase + step_60, validation = step_40 (cross_coupling: 3-DoF segment, porosity
+70-82 %, estimation = sequential_60 + two_level, validation = sequential_40, diagnosis of
+contractor 0 with the other two commands as unused columns). The simulator is calibrated
+(porosity, scale, offset) on the estimation part without any effect; diagnosis is not told the
+cause. Strength ranges, drawn uniformly (porosense.diagnose.trials.SIM_STRENGTHS):
+
+- drift: rate_pct_per_min 1-3 % of R0 per minute
+- time_delay: delay_s 0.15-0.5 s
+- periodic_disturbance: amplitude_pct 1-3 % dR at freq_hz 1-9 Hz
+- saturation: low_V at the divider voltage the clean step_40 record stays above for 80-95 % of
+  its samples
+- load_dependence: delta_g 200-500 g ramped in from 10-30 s over 5-15 s (in every record)
+- slow_relaxation: gain 0.1-0.2 of the change in dR, tau_s 15-40 s
+- outliers: glitch_pct 10-30 % dR with probability 0.3-1 % per sample
+- static_nonlinearity: bend s in [0.4, 0.9] on the normalised measured dR
+- hysteresis: rate-independent lag of the measured dR, memory 5-15 %, weight 0.3-0.6
+- cross_coupling: gain 0.1-0.3 of the neighbours' strain into contractor 0's contact strain
+
+Bound (issue 8): the hidden cause is top-1 in >= 90 % of trials with a positive validation
+gain; on clean data top is none in >= 90 %. Every cause of the catalogue is asserted.
 """
 
 from __future__ import annotations
@@ -15,23 +33,27 @@ import pytest
 from porosense.diagnose import trials
 from porosense.diagnose.catalogue import NONE
 
-ASSERTED = ["time_delay", "periodic_disturbance", "saturation", "outliers", "static_nonlinearity",
-            "hysteresis", NONE]
+ASSERTED = list(trials.SIM_CAUSES) + [NONE]
 IN_CI = bool(os.environ.get("CI"))
 
 
-def _check(cause, n, seed):
-    results = [trials.run_sim_trial(cause, seed + k) for k in range(n)]
+def _check(cause, n, seed, run=trials.run_sim_trial):
+    results = [run(cause, seed + k) for k in range(n)]
     tops = [r.top for r in results]
     rate = sum(t == cause for t in tops) / n
     assert rate >= 0.9, f"{cause}: top-1 in {rate:.0%} of {n} simulator trials ({tops})"
     if cause != NONE:
-        assert all(r.gain > 0 for r in results if r.top == cause)
+        gains = [r.gain for r in results if r.top == cause]
+        assert all(g > 0 for g in gains), f"{cause}: validation gains {gains}"
 
 
 @pytest.mark.parametrize("cause", ASSERTED)
 def test_sim_hidden_cause_found_quick(cause):
     _check(cause, 1, 3000)
+
+
+def test_sim_3dof_clean_is_none():
+    _check(NONE, 2, 3000, trials.run_sim_3dof_trial)
 
 
 @pytest.mark.slow

@@ -8,6 +8,9 @@ Commanded vacuum goes in (columns ``p_cmd_0..2``, kPa), a measured column comes 
 * ``scale`` and ``offset`` of the output (sensor sensitivity and zero, in the output's unit):
   linear least squares inside every evaluation.
 
+Samples piled up exactly at a record's extreme (at least 10, a clipped ADC or divider) are
+left out of the calibration cost: they only say that the output is beyond the limit.
+
 The simulation runs without noise and without any named effect: it is the nominal physics,
 and what it misses is what diagnosis is asked to find.
 """
@@ -26,7 +29,8 @@ POROSITY_BOUNDS = (60.0, 90.0)
 
 @dataclass
 class Calibration:
-    """Calibrated simulator: actuator, porosity (%), output scale and offset, fit (%) on estimation."""
+    """Calibrated simulator: actuator, porosity (%), output scale and offset, fit (%) on the
+    estimation samples it was calibrated on (clipped samples left out)."""
 
     actuator: str
     output: str
@@ -58,20 +62,36 @@ def _simulate(actuator: str, output: str, porosity: float, p_cmd: np.ndarray, ts
     return np.asarray(out[output], float)  # sample k as a recording stores it
 
 
+def _at_limit(y: np.ndarray, min_count: int = 10) -> np.ndarray:
+    """Samples exactly at the record's minimum or maximum when at least ``min_count`` sit there."""
+    tol = 1e-6 * (float(np.ptp(y)) or 1.0)
+    out = np.zeros(len(y), bool)
+    for ext in (y.min(), y.max()):
+        at = np.abs(y - ext) <= tol
+        if at.sum() >= min_count:
+            out |= at
+    return out
+
+
 def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float) -> Calibration:
     """Fit porosity, scale and offset of ``actuator``'s ``output`` to the estimation records."""
     from porosense.diagnose.metrics import fit_percent
 
     ys = np.concatenate([np.asarray(y, float) for y in y_list])
+    # samples piled up exactly at a record's extreme are clipped (ADC or divider limit): they
+    # say only that the output is beyond the limit, so they do not pull the calibration
+    keep = np.concatenate([~_at_limit(np.asarray(y, float)) for y in y_list])
+    if keep.sum() < 10:
+        keep[:] = True
 
     def affine(por):
         sims = np.concatenate([_simulate(actuator, output, por, u, ts) for u in u_list])
         X = np.column_stack([sims, np.ones_like(sims)])
-        coef, *_ = np.linalg.lstsq(X, ys, rcond=None)
+        coef, *_ = np.linalg.lstsq(X[keep], ys[keep], rcond=None)
         return coef, X @ coef
 
     def cost(por):
-        return float(np.sum((ys - affine(por)[1]) ** 2))
+        return float(np.sum((ys - affine(por)[1])[keep] ** 2))
 
     grid = np.linspace(*POROSITY_BOUNDS, 7)
     costs = [cost(p) for p in grid]
@@ -80,4 +100,4 @@ def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float)
     sol = optimize.minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 0.05})
     por = float(sol.x) if sol.fun <= costs[k] else float(grid[k])
     (scale, offset), pred = affine(por)
-    return Calibration(actuator, output, por, float(scale), float(offset), fit_percent(ys, pred))
+    return Calibration(actuator, output, por, float(scale), float(offset), fit_percent(ys[keep], pred[keep]))

@@ -9,7 +9,10 @@ a generic linear correction G0 (a Laguerre filter bank of every used input, at t
 own dominant pole, and a constant) and the cause's own terms (see :mod:`.extensions`). A cause
 is *found* when its test, conditional on G0, is significant at alpha / 10 (alpha = 1 %
 family-wise over the ten causes: Bonferroni) and its extension improves the validation fit by
-more than ``min_gain`` points. Found causes are ranked by the strength (-log10 p) of their test.
+more than ``min_gain`` points. Found causes are ranked by the strength (-log10 p) of their test;
+tests of causes that mimic each other (static map, hysteresis, slow mode, drift) are each
+conditional on the others' regressors, so that the strength measures what only that cause
+explains.
 """
 
 from __future__ import annotations

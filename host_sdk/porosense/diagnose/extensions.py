@@ -253,6 +253,18 @@ def _play_set(ctx: Context):
     return z_h
 
 
+def _trend_blocks(ctx: Context, n_terms: int = 3) -> np.ndarray:
+    """Slow cosines of time, one block per estimation record (a separate trend in each file)."""
+    blocks, start = [], 0
+    total = sum(ctx.seg_est)
+    for n in ctx.seg_est:
+        B = np.zeros((total, n_terms))
+        B[start : start + n] = signals.cosine_trend_basis(n, n_terms)
+        blocks.append(B)
+        start += n
+    return np.column_stack(blocks)
+
+
 def _trend(r) -> np.ndarray:
     """Offset and gain drifting linearly from the start of the record (time in s)."""
     return np.column_stack([r.t, r.t * r.yhat])
@@ -313,8 +325,8 @@ def _slow_sets(ctx: Context):
     by_id = {id(r): f for r, f in zip(ctx.est + ctx.val, filtered)}
     z_h = _play_set(ctx)
     static = _static_sets(ctx)
-    base = np.column_stack([ctx.stack(shape, ctx.est), ctx.stack(_trend, ctx.est), ctx.stack(z_h, ctx.est)]
-                           + [ctx.stack(zs, ctx.est) for zs in static.values()])
+    base = np.column_stack([ctx.stack(shape, ctx.est), ctx.stack(_trend, ctx.est), ctx.stack(z_h, ctx.est),
+                            _trend_blocks(ctx, 2)] + [ctx.stack(zs, ctx.est) for zs in static.values()])
     best = None
     for tau in taus:
         a = float(np.exp(-ctx.ts / tau))
@@ -387,19 +399,11 @@ def drift(ctx: Context, alpha: float) -> CauseResult:
     def z(r, recs=None):
         return signals.cosine_trend_basis(len(r.y), n_terms)
 
-    # one block of cosines per record (a separate trend in each file)
-    blocks, start = [], 0
-    total = sum(ctx.seg_est)
-    for n in ctx.seg_est:
-        B = np.zeros((total, n_terms))
-        B[start : start + n] = signals.cosine_trend_basis(n, n_terms)
-        blocks.append(B)
-        start += n
     # a trend that no input explains: conditional on the slow mode of the inputs
     (_, z_slow, _), _ = _slow_sets(ctx)
     shape, _, _ = _output_shape(ctx)
     base = np.column_stack([ctx.stack(z_slow, ctx.est), ctx.stack(shape, ctx.est)])
-    test = ctx.f_test(np.column_stack(blocks), extra_base=base)
+    test = ctx.f_test(_trend_blocks(ctx, n_terms), extra_base=base)
     res = stats.f_result("F(residual ~ slow trend in time | slow mode)", test, alpha)
     pred_g0_val, pred_g0_est = ctx.fit_apply(None)
     r_est = np.concatenate([r.y for r in ctx.est]) - pred_g0_est

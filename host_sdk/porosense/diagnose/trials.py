@@ -205,7 +205,8 @@ SIM_STRENGTHS = {
     "drift": "rate_pct_per_min 1-3 % of R0 per minute",
     "time_delay": "delay_s 0.15-0.5 s",
     "periodic_disturbance": "amplitude_pct 1-3 % dR at freq_hz 1-9 Hz",
-    "saturation": "low_V at the divider voltage the clean staircase stays above for 80-95 % of its samples",
+    "saturation": "low_V at the divider voltage the clean step_40 record (the validation, the shallowest "
+                  "stroke) stays above for 80-95 % of its samples",
     "load_dependence": "delta_g 200-500 g ramped in from 10-30 s over 5-15 s",
     "slow_relaxation": "gain 0.1-0.2 of the change in dR, tau_s 15-40 s",
     "outliers": "glitch_pct 10-30 % dR with probability 0.3-1 % per sample",
@@ -296,7 +297,8 @@ def run_sim_trial(cause: str, seed: int) -> Trial:
         {"memory": rng.uniform(0.05, 0.15), "h": rng.uniform(0.3, 0.6)} if cause == "hysteresis" else {})
     porosity = rng.uniform(72.0, 86.0)
     if cause == "saturation":  # clip at the voltage a drawn share of the clean record lies below
-        clean = sim.run_experiment("contractor", "staircase", porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10)
+        # on the validation experiment (the shallowest stroke): the clip must show in every record
+        clean = sim.run_experiment("contractor", "step_40", porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10)
         volts = 5.0 * clean["R_0"] / (clean["R_0"] + 1000.0)
         effects = {"saturation": {"low_V": float(np.quantile(volts, effects["saturation"]["quantile"]))}}
     parts = []

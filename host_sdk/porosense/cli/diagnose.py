@@ -4,23 +4,10 @@ from __future__ import annotations
 
 import argparse
 
+from porosense.cli._args import parse_columns, parse_range
 from porosense.errors import InputError, ModelError
 
 STRUCTURES = ("linear", "hammerstein", "wiener", "wh")
-
-
-def parse_range(text: str | None) -> slice | None:
-    """'A:B' (Python slice semantics, either side may be empty) -> slice; None stays None."""
-    if text is None:
-        return None
-    parts = text.split(":")
-    if len(parts) != 2:
-        raise InputError(f"sample range '{text}' must look like A:B (for example 0:3000 or 3000:)")
-    try:
-        a, b = (int(p) if p.strip() else None for p in parts)
-    except ValueError:
-        raise InputError(f"sample range '{text}': A and B must be integers") from None
-    return slice(a, b)
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -68,13 +55,6 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--report", metavar="DIR", help="write figures and a Markdown summary into DIR")
     p.set_defaults(func=run)
     return p
-
-
-def _columns(text: str, what: str) -> list[str]:
-    cols = [c.strip() for c in text.split(",") if c.strip()]
-    if not cols:
-        raise InputError(f"--{what} needs at least one column name")
-    return cols
 
 
 def _load(files, inputs, output, conditions):
@@ -168,7 +148,7 @@ def run(args) -> int:
 
     from porosense.diagnose import Record, diagnose
 
-    inputs = _columns(args.input, "input")
+    inputs = parse_columns(args.input, "input")
     conditions = [c for c in args.condition if c not in inputs and c != args.output]
     if not args.ts > 0:
         raise InputError("--ts must be a positive sample period in seconds")

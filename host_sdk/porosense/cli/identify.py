@@ -5,23 +5,10 @@ from __future__ import annotations
 import argparse
 import json
 
+from porosense.cli._args import parse_columns, parse_range
 from porosense.errors import InputError
 
 STRUCTURE_CHOICES = ("linear", "hammerstein", "wiener", "wh", "all")
-
-
-def parse_range(text: str | None) -> slice:
-    """'A:B' (Python slice semantics, either side may be empty) -> slice."""
-    if text is None:
-        return slice(None)
-    parts = text.split(":")
-    if len(parts) != 2:
-        raise InputError(f"sample range '{text}' must look like A:B (for example 0:3000 or 3000:)")
-    try:
-        a, b = (int(p) if p.strip() else None for p in parts)
-    except ValueError:
-        raise InputError(f"sample range '{text}': A and B must be integers") from None
-    return slice(a, b)
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -60,13 +47,6 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
     return p
-
-
-def _columns(text: str, what: str) -> list[str]:
-    cols = [c.strip() for c in text.split(",") if c.strip()]
-    if not cols:
-        raise InputError(f"--{what} needs at least one column name")
-    return cols
 
 
 def load_recordings(files, inputs, outputs, rng: slice):
@@ -109,8 +89,8 @@ def run(args) -> int:
 
     from porosense import ident
 
-    inputs = _columns(args.input, "input")
-    outputs = _columns(args.output, "output")
+    inputs = parse_columns(args.input, "input")
+    outputs = parse_columns(args.output, "output")
     if len(inputs) > 3:
         raise InputError(f"{len(inputs)} input columns; at most 3")
     if not args.ts > 0:
@@ -121,10 +101,10 @@ def run(args) -> int:
         raise InputError("--zeros must be smaller than --poles")
     if not 2 <= args.breakpoints <= 64:
         raise InputError("--breakpoints must be 2..64")
-    est_u, est_y, est_skip = load_recordings(args.data, inputs, outputs, parse_range(args.estimation))
+    est_u, est_y, est_skip = load_recordings(args.data, inputs, outputs, parse_range(args.estimation) or slice(None))
     val = None
     if args.validation is not None:
-        val = load_recordings(args.data, inputs, outputs, parse_range(args.validation))
+        val = load_recordings(args.data, inputs, outputs, parse_range(args.validation) or slice(None))
     structures = tuple(ident.KINDS) if args.structure == "all" else (args.structure,)
     if args.poles is not None:
         poles = [args.poles]

@@ -31,6 +31,7 @@ REALTIME_TX_BUFFER = 64
 BAUD = 115200
 FAST_BATCH_BYTES = 1024
 MAX_CATCH_UP_S = 1.0
+WRAP_US = float(1 << 32)  # the device's microsecond clock wraps here
 IDLE_WAIT_S = 0.02
 
 
@@ -171,6 +172,12 @@ class Emulator:
             times = log.get("t_us", [])
             if not times or t_us.size == 0:
                 return {}
+            # SAMPLE times wrap every 2^32 us (71.6 min); the log's do not. Re-base the query on
+            # the log's clock: its first sample lies within one wrap before the latest entry.
+            first = float(t_us.min())
+            first_mod = first % WRAP_US
+            wraps = np.floor((times[-1] - first_mod) / WRAP_US)
+            t_us = t_us - (first - first_mod) + wraps * WRAP_US
             # Only the part of the log that the query spans (the log grows all run long).
             lo = max(0, bisect.bisect_left(times, float(t_us.min())) - 1)
             hi = min(len(times), bisect.bisect_right(times, float(t_us.max())) + 1)

@@ -1,6 +1,7 @@
 // Host tests of the device core (firmware/lib/core/device.*, device_config.*, sensing.*,
 // link_watchdog.h, rate_divider.h) against a fake board: duplicate commands, output limits,
 // the host-link watchdog, overrun counting, dR arithmetic, the configuration store.
+#include "check.h"
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -14,16 +15,6 @@
 #include "rate_divider.h"
 #include "sensing.h"
 
-static int g_failures = 0;
-static int g_checks = 0;
-#define CHECK(cond)                                                        \
-  do {                                                                     \
-    ++g_checks;                                                            \
-    if (!(cond)) {                                                         \
-      ++g_failures;                                                        \
-      printf("FAIL %s:%d: %s\n", __FILE__, __LINE__, #cond);               \
-    }                                                                      \
-  } while (0)
 
 namespace r = proto::result;
 namespace f = proto::flag;

@@ -1,6 +1,7 @@
 // The fixed-point estimator against the Python bit-exact reference (porosense.quant):
 // every case of data/estimator_vectors.txt (or the file given as argv[1]) must give the same
 // estimates and flags sample for sample; a reset must reproduce the start of the run.
+#include "check.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -9,18 +10,7 @@
 
 namespace {
 
-int failures = 0;
 
-#define CHECK(cond, ...)                                   \
-  do {                                                     \
-    if (!(cond)) {                                         \
-      ++failures;                                          \
-      printf("FAIL %s:%d: ", __FILE__, __LINE__);          \
-      printf(__VA_ARGS__);                                 \
-      printf("\n");                                        \
-      if (failures > 20) exit(1);                          \
-    }                                                      \
-  } while (0)
 
 struct Row { int16_t u[3]; int16_t e[3]; uint8_t flags; };
 
@@ -42,7 +32,7 @@ bool run_case(FILE* fh, int index, long* samples, long* saturated) {
   }
   est::RamBlobReader reader(data, uint16_t(len));
   est::Estimator e;
-  CHECK(e.load(reader, uint16_t(len), uint16_t(max_len)), "case %d: load refused a valid blob", index);
+  CHECK_MSG(e.load(reader, uint16_t(len), uint16_t(max_len)), "case %d: load refused a valid blob", index);
   for (int pass = 0; pass < 2 && e.loaded(); ++pass) {
     unsigned upto = pass == 0 ? n : (n < 64 ? n : 64);  // after reset: the start again
     if (pass == 1) e.reset();
@@ -50,7 +40,7 @@ bool run_case(FILE* fh, int index, long* samples, long* saturated) {
       int16_t out[3];
       uint8_t fl = e.step(rows[t].u, out);
       bool same = fl == rows[t].flags && memcmp(out, rows[t].e, sizeof(out)) == 0;
-      CHECK(same, "case %d pass %d sample %u: got %d %d %d flags %u, reference %d %d %d flags %u", index,
+      CHECK_MSG(same, "case %d pass %d sample %u: got %d %d %d flags %u, reference %d %d %d flags %u", index,
             pass, t, out[0], out[1], out[2], fl, rows[t].e[0], rows[t].e[1], rows[t].e[2], rows[t].flags);
       if (!same) break;
       if (pass == 0) { ++*samples; *saturated += fl & 1; }
@@ -60,7 +50,7 @@ bool run_case(FILE* fh, int index, long* samples, long* saturated) {
   for (unsigned i = 0; i < len; i += 7) {
     data[i] ^= 0x5A;
     est::Estimator bad;
-    CHECK(!bad.load(reader, uint16_t(len), uint16_t(max_len)), "case %d: corrupted byte %u accepted", index, i);
+    CHECK_MSG(!bad.load(reader, uint16_t(len), uint16_t(max_len)), "case %d: corrupted byte %u accepted", index, i);
     data[i] ^= 0x5A;
   }
   free(data);
@@ -84,9 +74,9 @@ int main(int argc, char** argv) {
   // An estimator without a model is off: zero estimates, no flags.
   est::Estimator off;
   int16_t in[3] = {100, -200, 300}, out[3] = {1, 1, 1};
-  CHECK(off.step(in, out) == 0 && out[0] == 0 && out[1] == 0 && out[2] == 0, "unloaded estimator not off");
+  CHECK_MSG(off.step(in, out) == 0 && out[0] == 0 && out[1] == 0 && out[2] == 0, "unloaded estimator not off");
   printf("estimator: %d cases, %ld samples bit-exact (%ld saturated), state RAM %u bytes, object %u bytes\n",
          cases, samples, saturated, unsigned(est::Estimator::kStateBytes), unsigned(sizeof(est::Estimator)));
   if (cases < 1 || samples < 1) { printf("FAIL no vectors\n"); return 1; }
-  return failures ? 1 : 0;
+  return g_failures ? 1 : 0;
 }

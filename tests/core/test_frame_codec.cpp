@@ -1,5 +1,6 @@
 // The C++ frame codec against protocol/vectors/frames.txt (read at run time, cwd tests/core),
 // plus exhaustive error-detection checks on sample frames. Exit 0 when every check passes.
+#include "check.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,21 +14,7 @@ using namespace proto;
 
 namespace {
 
-int failures = 0;
-int checks = 0;
 
-#define CHECK(cond, ...)                                  \
-  do {                                                    \
-    ++checks;                                             \
-    if (!(cond)) {                                        \
-      ++failures;                                         \
-      if (failures <= 30) {                               \
-        printf("FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-        printf(__VA_ARGS__);                              \
-        printf("\n");                                     \
-      }                                                   \
-    }                                                     \
-  } while (0)
 
 typedef std::vector<uint8_t> Bytes;
 
@@ -52,7 +39,7 @@ std::vector<Decoded> feed_all(FrameDecoder& dec, const Bytes& stream) {
   std::vector<Decoded> frames;
   for (size_t i = 0; i < stream.size(); ++i) {
     if (dec.feed(stream[i])) {
-      CHECK(stream[i] == 0, "frame reported on a non-delimiter byte at %zu", i);
+      CHECK_MSG(stream[i] == 0, "frame reported on a non-delimiter byte at %zu", i);
       Decoded d;
       d.version = dec.version();
       d.type = dec.type();
@@ -71,13 +58,13 @@ bool counters_zero_but_frames(const DecoderCounters& c) {
 
 void check_crc() {
   const char* s = "123456789";
-  CHECK(crc16((const uint8_t*)s, 9) == 0x6F91, "check value 0x%04X", crc16((const uint8_t*)s, 9));
+  CHECK_MSG(crc16((const uint8_t*)s, 9) == 0x6F91, "check value 0x%04X", crc16((const uint8_t*)s, 9));
   // The byte-wise form equals the bit-wise definition on every byte and a few states.
   for (uint32_t state = 0; state < 0x10000; state += 0x1111) {
     for (uint16_t b = 0; b < 256; ++b) {
       uint16_t bitwise = (uint16_t)(state ^ b);
       for (int k = 0; k < 8; ++k) bitwise = (bitwise & 1) ? (uint16_t)((bitwise >> 1) ^ 0x8408) : (uint16_t)(bitwise >> 1);
-      CHECK(crc16_update((uint16_t)state, (uint8_t)b) == bitwise, "state %04X byte %02X", (unsigned)state, b);
+      CHECK_MSG(crc16_update((uint16_t)state, (uint8_t)b) == bitwise, "state %04X byte %02X", (unsigned)state, b);
     }
   }
 }
@@ -90,16 +77,16 @@ void check_frame_vector(const char* name, int version, int type, int seq, const 
   uint8_t out[kMaxFrameLen];
   uint8_t n = encode_frame((uint8_t)type, (uint8_t)seq, payload.empty() ? nullptr : payload.data(),
                            (uint8_t)payload.size(), out, (uint8_t)version);
-  CHECK(n == frame.size() && memcmp(out, frame.data(), n) == 0, "%s: encoding differs (%u vs %zu bytes)",
+  CHECK_MSG(n == frame.size() && memcmp(out, frame.data(), n) == 0, "%s: encoding differs (%u vs %zu bytes)",
         name, n, frame.size());
   FrameDecoder dec;
   std::vector<Decoded> got = feed_all(dec, frame);
-  CHECK(got.size() == 1, "%s: %zu frames decoded", name, got.size());
+  CHECK_MSG(got.size() == 1, "%s: %zu frames decoded", name, got.size());
   if (got.size() == 1) {
-    CHECK(got[0].version == version && got[0].type == type && got[0].seq == seq && got[0].payload == payload,
+    CHECK_MSG(got[0].version == version && got[0].type == type && got[0].seq == seq && got[0].payload == payload,
           "%s: decoded fields differ", name);
   }
-  CHECK(dec.counters().frames == 1 && counters_zero_but_frames(dec.counters()), "%s: counters", name);
+  CHECK_MSG(dec.counters().frames == 1 && counters_zero_but_frames(dec.counters()), "%s: counters", name);
 }
 
 void check_stream_vector(const char* name, const Bytes& stream, const uint16_t want[7],
@@ -109,23 +96,23 @@ void check_stream_vector(const char* name, const Bytes& stream, const uint16_t w
   std::vector<Decoded> got = feed_all(dec, stream);
   const DecoderCounters& c = dec.counters();
   const uint16_t have[7] = {c.frames, c.bad_cobs, c.bad_crc, c.bad_length, c.bad_version, c.unknown_type, c.overlong};
-  for (int i = 0; i < 7; ++i) CHECK(have[i] == want[i], "%s: counter %d is %u, want %u", name, i, have[i], want[i]);
-  CHECK(got.size() == want_frames.size(), "%s: %zu frames, want %zu", name, got.size(), want_frames.size());
+  for (int i = 0; i < 7; ++i) CHECK_MSG(have[i] == want[i], "%s: counter %d is %u, want %u", name, i, have[i], want[i]);
+  CHECK_MSG(got.size() == want_frames.size(), "%s: %zu frames, want %zu", name, got.size(), want_frames.size());
   for (size_t i = 0; i < got.size() && i < want_frames.size(); ++i) {
     const Decoded& a = got[i];
     const Decoded& b = want_frames[i];
-    CHECK(a.version == b.version && a.type == b.type && a.seq == b.seq && a.payload == b.payload,
+    CHECK_MSG(a.version == b.version && a.type == b.type && a.seq == b.seq && a.payload == b.payload,
           "%s: frame %zu differs", name, i);
   }
 }
 
 void check_vectors(const char* path) {
   FILE* f = fopen(path, "r");
-  CHECK(f != nullptr, "cannot open %s", path);
+  CHECK_MSG(f != nullptr, "cannot open %s", path);
   if (!f) return;
   static char line[8192];
   while (fgets(line, sizeof line, f)) {
-    CHECK(strlen(line) < sizeof line - 1, "line too long");
+    CHECK_MSG(strlen(line) < sizeof line - 1, "line too long");
     if (line[0] == '#' || line[0] == '\n') continue;
     std::vector<std::string> tok;
     for (char* t = strtok(line, " \n"); t; t = strtok(nullptr, " \n")) tok.push_back(t);
@@ -136,7 +123,7 @@ void check_vectors(const char* path) {
       uint16_t want[7];
       for (int i = 0; i < 7; ++i) want[i] = (uint16_t)atoi(tok[3 + i].c_str());
       size_t n = (size_t)atoi(tok[10].c_str());
-      CHECK(tok.size() == 11 + 4 * n, "%s: malformed stream line", tok[1].c_str());
+      CHECK_MSG(tok.size() == 11 + 4 * n, "%s: malformed stream line", tok[1].c_str());
       std::vector<Decoded> frames;
       for (size_t i = 0; i < n && 11 + 4 * i + 3 < tok.size(); ++i) {
         Decoded d;
@@ -148,7 +135,7 @@ void check_vectors(const char* path) {
       }
       check_stream_vector(tok[1].c_str(), from_hex(tok[2].c_str()), want, frames);
     } else {
-      CHECK(false, "unknown vector line starting %s", tok[0].c_str());
+      CHECK_MSG(false, "unknown vector line starting %s", tok[0].c_str());
     }
   }
   fclose(f);
@@ -248,13 +235,13 @@ void check_encoder_limits() {
   uint8_t out[kMaxFrameLen];
   uint8_t payload[kMaxPayload + 1];
   memset(payload, 0, sizeof payload);
-  CHECK(encode_frame(msg::MODEL_CHUNK, 1, payload, kMaxPayload + 1, out) == 0, "oversized payload accepted");
-  CHECK(encode_frame(msg::PING, 1, nullptr, 4, out) == 0, "null payload accepted");
+  CHECK_MSG(encode_frame(msg::MODEL_CHUNK, 1, payload, kMaxPayload + 1, out) == 0, "oversized payload accepted");
+  CHECK_MSG(encode_frame(msg::PING, 1, nullptr, 4, out) == 0, "null payload accepted");
   // Worst case size: the largest payload, whatever its content, fits kMaxFrameLen.
   for (int fill = 0; fill < 256; fill += 51) {
     memset(payload, fill, sizeof payload);
     uint8_t n = encode_frame(msg::MODEL_CHUNK, 1, payload, kMaxPayload, out);
-    CHECK(n == kMaxPayload + kHeaderLen + kCrcLen + 2 && n <= kMaxFrameLen, "largest frame is %u bytes", n);
+    CHECK_MSG(n == kMaxPayload + kHeaderLen + kCrcLen + 2 && n <= kMaxFrameLen, "largest frame is %u bytes", n);
   }
 }
 
@@ -264,9 +251,9 @@ void check_counters_saturate() {
   for (uint32_t i = 0; i < 70000; ++i) {
     for (size_t k = 0; k < sizeof bad; ++k) dec.feed(bad[k]);
   }
-  CHECK(dec.counters().bad_cobs == 0xFFFF, "bad_cobs is %u after 70000", dec.counters().bad_cobs);
+  CHECK_MSG(dec.counters().bad_cobs == 0xFFFF, "bad_cobs is %u after 70000", dec.counters().bad_cobs);
   dec.reset();
-  CHECK(dec.counters().bad_cobs == 0, "reset keeps counters");
+  CHECK_MSG(dec.counters().bad_cobs == 0, "reset keeps counters");
 }
 
 }  // namespace
@@ -276,7 +263,7 @@ int main() {
   check_encoder_limits();
   check_counters_saturate();
   check_vectors("../../protocol/vectors/frames.txt");
-  CHECK(n_frame_vectors >= 33 && n_stream_vectors >= 10, "only %d frame and %d stream vectors", n_frame_vectors,
+  CHECK_MSG(n_frame_vectors >= 33 && n_stream_vectors >= 10, "only %d frame and %d stream vectors", n_frame_vectors,
         n_stream_vectors);
 
   const uint8_t ping_payload[] = {0x78, 0x56, 0x34, 0x12};
@@ -287,12 +274,12 @@ int main() {
   body_tried += check_body_bursts(msg::ACK, ack, &body_accepted);
   uint32_t wire_tried = check_wire_bursts(msg::PING, ping, &wire_accepted);
   wire_tried += check_wire_bursts(msg::ACK, ack, &wire_accepted);
-  CHECK(body_accepted == 0, "%u of %u body bursts accepted", body_accepted, body_tried);
-  CHECK(wire_accepted == 0, "%u of %u wire bursts accepted", wire_accepted, wire_tried);
+  CHECK_MSG(body_accepted == 0, "%u of %u body bursts accepted", body_accepted, body_tried);
+  CHECK_MSG(wire_accepted == 0, "%u of %u wire bursts accepted", wire_accepted, wire_tried);
 
   printf("frame vectors %d, stream vectors %d\n", n_frame_vectors, n_stream_vectors);
   printf("body bursts <= 16 bits: %u tried, %u accepted\n", body_tried, body_accepted);
   printf("wire bursts <= 16 bits: %u tried, %u accepted\n", wire_tried, wire_accepted);
-  printf("%d checks, %d failures\n", checks, failures);
-  return failures == 0 ? 0 : 1;
+  printf("%d checks, %d failures\n", g_checks, g_failures);
+  return g_failures == 0 ? 0 : 1;
 }

@@ -1,6 +1,7 @@
 // The EEPROM model store: protocol result codes, CRC and structure checks, corruption of
 // every stored byte, and a reset (torn write) at every write of a flash sequence, which
 // must leave the old model or no model, never a broken one.
+#include "check.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -11,17 +12,6 @@
 
 namespace {
 
-int failures = 0;
-#define CHECK(cond, ...)                                              \
-  do {                                                                \
-    if (!(cond)) {                                                    \
-      ++failures;                                                     \
-      printf("FAIL %s:%d: ", __FILE__, __LINE__);                     \
-      printf(__VA_ARGS__);                                            \
-      printf("\n");                                                   \
-      if (failures > 20) exit(1);                                     \
-    }                                                                 \
-  } while (0)
 
 namespace res = proto::result;
 
@@ -106,62 +96,62 @@ int main() {
   {
     FakeEeprom ee; est::Estimator e; est::ModelStore st(ee, e);
     st.boot();
-    CHECK(st.status() == 0 && !e.loaded(), "blank EEPROM: status %u", st.status());
+    CHECK_MSG(st.status() == 0 && !e.loaded(), "blank EEPROM: status %u", st.status());
     uint8_t buf[4];
-    CHECK(st.read(0, 4, buf) == res::NO_MODEL, "read without a model");
+    CHECK_MSG(st.read(0, 4, buf) == res::NO_MODEL, "read without a model");
   }
   // Flash, reboot, info, read back.
   FakeEeprom base; 
   {
     est::Estimator e; est::ModelStore st(base, e);
     st.boot();
-    CHECK(flash(st, A), "flashing a valid blob failed");
-    CHECK(st.status() == 1 && e.loaded() && st.crc() == A.crc(), "after commit");
+    CHECK_MSG(flash(st, A), "flashing a valid blob failed");
+    CHECK_MSG(st.status() == 1 && e.loaded() && st.crc() == A.crc(), "after commit");
     est::Estimator e2; est::ModelStore st2(base, e2);
     st2.boot();
-    CHECK(st2.status() == 1 && st2.crc() == A.crc() && st2.length() == A.len, "after reboot: status %u", st2.status());
-    CHECK(runs_like(e2, A), "estimator from EEPROM differs from the reference");
+    CHECK_MSG(st2.status() == 1 && st2.crc() == A.crc() && st2.length() == A.len, "after reboot: status %u", st2.status());
+    CHECK_MSG(runs_like(e2, A), "estimator from EEPROM differs from the reference");
     proto::ModelInfoReply info;
     st2.info(&info);
-    CHECK(info.status == 1 && info.length == A.len && info.crc == A.crc() && info.format_version == 1 &&
+    CHECK_MSG(info.status == 1 && info.length == A.len && info.crc == A.crc() && info.format_version == 1 &&
           info.n_inputs == A.data[3] && info.n_outputs == A.data[4], "MODEL_INFO fields");
     uint8_t buf[112];
-    CHECK(st2.read(0, 112, buf) == res::OK && memcmp(buf, A.data, 112) == 0, "MODEL_READ content");
-    CHECK(st2.read(uint16_t(A.len - 1), 2, buf) == res::OUT_OF_RANGE, "MODEL_READ past the end");
+    CHECK_MSG(st2.read(0, 112, buf) == res::OK && memcmp(buf, A.data, 112) == 0, "MODEL_READ content");
+    CHECK_MSG(st2.read(uint16_t(A.len - 1), 2, buf) == res::OUT_OF_RANGE, "MODEL_READ past the end");
   }
   // Result codes.
   {
     FakeEeprom ee = base; est::Estimator e; est::ModelStore st(ee, e);
     st.boot();
     int16_t d = 0;
-    CHECK(st.begin(1000, 0, 1, &d) == res::TOO_LARGE && d == 48, "TOO_LARGE detail %d", d);
-    CHECK(st.status() == 1, "a refused BEGIN must keep the model");
-    CHECK(st.begin(100, 0, 2, &d) == res::BAD_MODEL, "format version 2 accepted");
-    CHECK(st.chunk(0, A.data, 10, &d) == res::BAD_STATE, "CHUNK without BEGIN");
-    CHECK(st.commit(&d) == res::BAD_STATE, "COMMIT without BEGIN");
-    CHECK(st.begin(A.len, A.crc(), 1, &d) == res::OK && st.status() == 0 && !e.loaded(), "BEGIN invalidates");
-    CHECK(st.chunk(0, A.data, 100, &d) == res::OK, "first chunk");
-    CHECK(st.chunk(50, A.data, 10, &d) == res::BAD_STATE && d == 100, "non-contiguous chunk detail %d", d);
-    CHECK(st.commit(&d) == res::BAD_STATE && d == 100, "early COMMIT detail %d", d);
-    CHECK(st.chunk(100, A.data, 112, &d) == (A.len >= 212 ? res::OK : res::TOO_LARGE), "second chunk");
+    CHECK_MSG(st.begin(1000, 0, 1, &d) == res::TOO_LARGE && d == 48, "TOO_LARGE detail %d", d);
+    CHECK_MSG(st.status() == 1, "a refused BEGIN must keep the model");
+    CHECK_MSG(st.begin(100, 0, 2, &d) == res::BAD_MODEL, "format version 2 accepted");
+    CHECK_MSG(st.chunk(0, A.data, 10, &d) == res::BAD_STATE, "CHUNK without BEGIN");
+    CHECK_MSG(st.commit(&d) == res::BAD_STATE, "COMMIT without BEGIN");
+    CHECK_MSG(st.begin(A.len, A.crc(), 1, &d) == res::OK && st.status() == 0 && !e.loaded(), "BEGIN invalidates");
+    CHECK_MSG(st.chunk(0, A.data, 100, &d) == res::OK, "first chunk");
+    CHECK_MSG(st.chunk(50, A.data, 10, &d) == res::BAD_STATE && d == 100, "non-contiguous chunk detail %d", d);
+    CHECK_MSG(st.commit(&d) == res::BAD_STATE && d == 100, "early COMMIT detail %d", d);
+    CHECK_MSG(st.chunk(100, A.data, 112, &d) == (A.len >= 212 ? res::OK : res::TOO_LARGE), "second chunk");
     // Wrong CRC announced at BEGIN.
-    CHECK(st.begin(A.len, uint16_t(A.crc() ^ 1), 1, &d) == res::OK, "begin");
+    CHECK_MSG(st.begin(A.len, uint16_t(A.crc() ^ 1), 1, &d) == res::OK, "begin");
     for (uint16_t off = 0; off < A.len; off = uint16_t(off + 100))
       st.chunk(off, A.data + off, uint8_t(A.len - off > 100 ? 100 : A.len - off), &d);
-    CHECK(st.commit(&d) == res::BAD_MODEL && st.status() == 0 && !e.loaded(), "bad CRC accepted");
+    CHECK_MSG(st.commit(&d) == res::BAD_MODEL && st.status() == 0 && !e.loaded(), "bad CRC accepted");
     // Valid CRC, broken structure (n_outputs = 4).
     Blob bad = A;
     bad.data[4] = 4;
     uint16_t c = proto::crc16(bad.data, uint16_t(bad.len - 2));
     bad.data[bad.len - 2] = uint8_t(c & 0xFF);
     bad.data[bad.len - 1] = uint8_t(c >> 8);
-    CHECK(!flash(st, bad) && st.status() == 0 && !e.loaded(), "structurally bad blob accepted");
+    CHECK_MSG(!flash(st, bad) && st.status() == 0 && !e.loaded(), "structurally bad blob accepted");
     est::ModelStore st2(ee, e);
     st2.boot();
-    CHECK(st2.status() == 0, "after failed commits: status %u", st2.status());
-    CHECK(flash(st, B) && st.erase() == res::OK && st.status() == 0 && !e.loaded(), "erase");
+    CHECK_MSG(st2.status() == 0, "after failed commits: status %u", st2.status());
+    CHECK_MSG(flash(st, B) && st.erase() == res::OK && st.status() == 0 && !e.loaded(), "erase");
     st2.boot();
-    CHECK(st2.status() == 0, "erased model came back");
+    CHECK_MSG(st2.status() == 0, "erased model came back");
   }
   // Corruption of every stored byte: the model must come back invalid (or absent), never run.
   int corrupt_checked = 0;
@@ -171,7 +161,7 @@ int main() {
     est::Estimator e; est::ModelStore st(ee, e);
     st.boot();
     bool magic = a < est::ModelStore::kBase + 2;
-    CHECK(st.status() == (magic ? 0 : 2) && !e.loaded(), "byte %u corrupted: status %u", a, st.status());
+    CHECK_MSG(st.status() == (magic ? 0 : 2) && !e.loaded(), "byte %u corrupted: status %u", a, st.status());
     ++corrupt_checked;
   }
   // Reset at every write of flashing B over A, clean and torn.
@@ -180,7 +170,7 @@ int main() {
     FakeEeprom ee = base; est::Estimator e; est::ModelStore st(ee, e);
     ee.writes = 0;
     st.boot();
-    CHECK(flash(st, B), "flash B");
+    CHECK_MSG(flash(st, B), "flash B");
     total = ee.writes;
   }
   int old_seen = 0, none_seen = 0, new_seen = 0;
@@ -199,21 +189,21 @@ int main() {
       st.boot();
       if (st.status() == 1) {
         bool is_old = st.crc() == A.crc(), is_new = st.crc() == B.crc();
-        CHECK(is_old || is_new, "reset at write %ld: a model that is neither old nor new", k);
-        CHECK(!is_new || k >= total, "reset at write %ld: new model valid before the last write", k);
-        CHECK(runs_like(e, is_old ? A : B), "reset at write %ld: stored model runs differently", k);
+        CHECK_MSG(is_old || is_new, "reset at write %ld: a model that is neither old nor new", k);
+        CHECK_MSG(!is_new || k >= total, "reset at write %ld: new model valid before the last write", k);
+        CHECK_MSG(runs_like(e, is_old ? A : B), "reset at write %ld: stored model runs differently", k);
         old_seen += is_old;
         new_seen += is_new;
       } else {
-        CHECK(st.status() == 0 && !e.loaded(), "reset at write %ld (torn %d): status %u", k, torn, st.status());
+        CHECK_MSG(st.status() == 0 && !e.loaded(), "reset at write %ld (torn %d): status %u", k, torn, st.status());
         ++none_seen;
       }
     }
   }
-  CHECK(new_seen >= 1 && old_seen >= 1 && none_seen >= 1, "torn-write outcomes old %d none %d new %d",
+  CHECK_MSG(new_seen >= 1 && old_seen >= 1 && none_seen >= 1, "torn-write outcomes old %d none %d new %d",
         old_seen, none_seen, new_seen);
   printf("model store: %d corrupted bytes refused; resets at %ld write positions x2 (clean/torn): "
          "old model %d, no model %d, new model %d, broken 0\n",
          corrupt_checked, total + 1, old_seen, none_seen, new_seen);
-  return failures ? 1 : 0;
+  return g_failures ? 1 : 0;
 }

@@ -1,6 +1,7 @@
 // Host tests of the standalone outputs (firmware/lib/core/standalone_out.*): the integer
 // formatter of the CSV line mode and the PWM duty of the analogue estimate output, against
 // values computed here independently (printf with exact integers, 64-bit arithmetic).
+#include "check.h"
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
@@ -9,16 +10,6 @@
 
 #include "standalone_out.h"
 
-static int g_failures = 0;
-static int g_checks = 0;
-#define CHECK(cond)                                          \
-  do {                                                       \
-    ++g_checks;                                              \
-    if (!(cond)) {                                           \
-      ++g_failures;                                          \
-      printf("FAIL %s:%d: %s\n", __FILE__, __LINE__, #cond); \
-    }                                                        \
-  } while (0)
 
 static std::string fixed(int32_t v, uint8_t decimals) {
   char buf[16];

@@ -163,7 +163,7 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
              max_poles: int = 3, seed: int = 0, progress: bool = True, log=print) -> DemoResult:
     """Run the whole pipeline for one actuator; see the module docstring. ``max_poles`` bounds
     the order search (the paper's grid is 10; 3 keeps the demo within minutes)."""
-    from porosense.ident import fit_percent, rms_percent, search
+    from porosense.ident import fit_percent, search
     from porosense.quant import FixedPointEstimator, quantize
     from porosense.structure import EstimatorStructure
 
@@ -275,7 +275,7 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
     from porosense.report.demo_report import write_demo_report
 
     t3 = time.perf_counter()
-    result.report_dir = write_demo_report(result, searches, live, structure, out, labels)
+    result.report_dir = write_demo_report(result, searches, live, structure, out, inputs, outputs, labels)
     clock["report"] = time.perf_counter() - t3
     clock["total"] = time.perf_counter() - t0
     log(f"  report: {result.report_dir / 'summary.html'} ({clock['total']:.0f} s in all)")

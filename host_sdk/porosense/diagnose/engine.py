@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from porosense.diagnose import extensions, stats
-from porosense.diagnose.catalogue import CAUSES, DESCRIPTION, NONE
+from porosense.diagnose.catalogue import CAUSES, NONE
 from porosense.diagnose.metrics import fit_percent, rms_percent
 from porosense.errors import InputError
 

@@ -17,7 +17,7 @@ def c_header(structure, name: str = "porosense_model") -> str:
     ident = re.sub(r"\W", "_", name)
     guard = ident.upper() + "_H"
     lines = [f"/* {name}: float coefficients of a porosense estimator. */",
-             f"/* y_j = offset_j + H2_j(g_j(sum_i H1_ij(f_ij(u_i[k - delay_ij] - u_offset_ij)))) */",
+             "/* y_j = offset_j + H2_j(g_j(sum_i H1_ij(f_ij(u_i[k - delay_ij] - u_offset_ij)))) */",
              f"#ifndef {guard}", f"#define {guard}", "",
              f"#define {ident.upper()}_TS {structure.ts!r}f",
              f"#define {ident.upper()}_N_INPUTS {len(structure.inputs)}",

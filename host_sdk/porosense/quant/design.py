@@ -31,7 +31,7 @@ from porosense.errors import ModelError
 from porosense.quant.blob import (
     MAX_BLOB_LEN, STATE_FRAC, BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit, pwl_len,
 )
-from porosense.structure import EstimatorStructure, PiecewiseLinear, SOSCascade
+from porosense.structure import EstimatorStructure, PiecewiseLinear
 
 FULL_SCALE = 30000.0  # LSB a node's guaranteed range maps to (of 32767)
 DC_TOLERANCE = 2e-4  # relative DC-gain error above which a numerator goes to 32 bits

@@ -18,11 +18,11 @@ from porosense.report.page import Section, write_report
 PAPER_POROSITIES = (68.0, 76.0, 82.0, 86.0)
 
 
-def write_demo_report(result, searches, live, structure, out: Path, labels) -> Path:
-    """Write figures and summary pages for one actuator's demo; returns the folder."""
-    from porosense.demo import SIGNALS
+def write_demo_report(result, searches, live, structure, out: Path, inputs, outputs, labels) -> Path:
+    """Write figures and summary pages for one actuator's demo; returns the folder.
 
-    inputs, outputs, _ = SIGNALS[result.actuator]
+    ``inputs``/``outputs`` are the column names, ``labels`` the outputs' axis labels (with units).
+    """
     recs = result.recordings
     figs = Path(out) / "figures"
     figs.mkdir(parents=True, exist_ok=True)

@@ -75,12 +75,12 @@ def test_contractor_gcode_extents_and_temperatures(contractor_job):
     x0, x1 = g.extents["X"]
     y0, y1 = g.extents["Y"]
     assert 24.0 <= x1 - x0 <= 25.0 and 24.0 <= y1 - y0 <= 25.0  # 25 mm diameter, lines at strip centres
-    assert abs((x0 + x1) / 2 - 110.0) < 0.5  # centred on the 220 mm bed
+    assert abs((x0 + x1) / 2 - 175.0) < 0.5  # centred on the Ender 5 Plus's 350 mm bed
     m = contractor_job.settings.machine
     for ax, limit in (("X", m.build_x_mm), ("Y", m.build_y_mm), ("Z", m.build_z_mm)):
         lo, hi = g.move_extents[ax]
         assert 0.0 <= lo and hi <= limit
-    assert set(g.hotend_temps) == {195.0, 0.0} and 60.0 in g.bed_temps
+    assert set(g.hotend_temps) == {200.0, 0.0} and 60.0 in g.bed_temps
 
 
 def test_contractor_layer_heights_per_region(contractor_job):
@@ -102,7 +102,7 @@ def test_extruded_volume_matches_predicted_porosity_within_5_percent(make):
     design = make()
     job = generate(design)
     g = read_gcode(job.gcode)
-    total = g.extruded_volume()
+    total = g.extruded_volume()  # E (screw turns) x the ;MACHINE mm^3 per turn
     ratio = total / job.predicted_solid_volume
     print(f"{design.name}: extruded {total:.0f} mm^3, predicted solid {job.predicted_solid_volume:.0f} mm^3")
     assert abs(ratio - 1) <= 0.05
@@ -126,10 +126,12 @@ def test_higher_porosity_design_extrudes_less():
 def test_unprintable_porosity_and_oversized_design_are_refused():
     with pytest.raises(InputError, match="out of reach of coiling"):
         generate(paper_contractor(97.0))
-    with pytest.raises(InputError, match="build volume"):
-        from porosense.infoam import Machine
+    with pytest.raises(InputError, match="larger than the .* build volume"):
+        from dataclasses import replace
 
-        generate(paper_bending(), PrintSettings(machine=Machine(build_x_mm=60.0)))
+        from porosense.infoam import load_machine
+
+        generate(paper_bending(), PrintSettings(machine=replace(load_machine(), build_x_mm=60.0)))
 
 
 def test_design_round_trip_and_malformed_file(tmp_path):
@@ -147,7 +149,8 @@ def test_cli_writes_gcode_and_preview(tmp_path, capsys):
     out, png = tmp_path / "c.gcode", tmp_path / "c.png"
     assert main(["infoam", "gcode", "contractor", "--out", str(out), "--preview", str(png), "--json"]) == 0
     plan = json.loads(capsys.readouterr().out)
-    assert {r["name"] for r in plan["regions"]} >= {"base", "foam_1", "ring_14", "top"}
+    assert {r["name"] for r in plan["regions"]} >= {"base", "foam_1", "ring_14", "core_14", "top"}
+    assert plan["machine"] == "pellet-ender5plus" and plan["e_unit"] == "turn"
     assert png.stat().st_size > 10_000
     assert read_gcode(out).n_moves > 500
     assert main(["infoam", "gcode", "nope", "--out", str(out)]) == 2

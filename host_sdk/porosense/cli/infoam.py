@@ -23,7 +23,12 @@ def register(sub) -> argparse.ArgumentParser:
             "examples:\n"
             "  porosense infoam calibrate --json\n"
             "  porosense infoam design contractor --foam-porosity 82 --out my_contractor.json\n"
-            "  porosense infoam gcode my_contractor.json --out contractor.gcode --preview contractor.png\n"
+            "  porosense infoam gcode contractor --machine pellet-ender5plus --out contractor.gcode --preview c.png\n"
+            "  porosense infoam gcode bending --machine pellet-ender5plus --out bending.gcode\n"
+            "  porosense infoam gcode segment --out segment.gcode   # the 3-DoF segment's three contractors\n"
+            "  porosense infoam parts --out parts/                   # PLA holders and frames as STL\n"
+            "  porosense infoam plan segment --out build/            # everything the 3-DoF segment needs\n"
+            "  porosense infoam machines\n"
             "  porosense infoam predict contractor --load 200"
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -44,7 +49,7 @@ def register(sub) -> argparse.ArgumentParser:
     c.set_defaults(func=run_calibrate)
 
     d = s.add_parser("design", help="write a built-in example design as editable JSON")
-    d.add_argument("example", choices=("contractor", "bending"))
+    d.add_argument("example", choices=("contractor", "bending", "segment"))
     d.add_argument("--foam-porosity", type=float, help="porosity of the foam sections in %% "
                    "(default 76 for the contractor, 84 for the bending actuator)")
     d.add_argument("--out", required=True, help="design JSON to write")
@@ -53,16 +58,49 @@ def register(sub) -> argparse.ArgumentParser:
     g = s.add_parser("gcode", help="plan a design and write its G-code",
                      description="Plan every region and write G-code (absolute XYZ, relative E, mm). "
                                  "Foam regions are coiled at the nozzle height that gives their porosity.")
-    g.add_argument("design", help="design JSON, or a built-in example: contractor, bending")
+    g.add_argument("design", help="design JSON, or a built-in example: contractor, bending, segment")
     g.add_argument("--out", required=True, help="G-code file to write")
+    g.add_argument("--machine", default="pellet-ender5plus",
+                   help="machine profile: a built-in name (see 'infoam machines') or a TOML file "
+                        "(default pellet-ender5plus, the paper's printer)")
     g.add_argument("--preview", metavar="PNG", help="also draw the toolpath coloured by porosity")
     g.add_argument("--calibration", metavar="CAL.json", help="calibration from 'infoam calibrate --save'")
     g.add_argument("--coil-density", type=float, default=3.0, help="coils per coil diameter of travel (default 3)")
     g.add_argument("--json", action="store_true", help="print the plan as JSON")
     g.set_defaults(func=run_gcode)
 
+    m = s.add_parser("machines", help="list the built-in machine profiles, or check a profile file",
+                     description="List the built-in machine profiles. With a name or TOML file, validate it and "
+                                 "print it (exit 2 with one line naming the problem when it is wrong).")
+    m.add_argument("profile", nargs="?", help="profile name or TOML file to check")
+    m.add_argument("--json", action="store_true", help="print as JSON")
+    m.set_defaults(func=run_machines)
+
+    pa = s.add_parser("parts", help="write the PLA holders and frames as STL",
+                      description="Write the printable fixtures as STL (mm): the bending actuator's holder, "
+                                  "the contractor's hanger and load hook, and the 3-DoF segment's base and stage "
+                                  "(with the BNO055 mount). Each is checked to be watertight and to fit the machine.")
+    pa.add_argument("--out", required=True, help="folder to write the STL files into (created if absent)")
+    pa.add_argument("--machine", default="filament-ender5plus",
+                    help="machine the PLA parts are printed on, for the bed-size check (default filament-ender5plus)")
+    pa.add_argument("--only", nargs="+", metavar="PART", help="write only these parts")
+    pa.add_argument("--json", action="store_true", help="print the part list as JSON")
+    pa.set_defaults(func=run_parts)
+
+    pl = s.add_parser("plan", help="the full build of an actuator: its G-code, its fixtures and a plan.json",
+                      description="Write everything an actuator needs: the cTPE G-code for the pellet printer, "
+                                  "the PLA fixtures as STL, previews, and plan.json listing every item with its "
+                                  "material, machine, mass and what it is for.")
+    pl.add_argument("actuator", choices=("contractor", "bending", "segment"))
+    pl.add_argument("--out", required=True, help="folder to write into (created if absent)")
+    pl.add_argument("--machine", default="pellet-ender5plus", help="machine for the cTPE print (default pellet-ender5plus)")
+    pl.add_argument("--fixture-machine", default="filament-ender5plus",
+                    help="printer for the PLA fixtures, for the bed-size check (default filament-ender5plus)")
+    pl.add_argument("--json", action="store_true", help="print plan.json")
+    pl.set_defaults(func=run_plan)
+
     r = s.add_parser("predict", help="expected stroke and dR at -10, -20, -40, -60 kPa")
-    r.add_argument("design", help="design JSON, or a built-in example: contractor, bending")
+    r.add_argument("design", help="design JSON, or a built-in example: contractor, bending, segment")
     r.add_argument("--load", type=float, default=0.0, help="external load in g (default 0)")
     r.add_argument("--json", action="store_true", help="print the prediction as JSON")
     r.set_defaults(func=run_predict)
@@ -125,6 +163,8 @@ def _load_calibration(path):
         return PorosityModel(m["c_mm"], m["e_mm"], m["nozzle_mm"], CoilRadiusFit(**m["coil"]))
     except FileNotFoundError:
         raise InputError(f"{path}: no such calibration file") from None
+    except InputError as exc:
+        raise InputError(f"{path}: {exc}") from None
     except (KeyError, TypeError, ValueError) as exc:
         raise InputError(f"{path}: not a calibration written by 'infoam calibrate --save' ({exc!r})") from None
 
@@ -140,30 +180,99 @@ def run_design(args) -> int:
 
 
 def run_gcode(args) -> int:
-    from porosense.infoam import Machine, PrintSettings, generate, get_design, paper_calibration
+    from porosense.infoam import PrintSettings, generate, get_design, load_machine, paper_calibration
 
     design = get_design(args.design)
+    machine = load_machine(args.machine)
     model = _load_calibration(args.calibration) if args.calibration else paper_calibration()
-    if not 0.5 <= args.coil_density <= 10:
-        raise InputError(f"--coil-density {args.coil_density} outside 0.5..10")
-    settings = PrintSettings(machine=Machine(nozzle_mm=model.nozzle_mm), porosity_model=model,
-                             coil_density=args.coil_density)
+    settings = PrintSettings(machine=machine, porosity_model=model, coil_density=args.coil_density)
     job = generate(design, settings)
-    job.write(args.out)
+    _write(args.out, job.write)
     if args.preview:
         from porosense.infoam.preview import plot_toolpath
 
-        plot_toolpath(job, args.preview)
+        _write(args.preview, lambda path: plot_toolpath(job, path))
     if args.json:
-        print(json.dumps({"design": design.name, "gcode": args.out,
-                          "predicted_solid_volume_mm3": job.predicted_solid_volume,
-                          "regions": [{"name": p.region.name, "method": p.method, "target_pct": p.region.porosity,
-                                       "predicted_pct": p.porosity, "layers": p.n_layers, "layer_mm": p.layer_mm,
-                                       "pitch_mm": p.pitch_mm, "nozzle_height_mm": p.nozzle_height_mm,
-                                       "coil_density": p.coil_density} for p in job.plans]}, indent=2))
+        print(json.dumps(job.to_dict(args.out), indent=2))
     else:
         print("\n".join(job.summary()))
         print(f"wrote {args.out}" + (f" and {args.preview}" if args.preview else ""))
+    return 0
+
+
+def _write(path, writer) -> None:
+    """Run ``writer(path)``; a missing folder or an unwritable path is an InputError."""
+    try:
+        writer(path)
+    except (FileNotFoundError, NotADirectoryError, IsADirectoryError, PermissionError) as exc:
+        raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+
+
+def _out_dir(path) -> Path:
+    out = Path(path)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError, PermissionError) as exc:
+        raise InputError(f"{out}: cannot create the folder ({exc.strerror or exc})") from None
+    return out
+
+
+def run_machines(args) -> int:
+    from porosense.infoam import list_machines, load_machine
+
+    if args.profile:
+        m = load_machine(args.profile)
+        if args.json:
+            print(json.dumps(m.to_dict(), indent=2))
+        else:
+            e = m.extruder
+            print(f"{m.name}: {m.description}")
+            print(f"  build {m.build_x_mm:g} x {m.build_y_mm:g} x {m.build_z_mm:g} mm, nozzle {m.nozzle_mm:g} mm, "
+                  f"hotend {m.hotend_c:g} C, bed {m.bed_c:g} C, material {m.material}")
+            print(f"  extruder {e.kind}, E unit {e.e_unit} = {m.mm3_per_e:.4g} mm^3 of melt")
+        return 0
+    names = list_machines()
+    if args.json:
+        print(json.dumps(names))
+    else:
+        for name in names:
+            print(f"{name:22s} {load_machine(name).description}")
+    return 0
+
+
+def run_parts(args) -> int:
+    from porosense.infoam import load_machine
+    from porosense.infoam.parts import PARTS, build_parts
+
+    machine = load_machine(args.machine)
+    names = args.only or list(PARTS)
+    unknown = [n for n in names if n not in PARTS]
+    if unknown:
+        raise InputError(f"unknown part(s) {', '.join(unknown)}: known are {', '.join(PARTS)}")
+    out = _out_dir(args.out)
+    parts = build_parts(names, machine)
+    rows = [p.write(out) for p in parts]
+    if args.json:
+        print(json.dumps(rows, indent=2))
+    else:
+        for r in rows:
+            x, y, z = r["size_mm"]
+            print(f"{r['file']:28s} {x:6.1f} x {y:6.1f} x {z:6.1f} mm, {r['volume_cm3']:6.2f} cm^3 PLA, "
+                  f"watertight {r['watertight']}")
+        print(f"wrote {len(rows)} STL files to {out}")
+    return 0
+
+
+def run_plan(args) -> int:
+    from porosense.infoam import load_machine
+    from porosense.infoam.build import build_plan
+
+    plan = build_plan(args.actuator, load_machine(args.machine), _out_dir(args.out),
+                      fixture_machine=load_machine(args.fixture_machine))
+    if args.json:
+        print(json.dumps(plan.to_dict(), indent=2))
+    else:
+        print("\n".join(plan.summary()))
     return 0
 
 

@@ -30,32 +30,6 @@ PAPER_POROSITIES_PCT = (68.0, 76.0, 82.0, 86.0)
 PAPER_COIL_DENSITY = 3.0
 
 
-@dataclass(frozen=True)
-class Material:
-    """Printing material. Units: g/cm^3, degrees Celsius, mm."""
-
-    name: str = "cTPE (carbon-black conductive TPE)"
-    bulk_density_g_cm3: float = 0.97
-    temperature_c: float = 195.0
-    filament_diameter_mm: float = 1.75
-
-
-@dataclass(frozen=True)
-class Machine:
-    """Printer: nozzle and build volume (mm), feed rates (mm/s)."""
-
-    nozzle_mm: float = 0.6
-    build_x_mm: float = 220.0
-    build_y_mm: float = 220.0
-    build_z_mm: float = 250.0
-    bed_temperature_c: float = 60.0
-    travel_speed_mm_s: float = 80.0
-    bulk_speed_mm_s: float = 20.0
-    bulk_layer_mm: float = 0.3
-    #: Filament speed at the nozzle while coiling (mm of 0.6 mm filament per second).
-    coil_filament_speed_mm_s: float = 25.0
-
-
 def porosity_from_mass(mass_g: float, volume_mm3: float, bulk_density_g_cm3: float = 0.97) -> float:
     """Porosity in % of a printed sample: phi = 100 (1 - m / (V rho_b)).
 
@@ -81,6 +55,20 @@ class CoilRadiusFit:
     h_min_mm: float = 2.5
     h_max_mm: float = 10.0
 
+    def __post_init__(self):
+        vals = (self.a, self.b, self.h_min_mm, self.h_max_mm)
+        if not all(np.isfinite(v) for v in vals):
+            raise InputError(f"coil radius fit has a non-finite value: Rc = {self.a} H + {self.b}, "
+                             f"H {self.h_min_mm}..{self.h_max_mm} mm")
+        if not 0.0 < self.h_min_mm < self.h_max_mm:
+            raise InputError(f"coil radius fit: height range {self.h_min_mm:g}..{self.h_max_mm:g} mm is empty or negative")
+        if self.a <= 0:
+            raise InputError(f"coil radius must grow with nozzle height (Rc = {self.a:g} H {self.b:+g} mm)")
+        r_low = self.a * self.h_min_mm + self.b
+        if r_low <= 0:
+            raise InputError(f"coil radius Rc = {self.a:g} H {self.b:+g} mm is {r_low:.2f} mm at the lowest "
+                             f"height {self.h_min_mm:g} mm: a coil radius must be positive")
+
     def radius(self, height_mm):
         """Coil radius (mm) at nozzle height(s) ``height_mm``."""
         return self.a * np.asarray(height_mm, dtype=float) + self.b
@@ -96,6 +84,11 @@ class CoilRadiusFit:
         r = np.asarray(radii_mm, dtype=float)
         if h.shape != r.shape or h.size < 2 or np.ptp(h) == 0:
             raise InputError("need at least two coil-radius measurements at different heights")
+        if not (np.all(np.isfinite(h)) and np.all(np.isfinite(r))):
+            raise InputError("coil-radius measurements hold NaN or infinite values")
+        if np.any(h <= 0) or np.any(r <= 0):
+            bad = float(r.min()) if np.any(r <= 0) else float(h.min())
+            raise InputError(f"coil radii and heights must be positive (found {bad:g} mm)")
         a, b = np.polyfit(h, r, 1)
         resid = r - (a * h + b)
         ss_tot = float(np.sum((r - r.mean()) ** 2))
@@ -118,6 +111,12 @@ class PorosityModel:
     e_mm: float
     nozzle_mm: float = 0.6
     coil: CoilRadiusFit = PAPER_COIL_RADIUS
+
+    def __post_init__(self):
+        if not (np.isfinite(self.c_mm) and self.c_mm > 0 and np.isfinite(self.nozzle_mm) and self.nozzle_mm > 0):
+            raise InputError(f"porosity model needs positive c ({self.c_mm}) and nozzle ({self.nozzle_mm}) in mm")
+        if not np.isfinite(self.e_mm) or 2 * float(self.coil.radius(self.coil.h_min_mm)) + self.nozzle_mm + self.e_mm <= 0:
+            raise InputError(f"porosity model: line gap e = {self.e_mm} mm leaves no room between coiled lines")
 
     def solid_fraction(self, height_mm, coil_density=PAPER_COIL_DENSITY):
         """Solid volume fraction (0..1) at nozzle height (mm) and coil density N."""

@@ -8,8 +8,10 @@ One coil layer is pi^2 d^2 / (4 c) thick, which is what makes the printed solid 
 the calibrated c N / pitch. Heights and pitches are rounded to fit each region exactly; the
 coil density is then trimmed so the printed porosity equals the target.
 
-Comments in the G-code mark regions (``;REGION``) and layers (``;LAYER``) so a reader can
-attribute every move; all lengths in mm, speeds in mm/min in the file.
+E values are in the machine's own unit (screw turns of a pellet extruder, mm^3 of melt, or
+mm of filament; see ``profiles``), and a ``;MACHINE`` comment states the conversion so a
+reader can turn E back into melt volume. Comments mark regions (``;REGION``) and layers
+(``;LAYER``) so a reader can attribute every move; lengths in mm, speeds in mm/min.
 """
 
 from __future__ import annotations
@@ -20,8 +22,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from porosense.errors import InputError
-from porosense.infoam.calibration import Machine, Material, PorosityModel, paper_calibration
+from porosense.infoam.calibration import PorosityModel, paper_calibration
 from porosense.infoam.design import Design, Region
+from porosense.infoam.profiles import DEFAULT_MACHINE, Machine, Material, load_machine, load_material
 
 
 #: Coil densities the planner may use when a porosity is out of reach at the nominal N.
@@ -33,15 +36,20 @@ MAX_COIL_DENSITY = 8.0
 class PrintSettings:
     """Everything the planner needs besides the design."""
 
-    machine: Machine = field(default_factory=Machine)
-    material: Material = field(default_factory=Material)
+    machine: Machine = field(default_factory=lambda: load_machine(DEFAULT_MACHINE))
+    material: Material | None = None  # None: the machine profile's material
     porosity_model: PorosityModel = field(default_factory=paper_calibration)
     coil_density: float = 3.0
 
-    @property
-    def filament_area(self) -> float:
-        """Cross-section of the feedstock filament, mm^2."""
-        return math.pi * self.material.filament_diameter_mm**2 / 4.0
+    def __post_init__(self):
+        if self.material is None:
+            object.__setattr__(self, "material", load_material(self.machine.material))
+        self.machine.check_temperatures(self.material)
+        if abs(self.porosity_model.nozzle_mm - self.machine.nozzle_mm) > 1e-9:
+            raise InputError(f"the porosity calibration is for a {self.porosity_model.nozzle_mm:g} mm nozzle, "
+                             f"the machine {self.machine.name!r} has {self.machine.nozzle_mm:g} mm: recalibrate")
+        if not 0.5 <= self.coil_density <= 10:
+            raise InputError(f"coil density {self.coil_density} outside 0.5..10")
 
     @property
     def strand_area(self) -> float:
@@ -66,9 +74,19 @@ class RegionPlan:
     pitch_x_mm: float  # between lines running along y (bulk layers alternate direction)
     nozzle_height_mm: float  # above the surface being printed on (coil) or the layer height (bulk)
     coil_density: float  # N actually used (coil), 0 for bulk
-    volume_per_mm: float  # strand volume per mm of travel, mm^3/mm
+    volume_per_mm: float  # strand volume per mm of travel along x, mm^3/mm
     speed_mm_s: float
     porosity: float  # predicted porosity of the printed region, %
+    volume_per_mm_y: float = 0.0  # ... along y (bulk layers that alternate direction), mm^3/mm
+
+    def volume_per_mm_along(self, axis: int) -> float:
+        """Strand volume per mm of travel (mm^3/mm) for lines along ``axis`` (0 x, 1 y)."""
+        return self.volume_per_mm if axis == 0 else self.volume_per_mm_y
+
+    @property
+    def strand_width_mm(self) -> float:
+        """Width (mm) of a bulk strand (volume per mm / layer height); 0 for coils."""
+        return self.volume_per_mm / self.layer_mm if self.method == "bulk" else 0.0
 
     @property
     def solid_volume(self) -> float:
@@ -101,27 +119,55 @@ class PrintJob:
                          f"{p.porosity:5.1f} %, {p.n_layers} x {p.layer_mm:.2f} mm layers, {extra}")
         return lines
 
+    @property
+    def extruded_e(self) -> float:
+        """Total E (machine units) of the job: screw turns, mm^3 or mm of filament."""
+        return self.predicted_solid_volume / self.settings.machine.mm3_per_e
+
+    @property
+    def mass_g(self) -> float:
+        """Predicted mass of the printed part, g (solid volume x bulk density)."""
+        return self.predicted_solid_volume * 1e-3 * self.settings.material.bulk_density_g_cm3
+
+    def to_dict(self, gcode_path=None) -> dict:
+        m = self.settings.machine
+        return {"design": self.design.name, "gcode": None if gcode_path is None else str(gcode_path),
+                "machine": m.name, "e_unit": m.extruder.e_unit, "mm3_per_e": m.mm3_per_e,
+                "predicted_solid_volume_mm3": self.predicted_solid_volume, "mass_g": self.mass_g,
+                "extruded_e": self.extruded_e,
+                "regions": [{"name": p.region.name, "method": p.method, "target_pct": p.region.porosity,
+                             "predicted_pct": p.porosity, "z0_mm": p.region.z0, "z1_mm": p.region.z1,
+                             "layers": p.n_layers, "layer_mm": p.layer_mm, "pitch_mm": p.pitch_mm,
+                             "nozzle_height_mm": p.nozzle_height_mm, "coil_density": p.coil_density}
+                            for p in self.plans]}
+
     def write(self, path) -> None:
         with open(path, "w") as fh:
             fh.write(self.gcode)
 
 
 def plan_region(region: Region, s: PrintSettings) -> RegionPlan:
-    """Choose layer height, line pitch, nozzle height and coil density for one region."""
+    """Choose layer height, line pitch, nozzle height and coil density for one region.
+
+    Each layer's lines together deposit exactly (1 - phi/100) x area x layer height of melt:
+    the strand volume per mm of travel is set from the raster's real length, so curved
+    outlines and pitches rounded to whole strips do not change the region's porosity.
+    """
     height = region.z1 - region.z0
     solid = 1.0 - region.porosity / 100.0
     x0, x1, y0, y1 = region.shape.bounds()
     across = y1 - y0  # lines run along x; pitch tiles y exactly
+    fill = solid * region.shape.area  # melt cross-section per unit layer height, mm^2
     if region.method == "bulk":
         n_layers = max(1, round(height / s.machine.bulk_layer_mm))
         layer = height / n_layers
         line_w = s.machine.nozzle_mm
         pitch = _tile(across, line_w / solid)
         pitch_x = _tile(x1 - x0, line_w / solid)
-        # Layers alternate direction: the region gets the mean of both line densities.
-        porosity = 100.0 * (1.0 - min(1.0, 0.5 * (line_w / pitch + line_w / pitch_x)))
-        return RegionPlan(region, "bulk", layer, n_layers, pitch, pitch_x, layer, 0.0, line_w * layer,
-                          s.machine.bulk_speed_mm_s, porosity)
+        v_x = fill * layer / _raster_length(region, pitch, 0)
+        v_y = fill * layer / _raster_length(region, pitch_x, 1)
+        return RegionPlan(region, "bulk", layer, n_layers, pitch, pitch_x, layer, 0.0, v_x,
+                          s.machine.bulk_speed_mm_s, region.porosity, v_y)
     model = s.porosity_model
     try:
         h_nozzle = model.height_for(region.porosity, s.coil_density)
@@ -137,14 +183,26 @@ def plan_region(region: Region, s: PrintSettings) -> RegionPlan:
                 f"(nozzle height {lo:g}-{hi:g} mm needs a coil density of {n_target:.2f}, outside "
                 f"{MIN_COIL_DENSITY:g}-{MAX_COIL_DENSITY:g})"
             ) from None
+    if float(model.coil.radius(h_nozzle)) <= 0:
+        raise InputError(f"region {region.name!r}: coil radius at nozzle height {h_nozzle:.2f} mm is not positive")
     n_layers = max(1, round(height / s.coil_layer_mm))
     layer = height / n_layers
     pitch = _tile(across, s.strand_area * math.pi * n_target / (solid * layer))
     # Trim N so the strand laid per mm of travel fills exactly the target solid fraction.
-    n_eff = solid * pitch * layer / (math.pi * s.strand_area)
-    speed = s.machine.coil_filament_speed_mm_s / (math.pi * n_eff)
+    volume_per_mm = fill * layer / _raster_length(region, pitch, 0)
+    n_eff = volume_per_mm / (math.pi * s.strand_area)
+    speed = s.machine.coil_strand_mm_s / (math.pi * n_eff)
     return RegionPlan(region, "coil", layer, n_layers, pitch, pitch, h_nozzle, n_eff,
-                      math.pi * n_eff * s.strand_area, speed, region.porosity)
+                      volume_per_mm, speed, region.porosity, volume_per_mm)
+
+
+def _raster_length(region: Region, pitch: float, axis: int) -> float:
+    """Total length (mm) of the raster lines over ``region`` at ``pitch`` along ``axis``."""
+    lines = _raster(region, pitch, axis, (0.0, 0.0))
+    length = sum(math.hypot(xb - xa, yb - ya) for xa, ya, xb, yb in lines)
+    if length <= 0:
+        raise InputError(f"region {region.name!r} is too small for a {pitch:.2f} mm line pitch")
+    return length
 
 
 def _tile(width: float, pitch: float) -> float:
@@ -160,14 +218,14 @@ def _raster(region: Region, pitch: float, axis: int, offset: tuple[float, float]
     lines = []
     for k in range(n):
         c = lo + (k + 0.5) * (hi - lo) / n
-        span = region.shape.span(axis, c)
-        if span is None or span[1] - span[0] < 1e-6:
-            continue
-        a, b = span if k % 2 == 0 else (span[1], span[0])
-        if axis == 0:
-            lines.append((a + offset[0], c + offset[1], b + offset[0], c + offset[1]))
-        else:
-            lines.append((c + offset[0], a + offset[1], c + offset[0], b + offset[1]))
+        spans = [sp for sp in region.shape.spans(axis, c) if sp[1] - sp[0] >= 1e-6]
+        if k % 2:
+            spans = [(b, a) for a, b in reversed(spans)]
+        for a, b in spans:
+            if axis == 0:
+                lines.append((a + offset[0], c + offset[1], b + offset[0], c + offset[1]))
+            else:
+                lines.append((c + offset[0], a + offset[1], c + offset[0], b + offset[1]))
     return lines
 
 
@@ -179,11 +237,8 @@ def generate(design: Design, settings: PrintSettings | None = None) -> PrintJob:
     bx0, bx1, by0, by1 = design.bounds()
     offset = (m.build_x_mm / 2 - (bx0 + bx1) / 2, m.build_y_mm / 2 - (by0 + by1) / 2)
     top = design.height + max(p.nozzle_height_mm for p in plans.values())
-    if (bx1 - bx0) > m.build_x_mm or (by1 - by0) > m.build_y_mm or top + 5.0 > m.build_z_mm:
-        raise InputError(
-            f"design {design.name!r} ({bx1 - bx0:.0f} x {by1 - by0:.0f} x {design.height:.0f} mm, nozzle up to "
-            f"{top:.0f} mm) does not fit the {m.build_x_mm:g} x {m.build_y_mm:g} x {m.build_z_mm:g} mm build volume"
-        )
+    # The nozzle coils up to H above the part and lifts 5 mm clear: that height must fit too.
+    m.check_fits(f"design {design.name!r} (nozzle up to {top + 5.0:.0f} mm)", bx1 - bx0, by1 - by0, top + 5.0)
 
     # Every layer of every region, printed in order of the surface it leaves behind.
     layers = []
@@ -195,18 +250,24 @@ def generate(design: Design, settings: PrintSettings | None = None) -> PrintJob:
 
     out = [
         f"; porosense InFoam G-code: {design.name} ({design.actuator})",
-        f"; material {s.material.name}, {s.material.temperature_c:g} C, nozzle {m.nozzle_mm:g} mm, "
-        f"filament {s.material.filament_diameter_mm:g} mm",
+        f"; machine {m.name}: {m.description}",
+        f";MACHINE name={m.name} extruder={m.extruder.kind} e_unit={m.extruder.e_unit} "
+        f"mm3_per_e={m.mm3_per_e:.6g} nozzle_mm={m.nozzle_mm:g} build={m.build_x_mm:g}x{m.build_y_mm:g}x{m.build_z_mm:g}",
+        f"; material {s.material.name}, hotend {m.hotend_c:g} C, bed {m.bed_c:g} C",
         f"; porosity model: solid = {s.porosity_model.c_mm:.4f} N / (2 Rc + d + {s.porosity_model.e_mm:.4f}), "
         f"Rc = {s.porosity_model.coil.a:g} H + {s.porosity_model.coil.b:g}",
         "G21 ; mm",
         "G90 ; absolute positions",
         "M83 ; relative extrusion",
-        f"M140 S{m.bed_temperature_c:g}",
-        f"M104 S{s.material.temperature_c:g}",
+    ]
+    if m.extruder.e_unit == "turn" and m.extruder.steps_per_turn > 0:
+        out.append(f"M92 E{m.extruder.steps_per_turn:g} ; E counts screw turns")
+    out += [
+        f"M140 S{m.bed_c:g}",
+        f"M104 S{m.hotend_c:g}",
         "G28 ; home",
-        f"M190 S{m.bed_temperature_c:g}",
-        f"M109 S{s.material.temperature_c:g}",
+        f"M190 S{m.bed_c:g}",
+        f"M109 S{m.hotend_c:g}",
     ]
     for p in plans.values():
         r = p.region
@@ -214,7 +275,7 @@ def generate(design: Design, settings: PrintSettings | None = None) -> PrintJob:
                    f"z0={r.z0:.3f} z1={r.z1:.3f} volume={r.volume:.3f}")
     segments = []
     printed_top = 0.0
-    e_per_vol = 1.0 / s.filament_area
+    e_per_vol = 1.0 / m.mm3_per_e
     for z_top, z_bottom, name, k in layers:
         p = plans[name]
         z_nozzle = z_bottom + p.nozzle_height_mm
@@ -233,7 +294,7 @@ def generate(design: Design, settings: PrintSettings | None = None) -> PrintJob:
             if prev is not None:
                 out.append(f"G0 X{xa:.3f} Y{ya:.3f}")
             length = math.hypot(xb - xa, yb - ya)
-            e = length * p.volume_per_mm * e_per_vol
+            e = length * p.volume_per_mm_along(axis) * e_per_vol
             out.append(f"G1 X{xb:.3f} Y{yb:.3f} E{e:.5f} F{p.speed_mm_s * 60:.0f}")
             segments.append((xa, ya, z_nozzle, xb, yb, z_nozzle, p.region.porosity, z_bottom + p.layer_mm / 2, p.layer_mm))
             prev = (xb, yb)

@@ -1,8 +1,9 @@
 """A small G-code reader: enough to check what the planner wrote.
 
 Understands G0/G1 (X Y Z E F), G90/G91, M82/M83, G92 E, temperature commands
-(M104/M109 hotend, M140/M190 bed) and the planner's ``;REGION`` and ``;LAYER`` comments.
-Lengths in mm; extrusion in mm of feedstock filament.
+(M104/M109 hotend, M140/M190 bed), M92 E, and the planner's ``;MACHINE``, ``;REGION`` and
+``;LAYER`` comments. Lengths in mm; extrusion in the file's E unit, turned into melt volume
+with the ``;MACHINE mm3_per_e`` conversion (or a filament diameter for foreign files).
 """
 
 from __future__ import annotations
@@ -29,11 +30,35 @@ class GcodeSummary:
     hotend_temps: list[float] = field(default_factory=list)
     bed_temps: list[float] = field(default_factory=list)
     n_moves: int = 0
+    machine: dict[str, str] = field(default_factory=dict)  # ;MACHINE key=value fields
+    e_steps: list[float] = field(default_factory=list)  # M92 E values
+    #: region -> (n, 5) rows x0 y0 x1 y1 z of its extruding moves (nozzle positions, mm)
+    segments_by_region: dict[str, list] = field(default_factory=lambda: defaultdict(list))
 
-    def extruded_volume(self, filament_diameter_mm: float = 1.75, region: str | None = None) -> float:
-        """Extruded volume in mm^3 (of one region, or all)."""
+    def extruded_volume(self, filament_diameter_mm: float | None = None, region: str | None = None) -> float:
+        """Extruded melt volume in mm^3 (of one region, or all).
+
+        Uses the file's ``;MACHINE mm3_per_e``; ``filament_diameter_mm`` (mm) reads E as mm
+        of filament instead (for files without that comment).
+        """
         length = self.extruded_mm if region is None else self.extruded_by_region.get(region, 0.0)
-        return length * math.pi * filament_diameter_mm**2 / 4.0
+        if filament_diameter_mm is not None:
+            return length * math.pi * filament_diameter_mm**2 / 4.0
+        if "mm3_per_e" not in self.machine:
+            raise InputError("the G-code states no ;MACHINE mm3_per_e: give the filament diameter")
+        return length * float(self.machine["mm3_per_e"])
+
+    def region_z(self, region: str) -> tuple[float, float]:
+        """Lowest layer bottom and highest layer top (mm) of ``region``, from its ;LAYER comments."""
+        zs, hs = self.layer_z.get(region), self.layer_heights.get(region)
+        if not zs:
+            raise InputError(f"no layers of region {region!r} in the G-code")
+        return min(zs), max(z + h for z, h in zip(zs, hs))
+
+    def region_porosity(self, region: str) -> float:
+        """Porosity (%) the extrusion gives the region's envelope (;REGION volume, mm^3)."""
+        volume = float(self.regions[region]["volume"])
+        return 100.0 * (1.0 - self.extruded_volume(region=region) / volume)
 
 
 def read_gcode(path_or_text, *, source: str | None = None) -> GcodeSummary:
@@ -60,10 +85,12 @@ def read_gcode(path_or_text, *, source: str | None = None) -> GcodeSummary:
     for n, raw in enumerate(text.splitlines(), start=1):
         code, _, comment = raw.partition(";")
         comment = comment.strip()
-        if comment.startswith("REGION ") or comment.startswith("LAYER "):
+        if comment.startswith(("REGION ", "LAYER ", "MACHINE ")):
             kind, _, rest = comment.partition(" ")
             fields = dict(item.split("=", 1) for item in rest.split() if "=" in item)
-            if kind == "REGION":
+            if kind == "MACHINE":
+                out.machine = fields
+            elif kind == "REGION":
                 out.regions[fields["name"]] = fields
             else:
                 region = fields.get("region")
@@ -95,6 +122,7 @@ def read_gcode(path_or_text, *, source: str | None = None) -> GcodeSummary:
                 out.extruded_mm += de
                 if region is not None:
                     out.extruded_by_region[region] += de
+                    out.segments_by_region[region].append((pos["X"], pos["Y"], new["X"], new["Y"], new["Z"]))
                 for ax in "XYZ":
                     for v in (pos[ax], new[ax]):
                         lo[ax] = min(lo.get(ax, v), v)
@@ -108,6 +136,8 @@ def read_gcode(path_or_text, *, source: str | None = None) -> GcodeSummary:
             abs_e = True
         elif cmd == "M83":
             abs_e = False
+        elif cmd == "M92" and "E" in args:
+            out.e_steps.append(args["E"])
         elif cmd == "G92":
             if "E" in args:
                 e_pos = args["E"]

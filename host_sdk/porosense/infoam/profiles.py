@@ -229,9 +229,9 @@ def machine_from_dict(d: dict, source: str) -> Machine:
         raise InputError(f"{source}: [extruder] {exc}") from None
     try:
         machine = Machine(**fields)
+        machine.check_temperatures(load_material(machine.material))
     except InputError as exc:
         raise InputError(f"{source}: {exc}") from None
-    machine.check_temperatures(load_material(machine.material))
     return machine
 
 

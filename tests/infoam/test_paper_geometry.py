@@ -58,6 +58,15 @@ def _radii(g, region):
     return np.hypot(pts[:, 0], pts[:, 1])
 
 
+def _closest_approach(g, region):
+    """Smallest distance (mm) of the region's extruding moves from the part's axis."""
+    s = _seg(g, region)
+    a, b = s[:, 0:2] - BED_CENTRE, s[:, 2:4] - BED_CENTRE
+    d = b - a
+    t = np.clip(-np.sum(a * d, axis=1) / np.maximum(np.sum(d * d, axis=1), 1e-12), 0.0, 1.0)
+    return float(np.min(np.hypot(*(a + t[:, None] * d).T)))
+
+
 def test_gcode_is_for_the_pellet_screw_ender5plus(contractor):
     assert contractor.machine["e_unit"] == "turn" and contractor.machine["extruder"] == "pellet-screw"
     assert contractor.e_steps == [PROFILE["extruder"]["steps_per_turn"]]
@@ -83,9 +92,12 @@ def test_contractor_outline_is_25_mm_by_50_mm(contractor):
 def test_contractor_solid_ends_are_5_mm_and_below_5_percent(contractor, name, z0, z1):
     lo, hi = contractor.region_z(name)
     assert lo == pytest.approx(z0, abs=1e-3) and hi == pytest.approx(z1, abs=1e-3)
+    # Envelope: the full disc, so the 4.2 mm tube channel through the top counts as porosity.
     phi = _porosity(contractor, name, math.pi * 12.5**2 * (z1 - z0))
     print(f"{name}: porosity {phi:.2f} %")
     assert -1.0 <= phi < SOLID_MAX_PCT
+    hole = _closest_approach(contractor, name)
+    assert (hole >= 2.0) is (name == "top"), hole  # the vacuum tube's port is in the top only
 
 
 @pytest.mark.parametrize("z", [14.0, 28.0])

@@ -29,6 +29,7 @@ def register(sub) -> argparse.ArgumentParser:
             "  porosense infoam parts --out parts/                   # PLA holders and frames as STL\n"
             "  porosense infoam plan segment --out build/            # everything the 3-DoF segment needs\n"
             "  porosense infoam machines\n"
+            "  porosense infoam figures --out docs/figures\n"
             "  porosense infoam predict contractor --load 200"
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -98,6 +99,11 @@ def register(sub) -> argparse.ArgumentParser:
                     help="printer for the PLA fixtures, for the bed-size check (default filament-ender5plus)")
     pl.add_argument("--json", action="store_true", help="print plan.json")
     pl.set_defaults(func=run_plan)
+
+    f = s.add_parser("figures", help="draw the assembly guide's figures (docs/assembly.md)",
+                     description="Draw the figures of docs/assembly.md from the designs, plans and meshes.")
+    f.add_argument("--out", required=True, help="folder for the PNG files (created if absent)")
+    f.set_defaults(func=run_figures)
 
     r = s.add_parser("predict", help="expected stroke and dR at -10, -20, -40, -60 kPa")
     r.add_argument("design", help="design JSON, or a built-in example: contractor, bending, segment")
@@ -273,6 +279,14 @@ def run_plan(args) -> int:
         print(json.dumps(plan.to_dict(), indent=2))
     else:
         print("\n".join(plan.summary()))
+    return 0
+
+
+def run_figures(args) -> int:
+    from porosense.infoam.figures import write_all
+
+    for path in write_all(_out_dir(args.out)):
+        print(f"wrote {path}")
     return 0
 
 

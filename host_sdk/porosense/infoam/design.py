@@ -218,15 +218,20 @@ CONTRACTOR_RING_MM = 5.6
 CONTRACTOR_RING_WALL_MM = 2.5
 #: Porosity (%) printed for "bulk" and "near zero porosity" parts (the paper: below 5 %).
 SOLID_PCT = 0.0
+#: Diameter (mm) of the channel left through one solid end for the 4 mm OD vacuum tube.
+PORT_MM = 4.2
 
 
 def paper_contractor(foam_porosity: float = 76.0, ring_porosity: float = SOLID_PCT,
                      ring_mm: float = CONTRACTOR_RING_MM, ring_wall_mm: float = CONTRACTOR_RING_WALL_MM,
-                     *, cx: float = 0.0, cy: float = 0.0, prefix: str = "") -> Design:
+                     *, port_end: str = "top", cx: float = 0.0, cy: float = 0.0, prefix: str = "") -> Design:
     """The paper's contractor: a cylinder 25 mm in diameter and 50 mm tall; 5 mm base and top
     printed solid; low-porosity rings ``ring_mm`` (5.6 mm) tall whose lower edges sit at 14 and
     28 mm, ``ring_wall_mm`` thick at the rim, with foam of ``foam_porosity`` (%) everywhere else
-    (the core inside the rings too). ``cx``, ``cy`` (mm) place it; ``prefix`` names its regions."""
+    (the core inside the rings too). The ``port_end`` ("top" or "base") keeps a PORT_MM channel
+    on the axis for the vacuum tube. ``cx``, ``cy`` (mm) place it; ``prefix`` names its regions."""
+    if port_end not in ("top", "base"):
+        raise InputError(f"port_end must be 'top' or 'base', not {port_end!r}")
     r = CONTRACTOR_DIAMETER_MM / 2.0
     if not 0.0 < ring_wall_mm < r:
         raise InputError(f"ring wall {ring_wall_mm} mm must lie between 0 and the radius {r} mm")
@@ -243,13 +248,14 @@ def paper_contractor(foam_porosity: float = 76.0, ring_porosity: float = SOLID_P
     if any(b <= a for a, b in zip(edges, edges[1:])):
         raise InputError(f"rings of {ring_mm} mm at {CONTRACTOR_RING_Z_MM} mm overlap each other or the ends")
     n = prefix
-    regions = [Region(f"{n}base", disc, 0.0, end, SOLID_PCT)]
+    ported = Annulus(r, PORT_MM / 2.0, cx, cy)
+    regions = [Region(f"{n}base", ported if port_end == "base" else disc, 0.0, end, SOLID_PCT)]
     for k, z in enumerate(CONTRACTOR_RING_Z_MM):
         regions.append(Region(f"{n}foam_{k + 1}", disc, edges[2 * k], z, foam_porosity))
         regions.append(Region(f"{n}ring_{z:g}", ring, z, z + ring_mm, ring_porosity))
         regions.append(Region(f"{n}core_{z:g}", core, z, z + ring_mm, foam_porosity))
     regions.append(Region(f"{n}foam_{len(CONTRACTOR_RING_Z_MM) + 1}", disc, edges[-2], top, foam_porosity))
-    regions.append(Region(f"{n}top", disc, top, CONTRACTOR_HEIGHT_MM, SOLID_PCT))
+    regions.append(Region(f"{n}top", ported if port_end == "top" else disc, top, CONTRACTOR_HEIGHT_MM, SOLID_PCT))
     return Design("paper_contractor", "contractor", tuple(regions),
                   "Contractor of the paper: 25 mm x 50 mm cylinder, solid 5 mm ends, "
                   f"{ring_mm:g} mm low-porosity rings at 14 and 28 mm.")
@@ -307,7 +313,7 @@ def paper_segment(foam_porosity: float = SEGMENT_POROSITY, side_mm: float = SEGM
         raise InputError(f"triangle side {side_mm} mm leaves no room between 25 mm contractors")
     regions = []
     for k, (x, y) in enumerate(segment_corners_mm(side_mm)):
-        regions += paper_contractor(foam_porosity, cx=x, cy=y, prefix=f"c{k + 1}_").regions
+        regions += paper_contractor(foam_porosity, port_end="base", cx=x, cy=y, prefix=f"c{k + 1}_").regions
     return Design("paper_segment", "contractor", tuple(regions),
                   f"3-DoF segment: three {foam_porosity:g} % contractors on a {side_mm:g} mm triangle.",
                   {"side_mm": side_mm})

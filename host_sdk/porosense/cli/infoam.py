@@ -149,8 +149,9 @@ def run_calibrate(args) -> int:
     data = model.to_dict()
     data["porosity_at_paper_heights"] = {f"{h:g}": float(model.porosity(h)) for h in PAPER_HEIGHTS_MM}
     if args.save:
-        Path(args.save).write_text(json.dumps({"format": "porosense-infoam-calibration", "version": 1,
-                                               "model": model.to_dict()}, indent=2) + "\n")
+        text = json.dumps({"format": "porosense-infoam-calibration", "version": 1, "model": model.to_dict()},
+                          indent=2) + "\n"
+        _write(args.save, lambda path: Path(path).write_text(text))
     if args.json:
         print(json.dumps(data, indent=2))
     else:
@@ -180,7 +181,7 @@ def run_design(args) -> int:
 
     make = paper_contractor if args.example == "contractor" else paper_bending
     design = make(args.foam_porosity) if args.foam_porosity is not None else make()
-    design.save(args.out)
+    _write(args.out, design.save)
     print(f"wrote {args.out} ({len(design.regions)} regions, foam porosity {design.foam_porosity():.1f} %)")
     return 0
 

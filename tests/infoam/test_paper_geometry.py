@@ -20,7 +20,7 @@ import pytest
 from porosense.cli import main
 from porosense.infoam import read_gcode
 
-PROFILE = tomllib.loads((resources.files("porosense.infoam") / "profiles" / "pellet-ender5plus.toml").read_text())
+PROFILE = tomllib.loads((resources.files("porosense.infoam") / "profile_data" / "pellet-ender5plus.toml").read_text())
 MM3_PER_TURN = PROFILE["extruder"]["mm3_per_turn"]
 BED_CENTRE = (350.0 / 2, 350.0 / 2)
 SOLID_MAX_PCT = 5.0  # "below 5 %" / "near zero porosity"

@@ -23,7 +23,7 @@ from porosense.infoam import (
     read_gcode,
 )
 
-PROFILES = resources.files("porosense.infoam") / "profiles"
+PROFILES = resources.files("porosense.infoam") / "profile_data"
 
 
 def _text(name):

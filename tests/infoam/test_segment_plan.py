@@ -45,7 +45,6 @@ def test_three_contractors_76_percent_on_a_52_mm_triangle(plan):
         assert 24.0 <= np.ptp(xs) <= 25.0 and 24.0 <= np.ptp(ys) <= 25.0
         for r in regions:
             if "foam" in r or "core" in r:
-                lo, hi = g.region_z(r)
                 phi = g.region_porosity(r)
                 assert abs(phi - 76.0) <= 1.0, (r, phi)
         assert max(g.region_z(r)[1] for r in regions) == pytest.approx(50.0, abs=1e-3)

@@ -7,7 +7,7 @@ extruder sets what one E unit of the G-code means:
 - ``mm3``: one mm^3 of melt (volumetric extrusion);
 - ``mm_filament``: one mm of filament of ``filament_diameter_mm`` pulled into the hotend.
 
-Built-in profiles live beside this module (``profiles/*.toml``); any other TOML file of the
+Built-in profiles live in ``profile_data/*.toml`` beside this module; any other TOML file of the
 same shape can be given by path. Every problem is reported as one InputError line naming the
 file and the key.
 """
@@ -156,7 +156,7 @@ def _read_toml(path: Path, what: str) -> dict:
 
 
 def _profiles_dir():
-    return resources.files("porosense.infoam") / "profiles"
+    return resources.files("porosense.infoam") / "profile_data"
 
 
 def list_machines() -> list[str]:

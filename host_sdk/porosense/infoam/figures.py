@@ -125,7 +125,7 @@ def contractor_assembly(path=None):
 def bending_assembly(path=None):
     """Bending actuator side view: holder, sleeve, electrodes, markers and stripes."""
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(10, 3.8), layout="constrained")
+    fig, ax = plt.subplots(figsize=(10, 4.4), layout="constrained")
     b = D.paper_bending()
     length, width, height = D.BENDING_BODY_MM
     top = D.BENDING_BASE_MM + height
@@ -141,22 +141,22 @@ def bending_assembly(path=None):
         ax.plot([x, x + side * 14.0], [z, z], color=ELECTRODE_COLOUR, lw=2.0)
     ax.plot([], [], color=ELECTRODE_COLOUR, lw=2.0, label="copper-wire electrodes: top-left, bottom-right")
     ax.plot([x0 - 22, x0 + 1], [top / 2, top / 2], color="k", lw=3.0, label="vacuum tube")
-    for x in (x0 + 1.0, 0.0, x1 - 1.0):
+    for x in (x0, 0.0, x1):
         ax.plot([x], [0.5], "o", color=MARKER_COLOUR, ms=8, mec="k")
-    ax.plot([], [], "o", color=MARKER_COLOUR, ms=8, mec="k", label="markers on the base's side: clamp, middle, tip (~37.5 mm apart)")
+    ax.plot([], [], "o", color=MARKER_COLOUR, ms=8, mec="k", label="markers level with the base, 37.5 mm apart")
     for r in b.regions:
         if r.name.startswith("spacer_"):
             xm = (r.shape.x0 + r.shape.x1) / 2
             ax.plot([xm, xm], [D.BENDING_BASE_MM, top], color="k", lw=2.2, ls=(0, (1.5, 1.0)))
     ax.plot([], [], color="k", lw=2.2, ls=(0, (1.5, 1.0)), label="stripe on every spacer (side face)")
     ax.set_xlim(x0 - 24, x1 + 18)
-    ax.set_ylim(-16, top + 12)
+    ax.set_ylim(-24, top + 8)
     ax.set_aspect("equal")
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("z (mm)")
-    ax.set_title(f"Bending actuator: 1 mm base, {length:g} x {width:g} x {height:g} mm body of four "
+    fig.suptitle(f"Bending actuator: 1 mm base, {length:g} x {width:g} x {height:g} mm body of four "
                  "84 % sections and four solid spacers")
-    ax.legend(loc="upper left", fontsize=7, ncol=3, bbox_to_anchor=(0.0, -0.22))
+    ax.legend(loc="lower right", fontsize=7, ncol=2)
     _colourbar(fig, ax)
     return _save(fig, path)
 
@@ -216,6 +216,7 @@ def segment_assembly(path=None):
         top.text(x, y, f"C{k + 1}", ha="center", va="center", color="w", fontsize=10, weight="bold")
         mx, my = (r_stage - 3.0) * np.array([x, y]) / math.hypot(x, y)
         top.plot([mx], [my], "o", color=MARKER_COLOUR, ms=9, mec="k")
+    top.plot([0.0], [-(r_base - 3.0)], "s", color=MARKER_COLOUR, ms=9, mec="k", label="marker on the base")
     top.plot([], [], "o", color=MARKER_COLOUR, ms=9, mec="k", label="markers on the stage rim")
     for a, b in zip(corners, corners[1:] + corners[:1]):
         top.plot([a[0], b[0]], [a[1], b[1]], color="k", lw=0.6)
@@ -245,7 +246,8 @@ def segment_assembly(path=None):
             side.add_patch(Rectangle((y1 + a, z_c + r.z0), b - a, r.z1 - r.z0,
                                      facecolor=plt_cmap(norm(r.porosity)), edgecolor="white", lw=0.3))
     side.plot([-bx / 2 * 0 - by / 2, by / 2], [z_c + h + floor + 0.4] * 2, color="#2ca02c", lw=4, label="BNO055")
-    side.plot([y1, y1], [-12, floor], color="k", lw=3, label="vacuum tubes through the base")
+    side.plot([y1, y1], [-12, z_c + D.CONTRACTOR_END_MM + 1.0], color="k", lw=3,
+              label="vacuum tubes through the base into the foam")
     side.set_aspect("equal")
     side.autoscale()
     side.set_ylim(-14, z_c + h + 2 * floor + 10)

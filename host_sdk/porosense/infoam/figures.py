@@ -295,12 +295,12 @@ def parts_overview(path=None):
         ax.set_title(f"{name}\n{x:.0f} x {y:.0f} x {z:.0f} mm, {m.volume / 1000:.1f} cm³{note}", fontsize=9)
         ax.tick_params(labelsize=6)
     fig.suptitle("PLA fixtures (STL from 'porosense infoam parts'), in print orientation")
-    return _save(fig, path)
+    return _save(fig, path, dpi=95)  # thousands of shaded facets: a lower resolution keeps the file small
 
 
-def _save(fig, path):
+def _save(fig, path, dpi: int = 120):
     if path is not None:
-        fig.savefig(Path(path), dpi=120)
+        fig.savefig(Path(path), dpi=dpi)
         _plt().close(fig)
     return fig
 

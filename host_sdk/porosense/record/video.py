@@ -9,11 +9,20 @@ import cv2
 from porosense.errors import DeviceError, InputError
 
 
+def _quiet() -> None:
+    """Keep OpenCV's own warnings (one per back-end tried) off stderr: ours say it in one line."""
+    try:
+        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    except AttributeError:  # builds without the logging utilities
+        pass
+
+
 def open_video(path) -> tuple[cv2.VideoCapture, float, int]:
     """Open a video file; returns the capture, its frame rate (Hz) and frame count."""
     path = Path(path)
     if not path.is_file():
         raise InputError(f"video {path} not found")
+    _quiet()
     cap = cv2.VideoCapture(str(path))
     ok = cap.isOpened()
     if ok:
@@ -31,6 +40,7 @@ def open_video(path) -> tuple[cv2.VideoCapture, float, int]:
 
 def open_camera(index: int, width: int = 640, height: int = 480, fps: float = 30.0) -> cv2.VideoCapture:
     """Open camera ``index`` and ask for ``width`` x ``height`` at ``fps``."""
+    _quiet()
     cap = cv2.VideoCapture(int(index))
     ok = cap.isOpened()
     if ok:

@@ -92,3 +92,19 @@ def test_video_shorter_than_recording(scene, tmp_path, capfd):
                         "--layout", str(base / "layout.json"), "--out", str(tmp_path / "r.csv"), "--no-progress")
     assert code == 2
     _one_line_error(err, "s too short")
+
+
+def test_board_run_on_the_emulator_with_a_too_short_video(scene, tmp_path, capfd):
+    """--port runs the schedule on a board (here the emulator, 65 s of step_10) and then finds
+    the ~32 s video does not cover it: one line, and the board recording is not lost."""
+    from porosense.emulator import Emulator
+
+    base = scene.video.parent
+    with Emulator("contractor", seed=2) as emu:
+        code = main(["record", "--port", emu.url, "--video", str(scene.video), "--layout",
+                     str(base / "layout.json"), "--experiment", "step_10", "--out", str(tmp_path / "r.csv"),
+                     "--no-progress"])
+    _, err = capfd.readouterr()
+    assert code == 2
+    _one_line_error(err, "s too short")
+    assert Recording.from_csv(tmp_path / "r_board.csv").duration > 60.0

@@ -87,6 +87,10 @@ def run(args) -> int:
     else:
         video_path = Path(args.video) if args.video else out.with_suffix(".avi")
         board, host_times, t_host_start = _run_board(args, camera, video_path, progress)
+        # The board's samples are kept whatever happens to the video.
+        saved = board.to_csv(out.with_name(out.stem + "_board.csv"))
+        if not args.json:
+            print(f"board samples saved to {saved}")
     video_path = Path(args.video) if args.video else out.with_suffix(".avi")
     timestamps = None
     if host_times is not None:

@@ -52,8 +52,8 @@ def _project(poly_mm, k, dist, rvec, tvec, per_edge: int = 8):
 
 def test_calibration_recovers_plane_millimetres(tmp_path):
     """Eight tilted views plus one frontal (the actuator plane). Measured: reprojection rms
-    0.25 px, plane points mapped back to mm with 0.018 mm rms error (12 mm squares span ~25 px;
-    without undistortion the error is ~1 mm at the edges). Bounds: 0.5 px and 0.1 mm."""
+    0.25 px, plane points mapped back to mm with 0.018 mm rms error (12 mm squares span ~25 px).
+    Bounds: 0.5 px and 0.1 mm."""
     rng = np.random.default_rng(5)
     k, dist = _camera(rng)
     views = []
@@ -82,3 +82,24 @@ def test_calibration_without_the_board_is_an_error():
     blank = [np.full((H, W), 128, np.uint8)] * 4
     with pytest.raises(InputError, match="checkerboard 9x6 not found"):
         calibrate(blank, PATTERN, SQUARE_MM)
+
+
+def test_calibrate_command(tmp_path, capfd):
+    from porosense.cli import main
+
+    rng = np.random.default_rng(9)
+    k, dist = _camera(rng)
+    names = []
+    for i in range(5):
+        rvec = np.array([rng.uniform(-0.4, 0.4), rng.uniform(-0.4, 0.4), 0.0])
+        tvec = np.array([-50.0, -30.0, rng.uniform(300, 360)])
+        names.append(str(tmp_path / f"v{i}.png"))
+        cv2.imwrite(names[-1], _view(k, dist, rvec, tvec))
+    code = main(["record", "--calibrate", *names, "--pattern", "9x6", "--square-mm", str(SQUARE_MM),
+                 "--out", str(tmp_path / "cal.json")])
+    out, err = capfd.readouterr()
+    assert code == 0, err
+    assert Calibration.load(tmp_path / "cal.json").rms_px < 0.5
+    code = main(["record", "--calibrate", *names, "--out", str(tmp_path / "c2.json")])
+    _, err = capfd.readouterr()
+    assert code == 2 and "--square-mm" in err

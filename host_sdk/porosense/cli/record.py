@@ -33,14 +33,14 @@ def register(sub) -> argparse.ArgumentParser:
         epilog=("example: porosense record --port /dev/ttyACM0 --camera 0 --layout layout.json "
                 "--experiment step_60 --out runs/bending_step60.csv"),
     )
-    board = p.add_mutually_exclusive_group(required=True)
+    board = p.add_mutually_exclusive_group()
     board.add_argument("--port", metavar="URL", help="the board: serial port or pyserial URL")
     board.add_argument("--board-recording", metavar="CSV",
                        help="an earlier board recording (with t_dev_us) instead of running the schedule")
-    cam = p.add_mutually_exclusive_group(required=True)
+    cam = p.add_mutually_exclusive_group()
     cam.add_argument("--camera", type=int, metavar="N", help="OpenCV camera index (live capture)")
     cam.add_argument("--video", metavar="FILE", help="a video filmed during the board's run")
-    p.add_argument("--layout", required=True, metavar="JSON", help="regions and scale (docs/camera.md)")
+    p.add_argument("--layout", metavar="JSON", help="regions and scale (docs/camera.md)")
     p.add_argument("--calibration", metavar="JSON", help="checkerboard calibration (replaces the reference)")
     p.add_argument("--experiment", "-e", default="step_60", help="schedule name (default: step_60)")
     p.add_argument("--channels", type=int, default=1, choices=(1, 2, 3), help="pressure channels (default 1)")
@@ -49,6 +49,12 @@ def register(sub) -> argparse.ArgumentParser:
                    help="without sync blinks: seconds into --video at which the stream started (default 0)")
     p.add_argument("--preview", metavar="AVI", help="write a copy of the video with the detections drawn")
     p.add_argument("--out", required=True, metavar="CSV", help="the recording to write (CSV + JSON)")
+    cal = p.add_argument_group("camera calibration (instead of a recording)")
+    cal.add_argument("--calibrate", nargs="+", metavar="IMAGE",
+                     help="checkerboard images; the last one with the board in the actuator's plane. "
+                          "Writes the calibration JSON to --out")
+    cal.add_argument("--pattern", default="9x6", metavar="CxR", help="inner corners (default 9x6)")
+    cal.add_argument("--square-mm", type=float, default=None, help="checkerboard square size in mm")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=run)
@@ -67,6 +73,13 @@ def run(args) -> int:
     from porosense.record.truth import add_truth
     from porosense.record.video import open_camera, open_video
 
+    if args.calibrate:
+        return _calibrate(args)
+    for option, given in (("--port or --board-recording", args.port or args.board_recording),
+                          ("--camera or --video", args.camera is not None or args.video),
+                          ("--layout", args.layout)):
+        if not given:
+            raise InputError(f"{option} is required to record")
     layout = Layout.load(args.layout)
     calibration = Calibration.load(args.calibration) if args.calibration else None
     out = Path(args.out)
@@ -125,6 +138,32 @@ def run(args) -> int:
             print(f"{missing} samples without truth (NaN, camera_ok = 0): samples "
                   f"{rec.meta['camera']['sample_ranges_without_truth']}")
         print(f"wrote {path} ({len(rec)} samples, truth: {', '.join(rec.meta['camera']['truth_columns'])})")
+    return 0
+
+
+def _calibrate(args) -> int:
+    import cv2
+
+    from porosense.record.calibration import calibrate
+
+    try:
+        cols, rows = (int(v) for v in args.pattern.lower().split("x"))
+    except ValueError:
+        raise InputError(f"--pattern {args.pattern}: expected inner corners as CxR, e.g. 9x6") from None
+    if not (args.square_mm and args.square_mm > 0):
+        raise InputError("--calibrate needs --square-mm (the checkerboard's square size in mm)")
+    images = []
+    for name in args.calibrate:
+        img = cv2.imread(name, cv2.IMREAD_GRAYSCALE)
+        if img is None:
+            raise InputError(f"cannot read image {name}")
+        images.append(img)
+    cal = calibrate(images, (cols, rows), args.square_mm)
+    path = cal.save(args.out)
+    if args.json:
+        print(json.dumps({"calibration": str(path), "rms_px": cal.rms_px}))
+    else:
+        print(f"calibrated from {len(images)} images: reprojection rms {cal.rms_px:.3f} px; wrote {path}")
     return 0
 
 

@@ -40,6 +40,9 @@ def test_record_from_board_recording_and_video(scene, tmp_path, capfd):
     err_k = rec["curvature"][ok] - scene.truth_curvature[ok]
     assert 100 * np.sqrt(np.mean(err_k ** 2)) / scene.truth_curvature.max() < 3.0
     assert rec.meta["camera"]["clock"]["method"] == "blinks"
+    frames = Recording.from_csv(result["frames"])
+    assert len(frames) == scene.n_frames
+    assert np.all(np.isnan(frames["dz"][frames["marker_ok"] == 0]))
 
 
 def test_without_indicator_warns_with_expected_error(scene, tmp_path, capfd):

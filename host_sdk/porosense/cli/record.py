@@ -70,7 +70,7 @@ def run(args) -> int:
     from porosense.record.layout import Layout
     from porosense.record.sync import ClockFit, fit_clock, host_clock
     from porosense.record.tracker import track_video
-    from porosense.record.truth import add_truth
+    from porosense.record.truth import add_truth, frame_table
     from porosense.record.video import open_camera, open_video
 
     if args.calibrate:
@@ -126,8 +126,9 @@ def run(args) -> int:
     rec = add_truth(board, track, clock, marker_length_mm=layout.marker_length_mm)
     rec.meta["camera"]["video"] = str(video_path)
     path = rec.to_csv(out)
+    frames = frame_table(track, clock).to_csv(out.with_name(out.stem + "_frames.csv"))
     missing = rec.meta["camera"]["samples_without_truth"]
-    result = {"recording": str(path), "samples": len(rec), "clock": clock.to_dict(), "track": track.to_dict(),
+    result = {"recording": str(path), "frames": str(frames), "samples": len(rec), "clock": clock.to_dict(), "track": track.to_dict(),
               "samples_without_truth": missing}
     if args.json:
         print(json.dumps(result, indent=2, default=float))
@@ -137,7 +138,8 @@ def run(args) -> int:
         if missing:
             print(f"{missing} samples without truth (NaN, camera_ok = 0): samples "
                   f"{rec.meta['camera']['sample_ranges_without_truth']}")
-        print(f"wrote {path} ({len(rec)} samples, truth: {', '.join(rec.meta['camera']['truth_columns'])})")
+        print(f"wrote {path} ({len(rec)} samples, truth: {', '.join(rec.meta['camera']['truth_columns'])}) "
+              f"and the per-frame values to {frames}")
     return 0
 
 

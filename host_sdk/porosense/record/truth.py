@@ -69,3 +69,19 @@ def add_truth(board: Recording, track: Track, clock: ClockFit, *, marker_length_
                       "sample_ranges_without_truth": format_ranges(frame_ranges(~good)),
                       "truth_columns": [n for n in ("curvature", "dz", "strain_0") if n in cols]}
     return Recording(board.t, merged, meta=meta, units={**board.units, **units})
+
+
+def frame_table(track: Track, clock: ClockFit) -> Recording:
+    """The camera's own samples: one row per frame at camera time ``t`` (s), with its device
+    time ``t_dev`` (s), the tracked values (NaN where failed) and the ok flags."""
+    cols, units = {"t_dev": clock.to_dev(track.t_cam)}, {"t_dev": "s"}
+    if track.indicator is not None:
+        cols["indicator"], units["indicator"] = track.indicator, "grey"
+    if track.curvature is not None:
+        cols["curvature"], units["curvature"] = track.curvature, "1/m"
+        cols["curvature_std"], units["curvature_std"] = track.curvature_std, "1/m"
+        cols["stripes_ok"], units["stripes_ok"] = track.ok_stripes.astype(np.int64), "flag"
+    if track.dz_mm is not None:
+        cols["dz"], units["dz"] = track.dz_mm, "mm"
+        cols["marker_ok"], units["marker_ok"] = track.ok_marker.astype(np.int64), "flag"
+    return Recording(track.t_cam, cols, meta={"camera": track.to_dict(), "clock": clock.to_dict()}, units=units)

@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from porosense.errors import InputError
 from porosense.record.blinks import PULSE_MS, board_edges
 
 #: Smallest on/off brightness step (grey levels) taken as a visible indicator.
@@ -94,18 +95,23 @@ def fit_clock(t_cam, brightness, t_dev_us, fps: float) -> ClockFit | None:
         return None
     tol = PULSE_MS * 1e-3 / 2
     t_cam = np.asarray(t_cam, dtype=float)
-    best = None
     # Coarse: every pairing of an observed with a board rising edge is a candidate offset;
     # score = matched edges minus board edges inside the video that were not seen.
     rising_c, rising_d = tc[pc > 0], td[pd > 0]
+    scored = []
     for o in np.unique(np.round((rising_d[None, :] - rising_c[:, None]).ravel(), 4)):
         i, _ = _match(tc, pc, td, pd, o, 1.0, tol)
         inside = (td >= o + t_cam[0]) & (td <= o + t_cam[-1])
-        score = 2 * len(i) - int(inside.sum())
-        if best is None or score > best[0]:
-            best = (score, o)
-    if best is None:
+        scored.append((2 * len(i) - int(inside.sum()), float(o)))
+    if not scored:
         return None
+    scored.sort(reverse=True)
+    best = scored[0]
+    rivals = [o for sc, o in scored[1:] if sc == best[0] and abs(o - best[1]) > PULSE_MS * 1e-3]
+    if rivals:
+        raise InputError(
+            f"the sync blinks fit offsets {best[1]:.2f} s and {rivals[0]:.2f} s equally well: the video "
+            "must show the start code (start the camera before the stream)")
     offset, slope = best[1], 1.0
     i = j = np.zeros(0, int)
     for tol_k in (tol, 3.0 / fps, 1.5 / fps):

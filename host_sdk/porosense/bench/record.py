@@ -62,6 +62,7 @@ def measure(scene) -> dict:
         "frames_failed": {k: int(sum(b - a + 1 for a, b in v)) for k, v in track.failed_ranges().items()},
         "frames_occluded": len(scene.occluded),
         "tracking_fps": track.tracking_fps,
+        "tracking_fps_cpu": track.tracking_fps_cpu,
         "n_frames": track.n_frames,
     }
 
@@ -79,12 +80,14 @@ def run(size: str) -> dict:
         "dz_rms_mm": max(r["dz_rms_mm"] for r in per_seed),
         "sync_offset_frames_max": max(r["sync_offset_frames_max"] for r in per_seed),
         "tracking_fps": min(r["tracking_fps"] for r in per_seed),
+        "tracking_fps_cpu": min(r["tracking_fps_cpu"] for r in per_seed),
     }
     summary = [
         f"rendered videos: {len(per_seed)} seeds, 640x480 at 30 fps, {per_seed[0]['n_frames']} frames each",
         f"curvature RMS: {worst['curvature_rms_pct_of_max']:.2f} % of max (worst seed; bound 3 %)",
         f"dz RMS: {worst['dz_rms_mm']:.3f} mm (worst seed; bound 0.3 mm)",
         f"sync offset: {worst['sync_offset_frames_max']:.3f} frames at 30 fps (worst frame, worst seed; bound 1)",
-        f"tracking speed: {worst['tracking_fps']:.0f} frames/s at 640x480 (slowest seed; real time is 30)",
+        f"tracking speed at 640x480 (slowest seed; real time is 30): {worst['tracking_fps']:.0f} frames/s "
+        f"wall clock, {worst['tracking_fps_cpu']:.0f} frames per CPU second (decoding included)",
     ]
     return {"seeds": per_seed, "worst": worst, "summary": summary}

@@ -51,12 +51,11 @@ def dark_blobs(gray: np.ndarray, roi, feature_px: int, min_contrast: float,
         xa, ya = max(bx - 1, 0), max(by - 1, 0)
         xb, yb = min(bx + bw + 1, w), min(by + bh + 1, h)
         mask = cv2.dilate((labels[ya:yb, xa:xb] == i).astype(np.uint8), np.ones((3, 3), np.uint8))
-        wgt = np.where(mask > 0, np.maximum(weight[ya:yb, xa:xb], 0), 0)
-        total = float(wgt.sum())
-        if total <= 0:
+        wgt = np.where(mask > 0, np.maximum(weight[ya:yb, xa:xb], 0), 0).astype(np.float32)
+        m = cv2.moments(wgt)
+        if m["m00"] <= 0:
             continue
-        yy, xx = np.mgrid[ya:yb, xa:xb]
-        out.append(Blob(float((wgt * xx).sum() / total) + x0, float((wgt * yy).sum() / total) + y0,
+        out.append(Blob(m["m10"] / m["m00"] + xa + x0, m["m01"] / m["m00"] + ya + y0,
                         float(area), float(hat[ya:yb, xa:xb][mask > 0].max())))
     out.sort(key=lambda b: -b.area)
     return out

@@ -61,7 +61,8 @@ class Track:
     ok_marker: np.ndarray | None = None
     mm_per_px: float | None = None
     fps: float = float("nan")
-    tracking_fps: float = float("nan")
+    tracking_fps: float = float("nan")      # frames per wall-clock second (decode included)
+    tracking_fps_cpu: float = float("nan")  # frames per CPU second of this process
     stripe_count: int = 0
     info: dict = field(default_factory=dict)
 
@@ -79,6 +80,7 @@ class Track:
 
     def to_dict(self) -> dict:
         return {"n_frames": self.n_frames, "fps": self.fps, "tracking_fps": self.tracking_fps,
+                "tracking_fps_cpu": self.tracking_fps_cpu,
                 "mm_per_px": self.mm_per_px, "stripe_count": self.stripe_count,
                 "failed_frames": {k: [list(r) for r in v] for k, v in self.failed_ranges().items()},
                 **self.info}
@@ -156,7 +158,7 @@ def track_video(path, layout: Layout, calibration: Calibration | None = None, *,
     scale = _Scale(layout, calibration)
     indicator, stripes, marker = [], [], []
     writer = None
-    t_start = time.perf_counter()
+    t_start, cpu_start = time.perf_counter(), time.process_time()
     k = 0
     try:
         while True:
@@ -183,7 +185,7 @@ def track_video(path, layout: Layout, calibration: Calibration | None = None, *,
             bar.close()
         if writer is not None:
             writer.release()
-    elapsed = time.perf_counter() - t_start
+    elapsed, cpu = time.perf_counter() - t_start, time.process_time() - cpu_start
     n = k
     if timestamps is not None:
         t_cam = np.asarray(timestamps, dtype=float)[:n]
@@ -193,7 +195,7 @@ def track_video(path, layout: Layout, calibration: Calibration | None = None, *,
         t_cam = np.arange(n) / fps
     scale.finish()
     track = Track(t_cam=t_cam, fps=fps, tracking_fps=n / elapsed if elapsed > 0 else float("inf"),
-                  mm_per_px=scale.mm_per_px)
+                  tracking_fps_cpu=n / cpu if cpu > 0 else float("inf"), mm_per_px=scale.mm_per_px)
     if layout.indicator is not None:
         track.indicator = np.asarray(indicator)
     if layout.stripes is not None:

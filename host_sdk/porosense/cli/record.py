@@ -116,7 +116,7 @@ def run(args) -> int:
     if clock is None:
         why = "no indicator region in the layout" if layout.indicator is None else "no sync blinks seen"
         if host_times is not None:
-            clock = host_clock(track.t_cam, t_host_start - host_times[0], HOST_CLOCK_ERROR_MS)
+            clock = host_clock(t_host_start - host_times[0], HOST_CLOCK_ERROR_MS)
             _warn(f"{why}: frames aligned by host timestamps; expected error up to "
                   f"{HOST_CLOCK_ERROR_MS:.0f} ms ({HOST_CLOCK_ERROR_MS * track.fps / 1000:.1f} frames)")
         else:

@@ -128,6 +128,7 @@ def fit_clock(t_cam, brightness, t_dev_us, fps: float) -> ClockFit | None:
                     max(rms * 1e3, 1e3 / fps / np.sqrt(12.0)))
 
 
-def host_clock(t_cam_host, t_host_stream_start: float, expected_error_ms: float) -> ClockFit:
-    """Fallback: camera host times (s) minus the host time of the stream's first sample."""
+def host_clock(t_host_stream_start: float, expected_error_ms: float) -> ClockFit:
+    """Fallback for frames timed by the host clock (s): device time = frame time minus the host
+    time of the stream's first sample (same clock); ``expected_error_ms`` is stated, not fitted."""
     return ClockFit(-float(t_host_stream_start), 0.0, float("nan"), 0, "host", float(expected_error_ms))

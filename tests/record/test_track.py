@@ -96,3 +96,9 @@ def test_video_shorter_than_recording_is_an_error(tracked):
     board = Recording(t, {"t_dev_us": t * 1e6})
     with pytest.raises(InputError, match="the video is .* s too short"):
         add_truth(board, track, clock)
+
+
+def test_region_outside_the_frame_is_an_error(scene):
+    layout = Layout(**{**scene.layout, "marker": [630, 470, 40, 40]})
+    with pytest.raises(InputError, match="lies outside the 640x480 frames"):
+        track_video(scene.video, layout)

@@ -166,6 +166,8 @@ def track_video(path, layout: Layout, calibration: Calibration | None = None, *,
             if not ok:
                 break
             gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
+            if k == 0:
+                _check_regions(layout, gray.shape, path)
             if k < LEARN_FRAMES:
                 scale.learn(gray)
             if layout.indicator is not None:
@@ -204,6 +206,14 @@ def track_video(path, layout: Layout, calibration: Calibration | None = None, *,
         _displacement(track, marker, scale, layout, path)
     _check_failures(track, layout, path)
     return track
+
+
+def _check_regions(layout: Layout, shape, path) -> None:
+    h, w = shape[:2]
+    for name in ("stripes", "marker", "indicator", "reference"):
+        roi = getattr(layout, name)
+        if roi is not None and (roi[0] < 0 or roi[1] < 0 or roi[0] + roi[2] > w or roi[1] + roi[3] > h):
+            raise InputError(f"layout region '{name}' {list(roi)} lies outside the {w}x{h} frames of {path}")
 
 
 def _curvature(track: Track, stripes, scale: _Scale, layout: Layout, path) -> None:
@@ -246,6 +256,9 @@ def _displacement(track: Track, marker, scale: _Scale, layout: Layout, path) -> 
         ok = (found & (areas < typical * MARKER_AREA_FACTOR) & (areas > typical / MARKER_AREA_FACTOR)
               & (contrast > MIN_CONTRAST_SHARE * ink))
     px = np.array([(b.x, b.y) if b is not None else (np.nan, np.nan) for b in marker])
+    if not ok.any():
+        raise InputError(f"{path}: no marker found in region {list(layout.marker)}: dark blobs there "
+                         "change size or contrast from frame to frame")
     mm = np.full((n, 2), np.nan)
     mm[ok] = scale.to_mm(px[ok])
     # Rest position: the first second of video (the schedule starts at rest).

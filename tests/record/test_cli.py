@@ -58,11 +58,16 @@ def test_without_indicator_warns_with_expected_error(scene, tmp_path, capfd):
 
 
 def test_missing_camera(scene, tmp_path, capfd):
+    """The camera is checked before the board is touched (the port here does not exist)."""
     base = scene.video.parent
-    code, _, err = _run(capfd, "--board-recording", str(base / "board.csv"), "--camera", "97",
+    code, _, err = _run(capfd, "--port", "socket://127.0.0.1:9", "--camera", "97",
                         "--layout", str(base / "layout.json"), "--out", str(tmp_path / "r.csv"))
     assert code == 3
     _one_line_error(err, "no camera at index 97")
+    code, _, err = _run(capfd, "--board-recording", str(base / "board.csv"), "--camera", "97",
+                        "--layout", str(base / "layout.json"), "--out", str(tmp_path / "r.csv"))
+    assert code == 2
+    _one_line_error(err, "--camera films a board run")
 
 
 def test_unreadable_video(scene, tmp_path, capfd):

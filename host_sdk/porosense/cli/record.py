@@ -80,6 +80,8 @@ def run(args) -> int:
                           ("--layout", args.layout)):
         if not given:
             raise InputError(f"{option} is required to record")
+    if args.camera is not None and not args.port:
+        raise InputError("--camera films a board run: give --port (use --video with --board-recording)")
     layout = Layout.load(args.layout)
     calibration = Calibration.load(args.calibration) if args.calibration else None
     out = Path(args.out)
@@ -128,8 +130,8 @@ def run(args) -> int:
     path = rec.to_csv(out)
     frames = frame_table(track, clock).to_csv(out.with_name(out.stem + "_frames.csv"))
     missing = rec.meta["camera"]["samples_without_truth"]
-    result = {"recording": str(path), "frames": str(frames), "samples": len(rec), "clock": clock.to_dict(), "track": track.to_dict(),
-              "samples_without_truth": missing}
+    result = {"recording": str(path), "frames": str(frames), "samples": len(rec), "clock": clock.to_dict(),
+              "track": track.to_dict(), "samples_without_truth": missing}
     if args.json:
         print(json.dumps(result, indent=2, default=float))
     else:

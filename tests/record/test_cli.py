@@ -28,7 +28,8 @@ def test_record_from_board_recording_and_video(scene, tmp_path, capfd):
     base = scene.video.parent
     out = tmp_path / "rec.csv"
     code, stdout, err = _run(capfd, "--board-recording", str(base / "board.csv"), "--video", str(scene.video),
-                             "--layout", str(base / "layout.json"), "--out", str(out), "--no-progress", "--json")
+                             "--layout", str(base / "layout.json"), "--out", str(out), "--no-progress", "--json",
+                             "--preview", str(tmp_path / "preview.avi"))
     assert code == 0, err
     result = json.loads(stdout)
     assert result["clock"]["method"] == "blinks"
@@ -40,6 +41,10 @@ def test_record_from_board_recording_and_video(scene, tmp_path, capfd):
     err_k = rec["curvature"][ok] - scene.truth_curvature[ok]
     assert 100 * np.sqrt(np.mean(err_k ** 2)) / scene.truth_curvature.max() < 3.0
     assert rec.meta["camera"]["clock"]["method"] == "blinks"
+    import cv2
+
+    preview = cv2.VideoCapture(str(tmp_path / "preview.avi"))
+    assert int(preview.get(cv2.CAP_PROP_FRAME_COUNT)) == scene.n_frames
     frames = Recording.from_csv(result["frames"])
     assert len(frames) == scene.n_frames
     assert np.all(np.isnan(frames["dz"][frames["marker_ok"] == 0]))

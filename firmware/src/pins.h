@@ -13,6 +13,7 @@ inline uint8_t pump(uint8_t ch) { return ch == 0 ? 2 : ch == 1 ? 4 : 7; }
 inline uint8_t valve(uint8_t ch) { return ch == 0 ? 8 : ch == 1 ? 12 : 13; }
 // Regulator setpoints D5, D6, D9: PWM duty = setpoint / -80 kPa * 255.
 inline uint8_t regulator(uint8_t ch) { return ch == 0 ? 5 : ch == 1 ? 6 : 9; }
+// D11: camera sync indicator LED, HIGH = on; the core drives it (lib/core/sync_blink.h, kSyncPin).
 
 constexpr uint8_t kAds1115Addr = 0x48;         // ADDR pin to GND; AIN0..AIN2 single-ended
 constexpr uint8_t kBno055Addr = 0x28;          // COM3 low

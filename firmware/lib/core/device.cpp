@@ -337,10 +337,12 @@ void Device::start_stream(uint16_t rate_hz, uint8_t mask) {
   telemetry_seq_ = 0;  // each stream numbers its SAMPLE frames from 0
   pending_overrun_ = 0;
   streaming_ = true;
+  sync_.restart();
 }
 
 void Device::stop_stream() {
   streaming_ = false;
+  hal_.analog_out(kSyncPin, 0);
   rate_hz_ = 0;
 }
 
@@ -510,6 +512,7 @@ void Device::cmd_model(uint8_t type, const uint8_t* p, uint8_t len) {
 
 void Device::on_sample_ticks(uint8_t n, uint32_t tick_us) {
   if (n == 0 || !streaming_) return;
+  hal_.analog_out(kSyncPin, sync_.level(tick_us) ? 255 : 0);  // camera sync, first: least lag
   if (n > 1) {
     counters_.overruns = sat_add16(counters_.overruns, (uint16_t)(n - 1));
     pending_overrun_ = 1;

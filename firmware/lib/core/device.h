@@ -10,6 +10,7 @@
 #include "link_watchdog.h"
 #include "model_port.h"
 #include "protocol_messages.h"
+#include "sync_blink.h"
 
 namespace dev {
 
@@ -118,6 +119,7 @@ class Device {
   static constexpr uint8_t kLineOn = 1;
   uint8_t line_state_;
   uint8_t analog_pin_;  // pin of the analogue estimate output now driven, 0 when off
+  SyncBlink sync_;      // camera sync indicator (sync_blink.h)
 };
 
 }  // namespace dev

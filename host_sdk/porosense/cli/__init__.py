@@ -31,6 +31,7 @@ SUBCOMMANDS = (
     "config",
     "ports",
     "emulator",
+    "record",
     "infoam",
     "bench",
 )

@@ -87,7 +87,18 @@ def load_data(path, *, separator: str | None = None, decimal: str | None = None)
                 return table
         table = read_table(path, separator=separator, decimal=decimal)
     table.ts, table.ts_source = _stated_ts(table)
+    table.units = _units_from_sidecar(path)
     return table
+
+
+def _units_from_sidecar(path: Path) -> dict:
+    side = path.with_suffix(".json")
+    try:
+        doc = json.loads(side.read_text(encoding="utf-8")) if side.is_file() else {}
+    except (json.JSONDecodeError, UnicodeDecodeError, OSError):
+        return {}
+    units = doc.get("units", {}) if isinstance(doc, dict) else {}
+    return {str(k): str(v) for k, v in units.items()} if isinstance(units, dict) else {}
 
 
 def resolve_ts(tables, ts: float | None, override: bool = False) -> float:

@@ -40,6 +40,7 @@ class Table:
     dialect: str = "comma-separated"  # what the reader saw, for error messages
     ts: float | None = None  # sample period (s) the file states (t column, sidecar, Ts variable)
     ts_source: str = ""  # where ts came from
+    units: dict = field(default_factory=dict)  # column -> unit, when the file states them
 
     def __len__(self) -> int:
         return len(next(iter(self.columns.values()))) if self.columns else 0

@@ -30,30 +30,79 @@ def _finish(fig, path):
     return fig
 
 
-def plot_reconstruction(t, measured, estimates: dict, *, ylabel: str = "strain (%)", title: str = "", path=None):
+def _legend_outside(ax, n_entries: int):
+    """Legend to the right of the axes, never over the data."""
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=8,
+              frameon=False, ncol=1 if n_entries <= 12 else 2)
+
+
+def plot_reconstruction(t, measured, estimates: dict, *, ylabel: str = "strain (%)", title: str = "", path=None,
+                        show_fit: bool = True):
     """Measured output against each model's estimate over time (s), like the paper's
-    reconstruction figures. ``estimates`` maps a model name to its simulated output."""
+    reconstruction figures. ``estimates`` maps a model name to its simulated output; the
+    legend (beside the axes) gives each model's NRMSE fit in %."""
+    from porosense.ident.metrics import fit_percent
+
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(9, 3.6), layout="constrained")
+    fig, ax = plt.subplots(figsize=(9.5, 3.6), layout="constrained")
     ax.plot(t, measured, color="black", lw=1.6, label="measured")
     for name, yhat in estimates.items():
-        ax.plot(t, yhat, lw=1.1, color=STRUCTURE_COLOURS.get(name), label=name)
+        label = f"{name} (fit {fit_percent(measured, yhat):.1f} %)" if show_fit else name
+        ax.plot(t, yhat, lw=1.1, color=STRUCTURE_COLOURS.get(name), label=label)
     ax.set_xlabel("time (s)")
     ax.set_ylabel(ylabel)
     ax.set_title(title)
     ax.grid(alpha=0.3)
-    ax.legend(ncol=min(5, 1 + len(estimates)), fontsize=8, loc="best")
+    _legend_outside(ax, 1 + len(estimates))
     return _finish(fig, path)
 
 
-def plot_hysteresis(dR_pct, output, *, ylabel: str = "strain (%)", title: str = "", path=None):
-    """dR (%) against the output: the loop whose area shows hysteresis and relaxation."""
+def plot_compare(t, measured: dict, predicted: dict, *, label: str = "model", units: dict | None = None,
+                 title: str = "", path=None):
+    """MATLAB's ``compare``: one panel per output, measured (when known) and predicted against
+    time (s), the fit (%) in the legend. ``measured``/``predicted`` map output names to arrays."""
+    from porosense.ident.metrics import fit_percent
+
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(5, 4.2), layout="constrained")
+    names = list(predicted)
+    fig, axes = plt.subplots(len(names), 1, figsize=(9.5, 2.6 * len(names) + 0.6), layout="constrained",
+                             squeeze=False, sharex=True)
+    for ax, name in zip(axes[:, 0], names):
+        if name in measured:
+            ax.plot(t, measured[name], color="black", lw=1.5, label="measured")
+            fit = fit_percent(measured[name], predicted[name])
+            ax.plot(t, predicted[name], color="#d62728", lw=1.1, label=f"{label} (fit {fit:.1f} %)")
+        else:
+            ax.plot(t, predicted[name], color="#d62728", lw=1.1, label=label)
+        unit = (units or {}).get(name)
+        ax.set_ylabel(f"{name} ({unit})" if unit else name)
+        ax.grid(alpha=0.3)
+        _legend_outside(ax, 2)
+    axes[-1, 0].set_xlabel("time (s)")
+    axes[0, 0].set_title(title)
+    return _finish(fig, path)
+
+
+def plot_hysteresis(dR_pct, output, *, ylabel: str = "strain (%)", title: str = "", path=None,
+                    colour=None, colour_label: str = "time (s)", fits: dict | None = None):
+    """dR (%) against the output: the loop whose area shows hysteresis and relaxation.
+
+    ``colour`` (time in s, or pressure in kPa) colours the points, ``colour_label`` names it
+    with its unit; without it the points are coloured by sample index. ``fits`` maps a
+    direction ("loading", "unloading") to (x, y) of a fitted curve drawn over the loop.
+    """
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(5.6, 4.2), layout="constrained")
     dR_pct = np.asarray(dR_pct)
-    sc = ax.scatter(dR_pct, output, c=np.arange(len(dR_pct)), s=2, cmap="viridis")
+    if colour is None:
+        colour, colour_label = np.arange(len(dR_pct)), "sample"
+    sc = ax.scatter(dR_pct, output, c=np.asarray(colour), s=2, cmap="viridis")
     ax.plot(dR_pct, output, lw=0.3, color="grey", alpha=0.5)
-    fig.colorbar(sc, ax=ax, label="sample")
+    fig.colorbar(sc, ax=ax, label=colour_label)
+    for (direction, (x, y)), c in zip((fits or {}).items(), ("#d62728", "#1f77b4")):
+        ax.plot(x, y, color=c, lw=2.0, label=f"{direction} fit")
+    if fits:
+        ax.legend(fontsize=8, loc="best")
     ax.set_xlabel("dR (%)")
     ax.set_ylabel(ylabel)
     ax.set_title(title or "dR versus output")
@@ -61,22 +110,42 @@ def plot_hysteresis(dR_pct, output, *, ylabel: str = "strain (%)", title: str = 
     return _finish(fig, path)
 
 
-def plot_fit_bars(fits: dict, *, metric: str = "fit (%)", title: str = "", path=None):
-    """Grouped bars: ``fits[structure][dataset] = value``; the paper's fit bar chart."""
+def mean_and_se(values) -> tuple[float, float]:
+    """Mean and standard error of the mean (sample std / sqrt(n); 0 for one value) of finite values."""
+    v = np.asarray([x for x in values if np.isfinite(x)], dtype=float)
+    if v.size == 0:
+        return float("nan"), float("nan")
+    se = float(np.std(v, ddof=1) / np.sqrt(v.size)) if v.size > 1 else 0.0
+    return float(v.mean()), se
+
+
+def plot_fit_bars(fits: dict, *, metric: str = "fit (%)", title: str = "", path=None, xlabel: str = "dataset"):
+    """Grouped bars: ``fits[model][dataset] = value``; the paper's fit bar chart.
+
+    A last group "mean" shows each model's mean over the datasets with the standard error
+    of the mean as an error bar.
+    """
     plt = _plt()
     structures = list(fits)
-    datasets = list(next(iter(fits.values())))
-    x = np.arange(len(datasets))
+    datasets = list(dict.fromkeys(d for s in structures for d in fits[s]))
+    groups = datasets + ["mean ± SE"]
+    x = np.arange(len(groups))
     width = 0.8 / max(1, len(structures))
-    fig, ax = plt.subplots(figsize=(max(6, 1.3 * len(datasets) + 2), 3.8), layout="constrained")
+    fig, ax = plt.subplots(figsize=(max(6.5, 1.2 * len(groups) + 3), 3.9), layout="constrained")
     for k, s in enumerate(structures):
         vals = [fits[s].get(d, np.nan) for d in datasets]
-        ax.bar(x + (k - (len(structures) - 1) / 2) * width, vals, width, label=s, color=STRUCTURE_COLOURS.get(s))
-    ax.set_xticks(x, datasets, rotation=20)
+        mean, se = mean_and_se(vals)
+        pos = x + (k - (len(structures) - 1) / 2) * width
+        ax.bar(pos[:-1], vals, width, label=s, color=STRUCTURE_COLOURS.get(s))
+        ax.bar(pos[-1], mean, width, yerr=se, capsize=3, color=STRUCTURE_COLOURS.get(s), hatch="//",
+               edgecolor="white")
+    ax.axvline(len(datasets) - 0.5, color="grey", lw=0.8, ls=":")
+    ax.set_xticks(x, groups, rotation=20, ha="right")
+    ax.set_xlabel(xlabel)
     ax.set_ylabel(metric)
     ax.set_title(title)
     ax.grid(axis="y", alpha=0.3)
-    ax.legend(fontsize=8, ncol=len(structures))
+    _legend_outside(ax, len(structures))
     return _finish(fig, path)
 
 

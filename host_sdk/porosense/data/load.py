@@ -87,18 +87,21 @@ def load_data(path, *, separator: str | None = None, decimal: str | None = None)
                 return table
         table = read_table(path, separator=separator, decimal=decimal)
     table.ts, table.ts_source = _stated_ts(table)
-    table.units = _units_from_sidecar(path)
+    table.units, table.meta = _sidecar_units_meta(path)
     return table
 
 
-def _units_from_sidecar(path: Path) -> dict:
+def _sidecar_units_meta(path: Path) -> tuple[dict, dict]:
     side = path.with_suffix(".json")
     try:
         doc = json.loads(side.read_text(encoding="utf-8")) if side.is_file() else {}
     except (json.JSONDecodeError, UnicodeDecodeError, OSError):
-        return {}
-    units = doc.get("units", {}) if isinstance(doc, dict) else {}
-    return {str(k): str(v) for k, v in units.items()} if isinstance(units, dict) else {}
+        return {}, {}
+    if not isinstance(doc, dict):
+        return {}, {}
+    units, meta = doc.get("units", {}), doc.get("meta", {})
+    return ({str(k): str(v) for k, v in units.items()} if isinstance(units, dict) else {},
+            meta if isinstance(meta, dict) else {})
 
 
 def resolve_ts(tables, ts: float | None, override: bool = False) -> float:

@@ -41,6 +41,7 @@ class Table:
     ts: float | None = None  # sample period (s) the file states (t column, sidecar, Ts variable)
     ts_source: str = ""  # where ts came from
     units: dict = field(default_factory=dict)  # column -> unit, when the file states them
+    meta: dict = field(default_factory=dict)  # the sidecar's metadata (porosity, load_g, ...)
 
     def __len__(self) -> int:
         return len(next(iter(self.columns.values()))) if self.columns else 0

@@ -14,6 +14,23 @@ import numpy as np
 STRUCTURE_COLOURS = {"linear": "#7f7f7f", "hammerstein": "#1f77b4", "wiener": "#2ca02c", "wh": "#d62728"}
 
 
+def model_colours(names) -> dict:
+    """A colour per model name, the same in every figure: the structure's colour when every name
+    maps to a different structure (by name or a '(kind)' suffix), else a fixed palette in order."""
+    def kind(name):
+        for k in sorted(STRUCTURE_COLOURS, key=len, reverse=True):
+            if name == k or name.endswith(f"({k})") or name.startswith(f"{k} ") or name == f"{k}.json":
+                return k
+        return None
+
+    names = list(names)
+    kinds = [kind(n) for n in names]
+    if all(kinds) and len(set(kinds)) == len(kinds):
+        return {n: STRUCTURE_COLOURS[k] for n, k in zip(names, kinds)}
+    palette = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"]
+    return {n: palette[i % len(palette)] for i, n in enumerate(names)}
+
+
 def _plt():
     import matplotlib
 
@@ -23,9 +40,24 @@ def _plt():
     return plt
 
 
+def figure_labels(fig) -> dict:
+    """Axis labels, titles and legend entries of every axes of ``fig`` (colour bars included)."""
+    axes = []
+    for ax in fig.axes:
+        legend = ax.get_legend()
+        axes.append({"title": ax.get_title(), "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel(),
+                     "legend": [t.get_text() for t in legend.get_texts()] if legend else []})
+    return {"title": fig._suptitle.get_text() if fig._suptitle else "", "axes": axes}
+
+
 def _finish(fig, path):
+    """Save as PNG with a ``.labels.json`` beside it (what the report page shows of the figure)."""
     if path is not None:
-        fig.savefig(Path(path), dpi=110)
+        import json
+
+        path = Path(path)
+        fig.savefig(path, dpi=110)
+        path.with_suffix(".labels.json").write_text(json.dumps(figure_labels(fig)))
         _plt().close(fig)
     return fig
 
@@ -46,9 +78,10 @@ def plot_reconstruction(t, measured, estimates: dict, *, ylabel: str = "strain (
     plt = _plt()
     fig, ax = plt.subplots(figsize=(9.5, 3.6), layout="constrained")
     ax.plot(t, measured, color="black", lw=1.6, label="measured")
+    colours = model_colours(estimates)
     for name, yhat in estimates.items():
         label = f"{name} (fit {fit_percent(measured, yhat):.1f} %)" if show_fit else name
-        ax.plot(t, yhat, lw=1.1, color=STRUCTURE_COLOURS.get(name), label=label)
+        ax.plot(t, yhat, lw=1.1, color=colours[name], label=label)
     ax.set_xlabel("time (s)")
     ax.set_ylabel(ylabel)
     ax.set_title(title)
@@ -84,7 +117,7 @@ def plot_compare(t, measured: dict, predicted: dict, *, label: str = "model", un
 
 
 def plot_hysteresis(dR_pct, output, *, ylabel: str = "strain (%)", title: str = "", path=None,
-                    colour=None, colour_label: str = "time (s)", fits: dict | None = None):
+                    colour=None, colour_label: str = "time (s)", fits: dict | None = None, xlabel: str = "dR (%)"):
     """dR (%) against the output: the loop whose area shows hysteresis and relaxation.
 
     ``colour`` (time in s, or pressure in kPa) colours the points, ``colour_label`` names it
@@ -103,7 +136,7 @@ def plot_hysteresis(dR_pct, output, *, ylabel: str = "strain (%)", title: str = 
         ax.plot(x, y, color=c, lw=2.0, label=f"{direction} fit")
     if fits:
         ax.legend(fontsize=8, loc="best")
-    ax.set_xlabel("dR (%)")
+    ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title or "dR versus output")
     ax.grid(alpha=0.3)
@@ -132,13 +165,13 @@ def plot_fit_bars(fits: dict, *, metric: str = "fit (%)", title: str = "", path=
     x = np.arange(len(groups))
     width = 0.8 / max(1, len(structures))
     fig, ax = plt.subplots(figsize=(max(6.5, 1.2 * len(groups) + 3), 3.9), layout="constrained")
+    colours = model_colours(structures)
     for k, s in enumerate(structures):
         vals = [fits[s].get(d, np.nan) for d in datasets]
         mean, se = mean_and_se(vals)
         pos = x + (k - (len(structures) - 1) / 2) * width
-        ax.bar(pos[:-1], vals, width, label=s, color=STRUCTURE_COLOURS.get(s))
-        ax.bar(pos[-1], mean, width, yerr=se, capsize=3, color=STRUCTURE_COLOURS.get(s), hatch="//",
-               edgecolor="white")
+        ax.bar(pos[:-1], vals, width, label=s, color=colours[s])
+        ax.bar(pos[-1], mean, width, yerr=se, capsize=3, color=colours[s], hatch="//", edgecolor="white")
     ax.axvline(len(datasets) - 0.5, color="grey", lw=0.8, ls=":")
     ax.set_xticks(x, groups, rotation=20, ha="right")
     ax.set_xlabel(xlabel)

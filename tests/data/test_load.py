@@ -67,7 +67,7 @@ def test_empty_cell_is_reported_with_its_line(tmp_path):
     path = tmp_path / "gap.csv"
     path.write_text("t;u;y\n0;1,5;2\n0,1;;3\n0,2;1;4\n")
     table = load_data(path)
-    with pytest.raises(InputError, match=r"line 3, column 'u': empty cell"):
+    with pytest.raises(InputError, match=r"line 3, column 'u': empty or NaN cell"):
         table.require_finite(["u", "y"])
 
 

@@ -84,8 +84,16 @@ def load_model_checked(path):
     import numpy as np
 
     from porosense.ident import load_model
+    from porosense.ident.models import FORMAT_VERSION
 
     model = load_model(path)
+    try:  # the file's inner models carry their own format version
+        inner = [d.get("version") for d in json.loads(Path(path).read_text()).get("models", [])]
+    except (ValueError, AttributeError, OSError):
+        inner = []
+    bad = [v for v in inner if v != FORMAT_VERSION]
+    if bad:
+        raise ModelError(f"{path}: inner model format version {bad[0]}, this build reads {FORMAT_VERSION}")
     try:
         structure = model.to_structure()
     except (ValueError, np.linalg.LinAlgError) as exc:

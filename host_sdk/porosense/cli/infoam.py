@@ -15,7 +15,7 @@ def register(sub) -> argparse.ArgumentParser:
         help="plan prints of graded-porosity actuators (calibrate, G-code, predict)",
         description=(
             "Print planning by liquid rope coiling. Coil radius Rc (mm) follows nozzle height H (mm) as "
-            "Rc = a H + b; porosity (%%) follows coil geometry, calibrated on weighed cubes "
+            "Rc = a H + b; porosity (%) follows coil geometry, calibrated on weighed cubes "
             "(phi = 100 (1 - m / (V rho_b))). A design is a set of regions of target porosity; the planner "
             "turns it into G-code and the simulator predicts stroke and dR at each vacuum level."
         ),
@@ -33,7 +33,7 @@ def register(sub) -> argparse.ArgumentParser:
     c = s.add_parser("calibrate", help="fit Rc = a H + b and the porosity model",
                      description="Fit the coil-radius line and the porosity model. Without files, the paper's "
                                  "cTPE values are used (Rc = 0.40 H - 0.3 mm; H = 4, 6, 8, 10 mm at N = 3 "
-                                 "gave 68, 76, 82, 86 %%).")
+                                 "gave 68, 76, 82, 86 %).")
     c.add_argument("--coil-radii", metavar="CSV", help="columns height_mm, radius_mm (measured coil radii)")
     c.add_argument("--cubes", metavar="CSV",
                    help="columns height_mm, coil_density, and either porosity_pct or mass_g + volume_mm3")
@@ -83,6 +83,8 @@ def _calibration(args):
     coil = PAPER_COIL_RADIUS
     if args.coil_radii:
         t = read_table(args.coil_radii)
+        if not (np.all(t["height_mm"] > 0) and np.all(t["radius_mm"] > 0)):
+            raise InputError(f"{args.coil_radii}: heights and coil radii must be positive (mm)")
         coil = CoilRadiusFit.fit(t["height_mm"], t["radius_mm"])
     if args.cubes:
         t = read_table(args.cubes)
@@ -149,6 +151,11 @@ def run_gcode(args) -> int:
     settings = PrintSettings(machine=Machine(nozzle_mm=model.nozzle_mm), porosity_model=model,
                              coil_density=args.coil_density)
     job = generate(design, settings)
+    for plan in job.plans:  # a negative coil radius is a calibration that no printer can follow
+        if plan.method == "coil" and not model.coil.radius(plan.nozzle_height_mm) > 0:
+            raise InputError(f"region {plan.region.name}: the calibration gives a coil radius of "
+                             f"{model.coil.radius(plan.nozzle_height_mm):.3g} mm at nozzle height "
+                             f"{plan.nozzle_height_mm:.3g} mm; recalibrate with positive radii")
     job.write(args.out)
     if args.preview:
         from porosense.infoam.preview import plot_toolpath

@@ -79,7 +79,7 @@ class Table:
         for name in names:
             bad = index[~np.isfinite(np.asarray(self[name], dtype=float)[rows])]
             if bad.size:
-                cell = "empty" if np.isnan(self[name][bad[0]]) else "non-finite"
+                cell = "empty or NaN" if np.isnan(self[name][bad[0]]) else "infinite"
                 raise InputError(f"{self.path}: {self.line_of(int(bad[0]))}, column '{name}': {cell} cell"
                                  f"{' in the ' + what if what else ''} ({bad.size} such cells in this column)")
 

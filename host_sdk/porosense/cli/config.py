@@ -42,12 +42,12 @@ def register(sub) -> argparse.ArgumentParser:
             "streams on its own (AUTOSTART) stops while EEPROM is written and restarts afterwards."
         ),
         epilog=(
-            "examples:\n"
-            "  porosense config --port /dev/ttyACM0\n"
+            "examples (on the emulator, porosense emulator; a board is --port /dev/ttyACM0):\n"
+            "  porosense config --port socket://127.0.0.1:5000\n"
             "  porosense config --port socket://127.0.0.1:5000 set AUTOSTART 1\n"
             "  porosense config --port socket://127.0.0.1:5000 get SAMPLE_RATE_HZ\n"
-            "  porosense config --port /dev/ttyACM0 set pwm_pin 10 --json\n"
-            "  porosense config --port /dev/ttyACM0 reset"
+            "  porosense config --port socket://127.0.0.1:5000 set pwm_pin 10 --json\n"
+            "  porosense config --port socket://127.0.0.1:5000 reset"
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

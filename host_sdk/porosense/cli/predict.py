@@ -15,7 +15,7 @@ from porosense.cli._data import (
     require_columns,
     say,
 )
-from porosense.errors import ModelError
+from porosense.errors import InputError, ModelError
 
 TIME_COLUMNS = ("t", "time", "t_s")
 
@@ -56,6 +56,8 @@ def run(args) -> int:
     model = load_model_checked(args.model)
     (table,) = read_tables([args.data], args)
     require_columns(table, list(model.inputs))
+    if len(table) == 0:
+        raise InputError(f"{args.data}: no samples (only a header?)")
     table.require_finite(list(model.inputs))
     ts = resolve_ts([table], args.ts, args.ts_override) if (args.ts or table.ts) else model.ts
     u = np.column_stack([table.columns[c] for c in model.inputs])

@@ -70,6 +70,8 @@ def compare(model, tables, name: str = "model") -> CompareResult:
     fit, rms, preds, files = {}, {}, {}, []
     for table in tables:
         key = str(table.path)
+        if len(table) < 2:
+            raise InputError(f"{table.path}: {len(table)} samples; a comparison needs at least 2")
         missing = [c for c in list(model.inputs) + outputs if c not in table.columns]
         if missing:
             raise InputError(f"{table.path}: no column(s) {', '.join(missing)} (columns: {', '.join(table.names)})")

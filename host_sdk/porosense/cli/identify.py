@@ -1,4 +1,4 @@
-"""``porosense identify``: estimate a model from CSV recordings and save it."""
+"""``porosense identify``: estimate a model from recordings (CSV or .mat) and save it."""
 
 from __future__ import annotations
 
@@ -17,15 +17,16 @@ STRUCTURE_CHOICES = ("linear", "hammerstein", "wiener", "wh", "all")
 def register(sub) -> argparse.ArgumentParser:
     p = sub.add_parser(
         "identify",
-        help="identify a linear/Hammerstein/Wiener/Wiener-Hammerstein model from CSV data",
+        help="identify a linear/Hammerstein/Wiener/Wiener-Hammerstein model from recordings (CSV or .mat)",
         description=(
             "Estimate discrete-time models (simulation error, jointly over every file, each file "
-            "simulated from rest) of one or more output columns from up to 3 input columns of CSV "
-            "files with a header row. Without --poles the paper's order search runs (poles 1..10, "
+            "simulated from rest) of one or more output columns from up to 3 input columns of "
+            "recordings: CSV of any common dialect or MATLAB .mat (v5, v7.3). Without --poles the paper's order search runs (poles 1..10, "
             "zeros < poles) and the model with the best mean NRMSE fit over the estimation and "
             "validation ranges is kept. A:B ranges (Python slices, applied to every file) choose the samples "
             "that are scored; each file is still simulated from its first sample. Fit and RMS are in %; "
-            "--ts is the sample period in seconds."
+            "--ts is the sample period in seconds, taken from the data's t column, sidecar or Ts when "
+            "they state it."
         ),
         epilog=("example: porosense identify --data step_10.csv step_60.csv --input dR_0 --output strain_0 "
                 "--structure wh --poles 4 --zeros 2 --estimation 0:2000 --validation 2000: "

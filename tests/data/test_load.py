@@ -102,3 +102,17 @@ def test_not_a_matlab_file(tmp_path):
     path.write_bytes(b"\x00\x01garbage" * 20)
     with pytest.raises(InputError, match="broken.mat"):
         load_data(path)
+
+
+@pytest.mark.parametrize("writer", [write_mat_v5, write_mat_v73])
+def test_recording_from_a_plain_matlab_file(tmp_path, writer):
+    from porosense.data import Recording
+
+    ts, sig = _signals(seed=21)
+    path = tmp_path / "plain.mat"
+    writer(path, {"u": sig["u"], "y": sig["y"]})
+    with pytest.raises(InputError, match="no variable 't'.*Ts"):
+        Recording.from_mat(path)
+    rec = Recording.from_mat(path, ts=ts)
+    assert rec.names == ["u", "y"] and rec.ts == pytest.approx(ts)
+    assert np.array_equal(rec["y"], sig["y"])

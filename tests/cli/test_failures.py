@@ -69,7 +69,7 @@ CASES = [
     ("simulate contractor -e step_10 --rate 1e9 --out {d}/sim", 2, "Hz"),
     ("simulate contractor -e step_10 --out {d}/exists", 2, "is a file"),
     ("emulator --listen tcp://127.0.0.1:99999 --duration 1", 2, "0..65535"),
-    ("emulator --duration -1", 2, "positive"),
+    ("emulator --duration -1", 2, ">= 0"),
     ("emulator --realtime --speed 0 --duration 1", 2, "positive"),
     ("verify --port socket://127.0.0.1:1 {d}/model.bin --data {d}/header_only.csv", 2, "no samples"),
     ("diagnose --data {d}/run.csv --input dR_0 --output strain_0 --ts inf --baseline linear", 2, "positive finite"),

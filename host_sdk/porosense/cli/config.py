@@ -143,6 +143,7 @@ def run(args) -> int:
     rows = config_table(values)
     if only is not None:
         rows = [r for r in rows if str(r.get("key", "")).upper() == only]
+    if args.json:
         print(json.dumps({"port": args.port, "action": args.action, "config_defaults": defaults_in_use,
                           "notes": note, "keys": rows}, indent=2))
         return 0

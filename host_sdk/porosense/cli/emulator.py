@@ -57,8 +57,8 @@ def run(args) -> int:
     from porosense.emulator import Emulator, Faults
     from porosense.errors import InputError
 
-    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
-        raise InputError(f"--duration {args.duration:g}: give a positive number of seconds")
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration >= 0):
+        raise InputError(f"--duration {args.duration:g}: give a number of seconds >= 0")
     if not (math.isfinite(args.speed) and args.speed > 0):
         raise InputError(f"--speed {args.speed:g}: the time factor must be positive")
     port = args.listen.rsplit(":", 1)[-1] if args.listen.startswith("tcp://") else None

@@ -91,7 +91,7 @@ def run(args) -> int:
 
         plot_compare(t, {o: table.columns[o] for o in scores},
                      {o: yhat[:, j] for j, o in enumerate(outputs)}, label=model_label(model),
-                     title=f"{args.model} on {args.data}", path=args.plot)
+                     units=table.units, title=f"{args.model} on {args.data}", path=args.plot)
         written.append(str(args.plot))
         say(args, f"figure written to {args.plot}")
     for o, s in scores.items():

@@ -50,16 +50,32 @@ def figure_labels(fig) -> dict:
     return {"title": fig._suptitle.get_text() if fig._suptitle else "", "axes": axes}
 
 
+LABELS_KEY = "porosense.labels"  # PNG text chunk holding figure_labels() as JSON
+
+
 def _finish(fig, path):
-    """Save as PNG with a ``.labels.json`` beside it (what the report page shows of the figure)."""
+    """Save as PNG, with the figure's labels and legends as JSON in a PNG text chunk (the report
+    page shows them to browsers and tests), and close it."""
     if path is not None:
         import json
 
-        path = Path(path)
-        fig.savefig(path, dpi=110)
-        path.with_suffix(".labels.json").write_text(json.dumps(figure_labels(fig)))
+        fig.savefig(Path(path), dpi=110, metadata={LABELS_KEY: json.dumps(figure_labels(fig))})
         _plt().close(fig)
     return fig
+
+
+def read_labels(path) -> dict:
+    """The labels :func:`_finish` stored in the PNG at ``path`` ({} when it holds none)."""
+    import json
+
+    from PIL import Image
+
+    try:
+        with Image.open(path) as img:
+            text = img.text.get(LABELS_KEY)
+        return json.loads(text) if text else {}
+    except (OSError, ValueError):
+        return {}
 
 
 def _legend_outside(ax, n_entries: int):
@@ -107,8 +123,8 @@ def plot_compare(t, measured: dict, predicted: dict, *, label: str = "model", un
             ax.plot(t, predicted[name], color="#d62728", lw=1.1, label=f"{label} (fit {fit:.1f} %)")
         else:
             ax.plot(t, predicted[name], color="#d62728", lw=1.1, label=label)
-        unit = (units or {}).get(name)
-        ax.set_ylabel(f"{name} ({unit})" if unit else name)
+        unit = (units or {}).get(name, "unit of the data")
+        ax.set_ylabel(f"{name} ({unit})")
         ax.grid(alpha=0.3)
         _legend_outside(ax, 2)
     axes[-1, 0].set_xlabel("time (s)")

@@ -2,7 +2,7 @@
 
 The HTML embeds every figure as base64 so the single file can be mailed or opened anywhere.
 Tables are real HTML tables (and Markdown pipe tables). Each figure carries its axis labels
-and legend entries as data attributes (from the ``.labels.json`` written beside the PNG),
+and legend entries as data attributes (from the PNG's text chunk, see figures._finish),
 so a browser test can check units and fits on the rendered page.
 """
 
@@ -85,11 +85,9 @@ STYLE = ("body{font-family:system-ui,sans-serif;max-width:1150px;margin:2em auto
 
 
 def _labels(path: Path) -> dict:
-    side = Path(path).with_suffix(".labels.json")
-    try:
-        return json.loads(side.read_text()) if side.is_file() else {}
-    except (json.JSONDecodeError, OSError):
-        return {}
+    from porosense.report.figures import read_labels
+
+    return read_labels(path)
 
 
 def write_report(directory, title: str, sections: list[Section], *, intro: str = "",

@@ -42,19 +42,20 @@ def register(sub) -> argparse.ArgumentParser:
             "streams on its own (AUTOSTART) stops while EEPROM is written and restarts afterwards."
         ),
         epilog=(
-            "examples:\n"
-            "  porosense config --port /dev/ttyACM0\n"
-            "  porosense config --port socket://127.0.0.1:5555 set AUTOSTART 1\n"
-            "  porosense config --port /dev/ttyACM0 set pwm_pin 10 --json\n"
-            "  porosense config --port /dev/ttyACM0 reset"
+            "examples (on the emulator, porosense emulator; a board is --port /dev/ttyACM0):\n"
+            "  porosense config --port socket://127.0.0.1:5000\n"
+            "  porosense config --port socket://127.0.0.1:5000 set AUTOSTART 1\n"
+            "  porosense config --port socket://127.0.0.1:5000 get SAMPLE_RATE_HZ\n"
+            "  porosense config --port socket://127.0.0.1:5000 set pwm_pin 10 --json\n"
+            "  porosense config --port socket://127.0.0.1:5000 reset"
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--port", required=True, metavar="URL", help="serial port or pyserial URL")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    p.add_argument("action", nargs="?", default="show", choices=("show", "set", "reset"),
-                   help="show (default), set KEY VALUE, or reset")
-    p.add_argument("key", nargs="?", metavar="KEY", help="configuration key (name, any case), for set")
+    p.add_argument("action", nargs="?", default="show", choices=("show", "get", "set", "reset"),
+                   help="show (default), get KEY, set KEY VALUE, or reset")
+    p.add_argument("key", nargs="?", metavar="KEY", help="configuration key (name, any case), for get and set")
     p.add_argument("value", nargs="?", metavar="VALUE", help="integer value in the key's unit, for set")
     p.set_defaults(func=run)
     return p
@@ -107,7 +108,14 @@ def run(args) -> int:
     from porosense.protocol import StatusFlag
 
     setting = parse_setting(args.key, args.value) if args.action == "set" else None
-    if args.action != "set" and (args.key is not None or args.value is not None):
+    only = None
+    if args.action == "get":
+        if args.key is None or args.value is not None:
+            raise InputError("'get' takes one KEY, e.g. 'get SAMPLE_RATE_HZ'")
+        only = args.key.strip().upper()
+        if only not in UNITS:
+            raise InputError(f"unknown configuration key {args.key!r}; keys: {', '.join(UNITS)}")
+    elif args.action != "set" and (args.key is not None or args.value is not None):
         raise InputError(f"'{args.action}' takes no KEY or VALUE")
     with Device.open(args.port) as dev:
         info = dev.hello()
@@ -133,6 +141,8 @@ def run(args) -> int:
         flags = dev.status().flags
     defaults_in_use = bool(flags & StatusFlag.CONFIG_DEFAULTS)
     rows = config_table(values)
+    if only is not None:
+        rows = [r for r in rows if str(r.get("key", "")).upper() == only]
     if args.json:
         print(json.dumps({"port": args.port, "action": args.action, "config_defaults": defaults_in_use,
                           "notes": note, "keys": rows}, indent=2))

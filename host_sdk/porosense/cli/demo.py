@@ -13,8 +13,8 @@ def register(sub) -> argparse.ArgumentParser:
         description=(
             "Run the paper's identification protocol on a board (vacuum steps at -10, -20, -40 and -60 kPa "
             "in duplicate and the staircase; the 3-DoF patterns for the segment), identify linear, Hammerstein, "
-            "Wiener and Wiener-Hammerstein models with an order search, print the paper-style table (fit %% and "
-            "RMS %% per structure and recording), quantize the best model, flash it, verify it by replay, then "
+            "Wiener and Wiener-Hammerstein models with an order search, print the paper-style table (fit % and "
+            "RMS % per structure and recording), quantize the best model, flash it, verify it by replay, then "
             "stream a validation experiment and report the on-device estimate's fit live. Writes figures and a "
             "summary page (Markdown and self-contained HTML) to OUT/ACTUATOR/."
         ),

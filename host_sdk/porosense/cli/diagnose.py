@@ -5,6 +5,16 @@ from __future__ import annotations
 import argparse
 
 from porosense.cli._args import parse_columns, parse_range
+from porosense.cli._data import (
+    add_data_options,
+    add_json_options,
+    emit_json,
+    normalise_json_args,
+    read_tables,
+    require_columns,
+    sample_period,
+    say,
+)
 from porosense.errors import InputError, ModelError
 
 STRUCTURES = ("linear", "hammerstein", "wiener", "wh")
@@ -27,14 +37,13 @@ def register(sub) -> argparse.ArgumentParser:
             "validation (the last); one file splits 60/40."
         ),
         epilog=(
-            "example: porosense diagnose --data run.csv --input p_cmd_0 --output dR_0 --ts 0.01 "
-            "--sim contractor --condition load_g --json diag.json --report diag/"
+            "example: porosense diagnose --data run.csv --input p_cmd_0 --output dR_0 "
+            "--sim contractor --condition load_g --json-out diag.json --report diag/"
         ),
     )
-    p.add_argument("--data", nargs="+", required=True, metavar="FILE", help="CSV files with a header row")
+    p.add_argument("--data", nargs="+", required=True, metavar="FILE", help="recordings: CSV or MATLAB .mat files")
     p.add_argument("--input", required=True, metavar="COL[,COL...]", help="input column(s) the model uses")
     p.add_argument("--output", required=True, metavar="COL", help="the measured output column")
-    p.add_argument("--ts", required=True, type=float, metavar="SECONDS", help="sample period in s")
     what = p.add_mutually_exclusive_group(required=True)
     what.add_argument("--sim", metavar="ACTUATOR", help="calibrate this simulator (contractor, bending, 3dof) "
                       "to the estimation range (inputs: commanded vacuum in kPa) and diagnose it")
@@ -51,24 +60,23 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--zeros", type=int, default=1, help="baseline zeros per input (default 1)")
     p.add_argument("--alpha", type=float, default=0.01,
                    help="family-wise false-alarm level over the catalogue (default 0.01)")
-    p.add_argument("--json", required=True, metavar="OUT.json", help="write the findings here")
+    add_data_options(p)
+    add_json_options(p, "the findings", legacy_path=True)
     p.add_argument("--report", metavar="DIR", help="write figures and a Markdown summary into DIR")
+    p.add_argument("--unit", metavar="UNIT", help="the output's unit on the figures (default: from the "
+                   "recording's sidecar)")
     p.set_defaults(func=run)
     return p
 
 
-def _load(files, inputs, output, conditions):
+def _load(tables, inputs, output, conditions):
     """[(u (N, n_in), y (N,), {condition: (N,)})] per file; clear errors for absent columns."""
     import numpy as np
 
-    from porosense.data import read_table
-
     out = []
-    for f in files:
-        table = read_table(f)
-        for name in inputs + [output] + conditions:
-            if name not in table.columns:
-                raise InputError(f"{f}: no column '{name}' (columns: {', '.join(table.names)})")
+    for table in tables:
+        f = table.path
+        require_columns(table, inputs + [output] + conditions)
         u = np.column_stack([table.columns[c] for c in inputs])
         y = np.asarray(table.columns[output], float)
         cond = {c: np.asarray(table.columns[c], float) for c in conditions}
@@ -90,12 +98,12 @@ def _cut(item, rng, what):
     return u, y, cond
 
 
-def _split(args, inputs, conditions):
+def _split(args, inputs, conditions, tables, vtables):
     """Estimation and validation lists of (u, y, conditions)."""
-    data = _load(args.data, inputs, args.output, conditions)
+    data = _load(tables, inputs, args.output, conditions)
     est_rng, val_rng = parse_range(args.estimation), parse_range(args.validation)
     if args.validation_data:
-        vdata = _load(args.validation_data, inputs, args.output, conditions)
+        vdata = _load(vtables, inputs, args.output, conditions)
         return [_cut(d, est_rng, "estimation") for d in data], [_cut(d, val_rng, "validation") for d in vdata]
     if est_rng is None and val_rng is None:
         if len(data) > 1:
@@ -143,28 +151,43 @@ def _predictor(args, inputs, est):
 
 
 def run(args) -> int:
-    import json
     from pathlib import Path
 
     from porosense.diagnose import Record, diagnose
 
+    normalise_json_args(args, make_folder=True)
     inputs = parse_columns(args.input, "input")
     conditions = [c for c in args.condition if c not in inputs and c != args.output]
-    if not args.ts > 0:
-        raise InputError("--ts must be a positive sample period in seconds")
     if not 0 < args.alpha < 1:
         raise InputError("--alpha must be between 0 and 1")
-    est, val = _split(args, inputs, conditions)
+    tables = read_tables(args.data, args)
+    vtables = read_tables(args.validation_data, args) if args.validation_data else []
+    args.ts = sample_period(tables + vtables, args)
+    est, val = _split(args, inputs, conditions, tables, vtables)
     predict, what = _predictor(args, inputs, est)
     records = [[Record(u, y, predict(u), args.ts, cond) for u, y, cond in part] for part in (est, val)]
     result = diagnose(records[0], records[1], alpha=args.alpha)
-    out = Path(args.json)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result.to_dict(), indent=2) + "\n")
+    doc = result.to_dict()
+    if not _all_finite(doc):
+        raise InputError("the diagnosis holds non-finite numbers (NaN or inf): check --ts and the data")
+    emit_json(doc, args)
     if args.report:
         from porosense.diagnose import report
 
-        report.write_report(result, args.report, title=f"Diagnosis of {what}")
-    print(f"diagnosed: {what}")
-    print(result)
+        unit = args.unit or next((t.units[args.output] for t in tables if args.output in t.units), "output unit")
+        report.write_report(result, args.report, title=f"Diagnosis of {what}", unit=unit)
+    say(args, f"diagnosed: {what}")
+    say(args, str(result))
     return 0
+
+
+def _all_finite(value) -> bool:
+    import math
+
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, dict):
+        return all(_all_finite(v) for v in value.values())
+    if isinstance(value, (list, tuple)):
+        return all(_all_finite(v) for v in value)
+    return True

@@ -52,9 +52,18 @@ def register(sub) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
+    import math
+
     from porosense.emulator import Emulator, Faults
     from porosense.errors import InputError
 
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration >= 0):
+        raise InputError(f"--duration {args.duration:g}: give a number of seconds >= 0")
+    if not (math.isfinite(args.speed) and args.speed > 0):
+        raise InputError(f"--speed {args.speed:g}: the time factor must be positive")
+    port = args.listen.rsplit(":", 1)[-1] if args.listen.startswith("tcp://") else None
+    if port is not None and not (port.isdigit() and 0 <= int(port) <= 65535):
+        raise InputError(f"--listen {args.listen}: the TCP port must be 0..65535")
     try:
         faults = Faults(
             rx_corrupt=args.corrupt, tx_corrupt=args.corrupt, rx_drop=args.drop, tx_drop=args.drop,

@@ -17,7 +17,7 @@ def register(sub) -> argparse.ArgumentParser:
             "and MODEL_COMMIT, then read MODEL_INFO back and check length and CRC. A reset during "
             "the write leaves no model on the device, never a broken one: flash again."
         ),
-        epilog="example: porosense flash --port socket://127.0.0.1:5555 model.bin",
+        epilog="example: porosense flash --port socket://127.0.0.1:5000 model.bin",
     )
     p.add_argument("--port", required=True, metavar="URL", help="serial port or pyserial URL")
     p.add_argument("blob", metavar="MODEL.bin", help="model blob")

@@ -1,12 +1,15 @@
-"""``porosense identify``: estimate a model from CSV recordings and save it."""
+"""``porosense identify``: estimate a model from recordings (CSV or .mat) and save it."""
 
 from __future__ import annotations
 
 import argparse
-import json
 
 from porosense.cli._args import parse_columns, parse_range
+from porosense.cli._data import add_data_options, add_json_options, emit_json, normalise_json_args, \
+    output_file, read_tables, require_columns, sample_period, say
 from porosense.errors import InputError
+
+MAX_POLES_UNFORCED = 20  # the paper searches up to 10; beyond 20 the grid takes hours
 
 STRUCTURE_CHOICES = ("linear", "hammerstein", "wiener", "wh", "all")
 
@@ -14,43 +17,48 @@ STRUCTURE_CHOICES = ("linear", "hammerstein", "wiener", "wh", "all")
 def register(sub) -> argparse.ArgumentParser:
     p = sub.add_parser(
         "identify",
-        help="identify a linear/Hammerstein/Wiener/Wiener-Hammerstein model from CSV data",
+        help="identify a linear/Hammerstein/Wiener/Wiener-Hammerstein model from recordings (CSV or .mat)",
         description=(
             "Estimate discrete-time models (simulation error, jointly over every file, each file "
-            "simulated from rest) of one or more output columns from up to 3 input columns of CSV "
-            "files with a header row. Without --poles the paper's order search runs (poles 1..10, "
+            "simulated from rest) of one or more output columns from up to 3 input columns of "
+            "recordings: CSV of any common dialect or MATLAB .mat (v5, v7.3). Without --poles the paper's order search runs (poles 1..10, "
             "zeros < poles) and the model with the best mean NRMSE fit over the estimation and "
             "validation ranges is kept. A:B ranges (Python slices, applied to every file) choose the samples "
             "that are scored; each file is still simulated from its first sample. Fit and RMS are in %; "
-            "--ts is the sample period in seconds."
+            "--ts is the sample period in seconds, taken from the data's t column, sidecar or Ts when "
+            "they state it."
         ),
         epilog=("example: porosense identify --data step_10.csv step_60.csv --input dR_0 --output strain_0 "
-                "--ts 0.02 --structure wh --poles 4 --zeros 2 --estimation 0:2000 --validation 2000: "
-                "--save model.json --json report.json"),
+                "--structure wh --poles 4 --zeros 2 --estimation 0:2000 --validation 2000: "
+                "--save model.json --json-out report.json"),
     )
-    p.add_argument("--data", nargs="+", required=True, metavar="FILE", help="CSV files, one recording each")
+    p.add_argument("--data", nargs="+", required=True, metavar="FILE",
+                   help="recordings, one per file: CSV (any common dialect) or MATLAB .mat")
     p.add_argument("--input", required=True, metavar="COL[,COL...]", help="input column names (1 to 3)")
     p.add_argument("--output", required=True, metavar="COL[,COL...]", help="output column name(s)")
-    p.add_argument("--ts", type=float, required=True, metavar="SECONDS", help="sample period in s")
     p.add_argument("--structure", choices=STRUCTURE_CHOICES, default="all", help="model structure (default all)")
     p.add_argument("--poles", type=int, metavar="N", help="number of poles (default: search 1..--max-poles)")
     p.add_argument("--zeros", type=int, metavar="N", help="number of zeros, < poles (default: search)")
-    p.add_argument("--max-poles", type=int, default=10, metavar="N", help="largest pole count searched (default 10)")
+    p.add_argument("--max-poles", type=int, default=10, metavar="N",
+                   help=f"largest pole count searched (default 10; above {MAX_POLES_UNFORCED} needs --force)")
+    p.add_argument("--force", action="store_true", help="allow searches beyond the stated limits")
     p.add_argument("--breakpoints", type=int, default=10, metavar="N", help="PWL breakpoints (2..64, default 10)")
     p.add_argument("--delay", type=int, default=0, metavar="SAMPLES", help="input delay in samples (default 0)")
     p.add_argument("--starts", type=int, default=2, metavar="N", help="starts per nonlinear model (default 2)")
     p.add_argument("--estimation", metavar="A:B", help="sample range of every file used for estimation")
     p.add_argument("--validation", metavar="A:B", help="sample range of every file used for validation")
     p.add_argument("--jobs", type=int, metavar="N", help="worker processes of the order search (default: all cores)")
-    p.add_argument("--save", required=True, metavar="MODEL.json", help="where to write the model")
-    p.add_argument("--json", metavar="REPORT.json", help="also write the search report as JSON")
+    p.add_argument("--save", default="model.json", metavar="MODEL.json",
+                   help="where to write the model (default model.json)")
+    add_data_options(p)
+    add_json_options(p, "the search report", legacy_path=True)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
     return p
 
 
-def load_recordings(files, inputs, outputs, rng: slice):
-    """(inputs, outputs, skip) from the CSV files for the sample range ``rng``.
+def load_recordings(tables, inputs, outputs, rng: slice):
+    """(inputs, outputs, skip) from the tables (porosense.data.load_data) for the sample range ``rng``.
 
     Each file is kept from its first sample to the end of the range, so that models simulate
     it from rest; ``skip`` is where the range starts (samples simulated but not scored), the
@@ -58,23 +66,18 @@ def load_recordings(files, inputs, outputs, rng: slice):
     """
     import numpy as np
 
-    from porosense.data import read_table
-
     us, ys, starts = [], [], []
-    for f in files:
-        table = read_table(f)
-        for name in inputs + outputs:
-            if name not in table.columns:
-                raise InputError(f"{f}: no column '{name}' (columns: {', '.join(table.names)})")
+    for table in tables:
+        f = table.path
+        require_columns(table, inputs + outputs)
         n = len(table)
         start, stop, _ = rng.indices(n)
         if stop - start < 10:
             raise InputError(f"{f}: the range {rng.start}:{rng.stop} leaves {max(stop - start, 0)} samples "
                              f"of {n} (need >= 10)")
+        table.require_finite(inputs + outputs, slice(0, stop), "selected range")
         u = np.column_stack([table.columns[c] for c in inputs])[:stop]
         y = np.column_stack([table.columns[c] for c in outputs])[:stop]
-        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
-            raise InputError(f"{f}: empty or non-finite cells in the selected columns and range")
         us.append(u)
         ys.append(y)
         starts.append(start)
@@ -89,22 +92,29 @@ def run(args) -> int:
 
     from porosense import ident
 
+    normalise_json_args(args)
     inputs = parse_columns(args.input, "input")
     outputs = parse_columns(args.output, "output")
     if len(inputs) > 3:
         raise InputError(f"{len(inputs)} input columns; at most 3")
-    if not args.ts > 0:
-        raise InputError("--ts must be a positive sample period in seconds")
+    if args.max_poles > MAX_POLES_UNFORCED and not args.force:
+        raise InputError(f"--max-poles {args.max_poles} searches beyond {MAX_POLES_UNFORCED} poles (hours of work); "
+                         "add --force to run it")
+    if args.max_poles < 1:
+        raise InputError("--max-poles must be >= 1")
+    output_file(args.save, "--save")
+    tables = read_tables(args.data, args)
+    args.ts = sample_period(tables, args)
     if args.poles is not None and not 0 <= args.poles <= 10:
         raise InputError("--poles must be 0..10")
     if args.zeros is not None and args.poles is not None and args.zeros >= max(args.poles, 1):
         raise InputError("--zeros must be smaller than --poles")
     if not 2 <= args.breakpoints <= 64:
         raise InputError("--breakpoints must be 2..64")
-    est_u, est_y, est_skip = load_recordings(args.data, inputs, outputs, parse_range(args.estimation) or slice(None))
+    est_u, est_y, est_skip = load_recordings(tables, inputs, outputs, parse_range(args.estimation) or slice(None))
     val = None
     if args.validation is not None:
-        val = load_recordings(args.data, inputs, outputs, parse_range(args.validation) or slice(None))
+        val = load_recordings(tables, inputs, outputs, parse_range(args.validation) or slice(None))
     structures = tuple(ident.KINDS) if args.structure == "all" else (args.structure,)
     if args.poles is not None:
         poles = [args.poles]
@@ -126,20 +136,19 @@ def run(args) -> int:
                 validation=(val[0], [y[:, j] for y in val[1]]) if val else None,
                 grid=grid, n_breakpoints=args.breakpoints, delay=args.delay, starts=args.starts,
                 skip=est_skip, validation_skip=val[2] if val else 0,
-                inputs=inputs, output=name, executor=executor, progress=not args.quiet)
+                inputs=inputs, output=name, executor=executor, progress=not (args.quiet or args.json))
             models.append(result.model)
             reports.append({"output": name, **result.to_dict()})
-            print(f"{name}:")
-            print(str(result))
+            say(args, f"{name}:")
+            say(args, str(result))
     finally:
         if executor is not None:
             executor.shutdown()
     model = models[0] if len(models) == 1 else ident.ModelSet(models)
     model.save(args.save)
-    print(f"model saved to {args.save}")
-    if args.json:
-        report = {"files": list(args.data), "inputs": inputs, "outputs": outputs, "ts": args.ts,
-                  "estimation": args.estimation, "validation": args.validation, "results": reports}
-        with open(args.json, "w") as fh:
-            json.dump(report, fh, indent=1, default=float)
+    say(args, f"model saved to {args.save}")
+    report = {"files": list(args.data), "inputs": inputs, "outputs": outputs, "ts": args.ts,
+              "estimation": args.estimation, "validation": args.validation, "model": str(args.save),
+              "results": reports}
+    emit_json(report, args)
     return 0

@@ -15,7 +15,7 @@ def register(sub) -> argparse.ArgumentParser:
         help="plan prints of graded-porosity actuators (calibrate, G-code, predict)",
         description=(
             "Print planning by liquid rope coiling. Coil radius Rc (mm) follows nozzle height H (mm) as "
-            "Rc = a H + b; porosity (%%) follows coil geometry, calibrated on weighed cubes "
+            "Rc = a H + b; porosity (%) follows coil geometry, calibrated on weighed cubes "
             "(phi = 100 (1 - m / (V rho_b))). A design is a set of regions of target porosity; the planner "
             "turns it into G-code and the simulator predicts stroke and dR at each vacuum level."
         ),
@@ -39,7 +39,7 @@ def register(sub) -> argparse.ArgumentParser:
     c = s.add_parser("calibrate", help="fit Rc = a H + b and the porosity model",
                      description="Fit the coil-radius line and the porosity model. Without files, the paper's "
                                  "cTPE values are used (Rc = 0.40 H - 0.3 mm; H = 4, 6, 8, 10 mm at N = 3 "
-                                 "gave 68, 76, 82, 86 %%).")
+                                 "gave 68, 76, 82, 86 %).")
     c.add_argument("--coil-radii", metavar="CSV", help="columns height_mm, radius_mm (measured coil radii)")
     c.add_argument("--cubes", metavar="CSV",
                    help="columns height_mm, coil_density, and either porosity_pct or mass_g + volume_mm3")
@@ -127,6 +127,8 @@ def _calibration(args):
     coil = PAPER_COIL_RADIUS
     if args.coil_radii:
         t = read_table(args.coil_radii)
+        if not (np.all(t["height_mm"] > 0) and np.all(t["radius_mm"] > 0)):
+            raise InputError(f"{args.coil_radii}: heights and coil radii must be positive (mm)")
         coil = CoilRadiusFit.fit(t["height_mm"], t["radius_mm"])
     if args.cubes:
         t = read_table(args.cubes)

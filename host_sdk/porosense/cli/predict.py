@@ -1,10 +1,21 @@
-"""``porosense predict``: simulate a saved model on a CSV file."""
+"""``porosense predict``: simulate a saved model on a recording, and score it when the output is there."""
 
 from __future__ import annotations
 
 import argparse
 
-from porosense.errors import InputError
+from porosense.cli._data import (
+    add_data_options,
+    add_json_options,
+    emit_json,
+    load_model_checked,
+    normalise_json_args,
+    output_file,
+    read_tables,
+    require_columns,
+    say,
+)
+from porosense.errors import InputError, ModelError
 
 TIME_COLUMNS = ("t", "time", "t_s")
 
@@ -12,18 +23,22 @@ TIME_COLUMNS = ("t", "time", "t_s")
 def register(sub) -> argparse.ArgumentParser:
     p = sub.add_parser(
         "predict",
-        help="simulate a saved model on a CSV file from rest",
+        help="simulate a saved model on a recording from rest; fit and RMS when the output is measured",
         description=(
-            "Simulate an identified model (porosense identify --save) on the whole CSV file from "
-            "rest and write one column per output named <output>_pred in the output's unit, plus "
-            "the time column (t, s) when the file has one."
+            "Simulate an identified model (porosense identify --save) on the whole recording (CSV or "
+            ".mat) from rest. When the file holds the model's output column, print the NRMSE fit (%%) and "
+            "the RMS error (%% of the largest output) per output, as MATLAB's compare does. --out writes one "
+            "column per output named <output>_pred in the output's unit, plus the time column (t, s) when "
+            "the file has one; --plot draws measured against predicted."
         ),
-        epilog="example: porosense predict --model model.json --data step_20.csv --out pred.csv",
+        epilog="example: porosense predict --model model.json --data step_20.csv --out pred.csv --plot pred.png",
     )
     p.add_argument("--model", required=True, metavar="MODEL.json", help="model file")
-    p.add_argument("--data", required=True, metavar="FILE", help="CSV file with the model's input columns")
-    p.add_argument("--out", required=True, metavar="PRED.csv", help="where to write the predictions")
-    p.add_argument("--json", action="store_true", help="print what was written as JSON")
+    p.add_argument("--data", required=True, metavar="FILE", help="CSV or .mat file with the model's input columns")
+    p.add_argument("--out", metavar="PRED.csv", help="write the predictions here (default: not written)")
+    p.add_argument("--plot", metavar="FILE.png", help="plot measured and predicted output against time")
+    add_data_options(p, ts_help="sample period in s for the plot's time axis (default: the data's, else the model's)")
+    add_json_options(p, "the scores and what was written")
     p.set_defaults(func=run)
     return p
 
@@ -31,36 +46,67 @@ def register(sub) -> argparse.ArgumentParser:
 def run(args) -> int:
     import numpy as np
 
-    from porosense.data import read_table
-    from porosense.ident import load_model
+    from porosense.data import resolve_ts, time_column
+    from porosense.ident import fit_percent, rms_percent
 
-    model = load_model(args.model)
-    table = read_table(args.data)
-    missing = [c for c in model.inputs if c not in table.columns]
-    if missing:
-        raise InputError(f"{args.data}: no column(s) {', '.join(missing)} needed by the model")
+    normalise_json_args(args)
+    for opt in ("out", "plot"):
+        if getattr(args, opt):
+            output_file(getattr(args, opt), f"--{opt}")
+    model = load_model_checked(args.model)
+    (table,) = read_tables([args.data], args)
+    require_columns(table, list(model.inputs))
+    if len(table) == 0:
+        raise InputError(f"{args.data}: no samples (only a header?)")
+    table.require_finite(list(model.inputs))
+    ts = resolve_ts([table], args.ts, args.ts_override) if (args.ts or table.ts) else model.ts
     u = np.column_stack([table.columns[c] for c in model.inputs])
-    if not np.all(np.isfinite(u)):
-        raise InputError(f"{args.data}: empty or non-finite cells in the input columns")
-    yhat = model.predict(u=u)
+    with np.errstate(all="ignore"):
+        yhat = model.predict(u=u)
     yhat = yhat[:, None] if yhat.ndim == 1 else yhat
+    if not np.all(np.isfinite(yhat)):
+        raise ModelError(f"{args.model}: the simulation diverges on {args.data} "
+                         f"({int(np.sum(~np.isfinite(yhat)))} non-finite values)")
     outputs = [model.output] if hasattr(model, "output") else list(model.outputs)
-    names, cols = [], []
-    tcol = next((c for c in TIME_COLUMNS if c in table.columns), None)
-    if tcol is not None:
-        names.append(tcol)
-        cols.append(table.columns[tcol])
-    names += [f"{o}_pred" for o in outputs]
-    cols += [yhat[:, j] for j in range(yhat.shape[1])]
-    data = np.column_stack(cols)
-    with open(args.out, "w") as fh:
-        fh.write(",".join(names) + "\n")
-        for row in data:
-            fh.write(",".join(repr(float(v)) for v in row) + "\n")
-    if getattr(args, "json", False):
-        import json
+    scores = {}
+    for j, o in enumerate(outputs):
+        if o in table.columns and np.all(np.isfinite(table.columns[o])):
+            y = table.columns[o]
+            scores[o] = {"fit": fit_percent(y, yhat[:, j]), "rms": rms_percent(y, yhat[:, j])}
+    tcol = time_column(table)
+    t = table.columns[tcol] if tcol else np.arange(len(table)) * ts
+    written = []
+    if args.out:
+        names = ([tcol] if tcol else []) + [f"{o}_pred" for o in outputs]
+        cols = ([table.columns[tcol]] if tcol else []) + [yhat[:, j] for j in range(yhat.shape[1])]
+        data = np.column_stack(cols)
+        with open(args.out, "w") as fh:
+            fh.write(",".join(names) + "\n")
+            for row in data:
+                fh.write(",".join(repr(float(v)) for v in row) + "\n")
+        written.append(str(args.out))
+        say(args, f"{len(data)} samples of {', '.join(n for n in names if n.endswith('_pred'))} written to {args.out}")
+    if args.plot:
+        from porosense.report.figures import plot_compare
 
-        print(json.dumps({"out": str(args.out), "samples": int(len(data)), "columns": names}))
-    else:
-        print(f"{len(data)} samples of {', '.join(names[-yhat.shape[1]:])} written to {args.out}")
+        plot_compare(t, {o: table.columns[o] for o in scores},
+                     {o: yhat[:, j] for j, o in enumerate(outputs)}, label=model_label(model),
+                     units=table.units, title=f"{args.model} on {args.data}", path=args.plot)
+        written.append(str(args.plot))
+        say(args, f"figure written to {args.plot}")
+    for o, s in scores.items():
+        say(args, f"{o}: fit {s['fit']:.2f} %, RMS {s['rms']:.2f} % of max |{o}|")
+    if not scores:
+        say(args, f"{args.data} holds no measured {', '.join(outputs)}: no fit to report")
+    if not written and not scores:
+        say(args, "nothing written: give --out PRED.csv or --plot FILE.png")
+    emit_json({"model": str(args.model), "data": str(args.data), "samples": int(len(table)),
+               "outputs": outputs, "scores": scores, "written": written}, args)
     return 0
+
+
+def model_label(model) -> str:
+    """'wh 4p/2z' style label of a model or model set."""
+    ms = getattr(model, "models", [model])
+    kinds = sorted({m.kind for m in ms})
+    return "/".join(kinds) + (f" {ms[0].n_poles}p/{ms[0].n_zeros}z" if len(ms) == 1 else "")

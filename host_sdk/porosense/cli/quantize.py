@@ -21,11 +21,11 @@ def register(sub) -> argparse.ArgumentParser:
         epilog="example: porosense quantize model.json --out model.bin --report quant.json --data step_20.csv",
     )
     p.add_argument("model", metavar="MODEL.json", help="identified model file")
-    p.add_argument("--out", required=True, metavar="MODEL.bin", help="where to write the blob")
+    p.add_argument("--out", metavar="MODEL.bin", help="where to write the blob (default: MODEL.bin beside the model)")
     p.add_argument("--report", metavar="R.json", help="write the quantization report as JSON")
     p.add_argument("--header", metavar="MODEL.h", help="also write a C header with the coefficients")
     p.add_argument("--data", nargs="*", default=[], metavar="FILE",
-                   help="recordings (CSV with the model's columns) for the range and the fit report")
+                   help="recordings (CSV or .mat with the model's columns) for the range and the fit report")
     p.add_argument("--input-range", nargs=2, type=float, metavar=("LO", "HI"),
                    help="input range in %% dR that must never overflow (default: data range + 25 %%, "
                         "or -100..100 without data)")
@@ -36,12 +36,28 @@ def register(sub) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from porosense.data import read_table
-    from porosense.ident import load_model
+    import math
+
+    from porosense.cli._data import load_model_checked, output_file, read_tables, require_columns
+    from porosense.errors import InputError
     from porosense.quant import c_header, quantize
 
-    structure = load_model(args.model).to_structure()
-    tables = [read_table(path) for path in args.data]
+    args.out = args.out or str(Path(args.model).with_suffix(".bin"))
+    for opt in ("out", "report", "header"):
+        if getattr(args, opt):
+            output_file(getattr(args, opt), f"--{opt}")
+    if args.input_range is not None:
+        lo, hi = args.input_range
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise InputError(f"--input-range {lo:g} {hi:g}: give two finite numbers LO < HI (% dR)")
+    if args.model_id is not None and not 0 <= args.model_id <= 0xFFFFFFFF:
+        raise InputError(f"--model-id {args.model_id:#x} does not fit in 32 bits (0..0xFFFFFFFF)")
+    model = load_model_checked(args.model)
+    structure = model.to_structure()
+    tables = read_tables(args.data, args)
+    for table in tables:
+        require_columns(table, list(model.inputs))
+        table.require_finite(list(model.inputs))
     result = quantize(structure, recordings=tables, input_range=args.input_range, model_id=args.model_id)
     Path(args.out).write_bytes(result.to_bytes())
     if args.report:

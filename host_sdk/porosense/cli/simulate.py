@@ -43,7 +43,7 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--format", choices=("csv", "mat", "both"), default="csv",
                    help="file format (default csv with a JSON sidecar)")
     p.add_argument("--no-noise", action="store_true", help="noiseless sensors (for checks)")
-    p.add_argument("--out", required=True, help="output directory (created if needed)")
+    p.add_argument("--out", default="recordings", help="output directory (created if needed; default recordings/)")
     p.add_argument("--json", action="store_true", help="print the files written as JSON")
     p.set_defaults(func=run)
     return p
@@ -77,7 +77,11 @@ def paper_experiments(actuator: str, repeats: int) -> list[tuple[str, int]]:
     return steps + [("staircase", 0)]
 
 
+MIN_RATE_HZ, MAX_RATE_HZ = 1.0, 10_000.0  # the physics steps at 1 ms or finer; beyond, records get huge
+
+
 def run(args) -> int:
+    import math
     from pathlib import Path
 
     from porosense.errors import InputError
@@ -85,6 +89,10 @@ def run(args) -> int:
 
     if args.repeats < 1:
         raise InputError("--repeats must be at least 1")
+    if not (math.isfinite(args.rate) and MIN_RATE_HZ <= args.rate <= MAX_RATE_HZ):
+        raise InputError(f"--rate {args.rate:g}: the simulator samples at {MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz")
+    if Path(args.out).exists() and not Path(args.out).is_dir():
+        raise InputError(f"--out {args.out} is a file, not a folder; give a folder for the recordings")
     effects = resolve_effects(parse_effects(args.effect))
     jobs = []
     for name in args.experiment:

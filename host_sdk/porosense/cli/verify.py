@@ -19,7 +19,7 @@ def register(sub) -> argparse.ArgumentParser:
             "Python bit-exact reference of the same blob. The device must hold this blob (porosense "
             "flash). Exits 0 only when every sample of every output is identical."
         ),
-        epilog="example: porosense verify --port socket://127.0.0.1:5555 model.bin --data step_20.csv",
+        epilog="example: porosense verify --port socket://127.0.0.1:5000 model.bin --data step_20.csv",
     )
     p.add_argument("--port", required=True, metavar="URL", help="serial port or pyserial URL")
     p.add_argument("blob", metavar="MODEL.bin", help="model blob flashed on the device")
@@ -47,6 +47,8 @@ def run(args) -> int:
     missing = [c for c in cols if c not in table.columns]
     if missing:
         raise InputError(f"{args.data}: no column(s) {', '.join(missing)}")
+    if len(table) == 0:
+        raise InputError(f"{args.data}: no samples to replay (only a header?)")
     dr = np.zeros((len(table.columns[cols[0]]), 3))
     for i, c in enumerate(cols):
         dr[:, i] = table.columns[c]

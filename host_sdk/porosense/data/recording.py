@@ -222,19 +222,34 @@ class Recording:
         return path
 
     @classmethod
-    def from_mat(cls, path) -> "Recording":
-        """Read a .mat file written by :meth:`to_mat` (or any with ``t`` and column vectors)."""
+    def from_mat(cls, path, ts: float | None = None) -> "Recording":
+        """Read a .mat file written by :meth:`to_mat`, or any MATLAB file of named vectors or a
+        struct (v5 or v7.3, see :mod:`porosense.data.matfile`). Without a ``t`` variable the
+        time axis is k * Ts, with Ts from a ``Ts`` variable or the ``ts`` argument (s)."""
         from scipy.io import loadmat
 
+        from porosense.data.matfile import _is_hdf5, read_mat
+
         path = Path(path)
-        try:
-            content = loadmat(path)
-        except FileNotFoundError:
-            raise InputError(f"{path}: no such file") from None
-        except Exception as exc:  # scipy raises several types for a damaged file
-            raise InputError(f"{path}: not a readable MATLAB file ({exc})") from None
-        if "t" not in content:
-            raise InputError(f"{path}: no variable 't' (time in s)")
+        if not path.is_file():
+            raise InputError(f"{path}: no such file")
+        content = {} if _is_hdf5(path) else None
+        if content is None:
+            try:
+                content = loadmat(path)
+            except Exception:  # not v5, or damaged: the general reader says which
+                content = {}
+        if "t" not in content or "recording_json" not in content:
+            table = read_mat(path)
+            step = ts or table.ts
+            if "t" in table.columns:
+                t = table.columns["t"]
+            elif step:
+                t = np.arange(len(table)) * float(step)
+            else:
+                raise InputError(f"{path}: no variable 't' (time in s) and no Ts: pass ts=SECONDS")
+            cols = {k: v for k, v in table.columns.items() if k != "t"}
+            return cls(t, cols, {"source": str(path)})
         sidecar = {}
         if "recording_json" in content:
             sidecar = json.loads(str(np.asarray(content["recording_json"]).ravel()[0]))

@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -35,6 +36,12 @@ class Table:
     names: list[str]
     columns: dict[str, np.ndarray]
     groups: dict[str, list[str]] = field(default_factory=dict)
+    lines: np.ndarray | None = None  # file line (1-based) of each row, for error messages
+    dialect: str = "comma-separated"  # what the reader saw, for error messages
+    ts: float | None = None  # sample period (s) the file states (t column, sidecar, Ts variable)
+    ts_source: str = ""  # where ts came from
+    units: dict = field(default_factory=dict)  # column -> unit, when the file states them
+    meta: dict = field(default_factory=dict)  # the sidecar's metadata (porosity, load_g, ...)
 
     def __len__(self) -> int:
         return len(next(iter(self.columns.values()))) if self.columns else 0
@@ -59,6 +66,22 @@ class Table:
 
     def __repr__(self) -> str:
         return f"Table({str(self.path)!r}, {len(self)} rows, columns={self.names})"
+
+    def line_of(self, row: int) -> str:
+        """'line N' of data row ``row`` (0-based) in the file, or 'row N' when unknown."""
+        if self.lines is not None and 0 <= row < len(self.lines):
+            return f"line {int(self.lines[row])}"
+        return f"row {row + 1}"
+
+    def require_finite(self, names, rows: slice = slice(None), what: str = "") -> None:
+        """Raise InputError naming the first empty or non-finite cell of ``names`` within ``rows``."""
+        index = np.arange(len(self))[rows]
+        for name in names:
+            bad = index[~np.isfinite(np.asarray(self[name], dtype=float)[rows])]
+            if bad.size:
+                cell = "empty or NaN" if np.isnan(self[name][bad[0]]) else "infinite"
+                raise InputError(f"{self.path}: {self.line_of(int(bad[0]))}, column '{name}': {cell} cell"
+                                 f"{' in the ' + what if what else ''} ({bad.size} such cells in this column)")
 
 
 def _header_names(cells: list[str], path: Path) -> tuple[list[str], dict[str, list[str]]]:
@@ -87,16 +110,94 @@ def _header_names(cells: list[str], path: Path) -> tuple[list[str], dict[str, li
     return names, groups
 
 
+_DECIMAL_COMMA = re.compile(r"^\s*[+-]?\d*,\d+([eE][+-]?\d+)?\s*$")
+_NUMBER = re.compile(r"^\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\s*$|^\s*[+-]?(nan|inf)\s*$", re.I)
+_SEPARATOR_NAMES = {",": "comma", ";": "semicolon", "\t": "tab", " ": "whitespace", "|": "bar"}
+
+
+@dataclass(frozen=True)
+class Dialect:
+    """How a text table is written: separator, decimal mark, header row."""
+
+    separator: str = ","
+    decimal: str = "."
+    header: bool = True
+
+    def describe(self) -> str:
+        return (f"{_SEPARATOR_NAMES.get(self.separator, repr(self.separator))}-separated, decimal "
+                f"{'comma' if self.decimal == ',' else 'point'}, {'a' if self.header else 'no'} header row")
+
+
+def sniff_dialect(lines: list[str]) -> Dialect:
+    """Guess the dialect from the first non-blank lines (spreadsheet and MATLAB writetable styles).
+
+    A separator is taken when most lines hold it the same number of times (the header may
+    differ by a trailing separator); semicolons and tabs win over commas, because a
+    comma between digits is then a decimal mark (European spreadsheets).
+    """
+    sample = [ln for ln in lines if ln.strip()][:50]
+    if not sample:
+        return Dialect()
+    body = sample[1:] or sample
+
+    def steady(sep):
+        # The same count on most lines (a damaged line is reported later with its number).
+        counts = [ln.count(sep) for ln in sample]
+        mode = max(set(counts), key=counts.count)
+        return mode > 0 and counts.count(mode) >= 0.6 * len(counts)
+
+    if steady(";"):
+        sep = ";"
+    elif steady("\t"):
+        sep = "\t"
+    elif steady(",") or any("," in ln for ln in sample):
+        sep = ","
+    elif all(len(ln.split()) == len(body[0].split()) > 1 for ln in body):
+        sep = " "
+    elif steady("|"):
+        sep = "|"
+    else:
+        sep = ","  # one column
+    split = (lambda ln: ln.split()) if sep == " " else (lambda ln: ln.split(sep))
+    decimal = "."
+    if sep != ",":
+        cells = [c.strip().strip('"') for ln in body for c in split(ln)]
+        if any(_DECIMAL_COMMA.match(c) for c in cells):
+            decimal = ","
+    first = [c.strip().strip('"') for c in split(sample[0]) if c.strip()]
+    if decimal == ",":
+        first = [c.replace(",", ".") for c in first]
+    header = not (first and all(_NUMBER.match(c) for c in first))
+    return Dialect(sep, decimal, header)
+
+
+def _normalise(text: str, dialect: Dialect) -> str:
+    """Text of ``dialect`` rewritten as comma-separated with decimal points."""
+    if dialect.separator == "," and dialect.decimal == ".":
+        return text
+    out = []
+    for ln in text.splitlines():
+        if dialect.decimal == ",":
+            ln = ln.replace(",", ".")
+        cells = ln.split() if dialect.separator == " " else ln.split(dialect.separator)
+        out.append(",".join(c.strip() for c in cells))
+    return "\n".join(out) + "\n"
+
+
 def _parse_cell(text: str) -> float:
     text = text.strip()
     return float(text) if text else _NAN
 
 
-def read_table(path) -> Table:
-    """Read the CSV file at ``path`` (header row, numeric body) into a :class:`Table`.
+def read_table(path, *, separator: str | None = None, decimal: str | None = None) -> Table:
+    """Read the numeric text table at ``path`` into a :class:`Table`.
 
-    Raises :class:`InputError` for an absent or empty file, a row with the wrong number of
-    cells, or a cell that is not a number; the message names file, line and column.
+    The dialect is sniffed (:func:`sniff_dialect`): comma, semicolon, tab or whitespace
+    separators, decimal commas, with or without a header row (without one, columns are
+    named ``col1, col2, ...`` as MATLAB's readtable does with ``Var1``). ``separator`` and
+    ``decimal`` override the guess. Raises :class:`InputError` for an absent or empty file,
+    a row with the wrong number of cells, or a cell that is not a number; the message names
+    file, line, column and the dialect that was read.
     """
     path = Path(path)
     try:
@@ -104,7 +205,20 @@ def read_table(path) -> Table:
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read as text ({exc})") from None
+        raise InputError(f"{path}: cannot read as text (a binary file? MATLAB files need the .mat suffix): "
+                         f"{type(exc).__name__}") from None
+    guess = sniff_dialect(text.splitlines()[:51])
+    dialect = Dialect(separator if separator is not None else guess.separator,
+                      decimal if decimal is not None else guess.decimal, guess.header)
+    if dialect.decimal == "," and dialect.separator == ",":
+        raise InputError(f"{path}: decimal commas need another separator (';' or tab); pass --separator")
+    seen = dialect.describe()
+    hint = "; pass --separator and --decimal if this is not how the file is written"
+    text = _normalise(text, dialect)
+    if not dialect.header:
+        first = next((ln for ln in text.splitlines() if ln.strip()), "")
+        n = len(first.split(","))
+        text = ",".join(f"col{k}" for k in range(1, n + 1)) + "\n" + text
     rows = csv.reader(io.StringIO(text))
     try:
         header = next(rows)
@@ -112,6 +226,7 @@ def read_table(path) -> Table:
         raise InputError(f"{path}: empty file, expected a header row") from None
     except csv.Error as exc:
         raise InputError(f"{path}: line 1: {exc}") from None
+    line_shift = 0 if dialect.header else -1  # the header we added is not in the file
     if not any(c.strip() for c in header):
         raise InputError(f"{path}: line 1: empty header row")
     # A trailing comma in the header leaves one empty cell: it names nothing.
@@ -121,14 +236,15 @@ def read_table(path) -> Table:
     n_named = len(names)
 
     data: list[list[float]] = []
+    lines: list[int] = []
     try:
         for row in rows:
-            line = rows.line_num
+            line = rows.line_num + line_shift
             if not row or (len(row) == 1 and not row[0].strip()):
                 continue  # blank line
             if len(row) not in (width, n_named) and not (len(row) == width + 1 and not row[-1].strip()):
                 raise InputError(
-                    f"{path}: line {line}: expected {n_named} cells, found {len(row)}"
+                    f"{path}: line {line}: expected {n_named} cells, found {len(row)} (read as {seen}{hint})"
                 )
             try:
                 values = [_parse_cell(c) for c in row[:n_named]]
@@ -139,7 +255,7 @@ def read_table(path) -> Table:
                     except ValueError:
                         raise InputError(
                             f"{path}: line {line}, column {col} ('{names[col - 1]}'): "
-                            f"'{cell.strip()}' is not a number"
+                            f"'{cell.strip()}' is not a number (read as {seen}{hint})"
                         ) from None
                 raise
             if trailing_empty and len(row) == width and row[-1].strip():
@@ -147,9 +263,11 @@ def read_table(path) -> Table:
                     f"{path}: line {line}, column {width}: value in a column without a header name"
                 )
             data.append(values)
+            lines.append(line)
     except csv.Error as exc:
         raise InputError(f"{path}: line {rows.line_num}: {exc}") from None
 
     array = np.array(data, dtype=float).reshape(len(data), n_named)
     columns = {name: np.ascontiguousarray(array[:, k]) for k, name in enumerate(names)}
-    return Table(path=path, names=names, columns=columns, groups=groups)
+    return Table(path=path, names=names, columns=columns, groups=groups, lines=np.array(lines, dtype=int),
+                 dialect=seen)

@@ -16,8 +16,11 @@ def _plt():
     return plt
 
 
-def write_figures(diag, directory) -> list:
-    """Correlations with bands, residual vs level and direction, spectrum, before/after fits (PNG)."""
+def write_figures(diag, directory, unit: str = "output unit") -> list:
+    """Correlations with bands, residual vs level and direction, spectrum, before/after fits (PNG).
+
+    ``unit`` is the output's unit, written on every axis that carries it.
+    """
     plt = _plt()
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
@@ -29,7 +32,7 @@ def write_figures(diag, directory) -> list:
     axes[0].stem(ac["lags"], ac["r"])
     for s in (1, -1):
         axes[0].axhline(s * ac["band"], color="r", ls="--", lw=1)
-    axes[0].set(title="residual autocorrelation", xlabel="lag (samples)", ylabel="r_ee")
+    axes[0].set(title="residual autocorrelation", xlabel="lag (samples)", ylabel="r_ee (normalised, 1)")
     for key, t in tests.items():
         if key.startswith("crosscorrelation"):
             axes[1].plot(t.detail["lags"], t.detail["r"], ".-", label=key.split("_")[-1])
@@ -37,7 +40,7 @@ def write_figures(diag, directory) -> list:
     axes[1].axhline(band, color="r", ls="--", lw=1)
     axes[1].axhline(-band, color="r", ls="--", lw=1)
     axes[1].set(title="input-residual cross-correlation (input prewhitened)", xlabel="lag (samples)",
-                ylabel="r_ue")
+                ylabel="r_ue (normalised, 1)")
     axes[1].legend()
     fig.tight_layout()
     paths.append(d / "correlations.png")
@@ -49,8 +52,8 @@ def write_figures(diag, directory) -> list:
     rising = np.concatenate([[True], np.diff(yh) >= 0])
     ax.plot(yh[rising], e[rising], ".", ms=2, label="rising")
     ax.plot(yh[~rising], e[~rising], ".", ms=2, label="falling")
-    ax.set(title="residual versus model output level and direction", xlabel="model output",
-           ylabel="residual")
+    ax.set(title="residual versus model output level and direction", xlabel=f"model output ({unit})",
+           ylabel=f"residual ({unit})")
     ax.legend()
     fig.tight_layout()
     paths.append(d / "level_direction.png")
@@ -61,7 +64,8 @@ def write_figures(diag, directory) -> list:
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.semilogy(sp["freqs"][1:], np.asarray(sp["power"])[1:] + 1e-300, lw=0.8)
     ax.axvline(sp["freq_hz"], color="r", ls="--", lw=1, label=f"largest line {sp['freq_hz']:.3g} Hz")
-    ax.set(title="residual spectrum (Hann periodogram)", xlabel="frequency (Hz)", ylabel="power")
+    ax.set(title="residual spectrum (Hann periodogram)", xlabel="frequency (Hz)",
+           ylabel=f"power (({unit})²/Hz)")
     ax.legend()
     fig.tight_layout()
     paths.append(d / "spectrum.png")
@@ -75,7 +79,7 @@ def write_figures(diag, directory) -> list:
     shown = [f for f in diag.findings if f.cause in cv["extended_val"]][:2]
     for f in shown:
         ax.plot(t, cv["extended_val"][f.cause], lw=0.8, label=f"with {f.cause} ({f.fit_after:.1f} %)")
-    ax.set(title="validation: before and after the extension", xlabel="time (s)", ylabel="output")
+    ax.set(title="validation: before and after the extension", xlabel="time (s)", ylabel=f"output ({unit})")
     ax.legend(fontsize=8)
     fig.tight_layout()
     paths.append(d / "fits.png")
@@ -104,10 +108,10 @@ def summary_markdown(diag, title: str = "Diagnosis") -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_report(diag, directory, title: str = "Diagnosis") -> Path:
-    """Figures and ``summary.md`` in ``directory``; returns the summary's path."""
+def write_report(diag, directory, title: str = "Diagnosis", unit: str = "output unit") -> Path:
+    """Figures and ``summary.md`` in ``directory``; returns the summary's path. ``unit``: the output's."""
     d = Path(directory)
-    write_figures(diag, d)
+    write_figures(diag, d, unit)
     path = d / "summary.md"
     path.write_text(summary_markdown(diag, title))
     return path

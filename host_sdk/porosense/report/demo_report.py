@@ -13,9 +13,26 @@ from porosense.report.figures import (
     plot_power_law,
     plot_reconstruction,
 )
-from porosense.report.page import Section, write_report
+from porosense.report.page import DataTable, Section, write_report
 
 PAPER_POROSITIES = (68.0, 76.0, 82.0, 86.0)
+
+
+def search_tables(searches, names, outputs) -> list:
+    """Per output: fit % and RMS % of each structure's best model per recording, and the mean."""
+    tables = []
+    for o, res in zip(outputs, searches):
+        best = res.best.structure
+        rows = []
+        for s, c in sorted(res.best_per_structure().items(),
+                           key=lambda kv: ("linear", "hammerstein", "wiener", "wh").index(kv[0])):
+            cells = [f"{f:.1f} / {r:.1f}" for f, r in zip(c.fit_estimation + c.fit_validation,
+                                                          c.rms_estimation + c.rms_validation)]
+            rows.append([("* " if s == best else "") + s, c.n_poles, c.n_zeros, *cells,
+                         f"{c.mean_fit:.1f} / {c.mean_rms:.1f}"])
+        tables.append(DataTable(f"{o}: fit % / RMS % per recording (* selected by mean fit)",
+                                ["structure", "poles", "zeros", *names, "mean"], rows))
+    return tables
 
 
 def write_demo_report(result, searches, live, structure, out: Path, inputs, outputs, labels) -> Path:
@@ -40,7 +57,8 @@ def write_demo_report(result, searches, live, structure, out: Path, inputs, outp
                             title=f"{result.actuator}: {o} on {val_name} (validation)", path=path)
         recon.append(path)
     sections.append(Section("Measured versus estimated", "Each structure's best model of the order search, "
-                            "simulated from rest on a validation recording.", result.table, recon))
+                            "simulated from rest on a validation recording.", figures=recon,
+                            tables=search_tables(searches, list(recs), outputs)))
 
     # Hysteresis loops: a step and the staircase.
     loops = []
@@ -48,7 +66,7 @@ def write_demo_report(result, searches, live, structure, out: Path, inputs, outp
         r = recs[name]
         path = figs / f"hysteresis_{name}.png"
         plot_hysteresis(r[inputs[0]], r[outputs[0]], ylabel=labels[0], title=f"{name}: dR versus {outputs[0]}",
-                        path=path)
+                        colour=r.t, colour_label="time (s)", path=path)
         loops.append(path)
     sections.append(Section("Hysteresis", "The loop area is the rate-dependent hysteresis and relaxation that "
                             "the Wiener-Hammerstein model captures and the linear model cannot.", figures=loops))
@@ -61,7 +79,8 @@ def write_demo_report(result, searches, live, structure, out: Path, inputs, outp
         fits = {s: dict(zip(names, c.fit_estimation + c.fit_validation))
                 for s, c in sorted(per.items(), key=lambda kv: ("linear", "hammerstein", "wiener", "wh").index(kv[0]))}
         path = figs / f"fit_bars_{o}.png"
-        plot_fit_bars(fits, title=f"{result.actuator}: fit of {o} per structure and recording", path=path)
+        plot_fit_bars(fits, title=f"{result.actuator}: fit of {o} per structure and recording", path=path,
+                      xlabel="recording")
         bars.append(path)
     sections.append(Section("Fit per structure", "", figures=bars))
 

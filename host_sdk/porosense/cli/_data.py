@@ -1,0 +1,147 @@
+"""What every data-driven subcommand shares: reading recordings, Ts, models, and JSON output.
+
+The conventions (README "Command-line conventions"):
+
+- ``--json`` prints the command's result as JSON on stdout (and nothing else there);
+- ``--json-out FILE`` (or ``--report FILE`` where a command names it so) writes it to a file;
+- no output flag is mandatory; files go to a stated default;
+- ``--data`` takes CSV (any common dialect) or MATLAB .mat files; ``--ts`` is optional when
+  the data states its sample period, and must agree with it unless ``--ts-override``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+from porosense.errors import InputError, ModelError
+
+
+def add_data_options(p, *, ts_help: str = "sample period in s (default: from the t column, sidecar or Ts)") -> None:
+    """--ts, --ts-override, --separator, --decimal."""
+    p.add_argument("--ts", type=float, metavar="SECONDS", help=ts_help)
+    p.add_argument("--ts-override", action="store_true",
+                   help="use --ts even where it disagrees with the data's own time column or Ts")
+    p.add_argument("--separator", choices=(",", ";", "tab", "space"),
+                   help="CSV separator (default: detected)")
+    p.add_argument("--decimal", choices=(".", ","), help="CSV decimal mark (default: detected)")
+
+
+def add_json_options(p, what: str = "the result", *, legacy_path: bool = False) -> None:
+    """--json (stdout) and --json-out FILE.
+
+    ``legacy_path``: the command once took ``--json FILE``; a file name after --json still
+    writes there (as --json-out), so existing scripts keep working.
+    """
+    if legacy_path:
+        p.add_argument("--json", nargs="?", const=True, default=False, metavar="FILE",
+                       help=f"print {what} as JSON on stdout (--json FILE: same as --json-out FILE)")
+    else:
+        p.add_argument("--json", action="store_true", help=f"print {what} as JSON on stdout")
+    p.add_argument("--json-out", metavar="FILE.json", help=f"write {what} as JSON to this file")
+
+
+def normalise_json_args(args, make_folder: bool = False) -> None:
+    """Fold a legacy ``--json FILE`` into ``--json-out FILE``; check (or make) its folder."""
+    value = getattr(args, "json", False)
+    if isinstance(value, str):
+        if getattr(args, "json_out", None):
+            raise InputError("give the JSON file once: --json-out FILE")
+        args.json_out, args.json = value, False
+    if getattr(args, "json_out", None):
+        if make_folder:
+            Path(args.json_out).parent.mkdir(parents=True, exist_ok=True)
+        output_file(args.json_out, "--json-out")
+
+
+def read_tables(files, args):
+    """Tables of ``files`` with the dialect options of ``args``."""
+    from porosense.data import load_data
+
+    sep = {"tab": "\t", "space": " "}.get(getattr(args, "separator", None), getattr(args, "separator", None))
+    return [load_data(f, separator=sep, decimal=getattr(args, "decimal", None)) for f in files]
+
+
+def sample_period(tables, args) -> float:
+    """The Ts (s) for ``tables``: the data's own, checked against --ts (see porosense.data.resolve_ts)."""
+    from porosense.data import resolve_ts
+
+    return resolve_ts(tables, getattr(args, "ts", None), getattr(args, "ts_override", False))
+
+
+def require_columns(table, names) -> None:
+    missing = [n for n in names if n not in table.columns]
+    if missing:
+        raise InputError(f"{table.path}: no column{'s' if len(missing) > 1 else ''} "
+                         f"{', '.join(repr(m) for m in missing)} "
+                         f"(columns: {', '.join(table.names)}; read as {table.dialect})")
+
+
+def load_model_checked(path):
+    """A saved model, refused (ModelError) when any coefficient is not finite."""
+    import numpy as np
+
+    from porosense.ident import load_model
+    from porosense.ident.models import FORMAT_VERSION
+
+    model = load_model(path)
+    try:  # the file's inner models carry their own format version
+        inner = [d.get("version") for d in json.loads(Path(path).read_text()).get("models", [])]
+    except (ValueError, AttributeError, OSError):
+        inner = []
+    bad = [v for v in inner if v != FORMAT_VERSION]
+    if bad:
+        raise ModelError(f"{path}: inner model format version {bad[0]}, this build reads {FORMAT_VERSION}")
+    try:
+        structure = model.to_structure()
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        raise ModelError(f"{path}: the model's blocks cannot be built ({exc})") from None
+    for out in structure.outputs:
+        blocks = [out.g, out.h2] + [b for br in out.branches for b in (br.f, br.h1)]
+        values = [np.asarray(getattr(b, a)) for b in blocks if b is not None
+                  for a in ("x", "y", "sos") if hasattr(b, a)]
+        if not all(np.all(np.isfinite(v)) for v in values) or not math.isfinite(out.offset):
+            raise ModelError(f"{path}: output '{out.name}' has non-finite (NaN or inf) coefficients")
+    return model
+
+
+def output_file(path, what: str = "output") -> Path:
+    """``path`` as a Path whose folder exists (InputError otherwise)."""
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{what} {path} is a folder; give a file name")
+    if not path.parent.is_dir():
+        raise InputError(f"{what} {path}: the folder {path.parent} does not exist")
+    return path
+
+
+def emit_json(doc, args) -> None:
+    """Print ``doc`` on stdout with --json and write it to --json-out; floats as plain numbers."""
+    normalise_json_args(args)
+    text = json.dumps(doc, indent=1, default=_plain)
+    if getattr(args, "json_out", None):
+        output_file(args.json_out, "--json-out").write_text(text + "\n")
+    if getattr(args, "json", False):
+        sys.stdout.write(text + "\n")
+
+
+def _plain(value):
+    try:
+        import numpy as np
+
+        if isinstance(value, np.ndarray):
+            return value.tolist()
+        if isinstance(value, np.generic):
+            return value.item()
+    except ImportError:  # pragma: no cover
+        pass
+    if isinstance(value, Path):
+        return str(value)
+    return float(value)
+
+
+def say(args, text: str) -> None:
+    """Human-readable progress: stdout normally, stderr when stdout carries --json."""
+    print(text, file=sys.stderr if getattr(args, "json", False) is True else sys.stdout)

@@ -19,8 +19,11 @@ import pytest
 
 from porosense.cli import build_parser
 
-# Long runs whose examples are covered elsewhere: `porosense demo` is run by tests/demo.
-COVERED_ELSEWHERE = {"demo": "tests/demo runs `porosense demo` end to end (minutes per actuator)"}
+# Examples that cannot run here as printed, and where they are covered instead.
+COVERED_ELSEWHERE = {
+    "demo": "tests/demo runs `porosense demo` end to end (minutes per actuator)",
+    "record": "needs a camera; tests/record runs `porosense record` on rendered video and the emulator",
+}
 ORDER = ("simulate", "identify", "predict", "compare", "report", "export", "quantize", "diagnose", "emulator",
          "flash", "verify", "config", "ports", "infoam", "bench")
 EMULATOR_PORT = 5000

@@ -102,6 +102,10 @@ class Device {
   uint8_t last_type_;
   uint8_t last_seq_;
   uint8_t cmd_seq_;  // sequence number of the command being handled
+  // SET_OUTPUTS that turns an output on must carry session_ (new at each HELLO) and a
+  // counter ahead of out_counter_, the last one accepted: a replayed old frame is refused.
+  uint16_t session_;
+  uint16_t out_counter_;
 
   bool frame_ready_;
   bool streaming_;

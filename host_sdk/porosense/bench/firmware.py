@@ -1,5 +1,7 @@
 """Firmware budgets: flash and static RAM from avr-size, stack headroom, the estimator's
-worst-case step in cycles, and overruns at 100 Hz in the simboard.
+worst-case step in cycles, overruns at 100 Hz in the simboard, and the highest sample rate
+each channel configuration sustains without a skipped tick (the advertised SAMPLE_RATE_HZ
+maximum must equal the one of every channel + IMU + the largest storable model).
 
 ``porosense bench firmware --json`` prints them. Budgets (issue 5): flash <= 28 KB, static
 RAM (data + bss) <= 1,400 bytes, estimator step <= 48,000 cycles, zero overruns over 60 s
@@ -194,6 +196,78 @@ def simboard_overruns(seconds: float) -> dict:
         return {"status": "pending", "reason": f"{type(exc).__name__}: {exc}"}
 
 
+# Channel configurations of the rate search: (name, START_STREAM channel mask).
+RATE_CONFIGS = (("1 ADC channel", 0x01), ("3 ADC channels", 0x07), ("3 ADC + IMU", 0x0F),
+                ("3 ADC + IMU + estimator", 0x1F))
+
+
+def advertised_max_rate_hz() -> int:
+    """SAMPLE_RATE_HZ maximum of the protocol catalogue: what HELLO-era hosts and the
+    firmware (START_STREAM, CONFIG_SET) accept."""
+    from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
+
+    return int(CONFIG_SPECS[ConfigKey.SAMPLE_RATE_HZ].max)
+
+
+def _overruns_at(dev, rate_hz: int, mask: int, seconds: float) -> tuple[int, int]:
+    """Stream ``seconds`` of samples at ``rate_hz``; (overruns from STATUS, samples lost as the
+    host counted them from SAMPLE sequence gaps)."""
+    before = dev.status().overruns
+    lost0 = dev.stats.samples_lost
+    dev.start_stream(rate_hz, mask)
+    n = 0
+    for _ in dev.samples(timeout_s=15.0):  # wall time: the simulation speed varies
+        n += 1
+        if n >= int(seconds * rate_hz):
+            break
+    dev.stop_stream()
+    return int(dev.status().overruns - before), int(dev.stats.samples_lost - lost0)
+
+
+def max_clean_rates(probe_s: float = 3.0, confirm_s: float = 60.0, configs=RATE_CONFIGS) -> dict:
+    """For each channel configuration, the highest whole rate (Hz) with 0 overruns: a binary
+    search over 10 Hz .. the advertised maximum with ``probe_s`` of simulated streaming per
+    step, then ``confirm_s`` at the rate found (stepping down 1 Hz while it overruns). The
+    estimator runs the heaviest model that fits the EEPROM. A configuration clean at the
+    advertised maximum reports it with ``capped`` (the firmware refuses anything higher)."""
+    try:
+        from porosense.device import Device
+        from porosense.simboard import SimBoard
+    except ImportError as exc:
+        return {"status": "pending", "reason": f"simboard not available ({exc})"}
+    limit = advertised_max_rate_hz()
+    rows = []
+    try:
+        blob = heavy_model_blob()
+        with SimBoard(ELF) as board, Device.open(board.url, handshake_timeout_s=15.0) as dev:
+            dev.write_model(blob)
+            for name, mask in configs:
+                lo, hi = 10, limit  # lo: clean, hi: untested or overrunning
+                if _overruns_at(dev, hi, mask, probe_s)[0] == 0:
+                    lo = hi
+                while hi - lo > 1:
+                    mid = (lo + hi) // 2
+                    if _overruns_at(dev, mid, mask, probe_s)[0] == 0:
+                        lo = mid
+                    else:
+                        hi = mid
+                rate = lo
+                overruns, lost = _overruns_at(dev, rate, mask, confirm_s)
+                while overruns and rate > 10:
+                    rate -= 1
+                    overruns, lost = _overruns_at(dev, rate, mask, confirm_s)
+                over_next = None if rate >= limit else _overruns_at(dev, rate + 1, mask, probe_s)
+                rows.append({"config": name, "channel_mask": mask, "max_clean_hz": rate,
+                             "capped": rate >= limit, "confirm_s": confirm_s,
+                             "overruns": overruns, "samples_lost": lost,
+                             "overruns_at_next_hz": None if over_next is None else over_next[0],
+                             "lost_at_next_hz": None if over_next is None else over_next[1]})
+    except Exception as exc:
+        return {"status": "pending", "reason": f"{type(exc).__name__}: {exc}"}
+    return {"status": "measured", "advertised_max_hz": limit, "model_bytes": len(blob),
+            "probe_s": probe_s, "confirm_s": confirm_s, "configs": rows}
+
+
 def run(size: str = "small") -> dict:
     """Build the firmware and report its budgets. ``size="small"`` streams 5 s of simulated
     time in the simboard, ``"full"`` the 60 s the budget quotes."""
@@ -207,6 +281,8 @@ def run(size: str = "small") -> dict:
     seconds = 60.0 if size == "full" else 5.0
     cyc = estimator_cycles()
     sim = simboard_overruns(seconds)
+    rates = max_clean_rates(probe_s=2.0 if size != "full" else 5.0,
+                            confirm_s=5.0 if size != "full" else 60.0)
     result = {
         "elf": str(ELF.relative_to(REPO_ROOT)),
         "size": sz.to_dict(),
@@ -220,6 +296,7 @@ def run(size: str = "small") -> dict:
         "estimator_cycles": cyc,
         "cycle_budget": CYCLE_BUDGET,
         "overruns_100hz": sim,
+        "max_clean_rates": rates,
     }
     summary = [
         f"flash: {sz.flash} B of {FLASH_BUDGET} B budget (text {sz.text} + data {sz.data})",
@@ -240,5 +317,15 @@ def run(size: str = "small") -> dict:
                        f"free stack {sim['free_stack']} B")
     else:
         summary.append(f"overruns at 100 Hz: pending ({sim.get('reason')})")
+    if rates.get("status") == "measured":
+        for row in rates["configs"]:
+            cap = " (the advertised maximum: higher is refused)" if row["capped"] else (
+                f"; {row['overruns_at_next_hz']} overruns = {row['lost_at_next_hz']} samples lost at "
+                f"{row['max_clean_hz'] + 1} Hz in {rates['probe_s']:g} s")
+            summary.append(f"max clean rate, {row['config']}: {row['max_clean_hz']} Hz "
+                           f"({row['overruns']} overruns in {row['confirm_s']:g} s){cap}")
+        summary.append(f"advertised maximum (SAMPLE_RATE_HZ, START_STREAM): {rates['advertised_max_hz']} Hz")
+    else:
+        summary.append(f"max clean rates: pending ({rates.get('reason')})")
     result["summary"] = summary
     return result

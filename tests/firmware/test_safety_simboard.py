@@ -1,0 +1,200 @@
+"""Safety of the real firmware in the simboard (issue 19): the host-link watchdog cuts the
+outputs within WATCHDOG_MS + 50 ms of the last host command whatever the board is doing
+(a slow R0 calibration, a model flash, streaming at the highest rate, its own frames echoed
+back); a skipped sample tick reaches the host as a lost sample; a replayed old SET_OUTPUTS
+cannot turn the pumps back on.
+
+Times are AVR times from the plant's per-tick pin log. The silence is measured from the AVR
+time just before the host sent its last frame, so it is an upper bound of the true one."""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+
+from porosense.bench import firmware as fw
+from porosense.protocol import MsgType, Result
+from porosense.protocol import _messages as m
+
+from test_firmware_simboard import _open, elf  # noqa: F401  (the built ELF fixture)
+
+pytestmark = [pytest.mark.simboard, pytest.mark.xdist_group("firmware-build")]
+
+WATCHDOG_MS = 200
+MARGIN_S = 0.050  # the issue's bound: outputs off within the timeout + 50 ms
+
+
+def _any_on(row) -> bool:
+    return any(row[f"pump_{i}"] or row[f"valve_{i}"] or row[f"p_cmd_{i}"] < 0 for i in range(3))
+
+
+def _cut_after(board, t_last_s: float, timeout_s: float = 60.0) -> float:
+    """Waits until every output is off; returns the AVR time (s) from ``t_last_s`` to the first
+    logged tick with all outputs off."""
+    from porosense.simboard.board import PinState
+
+    def all_off(t) -> bool:
+        q = PinState.from_tick(t)
+        return not any(q.pumps) and not any(q.valves) and q.regulator_duty == (0, 0, 0)
+
+    board.wait_for(all_off, timeout=timeout_s)
+    rows = [r for r in list(board.truth) if r["t"] >= t_last_s]
+    assert rows and _any_on(rows[0]), "the outputs were not on after the last command"
+    off = next(r["t"] for r in rows if not _any_on(r))
+    return off - t_last_s
+
+
+def _outputs_on(dev) -> None:
+    dev.set_watchdog(WATCHDOG_MS)
+    dev.set_outputs(-20.0, pumps=0b111, valves=0b111)
+
+
+def test_host_lost_during_calibration_at_the_slowest_adc_rate(elf) -> None:
+    """8 SPS: 64 samples of 3 channels would block for 24 s; the board refuses it while an
+    output is on, so the watchdog still cuts the outputs in time."""
+    board, dev = _open(elf, truth_every_ms=1.0)
+    try:
+        dev.config_set("ADC_RATE", 0)
+        _outputs_on(dev)
+        t_last = board.sim_time_s
+        reply = dev.exchange_raw(MsgType.CALIBRATE_R0, bytes((64, 0b111)), timeout_s=2.0)
+        silent = _cut_after(board, t_last)
+        print(f"calibration at 8 SPS: {reply and reply.message()}; outputs cut {silent * 1000:.1f} ms "
+              f"after the last command (timeout {WATCHDOG_MS} ms)")
+        assert reply is not None and reply.message().code == Result.BUSY
+        assert silent <= WATCHDOG_MS / 1000 + MARGIN_S
+        # With the outputs off, the slow calibration runs and answers.
+        dev.config_set("ADC_RATE", 7)
+        assert len(dev.calibrate_r0(4, 0b111)) == 3
+    finally:
+        dev.close()
+        board.close()
+
+
+def test_host_lost_during_a_flash(elf) -> None:
+    """A model chunk writes 118 EEPROM bytes (0.4 s): the host starts a flash with the pumps on
+    and vanishes after the first chunk."""
+    blob = fw.heavy_model_blob()
+    board, dev = _open(elf, truth_every_ms=1.0)
+    try:
+        _outputs_on(dev)
+        begin = m.ModelBegin(length=len(blob), crc=int.from_bytes(blob[-2:], "little"), format_version=blob[2])
+        dev.exchange_raw(MsgType.MODEL_BEGIN, begin.pack(), timeout_s=2.0)
+        t_last = board.sim_time_s
+        reply = dev.exchange_raw(MsgType.MODEL_CHUNK, m.ModelChunk(offset=0, data=blob[:118]).pack(), timeout_s=2.0)
+        silent = _cut_after(board, t_last)
+        print(f"flash with outputs on: {reply and reply.message()}; outputs cut {silent * 1000:.1f} ms "
+              f"after the last command")
+        assert silent <= WATCHDOG_MS / 1000 + MARGIN_S
+        assert reply is not None and reply.message().code == Result.BUSY
+    finally:
+        dev.close()
+        board.close()
+
+
+def test_host_lost_while_streaming_at_the_highest_rate(elf) -> None:
+    board, dev = _open(elf, truth_every_ms=1.0)
+    try:
+        dev.write_model(fw.heavy_model_blob())
+        rate = fw.advertised_max_rate_hz()
+        dev.start_stream(rate, 0x1F)
+        list(dev.samples(rate // 2, timeout_s=15))
+        _outputs_on(dev)
+        t_last = board.sim_time_s
+        dev.ping()
+        silent = _cut_after(board, t_last)
+        samples = dev.drain_samples()
+        print(f"{rate} Hz, every channel + IMU + estimator: outputs cut {silent * 1000:.1f} ms after the "
+              f"last command; {len(samples)} samples meanwhile, {dev.stats.samples_lost} lost")
+        assert silent <= WATCHDOG_MS / 1000 + MARGIN_S
+        assert dev.status().overruns == 0
+    finally:
+        dev.close()
+        board.close()
+
+
+class _Echo(threading.Thread):
+    """An echoing adapter: every byte the board sends goes straight back to it."""
+
+    def __init__(self, link):
+        super().__init__(daemon=True)
+        self.link, self.stop, self.bytes = link, threading.Event(), 0
+
+    def run(self) -> None:
+        while not self.stop.is_set():
+            data = self.link.read(0.01)
+            if data:
+                self.link.write(data)
+                self.bytes += len(data)
+
+
+def test_loopback_does_not_feed_the_watchdog(elf) -> None:
+    board, dev = _open(elf, truth_every_ms=1.0)
+    try:
+        dev.start_stream(50, 0x07)  # the board talks: SAMPLE frames to echo
+        _outputs_on(dev)
+        t_last = board.sim_time_s
+        dev.ping()
+        echo = _Echo(dev.link)
+        echo.start()
+        try:
+            silent = _cut_after(board, t_last)
+        finally:
+            echo.stop.set()
+            echo.join(timeout=5)
+        print(f"loopback: {echo.bytes} bytes echoed; outputs cut {silent * 1000:.1f} ms after the last command")
+        assert echo.bytes > 500
+        assert silent <= WATCHDOG_MS / 1000 + MARGIN_S
+    finally:
+        dev.close()
+        board.close()
+
+
+def test_skipped_ticks_are_counted_as_lost_samples(elf) -> None:
+    """At 250 SPS three conversions take 12 ms: 100 Hz cannot be sustained, and every skipped
+    tick must show on the host as a lost sample, not only as the OVERRUN flag."""
+    board, dev = _open(elf)
+    try:
+        dev.config_set("ADC_RATE", 5)
+        before = dev.status().overruns
+        dev.start_stream(100, 0x07)
+        block = dev.read_samples(100, timeout_s=15)
+        dev.stop_stream()
+        overruns = dev.status().overruns - before
+        print(f"100 Hz at 250 SPS: {overruns} ticks skipped, host counted {dev.stats.samples_lost} lost "
+              f"({block.lost} in the block of {len(block.t_us)})")
+        assert overruns > 20
+        # Every skipped tick is a gap, up to the samples that arrived after the last one read.
+        assert block.lost > 20 and 0 <= overruns - dev.stats.samples_lost <= 2
+    finally:
+        dev.close()
+        board.close()
+
+
+def test_replayed_set_outputs_cannot_turn_pumps_on(elf) -> None:
+    board, dev = _open(elf)
+    try:
+        dev.set_outputs(-30.0, pumps=0b111, valves=0b111)
+        on = m.SetOutputs(setpoint_dkpa=(-300, -300, -300), pump_mask=7, valve_mask=7,
+                          session=dev._session, counter=dev._out_counter)
+        dev.set_outputs()  # off
+        board.run_for(0.02)
+        assert not any(board.pins.pumps)
+        replies = [dev.exchange_raw(MsgType.SET_OUTPUTS, on.pack(), timeout_s=2.0) for _ in range(2)]
+        board.run_for(0.02)
+        assert not any(board.pins.pumps) and not any(board.pins.valves)
+        # A new connection (HELLO) opens a new session: the old frame stays refused.
+        dev.hello()
+        replies.append(dev.exchange_raw(MsgType.SET_OUTPUTS, on.pack(), timeout_s=2.0))
+        board.run_for(0.02)
+        print("replayed 'pumps on':", [r and r.message() for r in replies])
+        assert all(r is not None and r.message().code == Result.BAD_STATE for r in replies)
+        assert not any(board.pins.pumps)
+        dev.set_outputs(-30.0, pumps=0b001)  # the live host still can
+        board.run_for(0.02)
+        assert board.pins.pumps == (True, False, False)
+        dev.set_outputs()
+    finally:
+        dev.close()
+        board.close()

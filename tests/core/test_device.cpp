@@ -769,6 +769,23 @@ void test_watchdog_fed_only_by_host_commands() {
   CHECK(rig.dev.counters().watchdog_trips == 1);
 }
 
+// Issue 19, item 1: the watchdog also runs from poll_rx(), which drivers call while they wait
+// (ADC conversions, EEPROM writes): a long wait cannot hold the outputs; the ERROR report
+// follows at the next poll().
+void test_watchdog_runs_inside_driver_waits() {
+  Rig rig;
+  rig.boot();
+  rig.send_msg(outputs(-200, 7, 7), 1);
+  rig.received();
+  rig.hal.now_us += 1001000;
+  rig.dev.poll_rx();  // as from an ADC wait loop
+  CHECK(rig.hal.out.pump_mask == 0 && rig.dev.counters().watchdog_trips == 1);
+  CHECK(rig.received().empty());  // nothing sent from inside the wait
+  rig.dev.poll();
+  Frame e = rig.one();
+  CHECK(e.type == proto::msg::ERROR && proto::get_i16(e.payload.data() + 1) == f::WATCHDOG_TRIPPED);
+}
+
 // Issue 19, item 1: operations that block (R0 calibration, EEPROM writes) are refused while
 // an output is on, so nothing holds the outputs past the link watchdog.
 void test_blocking_commands_refused_while_outputs_on() {
@@ -896,6 +913,7 @@ int main() {
   test_rate_divider_and_watchdog_logic();
   test_watchdog_fed_only_by_host_commands();
   test_blocking_commands_refused_while_outputs_on();
+  test_watchdog_runs_inside_driver_waits();
   test_replayed_set_outputs_refused();
   test_skipped_ticks_leave_a_sequence_gap();
   printf("test_device: %d checks, %d failures\n", g_checks, g_failures);

@@ -114,6 +114,26 @@ def test_host_lost_while_streaming_at_the_highest_rate(elf) -> None:
         board.close()
 
 
+def test_host_lost_while_sampling_at_the_slowest_adc_rate(elf) -> None:
+    """At 8 SPS one sample of three channels takes 375 ms, longer than the 100 ms watchdog:
+    the watchdog is kept inside the conversion waits, not only between samples. (Commands wait
+    for the sample in progress, so STATUS is not asked here: its 50 ms deadline cannot hold.)"""
+    board, dev = _open(elf, truth_every_ms=1.0)
+    try:
+        dev.config_set("ADC_RATE", 0)
+        dev.start_stream(10, 0x07)
+        dev.set_watchdog(100)
+        dev.set_outputs(-20.0, pumps=0b111, valves=0b111)
+        t_last = board.sim_time_s
+        dev.ping()
+        silent = _cut_after(board, t_last)
+        print(f"streaming at 8 SPS: outputs cut {silent * 1000:.1f} ms after the last command (timeout 100 ms)")
+        assert silent <= 0.100 + MARGIN_S
+    finally:
+        dev.close()
+        board.close()
+
+
 class _Echo(threading.Thread):
     """An echoing adapter: every byte the board sends goes straight back to it."""
 

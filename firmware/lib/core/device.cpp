@@ -40,6 +40,7 @@ Device::Device(Hal& hal, ModelPort& model)
       sticky_flags_(0),
       sample_flags_(0),
       pending_overrun_(0),
+      trip_unreported_(0),
       line_state_(0),
       analog_pin_(0) {
   config_.set_defaults();
@@ -113,25 +114,36 @@ void Device::poll() {
     handle_frame();
     frame_ready_ = false;
   }
-  const uint32_t now = hal_.millis();
-  if (link_.expired(now, outputs_active())) {
-    outputs_off();
-    sticky_flags_ |= f::WATCHDOG_TRIPPED;
-    counters_.watchdog_trips = sat_add16(counters_.watchdog_trips, 1);
+  guard_link();
+  if (trip_unreported_) {
+    trip_unreported_ = 0;
     send_error(r::BAD_STATE, (int16_t)f::WATCHDOG_TRIPPED, hal_.micros());
   }
+}
+
+void Device::guard_link() {
+  if (!link_.expired(hal_.millis(), outputs_active())) return;
+  outputs_off();
+  sticky_flags_ |= f::WATCHDOG_TRIPPED;
+  counters_.watchdog_trips = sat_add16(counters_.watchdog_trips, 1);
+  trip_unreported_ = 1;
 }
 
 void Device::poll_rx() {
   while (!frame_ready_) {
     const int16_t c = hal_.serial_read();
-    if (c < 0) return;
+    if (c < 0) break;
     if (decoder_.feed((uint8_t)c)) {
       frame_ready_ = true;
       line_state_ = 0;  // a host speaks frames: this session answers in frames
       counters_.rx_frames = sat_inc32(counters_.rx_frames);
+      // Only a host command keeps the outputs alive, never a device-to-host type: the board's
+      // own frames echoed back (a TX-RX loopback, an echoing adapter). The decoder has
+      // already dropped unknown types and wrong lengths.
+      if (!(decoder_.type() & 0x80)) link_.feed(hal_.millis());
     }
   }
+  guard_link();
 }
 
 // ---------------------------------------------------------------- replies
@@ -189,13 +201,10 @@ void Device::handle_frame() {
   const uint8_t type = decoder_.type();
   const uint8_t seq = decoder_.seq();
   uint8_t lo, hi;
-  // Only a known host command feeds the link watchdog: never a device-to-host type, which is
-  // the board's own frame echoed back (a TX-RX loopback or an echoing adapter).
   const bool command = !(type & 0x80) && proto::payload_bounds(type, &lo, &hi);
   // A retry carries the same sequence number and type: answer it without executing again.
   // HELLO is never a duplicate (a new host session must not collide with the last one).
   if (cached_len_ != 0 && type == last_type_ && seq == last_seq_ && type != proto::msg::HELLO) {
-    if (command) link_.feed(hal_.millis());
     hal_.serial_write(cached_, cached_len_);
     counters_.tx_frames = sat_inc32(counters_.tx_frames);
     return;
@@ -213,7 +222,6 @@ void Device::handle_frame() {
     nak(r::BAD_LENGTH, (int16_t)lo);
     return;
   }
-  link_.feed(hal_.millis());
   dispatch(type, decoder_.payload(), len);
 }
 

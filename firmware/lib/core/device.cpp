@@ -350,6 +350,9 @@ void Device::cmd_start_stream(const uint8_t* p) {
   s.decode(p, proto::StartStream::kMinLen);
   proto::config::KeyInfo rate;
   proto::config::key_info(proto::config::SAMPLE_RATE_HZ, &rate);
+#ifdef POROSENSE_RATE_LIMIT_HZ
+  rate.max = POROSENSE_RATE_LIMIT_HZ;  // bench builds only: to find the real limit above it
+#endif
   if (s.rate_hz < rate.min || s.rate_hz > rate.max) return nak(r::OUT_OF_RANGE, 0);
   if (s.channel_mask & ~0x1F) return nak(r::OUT_OF_RANGE, 1);
   sticky_flags_ &= (uint16_t)~f::STANDALONE;

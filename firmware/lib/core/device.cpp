@@ -56,7 +56,7 @@ void Device::begin() {
     sticky_flags_ |= f::CONFIG_DEFAULTS;
   }
   apply_config();
-  session_ = (uint16_t)(config_.boots * 40503u);
+  session_ = config_.boots;  // each boot starts another sequence of sessions (mixed at HELLO)
   if (!hal_.adc_present()) sample_flags_ |= f::ADC_FAULT;
   if (!hal_.imu_present()) sample_flags_ |= f::IMU_FAULT;
   const bool r0_stored = config_.r0_mode == 1 && !(sticky_flags_ & f::CONFIG_DEFAULTS);

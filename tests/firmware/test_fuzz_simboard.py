@@ -77,6 +77,7 @@ def _watchdog_holds(board, dev) -> float:
     return _cut_after(board, t_last)
 
 
+@pytest.mark.slow
 def test_fuzz_commands_on_the_simboard(elf) -> None:
     rng = random.Random(19)
     board, dev = _open(elf, truth_every_ms=1.0, max_speed=None)  # as fast as simavr runs

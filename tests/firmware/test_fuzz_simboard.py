@@ -16,7 +16,7 @@ from porosense.protocol import MsgType, Result
 from porosense.protocol import _messages as m
 
 from test_firmware_simboard import _open, elf  # noqa: F401  (the built ELF fixture)
-from test_safety_simboard import MARGIN_S, _cut_after
+from test_safety_simboard import MARGIN_S, _burst, _cut_after, _on_now
 
 pytestmark = [pytest.mark.simboard, pytest.mark.xdist_group("firmware-build")]
 
@@ -71,9 +71,7 @@ def _watchdog_holds(board, dev) -> float:
     dev.hello()
     dev.set_outputs()  # a host would start from off; also ends a write in progress
     dev.set_watchdog(WATCHDOG_MS)
-    dev.set_outputs(-10.0, pumps=0b111, valves=0b111)
-    t_last = board.sim_time_s
-    dev.ping()
+    t_last, _ = _burst(board, dev, [_on_now(dev), m.Ping(nonce=1)])
     return _cut_after(board, t_last)
 
 

@@ -14,7 +14,7 @@ import threading
 import pytest
 
 from porosense.bench import firmware as fw
-from porosense.protocol import MsgType, Result
+from porosense.protocol import MsgType, Result, encode_message
 from porosense.protocol import _messages as m
 
 from test_firmware_simboard import _open, elf  # noqa: F401  (the built ELF fixture)
@@ -29,25 +29,48 @@ def _any_on(row) -> bool:
     return any(row[f"pump_{i}"] or row[f"valve_{i}"] or row[f"p_cmd_{i}"] < 0 for i in range(3))
 
 
-def _cut_after(board, t_last_s: float, timeout_s: float = 60.0) -> float:
-    """Waits until every output is off; returns the AVR time (s) from ``t_last_s`` to the first
-    logged tick with all outputs off."""
+def _burst(board, dev, messages, timeout_s: float = 5.0):
+    """Sends the command ``messages`` back to back in one write (a busy host cannot stall
+    between them), then reads their answers. Returns the AVR time (s) just before the write
+    (the commands arrived later) and the answering frames."""
+    frames = []
+    for msg in messages:
+        seq = dev._next_seq()
+        frames.append((seq, msg.TYPE, MsgType[msg.REPLY], encode_message(msg, seq)))
+    data = b"".join(f[3] for f in frames)
+    t_before = board.sim_time_s
+    dev.link.write(data)
+    replies = [dev._await(seq, mtype, rtype, timeout_s) for seq, mtype, rtype, _ in frames]
+    return t_before, replies
+
+
+def _on_now(dev, setpoint_dkpa: int = -200, mask: int = 0b111):
+    """The SET_OUTPUTS the SDK would send next (this session, next counter)."""
+    dev._out_counter += 1
+    return m.SetOutputs(setpoint_dkpa=(setpoint_dkpa,) * 3, pump_mask=mask, valve_mask=mask,
+                        session=dev._session, counter=dev._out_counter)
+
+
+def _cut_after(board, t_sent_s: float, timeout_s: float = 60.0) -> float:
+    """Waits until every output is off; returns the AVR time (s) from the last host command to
+    the first logged tick with all outputs off. The last command of a burst is read only after
+    the SET_OUTPUTS ahead of it has run, so it counts from the first tick (after ``t_sent_s``,
+    the time before the write) with the outputs on: never later than the true time (within
+    the 1 ms tick), so the result bounds the silence the watchdog allowed from above."""
     from porosense.simboard.board import PinState
 
     def all_off(t) -> bool:
         q = PinState.from_tick(t)
         return not any(q.pumps) and not any(q.valves) and q.regulator_duty == (0, 0, 0)
 
+    board.run_for(0.002)
     board.wait_for(all_off, timeout=timeout_s)
-    rows = [r for r in list(board.truth) if r["t"] >= t_last_s]
-    assert rows and _any_on(rows[0]), "the outputs were not on after the last command"
-    off = next(r["t"] for r in rows if not _any_on(r))
-    return off - t_last_s
-
-
-def _outputs_on(dev) -> None:
-    dev.set_watchdog(WATCHDOG_MS)
-    dev.set_outputs(-20.0, pumps=0b111, valves=0b111)
+    rows = [r for r in list(board.truth) if r["t"] >= t_sent_s]
+    t_on = next((r["t"] for r in rows if _any_on(r)), None)
+    assert t_on is not None, "the outputs never came on"
+    t_ref = t_on
+    off = next(r["t"] for r in rows if r["t"] > t_ref and not _any_on(r))
+    return off - t_ref
 
 
 def test_host_lost_during_calibration_at_the_slowest_adc_rate(elf) -> None:
@@ -56,9 +79,8 @@ def test_host_lost_during_calibration_at_the_slowest_adc_rate(elf) -> None:
     board, dev = _open(elf, truth_every_ms=1.0)
     try:
         dev.config_set("ADC_RATE", 0)
-        _outputs_on(dev)
-        t_last = board.sim_time_s
-        reply = dev.exchange_raw(MsgType.CALIBRATE_R0, bytes((64, 0b111)), timeout_s=2.0)
+        dev.set_watchdog(WATCHDOG_MS)
+        t_last, (on, reply) = _burst(board, dev, [_on_now(dev), m.CalibrateR0(n_samples=64, channel_mask=0b111)])
         silent = _cut_after(board, t_last)
         print(f"calibration at 8 SPS: {reply and reply.message()}; outputs cut {silent * 1000:.1f} ms "
               f"after the last command (timeout {WATCHDOG_MS} ms)")
@@ -78,11 +100,9 @@ def test_host_lost_during_a_flash(elf) -> None:
     blob = fw.heavy_model_blob()
     board, dev = _open(elf, truth_every_ms=1.0)
     try:
-        _outputs_on(dev)
+        dev.set_watchdog(WATCHDOG_MS)
         begin = m.ModelBegin(length=len(blob), crc=int.from_bytes(blob[-2:], "little"), format_version=blob[2])
-        dev.exchange_raw(MsgType.MODEL_BEGIN, begin.pack(), timeout_s=2.0)
-        t_last = board.sim_time_s
-        reply = dev.exchange_raw(MsgType.MODEL_CHUNK, m.ModelChunk(offset=0, data=blob[:118]).pack(), timeout_s=2.0)
+        t_last, (on, _, reply) = _burst(board, dev, [_on_now(dev), begin, m.ModelChunk(offset=0, data=blob[:118])])
         silent = _cut_after(board, t_last)
         print(f"flash with outputs on: {reply and reply.message()}; outputs cut {silent * 1000:.1f} ms "
               f"after the last command")
@@ -100,9 +120,8 @@ def test_host_lost_while_streaming_at_the_highest_rate(elf) -> None:
         rate = fw.advertised_max_rate_hz()
         dev.start_stream(rate, 0x1F)
         list(dev.samples(rate // 2, timeout_s=15))
-        _outputs_on(dev)
-        t_last = board.sim_time_s
-        dev.ping()
+        dev.set_watchdog(WATCHDOG_MS)
+        t_last, _ = _burst(board, dev, [_on_now(dev), m.Ping(nonce=1)])
         silent = _cut_after(board, t_last)
         samples = dev.drain_samples()
         print(f"{rate} Hz, every channel + IMU + estimator: outputs cut {silent * 1000:.1f} ms after the "
@@ -123,9 +142,8 @@ def test_host_lost_while_sampling_at_the_slowest_adc_rate(elf) -> None:
         dev.config_set("ADC_RATE", 0)
         dev.start_stream(10, 0x07)
         dev.set_watchdog(100)
-        dev.set_outputs(-20.0, pumps=0b111, valves=0b111)
-        t_last = board.sim_time_s
-        dev.ping()
+        # Read while the board is busy sampling: answers may miss their 50 ms deadline.
+        t_last, _ = _burst(board, dev, [_on_now(dev), m.Ping(nonce=1)], timeout_s=2.0)
         silent = _cut_after(board, t_last)
         print(f"streaming at 8 SPS: outputs cut {silent * 1000:.1f} ms after the last command (timeout 100 ms)")
         assert silent <= 0.100 + MARGIN_S
@@ -153,9 +171,8 @@ def test_loopback_does_not_feed_the_watchdog(elf) -> None:
     board, dev = _open(elf, truth_every_ms=1.0)
     try:
         dev.start_stream(50, 0x07)  # the board talks: SAMPLE frames to echo
-        _outputs_on(dev)
-        t_last = board.sim_time_s
-        dev.ping()
+        dev.set_watchdog(WATCHDOG_MS)
+        t_last, _ = _burst(board, dev, [_on_now(dev), m.Ping(nonce=1)])
         echo = _Echo(dev.link)
         echo.start()
         try:

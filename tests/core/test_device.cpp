@@ -873,6 +873,20 @@ void test_replayed_set_outputs_refused() {
   on.counter = 1;
   rig.send_msg(on, 9);
   CHECK(rig.one().type == proto::msg::ACK && rig.hal.out.pump_mask == 7);
+  // A retried HELLO (same sequence number, its first reply late) keeps the session the host
+  // may already hold; the next HELLO does not.
+  rig.hal.now_us += 3000;
+  rig.send_msg(h, 20);
+  Frame h1 = rig.one();
+  rig.hal.now_us += 250000;
+  rig.send_msg(h, 20);
+  Frame h2 = rig.one();
+  rig.send_msg(h, 21);
+  Frame h3 = rig.one();
+  proto::HelloReply r1, r2, r3;
+  CHECK(r1.decode(h1.payload.data(), (uint8_t)h1.payload.size()) && r2.decode(h2.payload.data(), (uint8_t)h2.payload.size()) &&
+        r3.decode(h3.payload.data(), (uint8_t)h3.payload.size()));
+  CHECK(r1.session == r2.session && r3.session != r2.session && r1.session != reply.session);
   printf("replay: an old 'on' frame refused in its session and after a new HELLO (session %04x -> %04x)\n",
          session, reply.session);
 }

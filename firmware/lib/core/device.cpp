@@ -209,6 +209,13 @@ void Device::handle_frame() {
     counters_.tx_frames = sat_inc32(counters_.tx_frames);
     return;
   }
+  // A HELLO opens a new session (output commands of earlier ones are stale from now on),
+  // unless it repeats the previous command's sequence number: the host's retry of a HELLO
+  // whose reply was late must not leave it holding a session already replaced.
+  if (type == proto::msg::HELLO && !(type == last_type_ && seq == last_seq_)) {
+    session_ = (uint16_t)(session_ * 40503u + (uint16_t)hal_.micros() + 1);
+    out_counter_ = 0;
+  }
   last_type_ = type;
   last_seq_ = seq;
   cmd_seq_ = seq;
@@ -229,9 +236,6 @@ void Device::dispatch(uint8_t type, const uint8_t* p, uint8_t len) {
   namespace m = proto::msg;
   switch (type) {
     case m::HELLO:
-      // A new session: output commands of earlier sessions are stale from now on.
-      session_ = (uint16_t)(session_ * 40503u + (uint16_t)hal_.micros() + 1);
-      out_counter_ = 0;
       cmd_hello();
       cached_len_ = 0;  // HELLO clears the duplicate cache
       return;

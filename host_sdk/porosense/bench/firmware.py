@@ -314,8 +314,9 @@ def run(size: str = "small") -> dict:
     sim = simboard_overruns(seconds)
     at_limit = simboard_overruns(seconds, advertised_max_rate_hz())
     full = size == "full"
-    rates = max_clean_rates(probe_s=3.0 if full else 1.0, confirm_s=60.0 if full else 5.0,
-                            upper_hz=BENCH_RATE_LIMIT_HZ if full else 400)
+    rates = max_clean_rates(probe_s=3.0 if full else 1.0, confirm_s=60.0 if full else 3.0,
+                            upper_hz=BENCH_RATE_LIMIT_HZ if full else 300,
+                            configs=RATE_CONFIGS if full else RATE_CONFIGS[1::2])
     result = {
         "elf": str(ELF.relative_to(REPO_ROOT)),
         "size": sz.to_dict(),

@@ -71,7 +71,9 @@ def _watchdog_holds(board, dev) -> float:
     dev.hello()
     dev.set_outputs()  # a host would start from off; also ends a write in progress
     dev.set_watchdog(WATCHDOG_MS)
-    t_last, _ = _burst(board, dev, [_on_now(dev), m.Ping(nonce=1)])
+    # Setpoint 0: the fuzzed MIN_SETPOINT_DKPA may refuse any vacuum; pumps and valves count.
+    t_last, (on, _) = _burst(board, dev, [_on_now(dev, setpoint_dkpa=0), m.Ping(nonce=1)])
+    assert on is not None and on.type == MsgType.ACK, on and on.message()
     return _cut_after(board, t_last)
 
 

@@ -5,6 +5,7 @@
 #include <avr/wdt.h>
 
 #include "gpio.h"
+#include "idle.h"
 #include "pins.h"
 #include "stack_paint.h"
 #include "twi.h"
@@ -59,7 +60,7 @@ uint8_t Board::serial_tx_free() {
 
 uint8_t Board::eeprom_read(uint16_t addr) { return eeprom_read_byte((const uint8_t*)addr); }
 void Board::eeprom_write(uint16_t addr, uint8_t value) {
-  wdt_reset();  // a long model chunk takes ~3.4 ms per byte
+  idle::run();  // ~3.4 ms per byte: feed the AVR watchdog, keep the link watchdog running
   eeprom_update_byte((uint8_t*)addr, value);
 }
 

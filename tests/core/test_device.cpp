@@ -144,6 +144,33 @@ struct Rig {
     uint8_t buf[proto::kMaxPayload];
     send(M::kType, seq, buf, m.encode(buf));
   }
+  // SET_OUTPUTS as the host client sends it: the session of the latest HELLO_REPLY (a HELLO
+  // of sequence number kHelloSeq is sent first when there was none; its reply is hidden) and
+  // the next counter. A message with a non-zero counter is sent as it is.
+  static constexpr uint8_t kHelloSeq = 0xF0;
+  uint16_t out_counter = 0;
+  bool latest_session(uint16_t* session) const {
+    proto::FrameDecoder d;
+    bool found = false;
+    for (uint8_t b : hal.tx) {
+      if (!d.feed(b) || d.type() != proto::msg::HELLO_REPLY) continue;
+      proto::HelloReply h;
+      if (h.decode(d.payload(), d.length())) *session = h.session, found = true;
+    }
+    return found;
+  }
+  void send_msg(const proto::SetOutputs& m0, uint8_t seq) {
+    proto::SetOutputs m = m0;
+    if (m.counter == 0) {
+      if (!latest_session(&m.session)) {
+        send(proto::msg::HELLO, kHelloSeq, nullptr, 0);
+        latest_session(&m.session);
+      }
+      m.counter = ++out_counter;
+    }
+    uint8_t buf[proto::kMaxPayload];
+    send(proto::SetOutputs::kType, seq, buf, m.encode(buf));
+  }
   std::vector<Frame> received() {
     std::vector<Frame> out;
     for (; tx_seen < hal.tx.size(); ++tx_seen) {
@@ -152,6 +179,7 @@ struct Rig {
         fr.type = host_decoder.type();
         fr.seq = host_decoder.seq();
         fr.payload.assign(host_decoder.payload(), host_decoder.payload() + host_decoder.length());
+        if (fr.type == proto::msg::HELLO_REPLY && fr.seq == kHelloSeq) continue;  // the rig's own
         out.push_back(fr);
       }
     }
@@ -169,6 +197,8 @@ proto::SetOutputs outputs(int16_t sp, uint8_t pumps, uint8_t valves) {
   s.setpoint_dkpa[0] = s.setpoint_dkpa[1] = s.setpoint_dkpa[2] = sp;
   s.pump_mask = pumps;
   s.valve_mask = valves;
+  s.session = 0;
+  s.counter = 0;  // filled in by Rig::send_msg
   return s;
 }
 
@@ -190,6 +220,8 @@ void test_boot_outputs_off() {
 void test_duplicate_is_not_executed_twice() {
   Rig rig;
   rig.boot();
+  rig.send_msg(outputs(0, 0, 0), 6);  // the session handshake happens here
+  rig.received();
   const int before = rig.hal.apply_calls;
   const size_t start = rig.hal.tx.size();
   rig.send_msg(outputs(-100, 1, 1), 7);
@@ -253,18 +285,19 @@ void test_output_limits() {
   cs.key = 99;
   rig.send_msg(cs, 9);
   CHECK(nak_code(rig.one()) == r::BAD_KEY);
-  // Stream rate limits 10..200 Hz.
+  // Stream rate limits 10..125 Hz: the highest rate sustained with every channel, the IMU
+  // and the largest model (issue 19); anything faster is refused.
   proto::StartStream ss;
   ss.channel_mask = 0x1F;
   ss.rate_hz = 9;
   rig.send_msg(ss, 10);
   CHECK(nak_code(rig.one()) == r::OUT_OF_RANGE);
-  ss.rate_hz = 201;
+  ss.rate_hz = 126;
   rig.send_msg(ss, 11);
   CHECK(nak_code(rig.one()) == r::OUT_OF_RANGE);
-  ss.rate_hz = 200;
+  ss.rate_hz = 125;
   rig.send_msg(ss, 12);
-  CHECK(rig.one().type == proto::msg::ACK && rig.dev.rate_hz() == 200);
+  CHECK(rig.one().type == proto::msg::ACK && rig.dev.rate_hz() == 125);
   // Watchdog timeout limits 100..10000 ms.
   proto::SetWatchdog wd;
   wd.timeout_ms = 99;
@@ -700,6 +733,184 @@ void test_sequence_rules() {
   CHECK(fs.size() == 1 && fs[0].type == proto::msg::SAMPLE && fs[0].seq == 0);
 }
 
+
+// Issue 19, item 1: only a valid host command feeds the link watchdog. The board's own frames
+// echoed back (TX-RX loopback) and malformed commands keep nothing alive.
+void test_watchdog_fed_only_by_host_commands() {
+  Rig rig;
+  rig.boot();
+  rig.send_msg(outputs(-200, 7, 7), 1);
+  rig.received();
+  CHECK(rig.hal.out.pump_mask == 7);
+  const uint32_t t_on = rig.hal.now_us;
+  // Every 100 ms: an echo of each device-to-host frame the board sends, and a PING with a
+  // bad length (a known type, so it reaches the handler, but not a valid command).
+  int echoes = 0;
+  uint8_t seq = 2;
+  for (uint32_t t = 100000; t <= 1500000 && rig.hal.out.pump_mask; t += 100000) {
+    rig.hal.now_us = t_on + t;
+    proto::Ack a;
+    a.acked_type = proto::msg::SET_OUTPUTS;
+    rig.send_msg(a, seq);
+    proto::Sample smp = proto::Sample();
+    rig.send_msg(smp, seq);
+    proto::HelloReply hr = proto::HelloReply();
+    rig.send_msg(hr, seq);
+    const uint8_t short_ping[2] = {1, 2};
+    rig.send(proto::msg::PING, (uint8_t)(seq + 1), short_ping, 2);
+    seq = (uint8_t)(seq + 2);
+    echoes += 3;
+    rig.received();
+  }
+  const uint32_t cut_ms = (rig.hal.now_us - t_on) / 1000;
+  printf("loopback: outputs cut %u ms after the last command despite %d echoed frames\n", cut_ms, echoes);
+  CHECK(rig.hal.out.pump_mask == 0 && rig.hal.out.valve_mask == 0);
+  CHECK(cut_ms > 1000 && cut_ms <= 1100);  // the first poll after the 1000 ms timeout
+  CHECK(rig.dev.counters().watchdog_trips == 1);
+}
+
+// Issue 19, item 1: the watchdog also runs from poll_rx(), which drivers call while they wait
+// (ADC conversions, EEPROM writes): a long wait cannot hold the outputs; the ERROR report
+// follows at the next poll().
+void test_watchdog_runs_inside_driver_waits() {
+  Rig rig;
+  rig.boot();
+  rig.send_msg(outputs(-200, 7, 7), 1);
+  rig.received();
+  rig.hal.now_us += 1001000;
+  rig.dev.poll_rx();  // as from an ADC wait loop
+  CHECK(rig.hal.out.pump_mask == 0 && rig.dev.counters().watchdog_trips == 1);
+  CHECK(rig.received().empty());  // nothing sent from inside the wait
+  rig.dev.poll();
+  Frame e = rig.one();
+  CHECK(e.type == proto::msg::ERROR && proto::get_i16(e.payload.data() + 1) == f::WATCHDOG_TRIPPED);
+}
+
+// Issue 19, item 1: operations that block (R0 calibration, EEPROM writes) are refused while
+// an output is on, so nothing holds the outputs past the link watchdog.
+void test_blocking_commands_refused_while_outputs_on() {
+  Rig rig;
+  rig.boot();
+  rig.send_msg(outputs(-100, 1, 0), 1);
+  rig.received();
+  const int reads = rig.hal.adc_reads, writes = rig.hal.eeprom_writes, begins = rig.model.begins;
+  const uint8_t cal[2] = {64, 7};
+  rig.send(proto::msg::CALIBRATE_R0, 2, cal, 2);
+  CHECK(nak_code(rig.one()) == r::BUSY);
+  uint8_t begin[5] = {100, 0, 0x34, 0x12, 1};
+  rig.send(proto::msg::MODEL_BEGIN, 3, begin, 5);
+  CHECK(nak_code(rig.one()) == r::BUSY);
+  uint8_t chunk[10] = {0, 0, 1, 2, 3, 4, 5, 6, 7, 8};
+  rig.send(proto::msg::MODEL_CHUNK, 4, chunk, 10);
+  CHECK(nak_code(rig.one()) == r::BUSY);
+  rig.send(proto::msg::MODEL_COMMIT, 5, nullptr, 0);
+  CHECK(nak_code(rig.one()) == r::BUSY);
+  rig.send(proto::msg::MODEL_ERASE, 6, nullptr, 0);
+  CHECK(nak_code(rig.one()) == r::BUSY);
+  rig.send(proto::msg::CONFIG_SAVE, 7, nullptr, 0);
+  CHECK(nak_code(rig.one()) == r::BUSY);
+  rig.send(proto::msg::CONFIG_RESET, 8, nullptr, 0);
+  CHECK(nak_code(rig.one()) == r::BUSY);
+  CHECK(rig.hal.adc_reads == reads && rig.hal.eeprom_writes == writes && rig.model.begins == begins);
+  CHECK(rig.hal.out.pump_mask == 1);  // refused, not switched off
+  // With the outputs off, the same commands run.
+  rig.send_msg(outputs(0, 0, 0), 9);
+  rig.received();
+  rig.send(proto::msg::CALIBRATE_R0, 10, cal, 2);
+  CHECK(rig.one().type == proto::msg::R0_REPLY);
+  rig.send(proto::msg::MODEL_BEGIN, 11, begin, 5);
+  CHECK(rig.one().type == proto::msg::ACK && rig.model.begins == begins + 1);
+  rig.send(proto::msg::CONFIG_SAVE, 12, nullptr, 0);
+  CHECK(rig.one().type == proto::msg::ACK && rig.hal.eeprom_writes > writes);
+}
+
+// Issue 19, item 4: a replayed old SET_OUTPUTS cannot turn outputs back on, in its own
+// session or after a new HELLO; all off is accepted whatever its age.
+void test_replayed_set_outputs_refused() {
+  Rig rig;
+  rig.boot();
+  rig.send_msg(outputs(-300, 7, 7), 1);  // counter 1: on
+  rig.received();
+  uint16_t session = 0;
+  CHECK(rig.latest_session(&session));
+  proto::SetOutputs on = outputs(-300, 7, 7);
+  on.session = session;
+  on.counter = 1;
+  rig.send_msg(outputs(0, 0, 0), 2);  // counter 2: off
+  rig.received();
+  CHECK(rig.hal.out.pump_mask == 0);
+  // The old "on" frame arrives again, under a new sequence number and under its own.
+  rig.send_msg(on, 3);
+  Frame a = rig.one();
+  CHECK(nak_code(a) == r::BAD_STATE && nak_detail(a) == 3);
+  rig.send_msg(on, 1);
+  CHECK(nak_code(rig.one()) == r::BAD_STATE);
+  CHECK(rig.hal.out.pump_mask == 0 && rig.hal.out.valve_mask == 0);
+  // A newer counter of the same session is accepted; counters may skip (lost frames).
+  on.counter = 40;
+  rig.send_msg(on, 4);
+  CHECK(rig.one().type == proto::msg::ACK && rig.hal.out.pump_mask == 7);
+  on.counter = 39;
+  rig.send_msg(on, 5);
+  CHECK(nak_code(rig.one()) == r::BAD_STATE);
+  // An off without any session is accepted (safe at any age).
+  proto::SetOutputs off = outputs(0, 0, 0);
+  off.counter = 0xFFFF;
+  off.session = (uint16_t)(session + 1);
+  rig.send_msg(off, 6);
+  CHECK(rig.one().type == proto::msg::ACK && rig.hal.out.pump_mask == 0);
+  // A new HELLO starts a new session: frames of the old one are refused.
+  proto::Hello h;
+  rig.send_msg(h, 7);
+  Frame hr = rig.one();
+  proto::HelloReply reply;
+  CHECK(hr.type == proto::msg::HELLO_REPLY && reply.decode(hr.payload.data(), (uint8_t)hr.payload.size()));
+  CHECK(reply.session != session);
+  on.counter = 41;
+  rig.send_msg(on, 8);
+  CHECK(nak_code(rig.one()) == r::BAD_STATE && rig.hal.out.pump_mask == 0);
+  on.session = reply.session;
+  on.counter = 1;
+  rig.send_msg(on, 9);
+  CHECK(rig.one().type == proto::msg::ACK && rig.hal.out.pump_mask == 7);
+  // A retried HELLO (same sequence number, its first reply late) keeps the session the host
+  // may already hold; the next HELLO does not.
+  rig.hal.now_us += 3000;
+  rig.send_msg(h, 20);
+  Frame h1 = rig.one();
+  rig.hal.now_us += 250000;
+  rig.send_msg(h, 20);
+  Frame h2 = rig.one();
+  rig.send_msg(h, 21);
+  Frame h3 = rig.one();
+  proto::HelloReply r1, r2, r3;
+  CHECK(r1.decode(h1.payload.data(), (uint8_t)h1.payload.size()) && r2.decode(h2.payload.data(), (uint8_t)h2.payload.size()) &&
+        r3.decode(h3.payload.data(), (uint8_t)h3.payload.size()));
+  CHECK(r1.session == r2.session && r3.session != r2.session && r1.session != reply.session);
+  printf("replay: an old 'on' frame refused in its session and after a new HELLO (session %04x -> %04x)\n",
+         session, reply.session);
+}
+
+// Issue 19, item 3: skipped sample ticks take their SAMPLE sequence numbers, so the host
+// counts them as lost samples.
+void test_skipped_ticks_leave_a_sequence_gap() {
+  Rig rig;
+  rig.boot();
+  proto::StartStream ss;
+  ss.rate_hz = 100;
+  ss.channel_mask = 0x07;
+  rig.send_msg(ss, 1);
+  rig.received();
+  rig.dev.on_sample_ticks(1, 10000);
+  rig.dev.on_sample_ticks(4, 50000);  // three ticks were skipped
+  rig.dev.on_sample_ticks(1, 60000);
+  std::vector<uint8_t> seqs;
+  for (const Frame& fr : rig.received())
+    if (fr.type == proto::msg::SAMPLE) seqs.push_back(fr.seq);
+  CHECK((seqs == std::vector<uint8_t>{0, 4, 5}));
+  CHECK(rig.dev.counters().overruns == 3);
+}
+
 int main() {
   test_boot_outputs_off();
   test_duplicate_is_not_executed_twice();
@@ -714,6 +925,11 @@ int main() {
   test_config_store();
   test_boot_counter_and_autostart();
   test_rate_divider_and_watchdog_logic();
+  test_watchdog_fed_only_by_host_commands();
+  test_blocking_commands_refused_while_outputs_on();
+  test_watchdog_runs_inside_driver_waits();
+  test_replayed_set_outputs_refused();
+  test_skipped_ticks_leave_a_sequence_gap();
   printf("test_device: %d checks, %d failures\n", g_checks, g_failures);
   return g_failures ? 1 : 0;
 }

@@ -12,7 +12,9 @@ def test_bench_device_small():
     result = run("small")
     emu = result["emulator"]
     assert emu["samples"] == 4000 and emu["lost"] == 0
-    assert emu["device_s"] == pytest.approx(3999 / 200, abs=1e-6)
+    from porosense.bench.device import RATE_HZ
+
+    assert emu["device_s"] == pytest.approx(3999 / RATE_HZ, abs=1e-6)
     assert len(result["summary"]) == 3
     if result["simboard"] is not None:
         assert result["simboard"]["lost"] == 0

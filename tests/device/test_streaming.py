@@ -7,7 +7,9 @@ import pytest
 
 from porosense.device import NakError
 from porosense.protocol import Result, StatusFlag
-from porosense.protocol._messages import Channel
+from porosense.protocol._messages import CONFIG_SPECS, Channel, ConfigKey
+
+MAX_RATE_HZ = CONFIG_SPECS[ConfigKey.SAMPLE_RATE_HZ].max  # the advertised highest rate
 
 SECONDS = 2.0
 
@@ -49,7 +51,7 @@ def test_channels_outside_the_mask_are_zero(dev):
 
 
 def test_no_samples_after_stop(dev):
-    dev.start_stream(200)
+    dev.start_stream(MAX_RATE_HZ)
     list(dev.samples(10))
     dev.stop_stream()
     received = dev.stats.samples
@@ -67,7 +69,7 @@ def test_hello_reports_streaming(dev):
 
 
 def test_rate_outside_limits_is_refused(dev):
-    for rate_hz in (9, 201, 0):
+    for rate_hz in (9, MAX_RATE_HZ + 1, 200, 0):
         with pytest.raises(NakError) as err:
             dev.start_stream(rate_hz)
         assert err.value.code == Result.OUT_OF_RANGE and err.value.detail == 0, rate_hz
@@ -81,8 +83,8 @@ def test_unknown_channel_bits_are_refused(dev):
 
 
 def test_stream_limits_are_accepted(dev):
-    """10 and 200 Hz are accepted; samples fall on whole periods (a board may overrun at 200 Hz)."""
-    for rate in (10, 200):
+    """10 Hz and the advertised maximum are accepted; samples fall on whole periods."""
+    for rate in (10, MAX_RATE_HZ):
         dev.start_stream(rate)
         samples = list(dev.samples(5))
         dev.stop_stream()

@@ -56,3 +56,12 @@ def test_bench_firmware_small() -> None:
     if sim.get("status") == "measured":
         assert sim["overruns"] == 0
         assert sim["samples"] >= 100 * 5
+    # Honest rates (issue 19): nothing lost at the advertised maximum with every channel, the
+    # IMU and the heaviest model, and that maximum within the highest clean rate found.
+    at_limit = result["at_advertised_max"]
+    if at_limit.get("status") == "measured":
+        assert at_limit["overruns"] == 0 and at_limit["samples_lost"] == 0
+    rates = result["max_clean_rates"]
+    if rates.get("status") == "measured":
+        full = [r for r in rates["configs"] if r["channel_mask"] == 0x1F][0]
+        assert full["lost"] == 0 and rates["advertised_max_hz"] <= full["max_clean_hz"]

@@ -50,7 +50,7 @@ def _open(elf, **board_args):
 
     # At most 2x real time: these tests time the firmware against host-side waits, and the
     # sleeping idle loop would otherwise let seconds of AVR time pass during a wall-time wait.
-    board = SimBoard(elf, max_speed=2.0, **board_args).start()
+    board = SimBoard(elf, **{"max_speed": 2.0, **board_args}).start()
     try:
         dev = Device.open(board.url, handshake_timeout_s=HANDSHAKE_S)
     except Exception:

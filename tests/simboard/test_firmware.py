@@ -60,7 +60,7 @@ def test_firmware_answers_hello_after_reset(firmware_elf):
 def test_firmware_drives_pins_and_streams_sensor_values(firmware_elf):
     volts, euler = (1.0, 2.5, 4.0), (10.5, -20.25, 30.0)
     with SimBoard(firmware_elf, plant=ConstantPlant(volts, euler)) as board:
-        hello(board.url, seq=1)
+        session = hello(board.url, seq=1).message().session  # output commands carry it
         # Short reads: a blocked read lets the (sleeping, fast) firmware run on, and the pins
         # are checked well inside the 1 s host-link watchdog after the ACK.
         port = serial.serial_for_url(board.url, timeout=0.01)
@@ -75,7 +75,8 @@ def test_firmware_drives_pins_and_streams_sensor_values(firmware_elf):
                         return frame.message()
             raise AssertionError(f"no reply to {msg}")
 
-        assert isinstance(reply_to(SetOutputs(setpoint_dkpa=(-400, -200, 0), pump_mask=3, valve_mask=1), 2), Ack)
+        assert isinstance(reply_to(SetOutputs(setpoint_dkpa=(-400, -200, 0), pump_mask=3, valve_mask=1,
+                                           session=session, counter=1), 2), Ack)
         pins = board.pins
         assert pins.pumps == (True, True, False) and pins.valves == (True, False, False)
         for duty, kpa in zip(pins.regulator_duty, (-40.0, -20.0, 0.0)):

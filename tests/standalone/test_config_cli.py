@@ -42,7 +42,7 @@ def test_show_lists_every_key_with_default_and_range(emu, capsys) -> None:
             assert r["value"] == spec.default
     code, text, _ = _run(capsys, "--port", emu.url)  # show is the default action
     assert code == 0 and len(text.splitlines()) >= len(CONFIG_SPECS) + 1
-    assert "SAMPLE_RATE_HZ" in text and "Hz" in text and "10..200" in text
+    assert "SAMPLE_RATE_HZ" in text and "Hz" in text and "10..125" in text
 
 
 def test_set_saves_and_reset_restores(emu, capsys) -> None:
@@ -67,7 +67,7 @@ def test_set_saves_and_reset_restores(emu, capsys) -> None:
     "args, words",
     [
         (("set", "BOGUS", "1"), "unknown configuration key"),
-        (("set", "SAMPLE_RATE_HZ", "500"), "outside 10..200"),
+        (("set", "SAMPLE_RATE_HZ", "500"), "outside 10..125"),
         (("set", "SAMPLE_RATE_HZ", "fast"), "takes an integer"),
         (("set", "SAMPLE_RATE_HZ"), "needs KEY and VALUE"),
         (("set", "SCHEDULE_ENABLE", "1"), "stored schedules are not available"),

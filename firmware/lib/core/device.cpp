@@ -14,7 +14,7 @@ uint16_t sat_add16(uint16_t a, uint16_t b) { return (uint16_t)(a > 0xFFFF - b ? 
 uint32_t sat_inc32(uint32_t a) { return a == 0xFFFFFFFFUL ? a : a + 1; }
 
 // Field indices named by NAK.detail for OUT_OF_RANGE (position in the catalogue's field list).
-constexpr int16_t kFieldSetpoint = 0, kFieldPumpMask = 1, kFieldValveMask = 2;
+constexpr int16_t kFieldSetpoint = 0, kFieldPumpMask = 1, kFieldValveMask = 2, kFieldSession = 3;
 
 }  // namespace
 
@@ -28,6 +28,8 @@ Device::Device(Hal& hal, ModelPort& model)
       last_type_(0),
       last_seq_(0),
       cmd_seq_(0),
+      session_(0),
+      out_counter_(0),
       frame_ready_(false),
       streaming_(false),
       reset_requested_(false),
@@ -38,6 +40,7 @@ Device::Device(Hal& hal, ModelPort& model)
       sticky_flags_(0),
       sample_flags_(0),
       pending_overrun_(0),
+      trip_unreported_(0),
       line_state_(0),
       analog_pin_(0) {
   config_.set_defaults();
@@ -53,6 +56,7 @@ void Device::begin() {
     sticky_flags_ |= f::CONFIG_DEFAULTS;
   }
   apply_config();
+  session_ = config_.boots;  // each boot starts another sequence of sessions (mixed at HELLO)
   if (!hal_.adc_present()) sample_flags_ |= f::ADC_FAULT;
   if (!hal_.imu_present()) sample_flags_ |= f::IMU_FAULT;
   const bool r0_stored = config_.r0_mode == 1 && !(sticky_flags_ & f::CONFIG_DEFAULTS);
@@ -110,26 +114,36 @@ void Device::poll() {
     handle_frame();
     frame_ready_ = false;
   }
-  const uint32_t now = hal_.millis();
-  if (link_.expired(now, outputs_active())) {
-    outputs_off();
-    sticky_flags_ |= f::WATCHDOG_TRIPPED;
-    counters_.watchdog_trips = sat_add16(counters_.watchdog_trips, 1);
+  guard_link();
+  if (trip_unreported_) {
+    trip_unreported_ = 0;
     send_error(r::BAD_STATE, (int16_t)f::WATCHDOG_TRIPPED, hal_.micros());
   }
+}
+
+void Device::guard_link() {
+  if (!link_.expired(hal_.millis(), outputs_active())) return;
+  outputs_off();
+  sticky_flags_ |= f::WATCHDOG_TRIPPED;
+  counters_.watchdog_trips = sat_add16(counters_.watchdog_trips, 1);
+  trip_unreported_ = 1;
 }
 
 void Device::poll_rx() {
   while (!frame_ready_) {
     const int16_t c = hal_.serial_read();
-    if (c < 0) return;
+    if (c < 0) break;
     if (decoder_.feed((uint8_t)c)) {
       frame_ready_ = true;
       line_state_ = 0;  // a host speaks frames: this session answers in frames
       counters_.rx_frames = sat_inc32(counters_.rx_frames);
-      link_.feed(hal_.millis());
+      // Only a host command keeps the outputs alive, never a device-to-host type: the board's
+      // own frames echoed back (a TX-RX loopback, an echoing adapter). The decoder has
+      // already dropped unknown types and wrong lengths.
+      if (!(decoder_.type() & 0x80)) link_.feed(hal_.millis());
     }
   }
+  guard_link();
 }
 
 // ---------------------------------------------------------------- replies
@@ -186,6 +200,8 @@ void Device::send_error(uint8_t code, int16_t detail, uint32_t t_us) {
 void Device::handle_frame() {
   const uint8_t type = decoder_.type();
   const uint8_t seq = decoder_.seq();
+  uint8_t lo, hi;
+  const bool command = !(type & 0x80) && proto::payload_bounds(type, &lo, &hi);
   // A retry carries the same sequence number and type: answer it without executing again.
   // HELLO is never a duplicate (a new host session must not collide with the last one).
   if (cached_len_ != 0 && type == last_type_ && seq == last_seq_ && type != proto::msg::HELLO) {
@@ -193,13 +209,19 @@ void Device::handle_frame() {
     counters_.tx_frames = sat_inc32(counters_.tx_frames);
     return;
   }
+  // A HELLO opens a new session (output commands of earlier ones are stale from now on),
+  // unless it repeats the previous command's sequence number: the host's retry of a HELLO
+  // whose reply was late must not leave it holding a session already replaced.
+  if (type == proto::msg::HELLO && !(type == last_type_ && seq == last_seq_)) {
+    session_ = (uint16_t)(session_ * 40503u + (uint16_t)hal_.micros() + 1);
+    out_counter_ = 0;
+  }
   last_type_ = type;
   last_seq_ = seq;
   cmd_seq_ = seq;
-  uint8_t lo, hi;
   const uint8_t len = decoder_.length();
-  if (!proto::payload_bounds(type, &lo, &hi) || (type & 0x80)) {
-    nak(r::UNKNOWN_TYPE, 0);  // a device-to-host type sent to the device
+  if (!command) {
+    nak(r::UNKNOWN_TYPE, 0);  // also a device-to-host type sent to the device
     return;
   }
   // HELLO is answered whatever its payload (and version): a host of any release can ask.
@@ -251,12 +273,13 @@ void Device::dispatch(uint8_t type, const uint8_t* p, uint8_t len) {
     }
     case m::CONFIG_SET: cmd_config_set(p); return;
     case m::CONFIG_SAVE:
-      if (streaming_) return nak(r::BUSY, 0);  // EEPROM writes would stall sampling
+      // EEPROM writes would stall sampling and the link watchdog
+      if (streaming_ || outputs_active()) return nak(r::BUSY, 0);
       store_.save(config_);
       sticky_flags_ &= (uint16_t)~f::CONFIG_DEFAULTS;
       return ack();
     case m::CONFIG_RESET: {
-      if (streaming_) return nak(r::BUSY, 0);
+      if (streaming_ || outputs_active()) return nak(r::BUSY, 0);
       const uint16_t boots = config_.boots;
       config_.set_defaults();
       config_.boots = boots;
@@ -296,6 +319,7 @@ void Device::cmd_hello() {
   h.model_crc = model_.crc();
   h.streaming = streaming_ ? 1 : 0;
   h.uptime_ms = hal_.millis();
+  h.session = session_;
   uint8_t buf[proto::HelloReply::kMaxLen];
   reply(proto::HelloReply::kType, buf, h.encode(buf));
 }
@@ -309,6 +333,13 @@ void Device::cmd_set_outputs(const uint8_t* p) {
   }
   if (s.pump_mask & ~0x07) return nak(r::OUT_OF_RANGE, kFieldPumpMask);
   if (s.valve_mask & ~0x07) return nak(r::OUT_OF_RANGE, kFieldValveMask);
+  // All off is safe whatever its age; anything else must be fresh in this session.
+  const bool any_on = s.pump_mask | s.valve_mask | s.setpoint_dkpa[0] | s.setpoint_dkpa[1] | s.setpoint_dkpa[2];
+  if (any_on) {
+    if (s.session != session_ || (uint16_t)(s.counter - out_counter_ - 1) >= 0x7FFF)
+      return nak(r::BAD_STATE, kFieldSession);
+    out_counter_ = s.counter;
+  }
   for (uint8_t i = 0; i < kChannels; ++i) outputs_.setpoint_dkpa[i] = s.setpoint_dkpa[i];
   outputs_.pump_mask = s.pump_mask;
   outputs_.valve_mask = s.valve_mask;
@@ -323,6 +354,9 @@ void Device::cmd_start_stream(const uint8_t* p) {
   s.decode(p, proto::StartStream::kMinLen);
   proto::config::KeyInfo rate;
   proto::config::key_info(proto::config::SAMPLE_RATE_HZ, &rate);
+#ifdef POROSENSE_RATE_LIMIT_HZ
+  rate.max = POROSENSE_RATE_LIMIT_HZ;  // bench builds only: to find the real limit above it
+#endif
   if (s.rate_hz < rate.min || s.rate_hz > rate.max) return nak(r::OUT_OF_RANGE, 0);
   if (s.channel_mask & ~0x1F) return nak(r::OUT_OF_RANGE, 1);
   sticky_flags_ &= (uint16_t)~f::STANDALONE;
@@ -399,7 +433,8 @@ void Device::cmd_calibrate_r0(const uint8_t* p) {
   const uint8_t n = p[0], mask = p[1];
   if (n < 1 || n > 64) return nak(r::OUT_OF_RANGE, 0);
   if (mask == 0 || (mask & ~0x07)) return nak(r::OUT_OF_RANGE, 1);
-  if (streaming_) return nak(r::BUSY, 0);
+  // Calibration blocks (up to 24 s at 8 SPS): never while an output needs the link watchdog.
+  if (streaming_ || outputs_active()) return nak(r::BUSY, 0);
   if (!calibrate_r0(n, mask)) return nak(r::SENSOR_FAULT, 0);
   proto::R0Reply rep;
   for (uint8_t ch = 0; ch < kChannels; ++ch) rep.r0_ohm[ch] = r0_ohm(ch);
@@ -492,7 +527,8 @@ void Device::cmd_model(uint8_t type, const uint8_t* p, uint8_t len) {
     }
     default: break;
   }
-  if (streaming_) return nak(r::BUSY, 0);
+  // EEPROM writes (0.4 s per chunk) would hold the outputs past the link watchdog.
+  if (streaming_ || outputs_active()) return nak(r::BUSY, 0);
   switch (type) {
     case m::MODEL_BEGIN:
       code = model_.begin(proto::get_u16(p), proto::get_u16(p + 2), p[4], &detail);
@@ -516,6 +552,7 @@ void Device::on_sample_ticks(uint8_t n, uint32_t tick_us) {
   if (n > 1) {
     counters_.overruns = sat_add16(counters_.overruns, (uint16_t)(n - 1));
     pending_overrun_ = 1;
+    telemetry_seq_ = (uint8_t)(telemetry_seq_ + n - 1);  // the host counts the gap as lost samples
   }
   proto::Sample s;
   s.t_us = tick_us;

@@ -33,8 +33,9 @@ class Device {
   // Outputs off, configuration from EEPROM (defaults when corrupt), R0 per R0_MODE,
   // autostart when configured and a model is loaded.
   void begin();
-  // Feed received bytes to the decoder until a frame is complete; safe to call from a
-  // driver's wait loop (commands are executed later by poll()).
+  // Feed received bytes to the decoder until a frame is complete, and cut the outputs when
+  // the host-link watchdog expires; safe to call from a driver's wait loop (commands are
+  // executed, and a watchdog trip reported, later by poll()), so no wait holds the outputs.
   void poll_rx();
   // Execute a received command, check the host-link watchdog. Call every loop pass.
   void poll();
@@ -61,6 +62,7 @@ class Device {
   void nak(uint8_t code, int16_t detail);
   void send_unsolicited(uint8_t type, const uint8_t* payload, uint8_t len);
   void send_error(uint8_t code, int16_t detail, uint32_t t_us);
+  void guard_link();  // cuts the outputs when the host-link watchdog has expired
 
   void cmd_hello();
   void cmd_set_outputs(const uint8_t* p);
@@ -103,6 +105,10 @@ class Device {
   uint8_t last_type_;
   uint8_t last_seq_;
   uint8_t cmd_seq_;  // sequence number of the command being handled
+  // SET_OUTPUTS that turns an output on must carry session_ (new at each HELLO) and a
+  // counter ahead of out_counter_, the last one accepted: a replayed old frame is refused.
+  uint16_t session_;
+  uint16_t out_counter_;
 
   bool frame_ready_;
   bool streaming_;
@@ -114,6 +120,7 @@ class Device {
   uint16_t sticky_flags_;  // flags that persist until cleared (watchdog, config, R0, ...)
   uint16_t sample_flags_;  // sensor flags of the latest sample
   uint8_t pending_overrun_;  // an overrun happened since the previous SAMPLE
+  uint8_t trip_unreported_;  // the watchdog cut the outputs; poll() sends the ERROR
   // CSV line mode of this session: on at boot when LINE_MODE is stored as 1, off after any
   // valid frame from a host, switched by CONFIG_SET LINE_MODE.
   static constexpr uint8_t kLineOn = 1;

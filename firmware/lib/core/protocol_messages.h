@@ -101,7 +101,7 @@ constexpr uint8_t ESTIMATES = 1u << 4;
 }  // namespace chan
 
 namespace config {
-constexpr uint8_t SAMPLE_RATE_HZ = 1;  // Sample rate in Hz.
+constexpr uint8_t SAMPLE_RATE_HZ = 1;  // Sample rate in Hz. 125 Hz (8 ms, a whole number of 1 kHz timer ticks) is sustained without a skipped tick with every channel, the IMU and the largest storable model (`porosense bench firmware`).
 constexpr uint8_t CHANNEL_MASK = 2;  // Stream channel mask (see START_STREAM).
 constexpr uint8_t R0_MODE = 3;  // At boot: 0 calibrate R0 from the first samples, 1 restore the stored R0.
 constexpr uint8_t R0_CH0_MOHM = 4;  // Stored R0 of channel 0 in milliohm.
@@ -122,7 +122,7 @@ struct KeyInfo { int32_t def; int32_t min; int32_t max; };
 // A switch instead of a table keeps the limits in flash, not in the Uno's RAM.
 inline bool key_info(uint8_t key, KeyInfo* out) {
   switch (key) {
-    case SAMPLE_RATE_HZ: out->def = 50L; out->min = 10L; out->max = 200L; return true;
+    case SAMPLE_RATE_HZ: out->def = 50L; out->min = 10L; out->max = 125L; return true;
     case CHANNEL_MASK: out->def = 31L; out->min = 0L; out->max = 31L; return true;
     case R0_MODE: out->def = 0L; out->min = 0L; out->max = 1L; return true;
     case R0_CH0_MOHM: out->def = 1000000L; out->min = 1000L; out->max = 100000000L; return true;
@@ -179,8 +179,8 @@ struct Hello {
 
 struct HelloReply {
   static constexpr uint8_t kType = 0x81;
-  static constexpr uint8_t kMinLen = 16;
-  static constexpr uint8_t kMaxLen = 16;
+  static constexpr uint8_t kMinLen = 18;
+  static constexpr uint8_t kMaxLen = 18;
   uint8_t proto_major;
   uint8_t proto_minor;
   uint8_t fw_major;
@@ -192,6 +192,7 @@ struct HelloReply {
   uint16_t model_crc;
   uint8_t streaming;
   uint32_t uptime_ms;  // ms
+  uint16_t session;
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, proto_major); n += 1;
@@ -205,6 +206,7 @@ struct HelloReply {
     put_u16(buf + n, model_crc); n += 2;
     put_u8(buf + n, streaming); n += 1;
     put_u32(buf + n, uptime_ms); n += 4;
+    put_u16(buf + n, session); n += 2;
     return n;
   }
   bool decode(const uint8_t* buf, uint8_t len) {
@@ -221,6 +223,7 @@ struct HelloReply {
     model_crc = get_u16(buf + n); n += 2;
     streaming = get_u8(buf + n); n += 1;
     uptime_ms = get_u32(buf + n); n += 4;
+    session = get_u16(buf + n); n += 2;
     return true;
   }
 };
@@ -308,16 +311,20 @@ struct Nak {
 
 struct SetOutputs {
   static constexpr uint8_t kType = 0x10;
-  static constexpr uint8_t kMinLen = 8;
-  static constexpr uint8_t kMaxLen = 8;
+  static constexpr uint8_t kMinLen = 12;
+  static constexpr uint8_t kMaxLen = 12;
   int16_t setpoint_dkpa[3];  // 0.1 kPa
   uint8_t pump_mask;
   uint8_t valve_mask;
+  uint16_t session;
+  uint16_t counter;
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     for (uint8_t i = 0; i < 3; ++i) { put_i16(buf + n, setpoint_dkpa[i]); n += 2; }
     put_u8(buf + n, pump_mask); n += 1;
     put_u8(buf + n, valve_mask); n += 1;
+    put_u16(buf + n, session); n += 2;
+    put_u16(buf + n, counter); n += 2;
     return n;
   }
   bool decode(const uint8_t* buf, uint8_t len) {
@@ -326,6 +333,8 @@ struct SetOutputs {
     for (uint8_t i = 0; i < 3; ++i) { setpoint_dkpa[i] = get_i16(buf + n); n += 2; }
     pump_mask = get_u8(buf + n); n += 1;
     valve_mask = get_u8(buf + n); n += 1;
+    session = get_u16(buf + n); n += 2;
+    counter = get_u16(buf + n); n += 2;
     return true;
   }
 };

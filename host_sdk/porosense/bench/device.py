@@ -1,7 +1,7 @@
 """``porosense bench device``: how fast the device back-ends run.
 
 * the emulator's streaming rate: SAMPLE frames per second the host receives (lockstep mode,
-  as fast as possible, 200 Hz device rate) and the speed relative to real time that implies;
+  as fast as possible, at the highest device rate) and the speed relative to real time that implies;
 * PING round trips with the emulator (median, ms);
 * if the simboard and the firmware ELF are available: its speed relative to real time
   (device time of the streamed samples over wall time).
@@ -14,7 +14,9 @@ import time
 from pathlib import Path
 
 SIZES = {"small": {"samples": 4000, "pings": 200, "sim_s": 2.0}, "full": {"samples": 40000, "pings": 2000, "sim_s": 10.0}}
-RATE_HZ = 200
+from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
+
+RATE_HZ = CONFIG_SPECS[ConfigKey.SAMPLE_RATE_HZ].max  # the highest rate the firmware accepts
 
 
 def _stream(dev, n: int, rate_hz: int) -> dict:

@@ -1,5 +1,9 @@
 """Firmware budgets: flash and static RAM from avr-size, stack headroom, the estimator's
-worst-case step in cycles, and overruns at 100 Hz in the simboard.
+worst-case step in cycles, overruns at 100 Hz and at the advertised highest rate in the
+simboard, and the highest sample rate each channel configuration sustains with no sample
+lost (searched with a build whose START_STREAM limit is raised). The advertised
+SAMPLE_RATE_HZ maximum is the highest whole-millisecond period within the one of every
+channel + IMU + the largest storable model.
 
 ``porosense bench firmware --json`` prints them. Budgets (issue 5): flash <= 28 KB, static
 RAM (data + bss) <= 1,400 bytes, estimator step <= 48,000 cycles, zero overruns over 60 s
@@ -159,10 +163,10 @@ def heavy_model_blob(seed: int = 1) -> bytes:
     raise RuntimeError(f"no candidate model fits {MODEL_REGION_BYTES} bytes (last {len(blob)})")
 
 
-def simboard_overruns(seconds: float) -> dict:
+def simboard_overruns(seconds: float, rate_hz: int = OVERRUN_RATE_HZ) -> dict:
     """Flash the heaviest model that fits, then stream 3 ADC channels + IMU + estimates at
-    100 Hz in the simboard for ``seconds`` of simulated time; overruns and free stack (never
-    touched bytes, from STATUS) afterwards."""
+    ``rate_hz`` in the simboard for ``seconds`` of simulated time; overruns, samples the host
+    counted lost and free stack (never touched bytes, from STATUS) afterwards."""
     try:
         from porosense.device import Device
         from porosense.simboard import SimBoard
@@ -172,7 +176,7 @@ def simboard_overruns(seconds: float) -> dict:
         blob = heavy_model_blob()
         with SimBoard(ELF) as board, Device.open(board.url, handshake_timeout_s=15.0) as dev:
             dev.write_model(blob)
-            dev.start_stream(OVERRUN_RATE_HZ, 0x1F)
+            dev.start_stream(rate_hz, 0x1F)
             n = 0
             flags = 0
             first = last = None
@@ -181,17 +185,118 @@ def simboard_overruns(seconds: float) -> dict:
                 last = s.t_us
                 flags |= s.status
                 n += 1
-                if n >= int(seconds * OVERRUN_RATE_HZ):
+                if n >= int(seconds * rate_hz):
                     break
             dev.stop_stream()
             st = dev.status()
-        return {"status": "measured", "seconds": seconds, "samples": n, "model_bytes": len(blob),
+        return {"status": "measured", "rate_hz": rate_hz, "seconds": seconds, "samples": n,
+                "samples_lost": int(dev.stats.samples_lost), "model_bytes": len(blob),
                 "estimator_on": not (flags & ESTIMATOR_OFF), "sample_flags_seen": flags,
                 "overruns": int(st.overruns), "free_stack": int(st.free_ram),
                 "dropped_telemetry": int(st.dropped_telemetry),
                 "span_us": int((last - first) % (1 << 32)) if n > 1 else 0}
     except Exception as exc:
         return {"status": "pending", "reason": f"{type(exc).__name__}: {exc}"}
+
+
+# Channel configurations of the rate search: (name, START_STREAM channel mask).
+RATE_CONFIGS = (("1 ADC channel", 0x01), ("3 ADC channels", 0x07), ("3 ADC + IMU", 0x0F),
+                ("3 ADC + IMU + estimator", 0x1F))
+
+
+def advertised_max_rate_hz() -> int:
+    """SAMPLE_RATE_HZ maximum of the protocol catalogue: what HELLO-era hosts and the
+    firmware (START_STREAM, CONFIG_SET) accept."""
+    from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
+
+    return int(CONFIG_SPECS[ConfigKey.SAMPLE_RATE_HZ].max)
+
+
+BENCH_BUILD = FIRMWARE_DIR / "build" / "bench"
+BENCH_ELF = BENCH_BUILD / "porosense.elf"
+BENCH_RATE_LIMIT_HZ = 1000  # the 1 kHz timer tick: the highest rate the sample clock can make
+
+
+def build_rate_variant() -> subprocess.CompletedProcess:
+    """The firmware built with its START_STREAM limit raised to 1000 Hz
+    (``-DPOROSENSE_RATE_LIMIT_HZ``), into firmware/build/bench: only for searching the real
+    limit above the advertised one. Everything else is the release build."""
+    import fcntl
+
+    BENCH_BUILD.mkdir(parents=True, exist_ok=True)
+    with open(FIRMWARE_DIR / "build" / ".build.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        return subprocess.run(["make", "-s", "-C", str(FIRMWARE_DIR), "BUILD=build/bench",
+                               f"OPT_EXTRA=-DPOROSENSE_RATE_LIMIT_HZ={BENCH_RATE_LIMIT_HZ}"],
+                              capture_output=True, text=True, timeout=900)
+
+
+def _lost_at(dev, rate_hz: int, mask: int, seconds: float) -> dict:
+    """Stream ``seconds`` of samples at ``rate_hz``: skipped ticks (STATUS.overruns), SAMPLE
+    frames dropped for a full UART buffer, and samples lost as the host counted them from
+    the SAMPLE sequence numbers."""
+    st0 = dev.status()
+    lost0 = dev.stats.samples_lost
+    dev.start_stream(rate_hz, mask)
+    n = 0
+    for _ in dev.samples(timeout_s=15.0):  # wall time: the simulation speed varies
+        n += 1
+        if n >= int(seconds * rate_hz):
+            break
+    dev.stop_stream()
+    st = dev.status()
+    return {"overruns": int(st.overruns - st0.overruns),
+            "dropped": int(st.dropped_telemetry - st0.dropped_telemetry),
+            "lost": int(dev.stats.samples_lost - lost0)}
+
+
+def _clean(r: dict) -> bool:
+    return r["overruns"] == 0 and r["dropped"] == 0
+
+
+def max_clean_rates(probe_s: float = 3.0, confirm_s: float = 60.0, upper_hz: int = BENCH_RATE_LIMIT_HZ,
+                    configs=RATE_CONFIGS, elf: Path | None = None) -> dict:
+    """For each channel configuration, the highest whole rate (Hz) at which every sample
+    reaches the host: no skipped tick, no SAMPLE dropped. A binary search over
+    10 Hz .. ``upper_hz`` with ``probe_s`` of simulated streaming per step, then
+    ``confirm_s`` at the rate found (stepping down 1 Hz while it loses samples). The
+    estimator runs the heaviest model that fits the EEPROM. Runs the rate variant of the
+    firmware (``build_rate_variant``), whose only difference is the START_STREAM limit."""
+    try:
+        from porosense.device import Device
+        from porosense.simboard import SimBoard
+    except ImportError as exc:
+        return {"status": "pending", "reason": f"simboard not available ({exc})"}
+    if elf is None:
+        proc = build_rate_variant()
+        if proc.returncode != 0:
+            return {"status": "pending", "reason": f"rate variant build failed: {proc.stderr[-500:]}"}
+        elf = BENCH_ELF
+    rows = []
+    try:
+        blob = heavy_model_blob()
+        with SimBoard(elf) as board, Device.open(board.url, handshake_timeout_s=15.0) as dev:
+            dev.write_model(blob)
+            for name, mask in configs:
+                lo, hi = 10, upper_hz + 1  # lo: clean, hi: losing (or beyond the search)
+                while hi - lo > 1:
+                    mid = (lo + hi) // 2
+                    if _clean(_lost_at(dev, mid, mask, probe_s)):
+                        lo = mid
+                    else:
+                        hi = mid
+                rate = lo
+                confirm = _lost_at(dev, rate, mask, confirm_s)
+                while not _clean(confirm) and rate > 10:
+                    rate -= 1
+                    confirm = _lost_at(dev, rate, mask, confirm_s)
+                above = _lost_at(dev, rate + 1, mask, probe_s) if rate < upper_hz else None
+                rows.append({"config": name, "channel_mask": mask, "max_clean_hz": rate,
+                             "confirm_s": confirm_s, **confirm, "above": above})
+    except Exception as exc:
+        return {"status": "pending", "reason": f"{type(exc).__name__}: {exc}"}
+    return {"status": "measured", "advertised_max_hz": advertised_max_rate_hz(), "model_bytes": len(blob),
+            "probe_s": probe_s, "confirm_s": confirm_s, "upper_hz": upper_hz, "configs": rows}
 
 
 def run(size: str = "small") -> dict:
@@ -207,6 +312,11 @@ def run(size: str = "small") -> dict:
     seconds = 60.0 if size == "full" else 5.0
     cyc = estimator_cycles()
     sim = simboard_overruns(seconds)
+    at_limit = simboard_overruns(seconds, advertised_max_rate_hz())
+    full = size == "full"
+    rates = max_clean_rates(probe_s=3.0 if full else 1.0, confirm_s=60.0 if full else 3.0,
+                            upper_hz=BENCH_RATE_LIMIT_HZ if full else 300,
+                            configs=RATE_CONFIGS if full else RATE_CONFIGS[1::2])
     result = {
         "elf": str(ELF.relative_to(REPO_ROOT)),
         "size": sz.to_dict(),
@@ -220,6 +330,8 @@ def run(size: str = "small") -> dict:
         "estimator_cycles": cyc,
         "cycle_budget": CYCLE_BUDGET,
         "overruns_100hz": sim,
+        "at_advertised_max": at_limit,
+        "max_clean_rates": rates,
     }
     summary = [
         f"flash: {sz.flash} B of {FLASH_BUDGET} B budget (text {sz.text} + data {sz.data})",
@@ -240,5 +352,21 @@ def run(size: str = "small") -> dict:
                        f"free stack {sim['free_stack']} B")
     else:
         summary.append(f"overruns at 100 Hz: pending ({sim.get('reason')})")
+    if at_limit.get("status") == "measured":
+        summary.append(f"advertised maximum {at_limit['rate_hz']} Hz, 3 ADC + IMU + estimator, {seconds:g} s "
+                       f"simulated (release build): {at_limit['overruns']} overruns, "
+                       f"{at_limit['samples_lost']} samples lost, {at_limit['samples']} samples")
+    if rates.get("status") == "measured":
+        for row in rates["configs"]:
+            a = row["above"]
+            above = (f"; at {row['max_clean_hz'] + 1} Hz: {a['overruns']} skipped ticks, {a['dropped']} "
+                     f"dropped, {a['lost']} counted lost by the host in {rates['probe_s']:g} s") if a else ""
+            summary.append(f"max clean rate, {row['config']}: {row['max_clean_hz']} Hz (0 lost in "
+                           f"{row['confirm_s']:g} s simulated){above}")
+        summary.append(f"advertised maximum (SAMPLE_RATE_HZ, START_STREAM; higher is refused): "
+                       f"{rates['advertised_max_hz']} Hz, the highest whole-millisecond period (8 ms) "
+                       f"within the max clean rate of every channel + IMU + estimator")
+    else:
+        summary.append(f"max clean rates: pending ({rates.get('reason')})")
     result["summary"] = summary
     return result

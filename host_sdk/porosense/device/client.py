@@ -117,6 +117,10 @@ class Device:
         self._rate_hz = 0
         self._streaming = False
         self._outputs_active = False
+        # SET_OUTPUTS carries the session of the latest HELLO_REPLY and a counter, so that the
+        # device refuses a replayed old frame that would turn outputs on.
+        self._session = 0
+        self._out_counter = 0
         self._replay_flags: list[int] = []
 
     # ------------------------------------------------------------------ opening
@@ -182,6 +186,7 @@ class Device:
         except ValueError as exc:
             raise DeviceError(f"malformed HELLO_REPLY from {self.url}: {exc}") from None
         check_compatible(reply.proto_major, reply.proto_minor)
+        self._session, self._out_counter = reply.session, 0
         self.info = HelloInfo.from_message(reply)
         return self.info
 
@@ -206,7 +211,9 @@ class Device:
         sp = np.repeat(sp, 3) if sp.size == 1 else np.pad(sp, (0, 3 - sp.size))
         dkpa = tuple(int(round(v * 10)) for v in sp)
         pump_mask, valve_mask = _mask(pumps), _mask(valves)
-        self._exchange(m.SetOutputs(setpoint_dkpa=dkpa, pump_mask=pump_mask, valve_mask=valve_mask))
+        self._out_counter = (self._out_counter + 1) & 0xFFFF
+        self._exchange(m.SetOutputs(setpoint_dkpa=dkpa, pump_mask=pump_mask, valve_mask=valve_mask,
+                                    session=self._session, counter=self._out_counter))
         self._outputs_active = bool(pump_mask or valve_mask)
 
     def set_watchdog(self, timeout_ms: int) -> None:
@@ -214,7 +221,7 @@ class Device:
         self._exchange(m.SetWatchdog(timeout_ms=int(timeout_ms)))
 
     def start_stream(self, rate_hz: int = 50, channels: int | Sequence[str] = ALL_CHANNELS) -> None:
-        """Start SAMPLE telemetry at ``rate_hz`` (10..200) for ``channels`` (mask or names)."""
+        """Start SAMPLE telemetry at ``rate_hz`` (10..125, SAMPLE_RATE_HZ limits) for ``channels`` (mask or names)."""
         if self._streaming:
             self.stop_stream()
         mask = _channel_mask(channels)

@@ -114,7 +114,7 @@ class Channel(enum.IntFlag):
 class ConfigKey(enum.IntEnum):
     """Configuration keys."""
 
-    SAMPLE_RATE_HZ = 1  # Sample rate in Hz.
+    SAMPLE_RATE_HZ = 1  # Sample rate in Hz. 125 Hz (8 ms, a whole number of 1 kHz timer ticks) is sustained without a skipped tick with every channel, the IMU and the largest storable model (`porosense bench firmware`).
     CHANNEL_MASK = 2  # Stream channel mask (see START_STREAM).
     R0_MODE = 3  # At boot: 0 calibrate R0 from the first samples, 1 restore the stored R0.
     R0_CH0_MOHM = 4  # Stored R0 of channel 0 in milliohm.
@@ -144,7 +144,7 @@ class ConfigSpec:
 
 
 CONFIG_SPECS: dict[ConfigKey, ConfigSpec] = {
-    ConfigKey.SAMPLE_RATE_HZ: ConfigSpec(ConfigKey.SAMPLE_RATE_HZ, 50, 10, 200, 'Sample rate in Hz.'),
+    ConfigKey.SAMPLE_RATE_HZ: ConfigSpec(ConfigKey.SAMPLE_RATE_HZ, 50, 10, 125, 'Sample rate in Hz. 125 Hz (8 ms, a whole number of 1 kHz timer ticks) is sustained without a skipped tick with every channel, the IMU and the largest storable model (`porosense bench firmware`).'),
     ConfigKey.CHANNEL_MASK: ConfigSpec(ConfigKey.CHANNEL_MASK, 31, 0, 31, 'Stream channel mask (see START_STREAM).'),
     ConfigKey.R0_MODE: ConfigSpec(ConfigKey.R0_MODE, 0, 0, 1, 'At boot: 0 calibrate R0 from the first samples, 1 restore the stored R0.'),
     ConfigKey.R0_CH0_MOHM: ConfigSpec(ConfigKey.R0_CH0_MOHM, 1000000, 1000, 100000000, 'Stored R0 of channel 0 in milliohm.'),
@@ -211,10 +211,10 @@ class HelloReply(Message):
     TYPE: ClassVar[int] = 0x81
     DIRECTION: ClassVar[str] = 'd2h'
     REPLY: ClassVar[str | None] = None
-    MIN_LEN: ClassVar[int] = 16
-    MAX_LEN: ClassVar[int] = 16
+    MIN_LEN: ClassVar[int] = 18
+    MAX_LEN: ClassVar[int] = 18
     DEADLINE_MS: ClassVar[int] = 0
-    _FMT: ClassVar[struct.Struct] = struct.Struct('<BBBBBHBBHBI')
+    _FMT: ClassVar[struct.Struct] = struct.Struct('<BBBBBHBBHBIH')
     proto_major: int = 0
     proto_minor: int = 0
     fw_major: int = 0
@@ -226,17 +226,18 @@ class HelloReply(Message):
     model_crc: int = 0
     streaming: int = 0
     uptime_ms: int = 0  # ms
+    session: int = 0
 
     def pack(self) -> bytes:
-        head = self._FMT.pack(self.proto_major, self.proto_minor, self.fw_major, self.fw_minor, self.fw_patch, self.capabilities, self.n_channels, self.model_status, self.model_crc, self.streaming, self.uptime_ms)
+        head = self._FMT.pack(self.proto_major, self.proto_minor, self.fw_major, self.fw_minor, self.fw_patch, self.capabilities, self.n_channels, self.model_status, self.model_crc, self.streaming, self.uptime_ms, self.session)
         return head
 
     @classmethod
     def unpack(cls, payload: bytes) -> HelloReply:
         if len(payload) != cls.MIN_LEN:
-            raise ValueError(f'HELLO_REPLY payload of {len(payload)} bytes (expected 16)')
+            raise ValueError(f'HELLO_REPLY payload of {len(payload)} bytes (expected 18)')
         vals = cls._FMT.unpack_from(payload, 0)
-        return cls(proto_major=vals[0], proto_minor=vals[1], fw_major=vals[2], fw_minor=vals[3], fw_patch=vals[4], capabilities=vals[5], n_channels=vals[6], model_status=vals[7], model_crc=vals[8], streaming=vals[9], uptime_ms=vals[10])
+        return cls(proto_major=vals[0], proto_minor=vals[1], fw_major=vals[2], fw_minor=vals[3], fw_patch=vals[4], capabilities=vals[5], n_channels=vals[6], model_status=vals[7], model_crc=vals[8], streaming=vals[9], uptime_ms=vals[10], session=vals[11])
 
 
 @dataclass
@@ -344,31 +345,33 @@ class Nak(Message):
 
 @dataclass
 class SetOutputs(Message):
-    """Vacuum setpoints, pumps and valves of the three channels. Arms the host-link watchdog while any output is active."""
+    """Vacuum setpoints, pumps and valves of the three channels. Arms the host-link watchdog while any output is active. A command that turns any output on must carry the session of the latest HELLO_REPLY and a counter ahead of the previous one in that session (else BAD_STATE, detail 3), so a replayed old frame cannot turn pumps back on; all off is always accepted."""
 
     TYPE: ClassVar[int] = 0x10
     DIRECTION: ClassVar[str] = 'h2d'
     REPLY: ClassVar[str | None] = 'ACK'
-    MIN_LEN: ClassVar[int] = 8
-    MAX_LEN: ClassVar[int] = 8
+    MIN_LEN: ClassVar[int] = 12
+    MAX_LEN: ClassVar[int] = 12
     DEADLINE_MS: ClassVar[int] = 50
-    _FMT: ClassVar[struct.Struct] = struct.Struct('<3hBB')
+    _FMT: ClassVar[struct.Struct] = struct.Struct('<3hBBHH')
     setpoint_dkpa: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 0.1 kPa
     pump_mask: int = 0
     valve_mask: int = 0
+    session: int = 0
+    counter: int = 0
 
     def pack(self) -> bytes:
         if len(self.setpoint_dkpa) != 3:
             raise ValueError('SET_OUTPUTS.setpoint_dkpa needs 3 values')
-        head = self._FMT.pack(*self.setpoint_dkpa, self.pump_mask, self.valve_mask)
+        head = self._FMT.pack(*self.setpoint_dkpa, self.pump_mask, self.valve_mask, self.session, self.counter)
         return head
 
     @classmethod
     def unpack(cls, payload: bytes) -> SetOutputs:
         if len(payload) != cls.MIN_LEN:
-            raise ValueError(f'SET_OUTPUTS payload of {len(payload)} bytes (expected 8)')
+            raise ValueError(f'SET_OUTPUTS payload of {len(payload)} bytes (expected 12)')
         vals = cls._FMT.unpack_from(payload, 0)
-        return cls(setpoint_dkpa=tuple(vals[0:3]), pump_mask=vals[3], valve_mask=vals[4])
+        return cls(setpoint_dkpa=tuple(vals[0:3]), pump_mask=vals[3], valve_mask=vals[4], session=vals[5], counter=vals[6])
 
 
 @dataclass

@@ -1,4 +1,4 @@
-"""The Emulator: a BoardCore served over TCP or a pty from a background thread.
+"""The Emulator: the firmware core (BoardCore) served over TCP or a pty from a background thread.
 
 Two timings:
 
@@ -21,9 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from porosense.emulator.core import BoardCore
+from porosense.emulator.board import BoardCore
 from porosense.emulator.endpoints import make_endpoint
 from porosense.emulator.faults import Faults, FaultyLink
+from porosense.emulator.version_claim import HelloRewrite
 
 # Real-time mode: the UART sends at BAUD (10 bits per byte) from a 64-byte transmit buffer;
 # a SAMPLE that does not fit in it is dropped, like on the board.
@@ -55,13 +56,15 @@ class EmulatorStats:
 
 
 class Emulator:
-    """The Python twin of the porosense board, reachable at ``.url``.
+    """The porosense board without hardware, reachable at ``.url``: the firmware's core
+    (firmware/lib/core, built for this computer) over the simulator plant.
 
         with Emulator(actuator="contractor") as emu:
             with Device.open(emu.url) as dev: ...
 
     ``listen``: "tcp://127.0.0.1:0" (a free port) or "pty". ``faults``: a Faults, or None.
-    ``proto_version``: the (major, minor) the board claims (tests of version refusal).
+    ``proto_version``: the (major, minor) the board claims (tests of version refusal: the
+    link rewrites the firmware's frames).
     ``truth_log``: remember the plant's ground truth at every sample (see :meth:`truth`).
     ``max_catch_up_s``: in real time, how far (device s) a late loop catches up before the
     missed ticks count as overruns.
@@ -102,18 +105,17 @@ class Emulator:
         self._t_tokens_us = 0  # device time of that credit
         self._lock = threading.RLock()
         self._requests: list = []
+        self._hello = HelloRewrite(version=tuple(proto_version) if proto_version else None)
         self.core = BoardCore(
             self._plant,
-            send=self._on_frame,
+            send=self._on_bytes,
             tx_room=self._tx_room,
             faults=self.faults,
-            proto_version=proto_version,
+            clock_offset_us=clock_offset_us,
         )
         self.max_catch_up_s = float(max_catch_up_s)
         if truth_log:
             self.core.truth_log = {}
-        # Start the device clock late (tests of the 32-bit microsecond wrap).
-        self.core.boot_T_us -= int(clock_offset_us)
         self.endpoint = make_endpoint(listen)
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
@@ -208,8 +210,19 @@ class Emulator:
 
     # ------------------------------------------------------------------ machinery
 
-    def _on_frame(self, frame: bytes, sample_t_us: int | None) -> None:
-        self._out += self.link.board_to_host(frame, sample_t_us)
+    def _on_bytes(self, data: bytes, sample_t_us: int | None) -> None:
+        data = self._hello.rewrite(data)
+        if not (self.faults.tx_corrupt or self.faults.tx_drop):
+            self._out += self.link.board_to_host(data)
+            return
+        # Damage frame by frame so that the link knows which SAMPLE it destroyed: the bytes
+        # of a sample tick start with its SAMPLE frame.
+        start = 0
+        while start < len(data):
+            end = data.find(b"\x00", start)
+            end = len(data) if end < 0 else end + 1
+            self._out += self.link.board_to_host(data[start:end], sample_t_us if start == 0 else None)
+            start = end
 
     def _tx_room(self) -> int:
         if not self.realtime:
@@ -304,15 +317,14 @@ class Emulator:
 
     def _sample_due(self, core: BoardCore) -> None:
         """Real time: every tick up to now. A loop that fell behind (a busy host computer)
-        catches up with the right timestamps; beyond ``max_catch_up_s`` (device time) the ticks
-        are overruns."""
-        period_us = 1e6 / max(core.rate_hz, 1)
+        catches up with the right timestamps; beyond ``max_catch_up_s`` (device time) the
+        firmware sees the missed ticks at once and counts them as overruns."""
+        now = core.T_us
         due = core.next_tick_T_us()
-        while due is not None and due <= core.T_us:
-            late = core.T_us - due
-            if late > self.max_catch_up_s * 1e6:
-                core.skip_ticks(int(late // period_us))
-                due = core.next_tick_T_us()
-            self._flush_paced(upto_us=due)  # what the UART sent before this tick
-            core.sample()
+        while due is not None and due <= now:
+            if now - due > self.max_catch_up_s * 1e6:
+                core.sample(int(now - self.max_catch_up_s * 1e6))
+            else:
+                self._flush_paced(upto_us=due)  # what the UART sent before this tick
+                core.sample()
             due = core.next_tick_T_us()

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import statistics
 import time
-from pathlib import Path
 
 SIZES = {"small": {"samples": 4000, "pings": 200, "sim_s": 2.0}, "full": {"samples": 40000, "pings": 2000, "sim_s": 10.0}}
 RATE_HZ = 200
@@ -56,7 +55,9 @@ def simboard_figures(size: str) -> dict | None:
         from porosense.simboard import SimBoard
     except ImportError:
         return None
-    elf = Path(__file__).resolve().parents[3] / "firmware" / "build" / "porosense.elf"
+    from porosense.firmware.files import elf_path
+
+    elf = elf_path()
     if not elf.is_file():
         return None
     from porosense.device import Device
@@ -78,7 +79,7 @@ def run(size: str = "small") -> dict:
         f"emulator PING round trip: {emu['ping_median_ms']:.3f} ms median of {emu['pings']}",
     ]
     if sb is None:
-        summary.append("simboard: not available (porosense.simboard or firmware/build/porosense.elf missing)")
+        summary.append("simboard: not available (the simboard harness or the firmware ELF is missing)")
     else:
         summary.append(
             f"simboard: {sb['speed_vs_realtime']:.2f}x real time streaming at 100 Hz "

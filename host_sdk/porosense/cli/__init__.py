@@ -28,6 +28,7 @@ SUBCOMMANDS = (
     "quantize",
     "flash",
     "verify",
+    "firmware",
     "config",
     "ports",
     "emulator",

@@ -247,6 +247,17 @@ uint32_t ps_run_to(ps_core* c, uint64_t t_us) {
   return ticks;
 }
 
+uint32_t ps_step(ps_core* c, uint64_t t_us, const double volts[3], const double euler_deg[3],
+                 uint32_t tx_room, uint8_t* dst, uint32_t max, uint32_t* n_sent, ps_state* st) {
+  c->hal.set_inputs(volts, euler_deg);
+  c->hal.set_tx_room(tx_room);
+  const uint32_t ticks = ps_run_to(c, t_us);
+  ps_poll(c);
+  *n_sent = c->hal.take(dst, max);
+  ps_state_get(c, st);
+  return ticks;
+}
+
 void ps_state_get(ps_core* c, ps_state* out) {
   memset(out, 0, sizeof *out);
   const dev::Outputs& o = c->hal.outputs();

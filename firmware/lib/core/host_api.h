@@ -86,6 +86,11 @@ PS_API int64_t ps_next_tick(ps_core* c);
 // Run the 1 kHz tick up to t_us (the clock moves there unless it is already later); when
 // sample ticks fell due, take one sample for them (Device::on_sample_ticks, n > 1 counts overruns). Returns the ticks.
 PS_API uint32_t ps_run_to(ps_core* c, uint64_t t_us);
+// One pass of the host's sample loop in one call: present the inputs and the transmit room,
+// run the clock to t_us (ps_run_to), run the main loop (ps_poll), then take at most max
+// bytes sent (*n_sent) and the state. Returns the sample ticks taken.
+PS_API uint32_t ps_step(ps_core* c, uint64_t t_us, const double volts[3], const double euler_deg[3],
+                        uint32_t tx_room, uint8_t* dst, uint32_t max, uint32_t* n_sent, ps_state* st);
 // Bytes the firmware wrote to the UART since the last call (at most max).
 PS_API uint32_t ps_take(ps_core* c, uint8_t* dst, uint32_t max);
 PS_API void ps_state_get(ps_core* c, ps_state* out);

@@ -36,13 +36,6 @@ WRAP_US = float(1 << 32)  # the device's microsecond clock wraps here
 IDLE_WAIT_S = 0.02
 
 
-def make_plant(actuator: str, porosity=None, load_g: float = 0.0, seed: int = 0, effects=None):
-    """The simulated actuator behind the emulated sensors (porosense.sim)."""
-    from porosense.sim import make_plant as sim_make_plant
-
-    return sim_make_plant(actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects)
-
-
 @dataclass
 class EmulatorStats:
     """Counters of the board and of the faulty link, for tests and benchmarks."""
@@ -69,7 +62,7 @@ class Emulator:
     ``max_catch_up_s``: in real time, how far (device s) a late loop catches up before the
     missed ticks count as overruns.
     ``clock_offset_us``: the device clock's value at power-on. ``plant``: any object with the
-    porosense.sim plant interface instead of ``make_plant(actuator, ...)``.
+    porosense.sim plant interface instead of ``porosense.sim.make_plant(actuator, ...)``.
     """
 
     def __init__(
@@ -97,6 +90,8 @@ class Emulator:
         self.faults = faults or Faults()
         self.link = FaultyLink(self.faults)
         self.reset_on_connect = reset_on_connect
+        from porosense.sim import make_plant
+
         self._plant = plant if plant is not None else make_plant(
             actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects
         )
@@ -104,7 +99,6 @@ class Emulator:
         self._tokens = 0.0  # real time: bytes the UART may send now
         self._t_tokens_us = 0  # device time of that credit
         self._lock = threading.RLock()
-        self._requests: list = []
         self._hello = HelloRewrite(version=tuple(proto_version) if proto_version else None)
         self.core = BoardCore(
             self._plant,
@@ -190,10 +184,7 @@ class Emulator:
     def disconnect(self, adc: bool | None = None, imu: bool | None = None) -> None:
         """Unplug (True) or replug (False) the ADC and/or the IMU while running."""
         with self._lock:
-            if adc is not None:
-                self.core.adc_present = not adc
-            if imu is not None:
-                self.core.imu_present = not imu
+            self.core.plug(adc=None if adc is None else not adc, imu=None if imu is None else not imu)
 
     def reset_now(self) -> None:
         """Cut the power of the board now (it reboots; nothing pending is answered)."""
@@ -238,9 +229,6 @@ class Emulator:
             if n <= 0:
                 return
             del self._out[:n]
-
-    def _link_bytes_per_s(self) -> float:
-        return BAUD / 10.0 * self.speed
 
     def _flush_paced(self, upto_us: int | None = None) -> None:
         """Real time: hand bytes to the endpoint no faster than the UART sends them, counted
@@ -291,7 +279,7 @@ class Emulator:
             wfds = ep.write_fds() if self._out else []
             if self._out and self.realtime and self._tokens < 1.0:
                 wfds = []  # the UART is still shifting out earlier bytes
-                wait = min(wait, max(2e-4, (1.0 - self._tokens) / self._link_bytes_per_s()))
+                wait = min(wait, max(2e-4, (1.0 - self._tokens) / (BAUD / 10.0 * self.speed)))
             try:
                 ready_r, ready_w, _ = select.select(ep.read_fds(), wfds, [], wait)
             except (OSError, ValueError):

@@ -127,6 +127,7 @@ uint32_t HostHal::feed(const uint8_t* data, uint32_t n) {
 
 uint32_t HostHal::take(uint8_t* dst, uint32_t max) {
   const uint32_t n = (uint32_t)(tx_.size() < max ? tx_.size() : max);
+  if (n == 0) return 0;
   memcpy(dst, tx_.data(), n);
   tx_.erase(tx_.begin(), tx_.begin() + n);
   return n;

@@ -13,7 +13,8 @@ def test_bench_device_small():
     emu = result["emulator"]
     assert emu["samples"] == 4000 and emu["lost"] == 0
     assert emu["device_s"] == pytest.approx(3999 / 200, abs=1e-6)
-    assert len(result["summary"]) == 3
+    assert len(result["summary"]) == 4
+    assert result["board"]["samples"] == 4000 and result["board"]["samples_per_cpu_s"] > 0
     if result["simboard"] is not None:
         assert result["simboard"]["lost"] == 0
     print("\n".join(result["summary"]))

@@ -32,12 +32,14 @@ _lib = None
 _lib_lock = threading.Lock()
 
 
-def load_library() -> C.CDLL:
+def load_library() -> C.PyDLL:
     """The host library, built on first use (porosense.firmware.hostlib)."""
     global _lib
     with _lib_lock:
         if _lib is None:
-            lib = C.CDLL(str(library_path()))
+            # PyDLL keeps the GIL during calls: they take microseconds, and releasing the GIL
+            # at each of them would let a busy host thread hold it for a whole switch interval.
+            lib = C.PyDLL(str(library_path()))
             P, D3, B = C.c_void_p, C.POINTER(C.c_double), C.c_char_p
             for name, res, args in (
                 ("ps_create", P, []), ("ps_destroy", None, [P]), ("ps_boot", None, [P, _u8, C.c_uint64]),

@@ -70,8 +70,13 @@ def installed(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("wheel")
     assert ROOT not in tmp.parents
     wheels = tmp / "dist"
-    build = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(wheels),
-                            str(ROOT / "host_sdk")], capture_output=True, text=True, timeout=900)
+    # A copy with the firmware links resolved: nothing is written into the checkout, and no
+    # stale build/ folder of an earlier build can slip old modules into the wheel.
+    src = tmp / "host_sdk"
+    shutil.copytree(ROOT / "host_sdk", src, symlinks=False,
+                    ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__", "*.o", "*.d"))
+    build = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(wheels), str(src)],
+                           capture_output=True, text=True, timeout=900)
     if build.returncode != 0 and "setuptools" in build.stderr and "No matching distribution" in build.stderr:
         pytest.skip("the wheel's build requirements (setuptools, wheel) cannot be fetched here")
     assert build.returncode == 0, build.stderr[-3000:]

@@ -8,6 +8,7 @@ from porosense.protocol import FrameError, MsgType, decode_frame, encode_frame
 from porosense.protocol._messages import Capability
 
 _HELLO_REPLY = int(MsgType.HELLO_REPLY)
+_HELLO_BYTE = bytes((_HELLO_REPLY,))
 _CAPS_AT = 5  # HELLO_REPLY: proto_major, proto_minor, fw x3, capabilities (u16)
 
 
@@ -21,13 +22,11 @@ class HelloRewrite:
 
     def rewrite(self, data: bytes) -> bytes:
         """``data``: whole frames (and text lines) from the firmware."""
-        if self.version is None and _HELLO_REPLY not in data:
+        chunks = data.split(b"\x00")
+        # In a COBS-encoded frame the type is byte 2 (code byte, version, type: none is zero).
+        if self.version is None and not any(c[2:3] == _HELLO_BYTE for c in chunks):
             return data
-        out = bytearray()
-        for chunk in data.split(b"\x00"):
-            out += self._frame(chunk) if chunk else b""
-            out += b"\x00"
-        return bytes(out[:-1])
+        return b"\x00".join(self._frame(c) if c else c for c in chunks)
 
     def _frame(self, chunk: bytes) -> bytes:
         try:

@@ -6,8 +6,8 @@ set -euo pipefail
 top="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$top"
 
-# chromium renders the demo's HTML report in its test.
-APT_PACKAGES="gcc-avr avr-libc binutils-avr arduino-core-avr simavr libsimavr-dev libelf-dev pkg-config chromium"
+# g++ builds the firmware core for the emulator; chromium renders the demo's HTML report in its test.
+APT_PACKAGES="g++ gcc-avr avr-libc binutils-avr arduino-core-avr simavr libsimavr-dev libelf-dev pkg-config chromium"
 
 missing=()
 if [ "${1:-}" != "--no-apt" ]; then
@@ -48,4 +48,15 @@ quiet_pip install -q --disable-pip-version-check --no-deps -e host_sdk
 # The benchmark peer (SIPPY) is optional: benchmarks report it as absent when it cannot install.
 quiet_pip install -q --disable-pip-version-check "sippy-unipi==1.0.1" \
   || echo "bootstrap: sippy-unipi not installed; the identification benchmark will skip its peer"
+# The emulator runs the firmware core as a host library: build it now (cached by a digest of
+# the core's sources; rebuilt on first use after a change), so that a missing C++ compiler
+# shows here, in one line.
+"$venv/bin/python" - <<'PY'
+from porosense.errors import PorosenseError
+from porosense.firmware.hostlib import library_path
+try:
+    library_path()
+except PorosenseError as exc:
+    raise SystemExit(f"bootstrap: {exc}")
+PY
 echo "$want" > "$stamp"

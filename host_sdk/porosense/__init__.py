@@ -9,7 +9,8 @@ Subpackages (one concept each; lower layers never import higher ones):
 - ``porosense.quant``     fixed-point design and the bit-exact firmware reference
 - ``porosense.diagnose``  residual analysis, named causes, model extensions
 - ``porosense.device``    the Device client over any pyserial URL
-- ``porosense.emulator``  the Python twin of the board
+- ``porosense.firmware``  the firmware as package data, its host library and upload
+- ``porosense.emulator``  the board without hardware: the firmware core over the simulator
 - ``porosense.report``    figures and reports
 - ``porosense.cli``       the ``porosense`` command
 """

@@ -1,4 +1,4 @@
-"""The estimator structure of DESIGN.md in floating point: the contract between ident and quant.
+"""The estimator structure of docs/design.md in floating point: the contract between ident and quant.
 
 For each output j over inputs i::
 

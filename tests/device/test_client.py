@@ -48,10 +48,9 @@ def test_nak_error_names_command_and_code():
 def test_argument_forms_reach_the_board():
     with Emulator() as emu, Device.open(emu.url) as dev:
         dev.set_outputs(-12.34, pumps=[True, False, True], valves=0b010)
-        assert emu.core.setpoint_dkpa == [-123, -123, -123]
-        assert (emu.core.pump_mask, emu.core.valve_mask) == (0b101, 0b010)
+        assert emu.core.outputs == ([-123, -123, -123], 0b101, 0b010)
         dev.set_outputs([-5, -7.5])
-        assert emu.core.setpoint_dkpa == [-50, -75, 0]
+        assert emu.core.outputs[0] == [-50, -75, 0]
         with pytest.raises(ValueError, match="unknown stream channel"):
             dev.start_stream(50, channels=["ADC7"])
         with pytest.raises(ValueError, match="unknown configuration key"):
@@ -64,7 +63,7 @@ def test_closing_stops_the_stream_and_the_outputs():
             dev.set_outputs(-20, pumps=1, valves=1)
             dev.start_stream(50)
             list(dev.samples(3))
-        assert not emu.core.streaming and not emu.core.outputs_active
+        assert not emu.core.streaming and emu.core.outputs == ([0, 0, 0], 0, 0)
 
 
 def test_uno_usb_ids_are_recognised():

@@ -15,7 +15,8 @@ def test_bench_device_small():
     from porosense.bench.device import RATE_HZ
 
     assert emu["device_s"] == pytest.approx(3999 / RATE_HZ, abs=1e-6)
-    assert len(result["summary"]) == 3
+    assert len(result["summary"]) == 4
+    assert result["board"]["samples"] == 4000 and result["board"]["samples_per_cpu_s"] > 0
     if result["simboard"] is not None:
         assert result["simboard"]["lost"] == 0
     print("\n".join(result["summary"]))

@@ -173,3 +173,39 @@ def test_realtime_link_runs_at_115200_baud():
         assert dev.status().dropped_telemetry == 0
     assert wall >= 20 * 124 * 10 / 115200
     assert np.all(np.diff([s.t_us for s in samples]) == 8_000)
+
+
+_STREAM_IN_A_FRESH_PROCESS = r"""
+import json, sys
+from porosense.device import Device
+from porosense.emulator import Emulator
+blob = open(sys.argv[1], "rb").read()
+with Emulator(seed=5) as emu, Device.open(emu.url) as dev:
+    dev.write_model(blob)
+    dev.start_stream(100)
+    samples = list(dev.samples(300))
+    dev.stop_stream()
+python_estimators = sorted(m for m in sys.modules if m.startswith(("porosense.quant", "porosense.structure")))
+print(json.dumps({"dr": [list(s.dr_centi) for s in samples], "est": [list(s.estimate) for s in samples],
+                  "python_estimators": python_estimators}))
+"""
+
+
+def test_estimates_are_made_by_the_firmware_core(tmp_path):
+    """The emulator's estimates come from the C++ estimator: its process never loads the Python
+    fixed-point reference, and the reference (here only an oracle) agrees bit for bit."""
+    import json
+    import subprocess
+
+    from models import reference_run
+
+    blob = make_blob(3, model_id=9, poles=0.8)
+    (tmp_path / "model.bin").write_bytes(blob)
+    proc = subprocess.run([sys.executable, "-c", _STREAM_IN_A_FRESH_PROCESS, str(tmp_path / "model.bin")],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out["python_estimators"] == []
+    dr, est = np.array(out["dr"], dtype=np.int16), np.array(out["est"], dtype=np.int16)
+    assert np.ptp(est[:, 0]) > 0  # the model responds to the boot transient and noise
+    assert np.array_equal(est, reference_run(blob, dr))

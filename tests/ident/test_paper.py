@@ -1,6 +1,6 @@
 """The paper's ranking on simulated paper experiments (porosense.sim).
 
-Estimation: staircase, -10 and -60 kPa steps; validation: -20 and -40 kPa steps (DESIGN.md);
+Estimation: staircase, -10 and -60 kPa steps; validation: -20 and -40 kPa steps (docs/design.md);
 input dR_0 / 100, output strain_0 (contractor) or curvature (bending). To stay quick the
 recordings are simulated at 10 Hz and the grid is poles 1..4 with at most 2 zeros. WH(p, z)
 contains Wiener(p, z) and Hammerstein(p, z), so its best mean fit may only fall below theirs

@@ -102,7 +102,7 @@ def test_emulator_line_mode_matches_the_reference(model_blob) -> None:
 
     from porosense.device import Device
     from porosense.emulator import Emulator
-    from porosense.emulator.lines import format_line
+    from line_format import format_line
     from porosense.protocol import _messages as m
     from porosense.protocol import encode_message
     from porosense.quant import FixedPointEstimator, ModelBlob

@@ -16,7 +16,7 @@ CAPTURE_AVR_S = 1.2
 
 def test_line_mode_prints_csv_matching_the_reference(elf, model_blob) -> None:
     from porosense.device import Device
-    from porosense.emulator.lines import format_line
+    from line_format import format_line
     from porosense.quant import FixedPointEstimator, ModelBlob
     from porosense.simboard import SimBoard
 

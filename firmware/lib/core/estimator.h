@@ -1,4 +1,4 @@
-// The on-device fixed-point Wiener-Hammerstein estimator (DESIGN.md):
+// The on-device fixed-point Wiener-Hammerstein estimator (docs/design.md):
 //   y_j = offset_j + H2_j( g_j( sum_i H1_ij( f_ij( u_i[k - delay_ij] - u_offset_ij ) ) ) )
 // f, g piecewise-linear (int16 -> int16); H1, H2 cascades of second-order sections with int16
 // inputs/outputs and int32 states; saturating arithmetic, no float, no heap. Coefficients stay

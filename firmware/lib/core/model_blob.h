@@ -37,7 +37,7 @@ constexpr uint16_t kMaxLength = 952;  // EEPROM model region (960) minus the sto
 constexpr uint8_t kOffMagic = 0, kOffVersion = 2, kOffInputs = 3, kOffOutputs = 4,
                   kOffReserved = 5, kOffLength = 6, kOffModelId = 8, kOffOutScale = 12;
 
-// Limits of the structure (DESIGN.md): 3 inputs, 3 outputs, 16 breakpoints, 5 sections
+// Limits of the structure (docs/design.md): 3 inputs, 3 outputs, 16 breakpoints, 5 sections
 // (10 poles) per linear block, delays of at most 15 samples.
 constexpr uint8_t kMaxInputs = 3, kMaxOutputs = 3, kMaxBranches = 3, kMaxBreakpoints = 16,
                   kMaxSections = 5, kMaxDelay = 15;

@@ -89,7 +89,7 @@ constexpr uint16_t IMU = 1u << 1;  // BNO055 detected.
 constexpr uint16_t ESTIMATOR = 1u << 2;  // Fixed-point estimator built in.
 constexpr uint16_t PWM_OUT = 1u << 3;  // Analogue (PWM) output of the estimate.
 constexpr uint16_t LINE_MODE = 1u << 4;  // Human-readable CSV line mode.
-constexpr uint16_t EMULATED = 1u << 7;  // The Python emulator, not firmware.
+constexpr uint16_t EMULATED = 1u << 7;  // The emulator: the firmware core on a host computer, not a board.
 }  // namespace cap
 
 namespace chan {

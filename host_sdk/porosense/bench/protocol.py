@@ -14,10 +14,12 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from porosense.firmware.files import source_tree
+
 BAUD = 115200
 BITS_PER_BYTE = 10  # 8N1: start bit, 8 data bits, stop bit
-REPO = Path(__file__).resolve().parents[3]
-CPP_BENCH_DIR = REPO / "tools" / "bench" / "protocol"
+_TREE = source_tree()
+CPP_BENCH_DIR = _TREE / "tools" / "bench" / "protocol" if _TREE else Path("tools/bench/protocol (not installed)")
 SIZES = {"small": (5_000, 300_000), "full": (50_000, 3_000_000)}  # Python frames, C++ frames
 
 

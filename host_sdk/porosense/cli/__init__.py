@@ -31,6 +31,7 @@ SUBCOMMANDS = (
     "quantize",
     "flash",
     "verify",
+    "firmware",
     "config",
     "ports",
     "emulator",

@@ -29,7 +29,7 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--actuator", default="contractor", choices=("bending", "contractor", "3dof", "all"),
                    help="which actuator (default: contractor)")
     p.add_argument("--board", default="emulator", metavar="emulator|simboard|URL",
-                   help="the Python emulator (default), the firmware in simavr, or a serial URL of a real board "
+                   help="the emulator (default; the firmware core on this computer), the firmware in simavr, or a serial URL of a real board "
                         "(a real board gives no ground truth: the demo records and stops)")
     p.add_argument("--out", default="out/demo", help="report folder (default: out/demo)")
     p.add_argument("--rate", type=int, default=50, help="sample rate in Hz, 10..200 (default 50)")

@@ -1,4 +1,4 @@
-"""``porosense emulator``: serve the Python twin of the board in the foreground."""
+"""``porosense emulator``: serve the board without hardware (the firmware's core) in the foreground."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ def register(sub) -> argparse.ArgumentParser:
         "emulator",
         help="serve an emulated board (protocol over TCP or a pty)",
         description=(
-            "Run the Python emulator of the porosense board: the firmware's protocol (commands, "
-            "NAKs, model store, host-link watchdog, SAMPLE telemetry) over a simulated actuator "
-            "and the bit-exact fixed-point estimator. Clients connect with the printed pyserial "
+            "Run the porosense board without hardware: the firmware's own core (commands, NAKs, "
+            "model store, estimator, host-link watchdog, SAMPLE telemetry), compiled for this "
+            "computer, over a simulated actuator. Clients connect with the printed pyserial "
             "URL. By default the board's clock follows the samples the host reads (as fast as "
             "possible); --realtime paces it by the wall clock and sends at 115200 baud from a "
             "64-byte transmit buffer, dropping telemetry that does not fit, like the board. "

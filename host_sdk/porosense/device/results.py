@@ -42,7 +42,7 @@ class HelloInfo(_Dictable):
 
     @property
     def emulated(self) -> bool:
-        """True for the Python emulator."""
+        """True for the emulator (the firmware core on a host computer)."""
         return "EMULATED" in self.capabilities
 
     def __str__(self) -> str:

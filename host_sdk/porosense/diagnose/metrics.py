@@ -1,4 +1,4 @@
-"""Fit metrics of DESIGN.md (simulation fit, never one-step prediction)."""
+"""Fit metrics of docs/design.md (simulation fit, never one-step prediction)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The Emulator: a BoardCore served over TCP or a pty from a background thread.
+"""The Emulator: the firmware core (BoardCore) served over TCP or a pty from a background thread.
 
 Two timings:
 
@@ -21,9 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from porosense.emulator.core import BoardCore
+from porosense.emulator.board import BoardCore
 from porosense.emulator.endpoints import make_endpoint
 from porosense.emulator.faults import Faults, FaultyLink
+from porosense.emulator.version_claim import HelloRewrite
 
 # Real-time mode: the UART sends at BAUD (10 bits per byte) from a 64-byte transmit buffer;
 # a SAMPLE that does not fit in it is dropped, like on the board.
@@ -33,13 +34,6 @@ FAST_BATCH_BYTES = 1024
 MAX_CATCH_UP_S = 1.0
 WRAP_US = float(1 << 32)  # the device's microsecond clock wraps here
 IDLE_WAIT_S = 0.02
-
-
-def make_plant(actuator: str, porosity=None, load_g: float = 0.0, seed: int = 0, effects=None):
-    """The simulated actuator behind the emulated sensors (porosense.sim)."""
-    from porosense.sim import make_plant as sim_make_plant
-
-    return sim_make_plant(actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects)
 
 
 @dataclass
@@ -55,18 +49,20 @@ class EmulatorStats:
 
 
 class Emulator:
-    """The Python twin of the porosense board, reachable at ``.url``.
+    """The porosense board without hardware, reachable at ``.url``: the firmware's core
+    (firmware/lib/core, built for this computer) over the simulator plant.
 
         with Emulator(actuator="contractor") as emu:
             with Device.open(emu.url) as dev: ...
 
     ``listen``: "tcp://127.0.0.1:0" (a free port) or "pty". ``faults``: a Faults, or None.
-    ``proto_version``: the (major, minor) the board claims (tests of version refusal).
+    ``proto_version``: the (major, minor) the board claims (tests of version refusal: the
+    link rewrites the firmware's frames).
     ``truth_log``: remember the plant's ground truth at every sample (see :meth:`truth`).
     ``max_catch_up_s``: in real time, how far (device s) a late loop catches up before the
     missed ticks count as overruns.
     ``clock_offset_us``: the device clock's value at power-on. ``plant``: any object with the
-    porosense.sim plant interface instead of ``make_plant(actuator, ...)``.
+    porosense.sim plant interface instead of ``porosense.sim.make_plant(actuator, ...)``.
     """
 
     def __init__(
@@ -94,6 +90,8 @@ class Emulator:
         self.faults = faults or Faults()
         self.link = FaultyLink(self.faults)
         self.reset_on_connect = reset_on_connect
+        from porosense.sim import make_plant
+
         self._plant = plant if plant is not None else make_plant(
             actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects
         )
@@ -101,19 +99,17 @@ class Emulator:
         self._tokens = 0.0  # real time: bytes the UART may send now
         self._t_tokens_us = 0  # device time of that credit
         self._lock = threading.RLock()
-        self._requests: list = []
+        self._hello = HelloRewrite(version=tuple(proto_version) if proto_version else None)
         self.core = BoardCore(
             self._plant,
-            send=self._on_frame,
+            send=self._on_bytes,
             tx_room=self._tx_room,
             faults=self.faults,
-            proto_version=proto_version,
+            clock_offset_us=clock_offset_us,
         )
         self.max_catch_up_s = float(max_catch_up_s)
         if truth_log:
             self.core.truth_log = {}
-        # Start the device clock late (tests of the 32-bit microsecond wrap).
-        self.core.boot_T_us -= int(clock_offset_us)
         self.endpoint = make_endpoint(listen)
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
@@ -188,10 +184,7 @@ class Emulator:
     def disconnect(self, adc: bool | None = None, imu: bool | None = None) -> None:
         """Unplug (True) or replug (False) the ADC and/or the IMU while running."""
         with self._lock:
-            if adc is not None:
-                self.core.adc_present = not adc
-            if imu is not None:
-                self.core.imu_present = not imu
+            self.core.plug(adc=None if adc is None else not adc, imu=None if imu is None else not imu)
 
     def reset_now(self) -> None:
         """Cut the power of the board now (it reboots; nothing pending is answered)."""
@@ -208,8 +201,19 @@ class Emulator:
 
     # ------------------------------------------------------------------ machinery
 
-    def _on_frame(self, frame: bytes, sample_t_us: int | None) -> None:
-        self._out += self.link.board_to_host(frame, sample_t_us)
+    def _on_bytes(self, data: bytes, sample_t_us: int | None) -> None:
+        data = self._hello.rewrite(data)
+        if not (self.faults.tx_corrupt or self.faults.tx_drop):
+            self._out += self.link.board_to_host(data)
+            return
+        # Damage frame by frame so that the link knows which SAMPLE it destroyed: the bytes
+        # of a sample tick start with its SAMPLE frame.
+        start = 0
+        while start < len(data):
+            end = data.find(b"\x00", start)
+            end = len(data) if end < 0 else end + 1
+            self._out += self.link.board_to_host(data[start:end], sample_t_us if start == 0 else None)
+            start = end
 
     def _tx_room(self) -> int:
         if not self.realtime:
@@ -225,9 +229,6 @@ class Emulator:
             if n <= 0:
                 return
             del self._out[:n]
-
-    def _link_bytes_per_s(self) -> float:
-        return BAUD / 10.0 * self.speed
 
     def _flush_paced(self, upto_us: int | None = None) -> None:
         """Real time: hand bytes to the endpoint no faster than the UART sends them, counted
@@ -278,7 +279,7 @@ class Emulator:
             wfds = ep.write_fds() if self._out else []
             if self._out and self.realtime and self._tokens < 1.0:
                 wfds = []  # the UART is still shifting out earlier bytes
-                wait = min(wait, max(2e-4, (1.0 - self._tokens) / self._link_bytes_per_s()))
+                wait = min(wait, max(2e-4, (1.0 - self._tokens) / (BAUD / 10.0 * self.speed)))
             try:
                 ready_r, ready_w, _ = select.select(ep.read_fds(), wfds, [], wait)
             except (OSError, ValueError):
@@ -304,15 +305,14 @@ class Emulator:
 
     def _sample_due(self, core: BoardCore) -> None:
         """Real time: every tick up to now. A loop that fell behind (a busy host computer)
-        catches up with the right timestamps; beyond ``max_catch_up_s`` (device time) the ticks
-        are overruns."""
-        period_us = 1e6 / max(core.rate_hz, 1)
+        catches up with the right timestamps; beyond ``max_catch_up_s`` (device time) the
+        firmware sees the missed ticks at once and counts them as overruns."""
+        now = core.T_us
         due = core.next_tick_T_us()
-        while due is not None and due <= core.T_us:
-            late = core.T_us - due
-            if late > self.max_catch_up_s * 1e6:
-                core.skip_ticks(int(late // period_us))
-                due = core.next_tick_T_us()
-            self._flush_paced(upto_us=due)  # what the UART sent before this tick
-            core.sample()
+        while due is not None and due <= now:
+            if now - due > self.max_catch_up_s * 1e6:
+                core.sample(int(now - self.max_catch_up_s * 1e6))
+            else:
+                self._flush_paced(upto_us=due)  # what the UART sent before this tick
+                core.sample()
             due = core.next_tick_T_us()

@@ -1,4 +1,4 @@
-"""The paper's metrics (DESIGN.md), on simulation output, per recording and output.
+"""The paper's metrics (docs/design.md), on simulation output, per recording and output.
 
 fit   = 100 (1 - ||y - yhat|| / ||y - mean(y)||)            (NRMSE fit, %)
 RMS % = 100 / max(y) * sqrt(mean((y - yhat)^2))              (% of the output's maximum)

@@ -130,7 +130,7 @@ class Model:
         return Chain(self.spec, self.theta).simulate(x / self.u_scale) * self.y_std + self.y_mean
 
     def score(self, *, u, y, skip: int = 0) -> dict:
-        """Per recording fit % and RMS % (DESIGN.md metrics) of the output simulated from rest.
+        """Per recording fit % and RMS % (docs/design.md metrics) of the output simulated from rest.
 
         The first ``skip`` samples of each recording are simulated but not scored.
         """

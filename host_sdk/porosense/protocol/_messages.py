@@ -98,7 +98,7 @@ class Capability(enum.IntFlag):
     ESTIMATOR = 1 << 2  # Fixed-point estimator built in.
     PWM_OUT = 1 << 3  # Analogue (PWM) output of the estimate.
     LINE_MODE = 1 << 4  # Human-readable CSV line mode.
-    EMULATED = 1 << 7  # The Python emulator, not firmware.
+    EMULATED = 1 << 7  # The emulator: the firmware core on a host computer, not a board.
 
 
 class Channel(enum.IntFlag):

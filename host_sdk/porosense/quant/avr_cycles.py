@@ -1,7 +1,7 @@
-"""Measure Estimator::step in AVR cycles: build tests/quant/avr/cycles.cpp with avr-g++ -Os for
-the ATmega328P around a model blob and run it in simavr (Timer1 at the CPU clock). Also checks
-the AVR build (assembly included) bit for bit against the Python reference on many models
-(tests/quant/avr/vectors.cpp)."""
+"""Measure Estimator::step in AVR cycles: build the packaged program cycles.cpp
+(porosense/firmware/programs) with avr-g++ -Os for the ATmega328P around a model blob and run
+it in simavr (Timer1 at the CPU clock). Also checks the AVR build (assembly included) bit for
+bit against the Python reference on many models (vectors.cpp)."""
 
 from __future__ import annotations
 
@@ -18,10 +18,11 @@ import numpy as np
 from porosense.quant.blob import ModelBlob
 from porosense.quant.fixed import FixedPointEstimator
 
-ROOT = Path(__file__).resolve().parents[3]
-CORE = ROOT / "firmware" / "lib" / "core"
-PROGRAM = ROOT / "tests" / "quant" / "avr" / "cycles.cpp"
-VECTORS_PROGRAM = ROOT / "tests" / "quant" / "avr" / "vectors.cpp"
+from porosense.firmware.files import core_dir, programs_dir  # noqa: E402
+
+CORE = core_dir()
+PROGRAM = programs_dir() / "cycles.cpp"
+VECTORS_PROGRAM = programs_dir() / "vectors.cpp"
 CORE_SOURCES = ("estimator.cpp", "model_blob.cpp", "frame_codec.cpp")
 
 

@@ -9,7 +9,7 @@ import numpy as np
 
 
 def fit_percent(y, yhat) -> float:
-    """NRMSE fit (DESIGN.md): 100 (1 - ||y - yhat|| / ||y - mean(y)||), in percent."""
+    """NRMSE fit (docs/design.md): 100 (1 - ||y - yhat|| / ||y - mean(y)||), in percent."""
     y, yhat = np.asarray(y, dtype=float), np.asarray(yhat, dtype=float)
     den = np.linalg.norm(y - np.mean(y))
     if den == 0:

@@ -1,7 +1,7 @@
 """Parameters of the physical chain, one dataclass per stage, with units.
 
 Defaults are chosen so that the simulated contractors reproduce the paper's measurements
-(DESIGN.md, last section): strains of 15-35 % and dR of -75 to -95 % at -60 kPa for porosity
+(docs/design.md, last section): strains of 15-35 % and dR of -75 to -95 % at -60 kPa for porosity
 76-86 %, collapse between about -10 and -40 kPa, release overshoot above R0 that relaxes
 within a 10 s cycle. Every field is documented where it is used (pneumatics, foam, piezo,
 electronics, sensors modules).

@@ -7,7 +7,6 @@
 from __future__ import annotations
 
 import collections
-import os
 import select
 import shutil
 import subprocess
@@ -20,18 +19,18 @@ from pathlib import Path
 import numpy as np
 
 from porosense.errors import DeviceError
+from porosense.firmware.files import elf_path
+from porosense.firmware.files import harness_path as packaged_harness
 from porosense.simboard import link
 from porosense.simboard.plants import default_plant
 
-REPO_ROOT = Path(__file__).resolve().parents[3]
-DEFAULT_HARNESS = REPO_ROOT / "tools" / "simboard" / "build" / "simboard"
-DEFAULT_ELF = REPO_ROOT / "firmware" / "build" / "porosense.elf"
+DEFAULT_ELF = elf_path()
 _START_TIMEOUT_S = 10.0
 
 
 def harness_path() -> Path:
-    """The harness binary: $POROSENSE_SIMBOARD, else tools/simboard/build/simboard."""
-    return Path(os.environ.get("POROSENSE_SIMBOARD", DEFAULT_HARNESS))
+    """The harness binary: $POROSENSE_SIMBOARD, else the packaged one (porosense.firmware)."""
+    return packaged_harness()
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,5 @@
-"""The CSV line mode of the firmware (LINE_MODE), byte for byte: firmware/lib/core/standalone_out.cpp.
+"""Test oracle: the CSV line mode (LINE_MODE) written independently of the firmware's
+firmware/lib/core/standalone_out.cpp, which must produce these lines byte for byte.
 
 Columns: t_ms (device ms), dR of each streamed channel in % with 2 decimals (dr_centi exact),
 then each model output in its unit with 3 decimals: est * out_scale * 1000 computed in float32

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from porosense.quant import FixedPointEstimator, quantize
-from porosense.quant.blob import BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit
+from porosense.quant.blob import MAX_BLOB_LEN, BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit
 from porosense.quant.random_models import random_structure, step_inputs
 
 KINDS = ("linear", "hammerstein", "wiener", "wh")
@@ -84,7 +84,7 @@ def make_cases(seed: int, n_cases: int, n_samples: int):
     return cases
 
 
-def write_cases(path: Path, cases, max_len: int = 952) -> None:
+def write_cases(path: Path, cases, max_len: int = MAX_BLOB_LEN) -> None:
     with open(path, "w") as fh:
         fh.write(f"cases {len(cases)}\n")
         for data, u, est, flags in cases:

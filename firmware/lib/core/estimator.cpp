@@ -696,8 +696,8 @@ Estimator::Estimator()
 }
 
 bool Estimator::load(const BlobReader& blob, uint16_t length, uint16_t max_length) {
+  if (!blob::validate(blob, length, max_length)) return false;  // the current model stays
   unload();
-  if (!blob::validate(blob, length, max_length)) return false;
   blob::read_header(blob, length, &header_, max_length);
   blob_ = &blob;
   length_ = length;

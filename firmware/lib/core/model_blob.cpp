@@ -122,6 +122,12 @@ bool read_header(const BlobReader& r, uint16_t length, Header* out, uint16_t max
   if (ni < 1 || ni > kMaxInputs || no < 1 || no > kMaxOutputs || h[kOffReserved] != 0) return false;
   uint16_t len = uint16_t(h[kOffLength] | uint16_t(h[kOffLength + 1]) << 8);
   if (len != length) return false;
+  // Sample period and input scaling (compared as bits: no float code on the AVR).
+  uint32_t ts = uint32_t(h[kOffTsUs]) | uint32_t(h[kOffTsUs + 1]) << 8 | uint32_t(h[kOffTsUs + 2]) << 16 |
+                uint32_t(h[kOffTsUs + 3]) << 24;
+  uint32_t lsb = uint32_t(h[kOffInputLsb]) | uint32_t(h[kOffInputLsb + 1]) << 8 |
+                 uint32_t(h[kOffInputLsb + 2]) << 16 | uint32_t(h[kOffInputLsb + 3]) << 24;
+  if (ts == 0 || ts > layout::kMaxTsUs || lsb != layout::kInputLsbBits) return false;
   if (out) {
     out->format_version = h[kOffVersion];
     out->n_inputs = ni;

@@ -13,8 +13,10 @@ def register(sub) -> argparse.ArgumentParser:
         description=(
             "Quantize an identified model (porosense identify --save) for the on-device estimator: "
             "second-order sections, Q formats and scaling chosen automatically, written as the "
-            "model blob (at most 952 bytes: the 1 KB EEPROM's model region). Inputs are dR in %, "
-            "sent by the device in 0.01 % steps; estimates come back as int16 times out_scale "
+            "model blob (at most 944 bytes: the 1 KB EEPROM's model area). The device sends dR in "
+            "0.01 % steps; the model file says whether its inputs are dR in % or dR/100 (--input-unit "
+            "for files that do not), and the blob stores that scaling and the model's sample period. "
+            "Estimates come back as int16 times out_scale "
             "(output unit per LSB). --data recordings set the input range and give the fit of the "
             "fixed-point reference against the float model and the data in the report."
         ),
@@ -29,6 +31,8 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--input-range", nargs=2, type=float, metavar=("LO", "HI"),
                    help="input range in %% dR that must never overflow (default: data range + 25 %%, "
                         "or -100..100 without data)")
+    p.add_argument("--input-unit", choices=["%", "dR/100"],
+                   help="unit of the model's inputs when its file does not say (dR in %% or dR/100)")
     p.add_argument("--model-id", type=lambda v: int(v, 0), help="32-bit tag stored in the blob")
     p.add_argument("--json", action="store_true", help="print the quantization report as JSON")
     p.set_defaults(func=run)
@@ -40,9 +44,23 @@ def run(args) -> int:
     from porosense.ident import load_model
     from porosense.quant import c_header, quantize
 
+    import dataclasses
+
+    from porosense.errors import ModelError
+
     structure = load_model(args.model).to_structure()
+    if args.input_unit:
+        declared = {u for u in structure.input_units if u is not None}
+        if declared and declared != {args.input_unit}:
+            raise ModelError(f"{args.model} declares its inputs in {', '.join(sorted(declared))}, "
+                             f"not {args.input_unit}")
+        structure = dataclasses.replace(structure, input_units=(args.input_unit,) * len(structure.inputs))
     tables = [read_table(path) for path in args.data]
-    result = quantize(structure, recordings=tables, input_range=args.input_range, model_id=args.model_id)
+    # --input-range is in % of dR; the structure may work in dR/100.
+    per_percent = structure.input_lsb() / 0.01
+    input_range = None if args.input_range is None else [v * per_percent for v in args.input_range]
+    recs = [_scaled(t, structure, per_percent) for t in tables]
+    result = quantize(structure, recordings=recs, input_range=input_range, model_id=args.model_id)
     Path(args.out).write_bytes(result.to_bytes())
     if args.report:
         result.report.to_json(args.report)
@@ -60,3 +78,16 @@ def run(args) -> int:
     print(f"blob written to {args.out} ({result.blob.length} bytes, CRC 0x{result.blob.crc:04X}, "
           f"id 0x{result.blob.model_id:08X})")
     return 0
+
+
+def _scaled(table, structure, per_percent: float):
+    """A recording's columns with the model's inputs converted from dR in % to the model's unit."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    cols = dict(table.columns)
+    for name in structure.inputs:
+        if name in cols:
+            cols[name] = np.asarray(cols[name], dtype=float) * per_percent
+    return SimpleNamespace(columns=cols, meta=getattr(table, "meta", {}) or {}, path=getattr(table, "path", None))

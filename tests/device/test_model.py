@@ -201,3 +201,23 @@ def test_reset_during_a_write_leaves_the_old_model(dev, blob, blob3):
     assert info.valid and info.crc == old.crc
     assert nak(dev.command, m.ModelChunk(offset=2 * MODEL_CHUNK_BYTES, data=blob3[224:240])).code == Result.BAD_STATE
     assert dev.write_model(blob3).valid  # and a new write works
+
+
+@two_slot
+def test_write_model_replaces_only_when_asked_or_with_a_warning(dev, blob3):
+    """A second large model does not fit beside the first: replace=False refuses and keeps the
+    running model; the default erases first and warns; the CLI needs --replace."""
+    from models import make_blob
+
+    from porosense.errors import ModelError
+
+    other = make_blob(3, model_id=0x5EED0033, poles=0.85)
+    assert len(other) + len(blob3) > 944
+    old = dev.write_model(blob3)
+    with pytest.raises(ModelError, match="does not fit beside the running one"):
+        dev.write_model(other, replace=False)
+    info = dev.model_info()
+    assert info.valid and info.crc == old.crc
+    with pytest.warns(UserWarning, match="erasing it first"):
+        new = dev.write_model(other)
+    assert new.valid and new.crc == blob_crc(other)

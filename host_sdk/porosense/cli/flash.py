@@ -43,22 +43,9 @@ def run(args) -> int:
         raise InputError(f"model blob {path} not found")
     data = path.read_bytes()
     blob = ModelBlob.from_bytes(data)  # refuse a bad file before touching the device
-    from porosense.device import NakError
-    from porosense.errors import ModelError
-    from porosense.protocol import Result
-
     with Device.open(args.port) as dev:
         rate = dev.check_model_rate(data, set_rate=args.set_rate)
-        try:
-            info = dev.write_model(data)
-        except NakError as exc:
-            if exc.code != Result.TOO_LARGE:
-                raise
-            if not args.replace:
-                raise ModelError(f"the model ({len(data)} bytes) does not fit beside the running one ({exc.detail} "
-                                 "bytes too many): flash with --replace to erase the running model first") from None
-            dev.erase_model()
-            info = dev.write_model(data)
+        info = dev.write_model(data, replace=None if args.replace else False)
     if args.json:
         import json
 

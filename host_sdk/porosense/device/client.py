@@ -267,13 +267,19 @@ class Device:
         samples = list(self.samples(n, timeout_s=timeout_s))
         return SampleBlock.from_samples(samples, lost=self.stats.samples_lost - lost0)
 
-    def write_model(self, blob: bytes, *, validate: bool = True, format_version: int | None = None) -> ModelInfo:
+    def write_model(self, blob: bytes, *, replace: bool | None = None, validate: bool = True,
+                    format_version: int | None = None) -> ModelInfo:
         """MODEL_BEGIN, MODEL_CHUNKs of 112 bytes, MODEL_COMMIT, then MODEL_INFO; checks the CRC.
 
         The blob is checked first exactly as the firmware checks it (porosense.quant.ModelBlob:
         format, CRC, structure, size): a bad blob raises ModelError before anything is sent.
         The device writes it beside the running model, which keeps running until the new one is
-        whole and checked. ``validate=False`` sends it as it is (to test the device's own checks)."""
+        whole and checked. Two models share the EEPROM's 944-byte model area; when the new one
+        does not fit beside the running one, ``replace`` decides: False raises ModelError, True
+        erases the running model first (the board has none until the write completes), None (the
+        default) does the same with a warning. ``validate=False`` sends the blob as it is (to test
+        the device's own checks)."""
+        from porosense.errors import ModelError
         from porosense.quant.blob import ModelBlob, blob_crc
 
         blob = bytes(blob)
@@ -282,7 +288,23 @@ class Device:
         if format_version is None:
             format_version = blob[2] if len(blob) >= 3 else 0
         crc = blob_crc(blob)
-        self._exchange(m.ModelBegin(length=len(blob), crc=crc, format_version=format_version))
+        if replace:
+            self.erase_model()
+        try:
+            self._exchange(m.ModelBegin(length=len(blob), crc=crc, format_version=format_version))
+        except NakError as exc:
+            if exc.code != Result.TOO_LARGE or replace or not self.model_info().valid:
+                raise
+            if replace is False:
+                raise ModelError(f"the model ({len(blob)} bytes) does not fit beside the running one "
+                                 f"({exc.detail} bytes too many); replace it (flash --replace) to erase it "
+                                 "first") from None
+            import warnings
+
+            warnings.warn(f"the model ({len(blob)} bytes) does not fit beside the running one: erasing it "
+                          "first (no model on the board until the write completes)", stacklevel=2)
+            self.erase_model()
+            self._exchange(m.ModelBegin(length=len(blob), crc=crc, format_version=format_version))
         for offset in range(0, len(blob), MODEL_CHUNK_BYTES):
             self._exchange(m.ModelChunk(offset=offset, data=blob[offset : offset + MODEL_CHUNK_BYTES]))
         self._exchange(m.ModelCommit())

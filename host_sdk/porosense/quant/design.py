@@ -29,7 +29,7 @@ from scipy import signal
 
 from porosense.errors import ModelError
 from porosense.quant.blob import (
-    MAX_BLOB_LEN, STATE_FRAC, BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit, pwl_len,
+    CRC_LEN, HEADER_LEN, MAX_BLOB_LEN, STATE_FRAC, BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit, pwl_len,
 )
 from porosense.structure import EstimatorStructure, PiecewiseLinear
 
@@ -351,7 +351,7 @@ def design_blob(structure: EstimatorStructure, input_range: list[tuple[float, fl
 def blob_size(structure: EstimatorStructure, *, h1_sections: int | None = None, h2_sections: int | None = None,
               breakpoints: int | None = None, section_bytes: float = 14.0) -> int:
     """Bytes of the blob of ``structure`` with its blocks capped at the given orders."""
-    size = 24 + 2
+    size = HEADER_LEN + CRC_LEN
     for out in structure.outputs:
         size += 4
         for br in out.branches:

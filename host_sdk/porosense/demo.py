@@ -202,7 +202,7 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
         from porosense.quant.design import blob_size
 
         share = (MAX_BLOB_LEN - 26) // len(outputs) + 26
-        size_fn = partial(blob_size, section_bytes=20.0)
+        size_fn = partial(blob_size, section_bytes=20.0, compact=len(outputs) > 1)
         for j, name in enumerate(outputs):
             u, y = _io(recs, actuator, est_names, j)
             vu, vy = _io(recs, actuator, val_names, j)

@@ -41,9 +41,11 @@ uint32_t mag(int32_t v) { return v < 0 ? uint32_t(0) - uint32_t(v) : uint32_t(v)
 // Walks one PWL table at *off; false if it is malformed or would run past `end`.
 bool check_pwl(const BlobReader& r, uint16_t* off, uint16_t end) {
   if (uint16_t(*off + 1) > end) return false;
-  uint8_t n = rd8(r, *off);
+  const uint8_t count = rd8(r, *off);
+  const bool compact = count & layout::kTableCompact;
+  const uint8_t n = count & uint8_t(~layout::kTableCompact);
   if (n < 2 || n > kMaxBreakpoints) return false;
-  uint16_t len = pwl_len(n);
+  uint16_t len = pwl_len(count);
   if (uint32_t(*off) + len > end) return false;
   int16_t prev = rd16(r, uint16_t(*off + 1));
   for (uint8_t k = 1; k < n; ++k) {
@@ -52,7 +54,7 @@ bool check_pwl(const BlobReader& r, uint16_t* off, uint16_t end) {
     prev = x;
   }
   uint16_t seg = uint16_t(*off + 1 + 4 * n);
-  for (uint8_t k = 0; k + 1 < n; ++k) {
+  for (uint8_t k = 0; !compact && k + 1 < n; ++k) {
     if (rd8(r, uint16_t(seg + 3 * k + 2)) > 30) return false;
   }
   *off = uint16_t(*off + len);

@@ -67,7 +67,11 @@ constexpr int32_t kStateMax = (int32_t(1) << 28) - 1;
 constexpr int32_t kStateMin = -(int32_t(1) << 28);
 constexpr uint8_t kStateFrac = 13;
 
-inline uint16_t pwl_len(uint8_t n) { return uint16_t(1 + 4 * n + 3 * (n - 1)); }
+// Bytes of a table from its count byte: n breakpoints (bits 0-6), compact when bit 7 is set.
+inline uint16_t pwl_len(uint8_t count) {
+  const uint8_t n = count & uint8_t(~layout::kTableCompact);
+  return (count & layout::kTableCompact) ? uint16_t(1 + 4 * n) : uint16_t(1 + 4 * n + 3 * (n - 1));
+}
 
 struct Header {
   uint8_t format_version;

@@ -47,6 +47,7 @@ constexpr uint8_t kOutHasH2 = 0x02;
 constexpr uint8_t kBranchHasF = 0x01;
 constexpr uint8_t kSecWide = 0x01;
 constexpr uint8_t kSecDelta = 0x02;
+constexpr uint8_t kTableCompact = 0x80;
 // Limits of the structure.
 constexpr uint8_t kMaxInputs = 3;
 constexpr uint8_t kMaxOutputs = 3;

@@ -50,6 +50,7 @@ from porosense.quant.layout import (  # noqa: F401  (re-exported: the blob's con
     SEC_WIDE,
     SECTION_FIXED_FORMAT,
     SLOT_HEADER_LEN as STORE_HEADER_LEN,
+    TABLE_COMPACT,
     STORE_REGION as EEPROM_MODEL_REGION,
 )
 
@@ -74,9 +75,9 @@ def numerator_limit(wide: bool, sb: int) -> int:
 
 
 
-def pwl_len(n: int) -> int:
-    """Bytes of a table with n breakpoints."""
-    return 1 + 4 * n + 3 * (n - 1)
+def pwl_len(n: int, compact: bool = False) -> int:
+    """Bytes of a table with n breakpoints (compact: x and y only)."""
+    return 1 + 4 * n + (0 if compact else 3 * (n - 1))
 
 
 def section_len(wide: bool) -> int:
@@ -86,16 +87,21 @@ def section_len(wide: bool) -> int:
 
 @dataclass(frozen=True)
 class PwlQ:
-    """Piecewise-linear table in integers: y = y[k] + round((x - x[k]) * slope[k] / 2^shift[k])."""
+    """Piecewise-linear table in integers: y = y[k] + round((x - x[k]) * slope[k] / 2^shift[k]).
+
+    A compact table (``compact``, no slope or shift stored) interpolates between its integer
+    breakpoints instead: y = y[k] + sign * floor((|x - x[k]| |y[k+1] - y[k]| + floor(d / 2)) / d)
+    with d = x[k+1] - x[k] and the sign of the product (one division per lookup on the board)."""
 
     x: tuple[int, ...]
     y: tuple[int, ...]
-    slope: tuple[int, ...]
-    shift: tuple[int, ...]
+    slope: tuple[int, ...] = ()
+    shift: tuple[int, ...] = ()
+    compact: bool = False
 
     @property
     def nbytes(self) -> int:
-        return pwl_len(len(self.x))
+        return pwl_len(len(self.x), self.compact)
 
 
 @dataclass(frozen=True)
@@ -302,7 +308,9 @@ class ModelBlob:
 
 def _pack_pwl(p: PwlQ) -> bytes:
     n = len(p.x)
-    out = struct.pack(f"<B{n}h{n}h", n, *p.x, *p.y)
+    out = struct.pack(f"<B{n}h{n}h", n | (TABLE_COMPACT if p.compact else 0), *p.x, *p.y)
+    if p.compact:
+        return out
     return out + b"".join(struct.pack("<hB", m, s) for m, s in zip(p.slope, p.shift))
 
 
@@ -325,15 +333,16 @@ class _Reader:
 
 
 def _read_pwl(r: _Reader) -> PwlQ:
-    (n,) = r.unpack("<B")
+    (count,) = r.unpack("<B")
+    compact, n = bool(count & TABLE_COMPACT), count & ~TABLE_COMPACT & 0xFF
     if not 2 <= n <= MAX_BREAKPOINTS:
         raise ModelError(f"model blob: table with {n} breakpoints (2..{MAX_BREAKPOINTS})")
     xs = r.unpack(f"<{n}h")
     ys = r.unpack(f"<{n}h")
-    segs = [r.unpack("<hB") for _ in range(n - 1)]
+    segs = [] if compact else [r.unpack("<hB") for _ in range(n - 1)]
     if any(b <= a for a, b in zip(xs, xs[1:])) or any(s > 30 for _, s in segs):
         raise ModelError("model blob: table breakpoints not increasing or shift above 30")
-    return PwlQ(tuple(xs), tuple(ys), tuple(m for m, _ in segs), tuple(s for _, s in segs))
+    return PwlQ(tuple(xs), tuple(ys), tuple(m for m, _ in segs), tuple(s for _, s in segs), compact)
 
 
 def _read_cascade(r: _Reader, n: int) -> tuple[SectionQ, ...]:

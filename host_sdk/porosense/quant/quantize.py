@@ -10,7 +10,7 @@ import numpy as np
 
 from porosense.errors import InputError, ModelError
 from porosense.quant.blob import MAX_BLOB_LEN, ModelBlob
-from porosense.quant.design import DEFAULT_INPUT_LSB, FULL_SCALE, check_size, design_blob
+from porosense.quant.design import DEFAULT_INPUT_LSB, FULL_SCALE, check_size, compact_tables, design_blob
 from porosense.quant.fixed import FixedPointEstimator
 from porosense.quant.report import QuantReport, RecordingFit, fit_percent
 from porosense.structure import EstimatorStructure
@@ -69,6 +69,12 @@ def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None
     notes: list[str] = []
     blob, nodes = design_blob(structure, ranges, lsb, 0, notes)
     blob = dataclasses.replace(blob, ts_us=ts_us)
+    if blob.length > MAX_BLOB_LEN:  # too large with full tables: try compact ones
+        small = compact_tables(blob)
+        if small.length < blob.length:
+            notes.append(f"compact tables: {blob.length} bytes with full tables, {small.length} compact (the board "
+                         "computes each lookup's slope from the two breakpoints, one division)")
+            blob = small
     mid = model_id if model_id is not None else zlib.crc32(blob.to_bytes()) & 0xFFFFFFFF
     blob = dataclasses.replace(blob, model_id=mid & 0xFFFFFFFF)
     check_size(blob, structure)

@@ -70,13 +70,14 @@ def run(args) -> int:
         import json
 
         print(json.dumps({"out": str(args.out), "bytes": result.blob.length, "crc": result.blob.crc,
+                          "ts_us": result.blob.ts_us, "input_lsb_percent": result.blob.input_lsb,
                           "model_id": result.blob.model_id, "report": result.report.to_dict()}, indent=2,
                          default=float))
         return 0
     for line in result.report.lines():
         print(line)
     print(f"blob written to {args.out} ({result.blob.length} bytes, CRC 0x{result.blob.crc:04X}, "
-          f"id 0x{result.blob.model_id:08X})")
+          f"id 0x{result.blob.model_id:08X}, {result.blob.rate_hz:g} Hz)")
     return 0
 
 

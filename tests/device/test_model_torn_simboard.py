@@ -94,3 +94,28 @@ def test_power_loss_at_write_k_keeps_the_old_model(simboard_cls, start_image, tm
                 outcomes["new" if is_new else "old"] += 1
     print(f"torn writes at {len(_positions(total))} of {total} positions on the simboard: {outcomes}")
     assert outcomes == {"old": len(_positions(total)) - 2, "new": 2}
+
+
+def test_paper_wh_set_flashes_and_replays_bit_exact(simboard_cls, tmp_path):
+    """The paper's 3-DoF estimator (three 3-input WH models, 2 poles per block, 10 breakpoints;
+    compact tables) on the real firmware: stored, then replayed bit for bit, and a second write
+    of another model beside it is refused for room while the set keeps running."""
+    from porosense.errors import ModelError
+    from porosense.quant import quantize
+    from porosense.quant.random_models import random_structure
+
+    s = random_structure(np.random.default_rng(0), 3, 3, h1_poles=2, h2_poles=2, breakpoints=10, kind="wh")
+    paper = quantize(s).blob.to_bytes()
+    assert len(paper) <= 944
+    x = np.clip(np.cumsum(np.random.default_rng(6).normal(0, 300, (200, 3)), axis=0), -9000, 4000).astype(np.int16)
+    with simboard_cls(elf=str(ELF), eeprom=tmp_path / "ee.bin") as board:
+        with Device.open(board.url, timeout_scale=5.0) as dev:
+            info = dev.write_model(paper)
+            assert info.valid and info.n_outputs == 3 and info.length == len(paper)
+            assert np.array_equal(dev.replay(x), reference_run(paper, x))
+            with pytest.raises(ModelError, match="does not fit beside"):
+                dev.write_model(make_blob(3), replace=False)
+            assert dev.model_info().crc == blob_crc(paper)
+            dev.reset()
+            assert dev.model_info().crc == blob_crc(paper)
+            assert np.array_equal(dev.replay(x), reference_run(paper, x))

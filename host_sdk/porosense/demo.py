@@ -202,7 +202,7 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
         from porosense.quant.design import blob_size
 
         share = (MAX_BLOB_LEN - 26) // len(outputs) + 26
-        size_fn = partial(blob_size, section_bytes=20.0)
+        size_fn = partial(blob_size, section_bytes=20.0, compact=len(outputs) > 1)
         for j, name in enumerate(outputs):
             u, y = _io(recs, actuator, est_names, j)
             vu, vy = _io(recs, actuator, val_names, j)
@@ -218,7 +218,7 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
         # One MISO chain per output in a single on-device structure.
         chains = [s.model.to_structure() for s in searches]
         structure = EstimatorStructure(tuple(inputs), tuple(o for c in chains for o in c.outputs), 1.0 / rate_hz,
-                                       meta={"input_lsb": 1e-4, "actuator": actuator})
+                                       meta={"actuator": actuator}, input_units=("dR/100",) * len(inputs))
         qrecs = [(n, np.column_stack([recs[n][c] / 100.0 for c in inputs]),
                   np.column_stack([recs[n][o] for o in outputs])) for n in val_names]
         q = quantize(structure, recordings=qrecs)

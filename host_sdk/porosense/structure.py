@@ -168,14 +168,48 @@ class OutputChain:
         return "wh"
 
 
+# Units a model's dR inputs may be given in: structure input units per % of dR.
+INPUT_UNITS = {"%": 1.0, "dR/100": 0.01}
+DEVICE_LSB_PERCENT = 0.01  # the device sends dR in 0.01 % steps
+
+
+def input_unit_scale(unit: str) -> float:
+    """Structure input units per % of dR for a unit name ("%" or "dR/100")."""
+    if unit not in INPUT_UNITS:
+        raise ModelError(f"unknown input unit {unit!r}; choose from {', '.join(INPUT_UNITS)}")
+    return INPUT_UNITS[unit]
+
+
 @dataclass(frozen=True)
 class EstimatorStructure:
-    """A whole MISO-per-output estimator; ``ts`` is the sample period in seconds."""
+    """A whole MISO-per-output estimator; ``ts`` is the sample period in seconds.
+
+    ``input_units``: per input, "%" (dR in %) or "dR/100" (dR as a fraction), or None when the
+    model did not declare it (then read as %); ``output_units``: free text per output.
+    ``input_peak``: per input, the largest |input| seen in identification (structure units;
+    empty when unknown): the quantizer uses it to catch a fraction model declared as %.
+    """
 
     inputs: tuple[str, ...]
     outputs: tuple[OutputChain, ...]
     ts: float
     meta: dict = field(default_factory=dict)
+    input_units: tuple = ()
+    output_units: tuple = ()
+    input_peak: tuple = ()
+
+    def input_unit(self, i: int) -> str | None:
+        """The declared unit of input ``i`` (None when undeclared)."""
+        return self.input_units[i] if i < len(self.input_units) else None
+
+    def input_lsb(self) -> float:
+        """The device's input step (0.01 % of dR) in structure input units.
+
+        Raises ModelError when the inputs have different units (the blob has one input scaling)."""
+        scales = {input_unit_scale(self.input_unit(i) or "%") for i in range(len(self.inputs))}
+        if len(scales) != 1:
+            raise ModelError("the model's inputs have different units; the device takes one scaling for all")
+        return DEVICE_LSB_PERCENT * scales.pop()
 
     def simulate(self, u) -> np.ndarray:
         """Simulate from rest; ``u`` has shape (N, n_inputs) (or (N,) for one input).

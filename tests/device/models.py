@@ -9,7 +9,7 @@ from porosense.quant import FixedPointEstimator, ModelBlob, quantize
 from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade
 
 INPUT_RANGE = (-1.0, 0.5)  # dR as a fraction (-100 % .. +50 %)
-INPUT_LSB = 1e-4  # 0.01 % in fractions
+INPUT_LSB = 1e-4  # 0.01 % in fractions: the structure's inputs are dR/100
 
 
 def wh_structure(n_outputs: int = 1, poles: float = 0.9) -> EstimatorStructure:
@@ -23,13 +23,13 @@ def wh_structure(n_outputs: int = 1, poles: float = 0.9) -> EstimatorStructure:
         branches = tuple(Branch(input=i, h1=h1, f=f) for i in range(min(n_outputs, 3)))
         outputs.append(OutputChain(name=f"strain_{j}", branches=branches, g=g, h2=h2))
     inputs = tuple(f"dR_{i}" for i in range(min(n_outputs, 3)))
-    return EstimatorStructure(inputs=inputs, outputs=tuple(outputs), ts=0.01)
+    return EstimatorStructure(inputs=inputs, outputs=tuple(outputs), ts=0.01, input_units=("dR/100",) * len(inputs))
 
 
 def make_blob(n_outputs: int = 1, model_id: int = 0x5EED0001, poles: float = 0.9) -> bytes:
     """Blob bytes of :func:`wh_structure` quantized by porosense.quant."""
     structure = wh_structure(n_outputs, poles)
-    result = quantize(structure, input_range=INPUT_RANGE, input_lsb=INPUT_LSB, model_id=model_id)
+    result = quantize(structure, input_range=INPUT_RANGE, model_id=model_id)
     return result.blob.to_bytes()
 
 

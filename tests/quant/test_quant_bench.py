@@ -3,6 +3,7 @@
 import pytest
 
 from porosense.bench import quant as bench
+from porosense.quant.blob import MAX_BLOB_LEN
 
 pytestmark = pytest.mark.bench
 
@@ -16,7 +17,7 @@ def test_fit_and_size_figures(figures):
     assert figures["max_fit_loss_points"] <= 0.5
     assert figures["saturated_samples"] == 0
     assert "bytes too large" in figures["worst_case_refusal"]
-    assert figures["largest_fitting_3dof"]["blob_bytes"] <= 952
+    assert figures["largest_fitting_3dof"]["blob_bytes"] <= MAX_BLOB_LEN
     assert figures["summary"] and all(isinstance(line, str) for line in figures["summary"])
 
 

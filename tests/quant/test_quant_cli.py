@@ -7,6 +7,7 @@ import pytest
 
 from porosense.cli import main
 from porosense.quant import ModelBlob
+from porosense.quant.blob import MAX_BLOB_LEN
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +31,7 @@ def test_quantize_writes_blob_report_and_header(model_file, capsys):
     assert rc == 0
     blob = ModelBlob.from_bytes((d / "m.bin").read_bytes())
     rep = json.loads((d / "r.json").read_text())
-    assert rep["blob_bytes"] == blob.length <= 952
+    assert rep["blob_bytes"] == blob.length <= MAX_BLOB_LEN
     assert abs(rep["fits"][0]["loss_points"]) <= 0.5 and rep["saturated_samples"] == 0
     assert f"M_LEN {blob.length}" in (d / "m.h").read_text()
     assert "blob written" in capsys.readouterr().out

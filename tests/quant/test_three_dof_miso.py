@@ -1,4 +1,4 @@
-"""A 3-DoF MISO model as the demo identifies it (inputs dR/100, input_lsb 1e-4): the fixed-point
+"""A 3-DoF MISO model as the demo identifies it (inputs dR/100, declared in the structure): the fixed-point
 estimate on the device's own inputs stays within 0.5 fit points of the float model on the same
 inputs, and the report measures exactly what the device computes, noise included."""
 
@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from porosense.quant import FixedPointEstimator, fit_percent, quantize
+from porosense.quant.blob import MAX_BLOB_LEN
 from porosense.quant.quantize import device_inputs
 from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade
 
@@ -53,7 +54,7 @@ def three_dof_structure() -> EstimatorStructure:
         g=_pwl([0.1559, 0.3436, 0.4748, 0.5758, 0.7565, 1.0185, 1.4436, 1.8725, 2.1904, 2.9162],
                [-0.0025, -0.0091, 0.0077, 0.1619, 0.4813, 0.9552, 1.7138, 2.47, 3.0171, 4.2927]),
         h2=_sos([10.3482, -9.6187, 0, 1, -0.4457, 0]), offset=0.0162)
-    return EstimatorStructure(("dR_0", "dR_1", "dR_2"), (theta_x, theta_y, dz), 0.02, meta={"input_lsb": LSB})
+    return EstimatorStructure(("dR_0", "dR_1", "dR_2"), (theta_x, theta_y, dz), 0.02, input_units=("dR/100",) * 3)
 
 
 def sequential_inputs(n_seg: int = 400) -> np.ndarray:
@@ -84,7 +85,7 @@ def case():
 def test_fixed_point_loses_at_most_half_a_point_on_device_inputs(case):
     s, _, measured, y = case
     r = quantize(s, recordings=[("sequential", measured, y)])
-    assert r.blob.length <= 952
+    assert r.blob.length <= MAX_BLOB_LEN
     assert len(r.report.fits) == 3
     for f in r.report.fits:
         assert abs(f.loss_points) <= LOSS_BOUND, str(r.report)

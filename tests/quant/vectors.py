@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from porosense.quant import FixedPointEstimator, quantize
-from porosense.quant.blob import BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit
+from porosense.quant.blob import MAX_BLOB_LEN, BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit
+from porosense.quant.design import compact_tables
 from porosense.quant.random_models import random_structure, step_inputs
 
 KINDS = ("linear", "hammerstein", "wiener", "wh")
@@ -33,7 +34,10 @@ def random_section(rng: np.random.Generator) -> SectionQ:
 def random_table(rng: np.random.Generator) -> PwlQ:
     n = int(rng.integers(2, 17))
     x = np.sort(rng.choice(np.arange(-32768, 32768), n, replace=False))
-    return PwlQ(tuple(int(v) for v in x), tuple(int(v) for v in rng.integers(-32768, 32768, n)),
+    y = tuple(int(v) for v in rng.integers(-32768, 32768, n))
+    if rng.random() < 0.5:  # compact: the slope of each segment from its breakpoints
+        return PwlQ(tuple(int(v) for v in x), y, compact=True)
+    return PwlQ(tuple(int(v) for v in x), y,
                 tuple(int(v) for v in rng.integers(-32768, 32768, n - 1)),
                 tuple(int(v) for v in rng.integers(0, 31, n - 1)))
 
@@ -71,6 +75,8 @@ def make_cases(seed: int, n_cases: int, n_samples: int):
     cases = []
     for i in range(n_cases):
         blob = fuzz_blob(rng) if i % 3 == 2 else designed_blob(rng, i)
+        if i % 3 == 1:
+            blob = compact_tables(blob)  # the quantizer's own tables in the compact encoding
         if i % 3 == 2:
             u = rng.integers(-32768, 32768, (n_samples, 3))
         else:
@@ -84,7 +90,7 @@ def make_cases(seed: int, n_cases: int, n_samples: int):
     return cases
 
 
-def write_cases(path: Path, cases, max_len: int = 952) -> None:
+def write_cases(path: Path, cases, max_len: int = MAX_BLOB_LEN) -> None:
     with open(path, "w") as fh:
         fh.write(f"cases {len(cases)}\n")
         for data, u, est, flags in cases:

@@ -696,8 +696,8 @@ Estimator::Estimator()
 }
 
 bool Estimator::load(const BlobReader& blob, uint16_t length, uint16_t max_length) {
+  if (!blob::validate(blob, length, max_length)) return false;  // the current model stays
   unload();
-  if (!blob::validate(blob, length, max_length)) return false;
   blob::read_header(blob, length, &header_, max_length);
   blob_ = &blob;
   length_ = length;
@@ -721,10 +721,28 @@ void Estimator::reset() {
   head_ = 0;
 }
 
-// Table with n breakpoints; off_ is at x[0] (after the count byte) and moves past the table.
-int16_t Estimator::pwl(uint8_t n, int16_t x) {
+// A compact table's segment: y[k] + (x - x[k]) (y[k+1] - y[k]) / (x[k+1] - x[k]), the quotient
+// of the magnitudes rounded half up and given the product's sign; saturated. |x - x[k]| and
+// |y[k+1] - y[k]| are below 2^16, so the product fits a uint32.
+// c: x[k+1], y[k], y[k+1] as read from the blob. Magnitudes in 16 bits (|x - x[k]| and
+// |y[k+1] - y[k]| are below 2^16: unsigned differences of int16 values), one 16x16 product.
+static int16_t interpolate_compact(int16_t x, int16_t xk, int16_t yk, const uint8_t* c, uint8_t* flags) {
+  const int16_t yk1 = le16(c + 4);
+  const uint16_t span = uint16_t(uint16_t(le16(c)) - uint16_t(xk));  // x[k+1] - x[k] > 0
+  const bool left = x < xk, down = yk1 < yk;
+  const uint16_t adx = left ? uint16_t(uint16_t(xk) - uint16_t(x)) : uint16_t(uint16_t(x) - uint16_t(xk));
+  const uint16_t ady = down ? uint16_t(uint16_t(yk) - uint16_t(yk1)) : uint16_t(uint16_t(yk1) - uint16_t(yk));
+  uint32_t q = (uint32_t(adx) * ady + (span >> 1)) / span;
+  if (q > 0x10000UL) q = 0x10000UL;  // saturates either way; keeps the sum in int32
+  return sat16(int32_t(yk) + (left != down ? -int32_t(q) : int32_t(q)), flags);
+}
+
+// Table with count byte `count` (n breakpoints, bit 7 compact); off_ is at x[0] (after the
+// count byte) and moves past the table.
+int16_t Estimator::pwl(uint8_t count, int16_t x) {
   const uint16_t xs = off_;
-  off_ = uint16_t(xs + blob::pwl_len(n) - 1);
+  const uint8_t n = count & uint8_t(~layout::kTableCompact);
+  off_ = uint16_t(xs + blob::pwl_len(count) - 1);
   // Segment k: the last breakpoint <= x among 0..n-2 (segment 0 also left of x[0]), found
   // with steps of 8, 4, 2, 1 (at most 4 reads for 16 breakpoints); the search keeps the x[k]
   // it read, so only x[0] may need a read of its own.
@@ -740,6 +758,12 @@ int16_t Estimator::pwl(uint8_t n, int16_t x) {
     if (xt <= x) { k = t; xk = xt; }
   }
   if (k == 0) { blob_->read(xs, b, 2); xk = le16(b); }
+  if (count & layout::kTableCompact) {
+    uint8_t c[6];
+    blob_->read(uint16_t(xs + 2 * k + 2), c, 2);          // x[k+1]
+    blob_->read(uint16_t(xs + 2 * n + 2 * k), c + 2, 4);  // y[k], y[k+1]
+    return interpolate_compact(x, xk, le16(c + 2), c, &flags_);
+  }
   blob_->read(uint16_t(xs + 2 * n + 2 * k), b, 2);
   const int16_t yk = le16(b);
   blob_->read(uint16_t(xs + 4 * n + 3 * k), b, 3);

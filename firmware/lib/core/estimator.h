@@ -17,7 +17,7 @@ class Estimator {
  public:
   Estimator();
   // Validates format, CRC and limits; on success keeps `blob` (it must outlive the
-  // estimator) and resets the state. False -> the estimator is off (estimates are zero).
+  // estimator) and resets the state. False -> nothing changes (a running model keeps running).
   // max_length defaults to the EEPROM model region; larger only for RAM/flash blobs.
   bool load(const BlobReader& blob, uint16_t length, uint16_t max_length = blob::kMaxLength);
   void unload();

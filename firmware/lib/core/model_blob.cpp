@@ -41,9 +41,11 @@ uint32_t mag(int32_t v) { return v < 0 ? uint32_t(0) - uint32_t(v) : uint32_t(v)
 // Walks one PWL table at *off; false if it is malformed or would run past `end`.
 bool check_pwl(const BlobReader& r, uint16_t* off, uint16_t end) {
   if (uint16_t(*off + 1) > end) return false;
-  uint8_t n = rd8(r, *off);
+  const uint8_t count = rd8(r, *off);
+  const bool compact = count & layout::kTableCompact;
+  const uint8_t n = count & uint8_t(~layout::kTableCompact);
   if (n < 2 || n > kMaxBreakpoints) return false;
-  uint16_t len = pwl_len(n);
+  uint16_t len = pwl_len(count);
   if (uint32_t(*off) + len > end) return false;
   int16_t prev = rd16(r, uint16_t(*off + 1));
   for (uint8_t k = 1; k < n; ++k) {
@@ -52,7 +54,7 @@ bool check_pwl(const BlobReader& r, uint16_t* off, uint16_t end) {
     prev = x;
   }
   uint16_t seg = uint16_t(*off + 1 + 4 * n);
-  for (uint8_t k = 0; k + 1 < n; ++k) {
+  for (uint8_t k = 0; !compact && k + 1 < n; ++k) {
     if (rd8(r, uint16_t(seg + 3 * k + 2)) > 30) return false;
   }
   *off = uint16_t(*off + len);
@@ -122,6 +124,12 @@ bool read_header(const BlobReader& r, uint16_t length, Header* out, uint16_t max
   if (ni < 1 || ni > kMaxInputs || no < 1 || no > kMaxOutputs || h[kOffReserved] != 0) return false;
   uint16_t len = uint16_t(h[kOffLength] | uint16_t(h[kOffLength + 1]) << 8);
   if (len != length) return false;
+  // Sample period and input scaling (compared as bits: no float code on the AVR).
+  uint32_t ts = uint32_t(h[kOffTsUs]) | uint32_t(h[kOffTsUs + 1]) << 8 | uint32_t(h[kOffTsUs + 2]) << 16 |
+                uint32_t(h[kOffTsUs + 3]) << 24;
+  uint32_t lsb = uint32_t(h[kOffInputLsb]) | uint32_t(h[kOffInputLsb + 1]) << 8 |
+                 uint32_t(h[kOffInputLsb + 2]) << 16 | uint32_t(h[kOffInputLsb + 3]) << 24;
+  if (ts == 0 || ts > layout::kMaxTsUs || lsb != layout::kInputLsbBits) return false;
   if (out) {
     out->format_version = h[kOffVersion];
     out->n_inputs = ni;

@@ -5,6 +5,8 @@
 #pragma once
 #include <stdint.h>
 
+#include "model_layout.h"
+
 namespace est {
 
 // Where the estimator reads its coefficients: RAM on the host, EEPROM on the Uno.
@@ -26,41 +28,50 @@ class RamBlobReader : public BlobReader {
 
 namespace blob {
 
-constexpr uint8_t kMagic0 = 0x50;  // 'P'
-constexpr uint8_t kMagic1 = 0x57;  // 'W'
-constexpr uint8_t kFormatVersion = 1;
-constexpr uint8_t kHeaderLen = 24;
-constexpr uint8_t kCrcLen = 2;
-constexpr uint16_t kMaxLength = 952;  // EEPROM model region (960) minus the store header (8)
+// Layout constants are generated from protocol/model_layout.toml (model_layout.h).
+constexpr uint8_t kMagic0 = layout::kBlobMagic0;  // 'P'
+constexpr uint8_t kMagic1 = layout::kBlobMagic1;  // 'W'
+constexpr uint8_t kFormatVersion = layout::kFormatVersion;
+constexpr uint8_t kHeaderLen = layout::kHeaderLen;
+constexpr uint8_t kCrcLen = layout::kCrcLen;
+constexpr uint16_t kMaxLength = layout::kMaxBlobLength;  // one model in an empty store
 
 // Header offsets.
-constexpr uint8_t kOffMagic = 0, kOffVersion = 2, kOffInputs = 3, kOffOutputs = 4,
-                  kOffReserved = 5, kOffLength = 6, kOffModelId = 8, kOffOutScale = 12;
+constexpr uint8_t kOffMagic = layout::kOffMagic, kOffVersion = layout::kOffFormatVersion,
+                  kOffInputs = layout::kOffNInputs, kOffOutputs = layout::kOffNOutputs,
+                  kOffReserved = layout::kOffReserved, kOffLength = layout::kOffLength,
+                  kOffModelId = layout::kOffModelId, kOffOutScale = layout::kOffOutScale,
+                  kOffTsUs = layout::kOffTsUs, kOffInputLsb = layout::kOffInputLsb;
 
 // Limits of the structure (docs/design.md): 3 inputs, 3 outputs, 16 breakpoints, 5 sections
 // (10 poles) per linear block, delays of at most 15 samples.
-constexpr uint8_t kMaxInputs = 3, kMaxOutputs = 3, kMaxBranches = 3, kMaxBreakpoints = 16,
-                  kMaxSections = 5, kMaxDelay = 15;
+constexpr uint8_t kMaxInputs = layout::kMaxInputs, kMaxOutputs = layout::kMaxOutputs,
+                  kMaxBranches = layout::kMaxBranches, kMaxBreakpoints = layout::kMaxBreakpoints,
+                  kMaxSections = layout::kMaxSections, kMaxDelay = layout::kMaxDelay;
 constexpr uint8_t kMaxCascades = kMaxOutputs * (kMaxBranches + 1);            // 12
 constexpr uint8_t kMaxTotalSections = kMaxCascades * kMaxSections;            // 60
 
 // Output record flags.
-constexpr uint8_t kOutHasG = 0x01, kOutHasH2 = 0x02;
+constexpr uint8_t kOutHasG = layout::kOutHasG, kOutHasH2 = layout::kOutHasH2;
 // Branch record flags.
-constexpr uint8_t kBranchHasF = 0x01;
+constexpr uint8_t kBranchHasF = layout::kBranchHasF;
 // Section flags byte: bit0 32-bit numerator, bit1 delta form, bits 2-4 m1 + 2, bits 5-6 m2 + 1.
-constexpr uint8_t kSecWide = 0x01, kSecDelta = 0x02;
-constexpr uint8_t kSecFixedLen = 4;               // flags, sb, n1, n2
+constexpr uint8_t kSecWide = layout::kSecWide, kSecDelta = layout::kSecDelta;
+constexpr uint8_t kSecFixedLen = layout::kSecRecLen;  // flags, sb, n1, n2
 constexpr uint8_t kSecLen16 = kSecFixedLen + 6 + 4;  // 14
 constexpr uint8_t kSecLen32 = kSecFixedLen + 12 + 4; // 20
-constexpr uint8_t kOutputRecLen = 4, kBranchRecLen = 6;
+constexpr uint8_t kOutputRecLen = layout::kOutputRecLen, kBranchRecLen = layout::kBranchRecLen;
 
 // Section states are int32 in Q13 of the section's int16 output and saturate here.
 constexpr int32_t kStateMax = (int32_t(1) << 28) - 1;
 constexpr int32_t kStateMin = -(int32_t(1) << 28);
 constexpr uint8_t kStateFrac = 13;
 
-inline uint16_t pwl_len(uint8_t n) { return uint16_t(1 + 4 * n + 3 * (n - 1)); }
+// Bytes of a table from its count byte: n breakpoints (bits 0-6), compact when bit 7 is set.
+inline uint16_t pwl_len(uint8_t count) {
+  const uint8_t n = count & uint8_t(~layout::kTableCompact);
+  return (count & layout::kTableCompact) ? uint16_t(1 + 4 * n) : uint16_t(1 + 4 * n + 3 * (n - 1));
+}
 
 struct Header {
   uint8_t format_version;
@@ -77,8 +88,9 @@ uint16_t crc(const BlobReader& r, uint16_t n);
 // The CRC stored in the last two bytes of a blob of `length` bytes.
 uint16_t stored_crc(const BlobReader& r, uint16_t length);
 
-// Parses the header without checking the body; false when magic, version or counts are bad
-// or the length field disagrees with `length`.
+// Parses the header without checking the body; false when magic, version or counts are bad,
+// the length field disagrees with `length`, the sample period is 0 or too long, or the input
+// scaling is not the device's (dR in 0.01 % per LSB).
 bool read_header(const BlobReader& r, uint16_t length, Header* out,
                  uint16_t max_length = kMaxLength);
 

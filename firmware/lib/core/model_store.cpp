@@ -7,22 +7,47 @@
 namespace est {
 
 namespace res = proto::result;
+namespace L = layout;
 
 void ModelStore::Reader::read(uint16_t offset, void* dst, uint8_t n) const {
-  ee_.read_block(uint16_t(kBlobBase + offset), static_cast<uint8_t*>(dst), n);
+  ee_->read_block(uint16_t(base_ + offset), static_cast<uint8_t*>(dst), n);
 }
 
 ModelStore::ModelStore(Eeprom& ee, Estimator& estimator)
-    : ee_(ee), est_(estimator), reader_(ee), status_(kNone), writing_(false), length_(0), crc_(0),
-      expect_len_(0), expect_crc_(0), next_offset_(0) {}
+    : ee_(ee), est_(estimator), status_(kNone), active_(kNoSlot), seq_(0), writing_(false), length_(0),
+      crc_(0), target_(0), expect_len_(0), expect_crc_(0), next_offset_(0) {
+  for (uint8_t s = 0; s < L::kSlots; ++s) readers_[s].bind(&ee_, kAreaBase);
+}
 
 uint16_t ModelStore::read16(uint16_t addr) {
   return uint16_t(ee_.read(addr) | uint16_t(ee_.read(uint16_t(addr + 1))) << 8);
 }
 
-void ModelStore::write16(uint16_t addr, uint16_t v) {
-  ee_.write(addr, uint8_t(v & 0xFF));
-  ee_.write(uint16_t(addr + 1), uint8_t(v >> 8));
+bool ModelStore::read_slot(uint8_t slot, SlotHeader* h) {
+  uint8_t b[L::kSlotHeaderLen];
+  ee_.read_block(header_addr(slot), b, L::kSlotHeaderLen);
+  if (b[L::kOffSlotMagic] != L::kSlotMagic) return false;
+  if (proto::crc16(b, L::kOffSlotHeaderCrc) !=
+      uint16_t(b[L::kOffSlotHeaderCrc] | uint16_t(b[L::kOffSlotHeaderCrc + 1]) << 8)) {
+    return false;
+  }
+  h->seq = b[L::kOffSlotSeq];
+  h->length = uint16_t(b[L::kOffSlotLength] | uint16_t(b[L::kOffSlotLength + 1]) << 8);
+  h->crc = uint16_t(b[L::kOffSlotCrc] | uint16_t(b[L::kOffSlotCrc + 1]) << 8);
+  return h->length >= blob::kHeaderLen + blob::kCrcLen && h->length <= kAreaLen;
+}
+
+bool ModelStore::load(uint8_t slot, uint16_t length, uint16_t crc) {
+  // The estimator's own check (format, CRC of the body against the trailer, structure) is
+  // the only one; the trailer must also be the CRC the slot header or MODEL_BEGIN announced.
+  Reader& r = readers_[slot];
+  r.bind(&ee_, blob_addr(slot, length));
+  if (blob::stored_crc(r, length) != crc || !est_.load(r, length)) return false;
+  active_ = slot;
+  length_ = length;
+  crc_ = crc;
+  status_ = kValid;
+  return true;
 }
 
 void ModelStore::boot() {
@@ -30,40 +55,36 @@ void ModelStore::boot() {
   writing_ = false;
   length_ = crc_ = 0;
   status_ = kNone;
-  if (ee_.read(kBase) != kMagic0 || ee_.read(kBase + 1) != kMagic1) return;
-  uint8_t h[6];
-  for (uint8_t i = 0; i < 6; ++i) h[i] = ee_.read(uint16_t(kBase + i));
-  uint16_t len = uint16_t(h[2] | uint16_t(h[3]) << 8);
-  uint16_t crc = uint16_t(h[4] | uint16_t(h[5]) << 8);
-  status_ = kInvalid;
-  if (proto::crc16(h, 6) != read16(kBase + 6)) return;
-  if (len > blob::kMaxLength || len < blob::kHeaderLen + blob::kCrcLen) return;
-  if (blob::crc(reader_, uint16_t(len - blob::kCrcLen)) != crc) return;
-  if (!est_.load(reader_, len)) return;  // incompatible format or structure
-  length_ = len;
-  crc_ = crc;
-  status_ = kValid;
-}
-
-void ModelStore::invalidate() {
-  // One byte is enough to invalidate; the second keeps a torn first write harmless.
-  ee_.write(kBase, 0xFF);
-  ee_.write(kBase + 1, 0xFF);
+  active_ = kNoSlot;
+  SlotHeader h[L::kSlots];
+  bool present[L::kSlots];
+  for (uint8_t s = 0; s < L::kSlots; ++s) {
+    present[s] = read_slot(s, &h[s]);
+    if (ee_.read(header_addr(s)) == L::kSlotMagic) status_ = kInvalid;  // a header, maybe a bad one
+  }
+  // Newest first: seq counts commits modulo 256, so the later one is ahead by less than 128.
+  uint8_t first = (present[0] && present[1]) ? (int8_t(h[1].seq - h[0].seq) > 0 ? 1 : 0) : (present[1] ? 1 : 0);
+  for (uint8_t k = 0; k < L::kSlots; ++k) {
+    uint8_t s = uint8_t(first ^ k);
+    if (present[s] && load(s, h[s].length, h[s].crc)) {
+      seq_ = h[s].seq;
+      return;
+    }
+  }
 }
 
 uint8_t ModelStore::begin(uint16_t length, uint16_t crc, uint8_t format_version, int16_t* detail) {
   *detail = 0;
-  if (length > blob::kMaxLength) {
-    *detail = int16_t(length - blob::kMaxLength);
+  if (length > room()) {
+    *detail = int16_t(length - room());
     return res::TOO_LARGE;
   }
   if (format_version != blob::kFormatVersion || length < blob::kHeaderLen + blob::kCrcLen) {
     return res::BAD_MODEL;
   }
-  est_.unload();
-  invalidate();
-  status_ = kNone;
-  length_ = crc_ = 0;
+  // The slot that is not running; its old contents (an older model) are given up here.
+  target_ = active_ == 0 ? 1 : 0;
+  ee_.write(header_addr(target_), 0xFF);
   writing_ = true;
   expect_len_ = length;
   expect_crc_ = crc;
@@ -82,7 +103,8 @@ uint8_t ModelStore::chunk(uint16_t offset, const uint8_t* data, uint8_t n, int16
     *detail = int16_t(uint32_t(offset) + n - expect_len_);
     return res::TOO_LARGE;
   }
-  for (uint8_t i = 0; i < n; ++i) ee_.write(uint16_t(kBlobBase + offset + i), data[i]);
+  uint16_t at = uint16_t(blob_addr(target_, expect_len_) + offset);
+  for (uint8_t i = 0; i < n; ++i) ee_.write(uint16_t(at + i), data[i]);
   next_offset_ = uint16_t(offset + n);
   return res::OK;
 }
@@ -95,34 +117,38 @@ uint8_t ModelStore::commit(int16_t* detail) {
     return res::BAD_STATE;
   }
   writing_ = false;
-  uint16_t body = uint16_t(expect_len_ - blob::kCrcLen);
-  uint16_t crc = blob::crc(reader_, body);
-  if (crc != expect_crc_ || read16(uint16_t(kBlobBase + body)) != crc) {
-    status_ = kNone;
+  uint8_t running = active_;
+  if (!load(target_, expect_len_, expect_crc_)) {
+    // Wrong CRC (detail 0) or a blob the estimator refuses (detail 1); the running model stays.
+    *detail = blob::stored_crc(readers_[target_], expect_len_) == expect_crc_ &&
+              blob::crc(readers_[target_], uint16_t(expect_len_ - blob::kCrcLen)) == expect_crc_;
     return res::BAD_MODEL;
   }
-  if (!est_.load(reader_, expect_len_)) {
-    *detail = 1;  // CRC fine, structure or limits not
-    status_ = kNone;
-    return res::BAD_MODEL;
-  }
-  uint8_t h[6] = {kMagic0, kMagic1, uint8_t(expect_len_ & 0xFF), uint8_t(expect_len_ >> 8),
-                  uint8_t(crc & 0xFF), uint8_t(crc >> 8)};
-  for (uint8_t i = 2; i < 6; ++i) ee_.write(uint16_t(kBase + i), h[i]);
-  write16(kBase + 6, proto::crc16(h, 6));
-  ee_.write(kBase + 1, kMagic1);
-  ee_.write(kBase, kMagic0);  // the model becomes valid with this byte
-  length_ = expect_len_;
-  crc_ = crc;
-  status_ = kValid;
+  // The estimator now runs the new blob; it is stored for good once its slot header is written.
+  seq_ = uint8_t(running == kNoSlot ? 0 : seq_ + 1);
+  uint16_t crc = expect_crc_;
+  uint8_t b[L::kSlotHeaderLen];
+  b[L::kOffSlotMagic] = L::kSlotMagic;
+  b[L::kOffSlotSeq] = seq_;
+  b[L::kOffSlotLength] = uint8_t(expect_len_ & 0xFF);
+  b[L::kOffSlotLength + 1] = uint8_t(expect_len_ >> 8);
+  b[L::kOffSlotCrc] = uint8_t(crc & 0xFF);
+  b[L::kOffSlotCrc + 1] = uint8_t(crc >> 8);
+  uint16_t hc = proto::crc16(b, L::kOffSlotHeaderCrc);
+  b[L::kOffSlotHeaderCrc] = uint8_t(hc & 0xFF);
+  b[L::kOffSlotHeaderCrc + 1] = uint8_t(hc >> 8);
+  uint16_t at = header_addr(target_);
+  for (uint8_t i = 1; i < L::kSlotHeaderLen; ++i) ee_.write(uint16_t(at + i), b[i]);
+  ee_.write(at, L::kSlotMagic);  // from this byte on, the new model is the one that boots
   return res::OK;
 }
 
 uint8_t ModelStore::erase() {
   est_.unload();
-  invalidate();
+  for (uint8_t s = 0; s < L::kSlots; ++s) ee_.write(header_addr(s), 0xFF);
   writing_ = false;
   status_ = kNone;
+  active_ = kNoSlot;
   length_ = crc_ = 0;
   return res::OK;
 }
@@ -130,7 +156,7 @@ uint8_t ModelStore::erase() {
 uint8_t ModelStore::read(uint16_t offset, uint8_t n, uint8_t* dst) {
   if (status_ != kValid) return res::NO_MODEL;
   if (n == 0 || uint32_t(offset) + n > length_) return res::OUT_OF_RANGE;
-  reader_.read(offset, dst, n);
+  readers_[active_].read(offset, dst, n);
   return res::OK;
 }
 

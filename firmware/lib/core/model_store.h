@@ -1,18 +1,23 @@
 // The EEPROM model store: MODEL_BEGIN / MODEL_CHUNK / MODEL_COMMIT / MODEL_ERASE / MODEL_READ
-// over a byte-wide EEPROM, with an atomic commit (MODEL_FORMAT.md):
+// over a byte-wide EEPROM, with two slots so that a new model never replaces the running one
+// before it is whole (layout: model_layout.h from protocol/model_layout.toml; MODEL_FORMAT.md):
 //
-//   region (base 64, 960 bytes) = store header (8 bytes) + blob (at most 952 bytes)
-//   store header: magic 'M' 'S', blob length u16, blob CRC u16, header CRC u16 (of bytes 0..5)
+//   region (base 64, 960 bytes) = slot header 0 | slot header 1 | blob area (944 bytes)
+//   slot 0's blob starts at the bottom of the area, slot 1's ends at its top
+//   slot header: magic 'M', seq u8, blob length u16, blob CRC u16, header CRC u16 (of bytes 0..5)
 //
-// BEGIN invalidates the header (magic first), CHUNKs write the blob contiguously, COMMIT
-// checks length, CRC and structure (Estimator::load) and then writes the header, magic last.
-// A reset at any moment therefore leaves the old model (before BEGIN's first write) or no
-// model, never a broken one. A stored blob that fails its checks at boot keeps the estimator
-// off with status 2 (invalid or incompatible).
+// BEGIN picks the slot that is not running and needs room for the new blob beside the running
+// one (else TOO_LARGE, detail = the excess); it invalidates only that slot. CHUNKs write the
+// blob there while the running model keeps estimating. COMMIT checks length, CRC and structure
+// and only then writes the slot header (magic last) with the next seq and switches the
+// estimator over. A reset at any moment leaves the old model (or, after the magic byte, the new
+// one) running; a refused blob leaves the old one running. At boot the valid slot with the later
+// seq runs; if it fails its checks the other one does.
 #pragma once
 #include <stdint.h>
 
 #include "estimator.h"
+#include "model_layout.h"
 #include "protocol_messages.h"
 
 namespace est {
@@ -30,13 +35,14 @@ class Eeprom {
 
 class ModelStore {
  public:
-  static constexpr uint16_t kBase = 64, kRegion = 960, kHeaderLen = 8;
-  static constexpr uint16_t kBlobBase = kBase + kHeaderLen;
-  static constexpr uint8_t kMagic0 = 'M', kMagic1 = 'S';
+  static constexpr uint16_t kBase = layout::kStoreBase, kRegion = layout::kStoreRegion;
+  static constexpr uint16_t kHeaderLen = layout::kSlotHeaderLen;
+  static constexpr uint16_t kAreaBase = layout::kAreaBase, kAreaLen = layout::kAreaLen;
+  static constexpr uint8_t kNoSlot = 0xFF;
   enum Status : uint8_t { kNone = 0, kValid = 1, kInvalid = 2 };
 
   ModelStore(Eeprom& ee, Estimator& estimator);
-  // At power-up: check the stored model and load the estimator when it is valid.
+  // At power-up: check both slots and load the estimator from the newest valid one.
   void boot();
   // Commands; each returns a proto::result code and sets *detail as NAK.detail expects
   // (TOO_LARGE: excess bytes; BAD_STATE: the expected offset; otherwise 0).
@@ -50,30 +56,45 @@ class ModelStore {
   uint8_t status() const { return status_; }
   uint16_t crc() const { return status_ == kValid ? crc_ : 0; }
   uint16_t length() const { return status_ == kValid ? length_ : 0; }
+  uint8_t active_slot() const { return active_; }
   bool writing() const { return writing_; }
-  const BlobReader& reader() const { return reader_; }
+  // Bytes a new blob may have beside the running model.
+  uint16_t room() const { return status_ == kValid ? uint16_t(kAreaLen - length_) : kAreaLen; }
+  const BlobReader& reader() const { return readers_[active_ == kNoSlot ? 0 : active_]; }
 
  private:
   class Reader : public BlobReader {
    public:
-    explicit Reader(Eeprom& ee) : ee_(ee) {}
+    Reader() : ee_(0), base_(kAreaBase) {}
+    void bind(Eeprom* ee, uint16_t base) { ee_ = ee, base_ = base; }
     void read(uint16_t offset, void* dst, uint8_t n) const override;
 
    private:
-    Eeprom& ee_;
+    Eeprom* ee_;
+    uint16_t base_;
+  };
+  struct SlotHeader {
+    uint8_t seq;
+    uint16_t length, crc;
   };
 
-  void invalidate();
+  static uint16_t header_addr(uint8_t slot) { return uint16_t(kBase + slot * kHeaderLen); }
+  static uint16_t blob_addr(uint8_t slot, uint16_t length) {
+    return slot == 0 ? kAreaBase : uint16_t(kAreaBase + kAreaLen - length);
+  }
+  bool read_slot(uint8_t slot, SlotHeader* h);  // header magic and CRC only
+  // Checks the blob of `slot` and, when whole and valid, runs it; false leaves all as it was.
+  bool load(uint8_t slot, uint16_t length, uint16_t crc);
   uint16_t read16(uint16_t addr);
-  void write16(uint16_t addr, uint16_t v);
 
   Eeprom& ee_;
   Estimator& est_;
-  Reader reader_;
-  uint8_t status_;
+  Reader readers_[layout::kSlots];
+  uint8_t status_, active_, seq_;   // seq_: of the running model
   bool writing_;
-  uint16_t length_, crc_;          // of the stored model
-  uint16_t expect_len_, expect_crc_, next_offset_;  // of the write in progress
+  uint16_t length_, crc_;           // of the running model
+  uint8_t target_;                  // slot of the write in progress
+  uint16_t expect_len_, expect_crc_, next_offset_;
 };
 
 }  // namespace est

@@ -13,8 +13,10 @@ def register(sub) -> argparse.ArgumentParser:
         description=(
             "Quantize an identified model (porosense identify --save) for the on-device estimator: "
             "second-order sections, Q formats and scaling chosen automatically, written as the "
-            "model blob (at most 952 bytes: the 1 KB EEPROM's model region). Inputs are dR in %, "
-            "sent by the device in 0.01 % steps; estimates come back as int16 times out_scale "
+            "model blob (at most 944 bytes: the 1 KB EEPROM's model area). The device sends dR in "
+            "0.01 % steps; the model file says whether its inputs are dR in % or dR/100 (--input-unit "
+            "for files that do not), and the blob stores that scaling and the model's sample period. "
+            "Estimates come back as int16 times out_scale "
             "(output unit per LSB). --data recordings set the input range and give the fit of the "
             "fixed-point reference against the float model and the data in the report."
         ),
@@ -29,6 +31,8 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--input-range", nargs=2, type=float, metavar=("LO", "HI"),
                    help="input range in %% dR that must never overflow (default: data range + 25 %%, "
                         "or -100..100 without data)")
+    p.add_argument("--input-unit", choices=["%", "dR/100"],
+                   help="unit of the model's inputs when its file does not say (dR in %% or dR/100)")
     p.add_argument("--model-id", type=lambda v: int(v, 0), help="32-bit tag stored in the blob")
     p.add_argument("--json", action="store_true", help="print the quantization report as JSON")
     p.set_defaults(func=run)
@@ -42,6 +46,10 @@ def run(args) -> int:
     from porosense.errors import InputError
     from porosense.quant import c_header, quantize
 
+    import dataclasses
+
+    from porosense.errors import ModelError
+
     args.out = args.out or str(Path(args.model).with_suffix(".bin"))
     for opt in ("out", "report", "header"):
         if getattr(args, opt):
@@ -52,13 +60,22 @@ def run(args) -> int:
             raise InputError(f"--input-range {lo:g} {hi:g}: give two finite numbers LO < HI (% dR)")
     if args.model_id is not None and not 0 <= args.model_id <= 0xFFFFFFFF:
         raise InputError(f"--model-id {args.model_id:#x} does not fit in 32 bits (0..0xFFFFFFFF)")
-    model = load_model_checked(args.model)
-    structure = model.to_structure()
+    structure = load_model_checked(args.model).to_structure()
+    if args.input_unit:
+        declared = {u for u in structure.input_units if u is not None}
+        if declared and declared != {args.input_unit}:
+            raise ModelError(f"{args.model} declares its inputs in {', '.join(sorted(declared))}, "
+                             f"not {args.input_unit}")
+        structure = dataclasses.replace(structure, input_units=(args.input_unit,) * len(structure.inputs))
     tables = read_tables(args.data, args)
     for table in tables:
-        require_columns(table, list(model.inputs))
-        table.require_finite(list(model.inputs))
-    result = quantize(structure, recordings=tables, input_range=args.input_range, model_id=args.model_id)
+        require_columns(table, list(structure.inputs))
+        table.require_finite(list(structure.inputs))
+    # --input-range is in % of dR; the structure may work in dR/100.
+    per_percent = structure.input_lsb() / 0.01
+    input_range = None if args.input_range is None else [v * per_percent for v in args.input_range]
+    recs = [_scaled(t, structure, per_percent) for t in tables]
+    result = quantize(structure, recordings=recs, input_range=input_range, model_id=args.model_id)
     Path(args.out).write_bytes(result.to_bytes())
     if args.report:
         result.report.to_json(args.report)
@@ -68,11 +85,25 @@ def run(args) -> int:
         import json
 
         print(json.dumps({"out": str(args.out), "bytes": result.blob.length, "crc": result.blob.crc,
+                          "ts_us": result.blob.ts_us, "input_lsb_percent": result.blob.input_lsb,
                           "model_id": result.blob.model_id, "report": result.report.to_dict()}, indent=2,
                          default=float))
         return 0
     for line in result.report.lines():
         print(line)
     print(f"blob written to {args.out} ({result.blob.length} bytes, CRC 0x{result.blob.crc:04X}, "
-          f"id 0x{result.blob.model_id:08X})")
+          f"id 0x{result.blob.model_id:08X}, {result.blob.rate_hz:g} Hz)")
     return 0
+
+
+def _scaled(table, structure, per_percent: float):
+    """A recording's columns with the model's inputs converted from dR in % to the model's unit."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    cols = dict(table.columns)
+    for name in structure.inputs:
+        if name in cols:
+            cols[name] = np.asarray(cols[name], dtype=float) * per_percent
+    return SimpleNamespace(columns=cols, meta=getattr(table, "meta", {}) or {}, path=getattr(table, "path", None))

@@ -35,7 +35,6 @@ from porosense.protocol import (
     MsgType,
     Result,
     check_compatible,
-    crc16,
     encode_frame,
     encode_message,
     split_version,
@@ -275,13 +274,44 @@ class Device:
         samples = list(self.samples(n, timeout_s=timeout_s))
         return SampleBlock.from_samples(samples, lost=self.stats.samples_lost - lost0)
 
-    def write_model(self, blob: bytes, *, format_version: int | None = None) -> ModelInfo:
-        """MODEL_BEGIN, MODEL_CHUNKs of 112 bytes, MODEL_COMMIT, then MODEL_INFO; checks the CRC."""
+    def write_model(self, blob: bytes, *, replace: bool | None = None, validate: bool = True,
+                    format_version: int | None = None) -> ModelInfo:
+        """MODEL_BEGIN, MODEL_CHUNKs of 112 bytes, MODEL_COMMIT, then MODEL_INFO; checks the CRC.
+
+        The blob is checked first exactly as the firmware checks it (porosense.quant.ModelBlob:
+        format, CRC, structure, size): a bad blob raises ModelError before anything is sent.
+        The device writes it beside the running model, which keeps running until the new one is
+        whole and checked. Two models share the EEPROM's 944-byte model area; when the new one
+        does not fit beside the running one, ``replace`` decides: False raises ModelError, True
+        erases the running model first (the board has none until the write completes), None (the
+        default) does the same with a warning. ``validate=False`` sends the blob as it is (to test
+        the device's own checks)."""
+        from porosense.errors import ModelError
+        from porosense.quant.blob import ModelBlob, blob_crc
+
         blob = bytes(blob)
+        if validate:
+            ModelBlob.from_bytes(blob)
         if format_version is None:
-            format_version = _blob_format_version(blob)
+            format_version = blob[2] if len(blob) >= 3 else 0
         crc = blob_crc(blob)
-        self._exchange(m.ModelBegin(length=len(blob), crc=crc, format_version=format_version))
+        if replace:
+            self.erase_model()
+        try:
+            self._exchange(m.ModelBegin(length=len(blob), crc=crc, format_version=format_version))
+        except NakError as exc:
+            if exc.code != Result.TOO_LARGE or replace or not self.model_info().valid:
+                raise
+            if replace is False:
+                raise ModelError(f"the model ({len(blob)} bytes) does not fit beside the running one "
+                                 f"({exc.detail} bytes too many); replace it (flash --replace) to erase it "
+                                 "first") from None
+            import warnings
+
+            warnings.warn(f"the model ({len(blob)} bytes) does not fit beside the running one: erasing it "
+                          "first (no model on the board until the write completes)", stacklevel=2)
+            self.erase_model()
+            self._exchange(m.ModelBegin(length=len(blob), crc=crc, format_version=format_version))
         for offset in range(0, len(blob), MODEL_CHUNK_BYTES):
             self._exchange(m.ModelChunk(offset=offset, data=blob[offset : offset + MODEL_CHUNK_BYTES]))
         self._exchange(m.ModelCommit())
@@ -290,6 +320,34 @@ class Device:
             raise DeviceError(f"model written but the device reports {info}")
         return info
 
+    def sample_rate_hz(self) -> int:
+        """The board's configured sample rate (SAMPLE_RATE_HZ), Hz."""
+        return int(self.config_get("SAMPLE_RATE_HZ"))
+
+    def check_model_rate(self, blob: bytes, *, set_rate: bool = False) -> int:
+        """Compare the blob's sample period with the board's rate; returns the board's rate (Hz).
+
+        A mismatch raises ModelError, or with ``set_rate`` sets and saves the board's
+        SAMPLE_RATE_HZ to the model's rate (which must be a whole number of Hz)."""
+        from porosense.errors import ModelError
+        from porosense.quant.blob import ModelBlob
+
+        model = ModelBlob.from_bytes(bytes(blob))
+        board = self.sample_rate_hz()
+        if round(1e6 / board) == model.ts_us:
+            return board
+        model_hz = model.rate_hz
+        if not set_rate:
+            raise ModelError(f"the model was identified at {model_hz:g} Hz (Ts {model.ts_us / 1000:g} ms) but the "
+                             f"board samples at {board} Hz: re-identify at {board} Hz, or flash with --set-rate "
+                             f"to run the board at {model_hz:g} Hz")
+        if abs(model_hz - round(model_hz)) > 1e-6 * model_hz:
+            raise ModelError(f"the model's rate {model_hz:g} Hz is not a whole number of Hz; the board cannot "
+                             "sample at it")
+        self.config_set("SAMPLE_RATE_HZ", int(round(model_hz)))
+        self.config_save()
+        return self.sample_rate_hz()
+
     def model_info(self) -> ModelInfo:
         """The stored model."""
         return ModelInfo.from_message(self._exchange(m.ModelInfo()))
@@ -297,6 +355,13 @@ class Device:
     def erase_model(self) -> None:
         """Erase the stored model; the estimator turns off."""
         self._exchange(m.ModelErase())
+
+    def read_model_bytes(self, offset: int, n: int) -> bytes:
+        """``n`` bytes (at most 112) of the stored blob from ``offset``."""
+        reply = self._exchange(m.ModelRead(offset=int(offset), length=int(n)))
+        if reply.offset != offset or len(reply.data) != n:
+            raise DeviceError(f"MODEL_DATA at offset {reply.offset} with {len(reply.data)} bytes, expected {offset}, {n}")
+        return bytes(reply.data)
 
     def read_model(self) -> bytes:
         """Read the stored blob back."""
@@ -566,15 +631,8 @@ def _config_key(key) -> int:
 
 
 def blob_crc(blob: bytes) -> int:
-    """The CRC that identifies a model blob (MODEL_BEGIN.crc, MODEL_INFO.crc).
+    """The CRC that identifies a model blob (MODEL_BEGIN.crc, MODEL_INFO.crc): see
+    porosense.quant.blob.blob_crc, the one routine for it."""
+    from porosense.quant.blob import blob_crc as crc
 
-    A blob ends with the CRC-16/MCRF4XX of the bytes before it, so that CRC is its identity
-    (the CRC over the whole blob, trailing CRC included, is always 0 for this CRC).
-    """
-    blob = bytes(blob)
-    return crc16(blob[:-2]) if len(blob) >= 2 else crc16(blob)
-
-
-def _blob_format_version(blob: bytes) -> int:
-    """Format version of a model blob: header byte 2 after the magic "PW" (0 when not a blob)."""
-    return blob[2] if len(blob) >= 3 and blob[:2] == b"PW" else 0
+    return crc(blob)

@@ -24,7 +24,8 @@ from porosense.ident import estimate
 from porosense.ident.blocks import sos_rows
 from porosense.ident.chain import Chain, ChainSpec
 from porosense.ident.metrics import fit_percent, information_criteria, rms_percent
-from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade
+from porosense.structure import (Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade,
+                                 input_unit_scale)
 
 FORMAT = "porosense.ident.model"
 FORMAT_VERSION = 1
@@ -75,14 +76,21 @@ class Model:
         self.inputs: tuple[str, ...] = ()
         self.output = "y"
         self.info: dict = {}
+        self.input_units: tuple = ()  # per input "%" or "dR/100"; None entries: undeclared
+        self.output_unit: str | None = None
 
     # -- estimation -----------------------------------------------------------------
 
     def _estimate(self, us, ys, opts) -> estimate.Fit:  # pragma: no cover - abstract
         raise NotImplementedError
 
-    def fit(self, *, u, y, ts: float = 1.0, inputs=None, output: str = "y") -> Model:
-        """Estimate on the recordings ``u`` (list of (N, n_in)), ``y`` (list of (N,)); ts in s."""
+    def fit(self, *, u, y, ts: float = 1.0, inputs=None, output: str = "y", input_unit=None,
+            output_unit: str | None = None) -> Model:
+        """Estimate on the recordings ``u`` (list of (N, n_in)), ``y`` (list of (N,)); ts in s.
+
+        ``input_unit``: what ``u`` holds, "%" (dR in %) or "dR/100" (dR as a fraction), one for
+        all inputs or one per input; stored in the model file and used by the quantizer.
+        ``output_unit``: free text (for example "%" of strain or "deg")."""
         us, ys = as_recordings(u, y)
         n_in = us[0].shape[1]
         if not 1 <= n_in <= MAX_INPUTS or any(x.shape[1] != n_in for x in us):
@@ -92,6 +100,13 @@ class Model:
         self.ts = float(ts)
         self.inputs = tuple(inputs) if inputs is not None else tuple(f"u{i}" for i in range(n_in))
         self.output = output
+        units = [input_unit] * n_in if input_unit is None or isinstance(input_unit, str) else list(input_unit)
+        if len(units) != n_in:
+            raise InputError(f"input_unit: one unit or one per input ({n_in})")
+        for unit in units:
+            if unit is not None:
+                input_unit_scale(unit)  # raises on an unknown unit
+        self.input_units, self.output_unit = tuple(units), output_unit
         all_u = np.vstack(us)
         scale = np.max(np.abs(all_u), axis=0)
         self.u_scale = np.where(scale > 0, scale, 1.0)
@@ -159,7 +174,15 @@ class Model:
         """The float estimator structure (raw data units) that quant and the firmware run."""
         self._require_fitted()
         return EstimatorStructure(inputs=self.inputs, outputs=(self.output_chain(),), ts=self.ts,
-                                  meta={"kind": self.kind, "n_poles": self.n_poles, "n_zeros": self.n_zeros})
+                                  meta={"kind": self.kind, "n_poles": self.n_poles, "n_zeros": self.n_zeros},
+                                  **self._units())
+
+    def _units(self) -> dict:
+        """Units and identification peaks of the inputs, for EstimatorStructure."""
+        n = len(self.inputs)
+        units = tuple(self.input_units) if len(self.input_units) == n else (None,) * n
+        return {"input_units": units, "output_units": (self.output_unit,),
+                "input_peak": tuple(float(v) for v in self.u_scale)}
 
     def output_chain(self) -> OutputChain:
         """This model as one :class:`OutputChain` with the scalings folded into the blocks."""
@@ -225,6 +248,7 @@ class Model:
             "theta": [float(v) for v in self.theta],
             "scaling": {"u_scale": [float(v) for v in self.u_scale], "y_mean": self.y_mean, "y_std": self.y_std},
             "ts": self.ts, "inputs": list(self.inputs), "output": self.output,
+            "signals": self._signals(),
             "info": {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in self.info.items()},
         }
 
@@ -243,7 +267,23 @@ class Model:
         m.y_mean, m.y_std = float(d["scaling"]["y_mean"]), float(d["scaling"]["y_std"])
         m.ts, m.inputs, m.output = float(d["ts"]), tuple(d["inputs"]), d["output"]
         m.info = dict(d.get("info", {}))
+        sig = d.get("signals")  # absent in files written before units were stored
+        if sig is not None:
+            m.input_units = tuple(s.get("unit") for s in sig["inputs"])
+            for unit in m.input_units:
+                if unit is not None:
+                    input_unit_scale(unit)
+            m.output_unit = sig["output"].get("unit")
         return m
+
+    def _signals(self) -> dict:
+        """Name, unit and scale (model units per recorded unit: per % of dR for the inputs) of
+        every input and of the output; unit None = undeclared."""
+        n = len(self.inputs)
+        units = tuple(self.input_units) if len(self.input_units) == n else (None,) * n
+        return {"inputs": [{"name": name, "unit": unit, "scale": input_unit_scale(unit or "%")}
+                           for name, unit in zip(self.inputs, units)],
+                "output": {"name": self.output, "unit": self.output_unit, "scale": 1.0}}
 
     def save(self, path) -> Path:
         """Write the versioned JSON model file."""
@@ -306,12 +346,13 @@ class WienerHammerstein(Model):
     kind = "wh"
 
     def fit(self, *, u, y, ts: float = 1.0, inputs=None, output: str = "y", wiener: Wiener | None = None,
-            hammerstein: Hammerstein | None = None) -> Model:
+            hammerstein: Hammerstein | None = None, input_unit=None, output_unit: str | None = None) -> Model:
         """As :meth:`Model.fit`; ``wiener`` / ``hammerstein``: models of the same orders already
         fitted on the same data (reused as the starts instead of being estimated again)."""
         self._parts = (wiener, hammerstein)
         try:
-            return super().fit(u=u, y=y, ts=ts, inputs=inputs, output=output)
+            return super().fit(u=u, y=y, ts=ts, inputs=inputs, output=output, input_unit=input_unit,
+                               output_unit=output_unit)
         finally:
             self._parts = (None, None)
 
@@ -368,6 +409,8 @@ class ModelSet:
         first = self.models[0]
         if any(m.inputs != first.inputs or m.ts != first.ts for m in self.models):
             raise ModelError("models of one set need the same inputs and sample time")
+        if any(m._units()["input_units"] != first._units()["input_units"] for m in self.models):
+            raise ModelError("models of one set need the same input units")
 
     @property
     def inputs(self):
@@ -386,8 +429,12 @@ class ModelSet:
         return np.column_stack([m.predict(u=u) for m in self.models])
 
     def to_structure(self) -> EstimatorStructure:
+        units = [m._units() for m in self.models]
+        peak = tuple(np.max([u["input_peak"] for u in units], axis=0))
         return EstimatorStructure(inputs=self.inputs, outputs=tuple(m.output_chain() for m in self.models),
-                                  ts=self.ts, meta={"kinds": [m.kind for m in self.models]})
+                                  ts=self.ts, meta={"kinds": [m.kind for m in self.models]},
+                                  input_units=units[0]["input_units"],
+                                  output_units=tuple(u["output_units"][0] for u in units), input_peak=peak)
 
     def save(self, path) -> Path:
         return save_models(self.models, path)

@@ -1,9 +1,11 @@
 """The model blob: fixed-point coefficients of the estimator, byte for byte as in EEPROM.
 
-Layout (all little-endian; firmware/lib/core/MODEL_FORMAT.md is the reference)::
+Layout (all little-endian; generated constants in layout.py from protocol/model_layout.toml;
+firmware/lib/core/MODEL_FORMAT.md is the reference)::
 
-    header (24 bytes): magic "PW", format version (1), n_inputs, n_outputs, reserved 0,
-                       length u16 (whole blob), model_id u32, out_scale f32[3]
+    header (32 bytes): magic "PW", format version (2), n_inputs, n_outputs, reserved 0,
+                       length u16 (whole blob), model_id u32, out_scale f32[3],
+                       ts_us u32 (sample period), input_lsb f32 (dR % per input LSB: 0.01)
     per output:  n_branches u8, flags u8 (1 g, 2 H2), offset i16 (output LSB)
       per branch: input u8, delay u8, u_offset i16 (0.01 %), flags u8 (1 f), n_sections u8,
                   [f table], H1 sections
@@ -23,21 +25,46 @@ from dataclasses import dataclass, field
 from porosense.errors import ModelError
 from porosense.protocol.framing import crc16
 
-MAGIC = b"PW"
-FORMAT_VERSION = 1
-HEADER_LEN = 24
-CRC_LEN = 2
-EEPROM_MODEL_REGION = 960  # bytes 64..1023 of the EEPROM
-STORE_HEADER_LEN = 8  # the model store's own header (magic, length, crc, header crc)
-MAX_BLOB_LEN = EEPROM_MODEL_REGION - STORE_HEADER_LEN  # 952
+from porosense.quant.layout import (  # noqa: F401  (re-exported: the blob's constants)
+    BRANCH_FORMAT,
+    BRANCH_HAS_F,
+    CRC_LEN,
+    FORMAT_VERSION,
+    HEADER_FORMAT,
+    HEADER_LEN,
+    HEADER_OFFSETS,
+    INPUT_LSB_PERCENT,
+    MAGIC,
+    MAX_BLOB_LEN,
+    MAX_BRANCHES,
+    MAX_BREAKPOINTS,
+    MAX_DELAY,
+    MAX_INPUTS,
+    MAX_OUTPUTS,
+    MAX_SECTIONS,
+    MAX_TS_US,
+    OUT_HAS_G,
+    OUT_HAS_H2,
+    OUTPUT_FORMAT,
+    SEC_DELTA,
+    SEC_WIDE,
+    SECTION_FIXED_FORMAT,
+    SLOT_HEADER_LEN as STORE_HEADER_LEN,
+    TABLE_COMPACT,
+    STORE_REGION as EEPROM_MODEL_REGION,
+)
 
-MAX_INPUTS = MAX_OUTPUTS = MAX_BRANCHES = 3
-MAX_BREAKPOINTS = 16
-MAX_SECTIONS = 5
-MAX_DELAY = 15
 STATE_FRAC = 13  # section states are Q13 of the section's int16 output
 STATE_MAX = (1 << 28) - 1
 STATE_MIN = -(1 << 28)
+# The float32 the blob stores for the device's input scaling (compared bit for bit).
+DEVICE_INPUT_LSB = struct.unpack("<f", struct.pack("<f", INPUT_LSB_PERCENT))[0]
+
+
+def blob_crc(data: bytes) -> int:
+    """The CRC that identifies a blob (its trailer; MODEL_BEGIN.crc, MODEL_INFO.crc): CRC-16/MCRF4XX
+    of every byte before the last two. (The CRC of a whole blob, trailer included, is always 0.)"""
+    return crc16(bytes(data[:-CRC_LEN]))
 
 
 def numerator_limit(wide: bool, sb: int) -> int:
@@ -46,14 +73,11 @@ def numerator_limit(wide: bool, sb: int) -> int:
         return 0xFFFF0000 if sb >= 2 else (1 << (30 + sb)) - 65536
     return 65535 if sb >= 2 else 1 << (14 + sb)
 
-SEC_WIDE, SEC_DELTA = 0x01, 0x02
-OUT_HAS_G, OUT_HAS_H2 = 0x01, 0x02
-BRANCH_HAS_F = 0x01
 
 
-def pwl_len(n: int) -> int:
-    """Bytes of a table with n breakpoints."""
-    return 1 + 4 * n + 3 * (n - 1)
+def pwl_len(n: int, compact: bool = False) -> int:
+    """Bytes of a table with n breakpoints (compact: x and y only)."""
+    return 1 + 4 * n + (0 if compact else 3 * (n - 1))
 
 
 def section_len(wide: bool) -> int:
@@ -63,16 +87,21 @@ def section_len(wide: bool) -> int:
 
 @dataclass(frozen=True)
 class PwlQ:
-    """Piecewise-linear table in integers: y = y[k] + round((x - x[k]) * slope[k] / 2^shift[k])."""
+    """Piecewise-linear table in integers: y = y[k] + round((x - x[k]) * slope[k] / 2^shift[k]).
+
+    A compact table (``compact``, no slope or shift stored) interpolates between its integer
+    breakpoints instead: y = y[k] + sign * floor((|x - x[k]| |y[k+1] - y[k]| + floor(d / 2)) / d)
+    with d = x[k+1] - x[k] and the sign of the product (one division per lookup on the board)."""
 
     x: tuple[int, ...]
     y: tuple[int, ...]
-    slope: tuple[int, ...]
-    shift: tuple[int, ...]
+    slope: tuple[int, ...] = ()
+    shift: tuple[int, ...] = ()
+    compact: bool = False
 
     @property
     def nbytes(self) -> int:
-        return pwl_len(len(self.x))
+        return pwl_len(len(self.x), self.compact)
 
 
 @dataclass(frozen=True)
@@ -155,6 +184,18 @@ class ModelBlob:
     model_id: int = 0
     format_version: int = FORMAT_VERSION
     meta: dict = field(default_factory=dict, compare=False)
+    ts_us: int = 20000  # sample period the model was identified at (us); quantize sets it from the model
+    input_lsb: float = DEVICE_INPUT_LSB  # dR % per input LSB the coefficients assume
+
+    @property
+    def ts(self) -> float:
+        """Sample period in seconds."""
+        return self.ts_us * 1e-6
+
+    @property
+    def rate_hz(self) -> float:
+        """Sample rate in Hz."""
+        return 1e6 / self.ts_us
 
     @property
     def n_outputs(self) -> int:
@@ -168,7 +209,7 @@ class ModelBlob:
     @property
     def crc(self) -> int:
         """The blob's CRC (its last two bytes; MODEL_BEGIN.crc)."""
-        return crc16(self.to_bytes()[:-CRC_LEN])
+        return blob_crc(self.to_bytes())
 
     @property
     def n_sections(self) -> int:
@@ -183,9 +224,9 @@ class ModelBlob:
             body = bytearray()
             for out in self.outputs:
                 flags = (OUT_HAS_G if out.g else 0) | (OUT_HAS_H2 if out.h2 else 0)
-                body += struct.pack("<BBh", len(out.branches), flags, out.offset)
+                body += struct.pack(OUTPUT_FORMAT, len(out.branches), flags, out.offset)
                 for br in out.branches:
-                    body += struct.pack("<BBhBB", br.input, br.delay, br.u_offset,
+                    body += struct.pack(BRANCH_FORMAT, br.input, br.delay, br.u_offset,
                                         BRANCH_HAS_F if br.f else 0, len(br.sections))
                     if br.f:
                         body += _pack_pwl(br.f)
@@ -198,12 +239,14 @@ class ModelBlob:
             length = HEADER_LEN + len(body) + CRC_LEN
             if length > 0xFFFF:
                 raise ModelError(f"model blob of {length} bytes cannot be addressed")
-            head = MAGIC + struct.pack("<BBBBHI3f", self.format_version, self.n_inputs, self.n_outputs,
-                                       0, length, self.model_id & 0xFFFFFFFF, *scales)
+            if not 1 <= self.ts_us <= MAX_TS_US:
+                raise ModelError(f"sample period {self.ts_us} us outside 1..{MAX_TS_US}")
+            head = struct.pack(HEADER_FORMAT, *MAGIC, self.format_version, self.n_inputs, self.n_outputs,
+                               0, length, self.model_id & 0xFFFFFFFF, *scales, int(self.ts_us), self.input_lsb)
         except struct.error as exc:
             raise ModelError(f"model blob field out of range: {exc}") from exc
         data = head + bytes(body)
-        return data + struct.pack("<H", crc16(data))
+        return data + struct.pack("<H", blob_crc(data + bytes(CRC_LEN)))
 
     @classmethod
     def from_bytes(cls, data: bytes, max_length: int = MAX_BLOB_LEN) -> ModelBlob:
@@ -211,14 +254,18 @@ class ModelBlob:
 
         ``max_length`` is the EEPROM limit; larger only for blobs that stay in RAM."""
         data = bytes(data)
-        if len(data) < HEADER_LEN + CRC_LEN:
-            raise ModelError(f"model blob of {len(data)} bytes is shorter than its header")
         if data[:2] != MAGIC:
             raise ModelError("not a porosense model blob (bad magic)")
-        version, n_in, n_out, reserved, length, model_id = struct.unpack_from("<BBBBHI", data, 2)
-        scales = struct.unpack_from("<3f", data, 12)
+        if len(data) >= 3 and data[2] != FORMAT_VERSION:
+            raise ModelError(f"model blob format version {data[2]}; this software reads {FORMAT_VERSION}"
+                             + (" (re-quantize the model)" if data[2] < FORMAT_VERSION else ""))
+        if len(data) < HEADER_LEN + CRC_LEN:
+            raise ModelError(f"model blob of {len(data)} bytes is shorter than its header")
+        (_, _, version, n_in, n_out, reserved, length, model_id, *scales, ts_us,
+         input_lsb) = struct.unpack_from(HEADER_FORMAT, data.ljust(HEADER_LEN, b"\0"), 0)
         if version != FORMAT_VERSION:
-            raise ModelError(f"model blob format version {version}; this software reads {FORMAT_VERSION}")
+            raise ModelError(f"model blob format version {version}; this software reads {FORMAT_VERSION}"
+                             + (" (re-quantize the model)" if version < FORMAT_VERSION else ""))
         if length != len(data):
             raise ModelError(f"model blob length field {length} but {len(data)} bytes given")
         if length > max_length:
@@ -226,18 +273,23 @@ class ModelBlob:
                              f"by {length - max_length} bytes")
         if not (1 <= n_in <= MAX_INPUTS and 1 <= n_out <= MAX_OUTPUTS) or reserved:
             raise ModelError(f"model blob has {n_in} inputs and {n_out} outputs (1..3 each)")
+        if not 1 <= ts_us <= MAX_TS_US:
+            raise ModelError(f"model blob: sample period {ts_us} us outside 1..{MAX_TS_US}")
+        if input_lsb != DEVICE_INPUT_LSB:
+            raise ModelError(f"model blob expects inputs of {input_lsb:g} % dR per LSB; the device sends "
+                             f"{INPUT_LSB_PERCENT:g} %")
         (stored,) = struct.unpack_from("<H", data, length - CRC_LEN)
-        if crc16(data[:-CRC_LEN]) != stored:
+        if blob_crc(data) != stored:
             raise ModelError("model blob CRC mismatch")
         r = _Reader(data, HEADER_LEN, length - CRC_LEN)
         outputs = []
         for _ in range(n_out):
-            nb, oflags, offset = r.unpack("<BBh")
+            nb, oflags, offset = r.unpack(OUTPUT_FORMAT)
             if not 1 <= nb <= MAX_BRANCHES or oflags & ~(OUT_HAS_G | OUT_HAS_H2):
                 raise ModelError("model blob: bad output record")
             branches = []
             for _ in range(nb):
-                inp, delay, u_off, bflags, ns = r.unpack("<BBhBB")
+                inp, delay, u_off, bflags, ns = r.unpack(BRANCH_FORMAT)
                 if inp >= n_in or delay > MAX_DELAY or bflags & ~BRANCH_HAS_F:
                     raise ModelError("model blob: bad branch record")
                 f = _read_pwl(r) if bflags & BRANCH_HAS_F else None
@@ -250,18 +302,21 @@ class ModelBlob:
             outputs.append(OutputQ(tuple(branches), g, h2, offset))
         if r.pos != r.end:
             raise ModelError(f"model blob: {r.end - r.pos} unexpected bytes after the last record")
-        return cls(n_in, tuple(outputs), tuple(float(s) for s in scales[:n_out]), model_id, version)
+        return cls(n_in, tuple(outputs), tuple(float(s) for s in scales[:n_out]), model_id, version,
+                   ts_us=ts_us, input_lsb=input_lsb)
 
 
 def _pack_pwl(p: PwlQ) -> bytes:
     n = len(p.x)
-    out = struct.pack(f"<B{n}h{n}h", n, *p.x, *p.y)
+    out = struct.pack(f"<B{n}h{n}h", n | (TABLE_COMPACT if p.compact else 0), *p.x, *p.y)
+    if p.compact:
+        return out
     return out + b"".join(struct.pack("<hB", m, s) for m, s in zip(p.slope, p.shift))
 
 
 def _pack_section(s: SectionQ) -> bytes:
     bfmt = "<3i" if s.wide else "<3h"
-    return struct.pack("<BBBB", s.flags, s.sb, *s.n) + struct.pack(bfmt, *s.b) + struct.pack("<2h", *s.k)
+    return struct.pack(SECTION_FIXED_FORMAT, s.flags, s.sb, *s.n) + struct.pack(bfmt, *s.b) + struct.pack("<2h", *s.k)
 
 
 class _Reader:
@@ -278,15 +333,16 @@ class _Reader:
 
 
 def _read_pwl(r: _Reader) -> PwlQ:
-    (n,) = r.unpack("<B")
+    (count,) = r.unpack("<B")
+    compact, n = bool(count & TABLE_COMPACT), count & ~TABLE_COMPACT & 0xFF
     if not 2 <= n <= MAX_BREAKPOINTS:
         raise ModelError(f"model blob: table with {n} breakpoints (2..{MAX_BREAKPOINTS})")
     xs = r.unpack(f"<{n}h")
     ys = r.unpack(f"<{n}h")
-    segs = [r.unpack("<hB") for _ in range(n - 1)]
+    segs = [] if compact else [r.unpack("<hB") for _ in range(n - 1)]
     if any(b <= a for a, b in zip(xs, xs[1:])) or any(s > 30 for _, s in segs):
         raise ModelError("model blob: table breakpoints not increasing or shift above 30")
-    return PwlQ(tuple(xs), tuple(ys), tuple(m for m, _ in segs), tuple(s for _, s in segs))
+    return PwlQ(tuple(xs), tuple(ys), tuple(m for m, _ in segs), tuple(s for _, s in segs), compact)
 
 
 def _read_cascade(r: _Reader, n: int) -> tuple[SectionQ, ...]:
@@ -294,7 +350,7 @@ def _read_cascade(r: _Reader, n: int) -> tuple[SectionQ, ...]:
         raise ModelError(f"model blob: cascade of {n} sections (1..{MAX_SECTIONS})")
     out = []
     for _ in range(n):
-        flags, sb, n1, n2 = r.unpack("<BBBB")
+        flags, sb, n1, n2 = r.unpack(SECTION_FIXED_FORMAT)
         wide, delta = bool(flags & SEC_WIDE), bool(flags & SEC_DELTA)
         m1, m2 = ((flags >> 2) & 7) - 2, ((flags >> 5) & 3) - 1
         b = r.unpack("<3i" if wide else "<3h")

@@ -22,6 +22,7 @@ Choices (all automatic, each recorded in the report):
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -29,7 +30,7 @@ from scipy import signal
 
 from porosense.errors import ModelError
 from porosense.quant.blob import (
-    MAX_BLOB_LEN, STATE_FRAC, BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit, pwl_len,
+    CRC_LEN, HEADER_LEN, MAX_BLOB_LEN, STATE_FRAC, BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit, pwl_len,
 )
 from porosense.structure import EstimatorStructure, PiecewiseLinear
 
@@ -349,22 +350,41 @@ def design_blob(structure: EstimatorStructure, input_range: list[tuple[float, fl
 
 
 def blob_size(structure: EstimatorStructure, *, h1_sections: int | None = None, h2_sections: int | None = None,
-              breakpoints: int | None = None, section_bytes: float = 14.0) -> int:
-    """Bytes of the blob of ``structure`` with its blocks capped at the given orders."""
-    size = 24 + 2
-    for out in structure.outputs:
-        size += 4
-        for br in out.branches:
-            ns = br.h1.n_sections if h1_sections is None else min(br.h1.n_sections, h1_sections)
-            size += 6 + ns * section_bytes
-            if br.f is not None:
-                size += pwl_len(len(br.f.x) if breakpoints is None else min(len(br.f.x), breakpoints))
-        if out.g is not None:
-            size += pwl_len(len(out.g.x) if breakpoints is None else min(len(out.g.x), breakpoints))
-        if out.h2 is not None:
-            ns = out.h2.n_sections if h2_sections is None else min(out.h2.n_sections, h2_sections)
-            size += 1 + ns * section_bytes
-    return int(math.ceil(size))
+              breakpoints: int | None = None, section_bytes: float = 14.0, compact: bool | None = None) -> int:
+    """Bytes of the blob of ``structure`` with its blocks capped at the given orders: with full
+    tables when that fits the model area, else with compact tables (:func:`compact_tables`);
+    ``compact`` True / False forces one encoding (True: for a share of a larger blob, which the
+    quantizer will encode compactly when the whole does not fit with full tables)."""
+    sizes = []
+    for compact in (False, True):
+        size = HEADER_LEN + CRC_LEN
+        for out in structure.outputs:
+            size += 4
+            for br in out.branches:
+                ns = br.h1.n_sections if h1_sections is None else min(br.h1.n_sections, h1_sections)
+                size += 6 + ns * section_bytes
+                if br.f is not None:
+                    size += pwl_len(len(br.f.x) if breakpoints is None else min(len(br.f.x), breakpoints), compact)
+            if out.g is not None:
+                size += pwl_len(len(out.g.x) if breakpoints is None else min(len(out.g.x), breakpoints), compact)
+            if out.h2 is not None:
+                ns = out.h2.n_sections if h2_sections is None else min(out.h2.n_sections, h2_sections)
+                size += 1 + ns * section_bytes
+        sizes.append(int(math.ceil(size)))
+    if compact is not None:
+        return sizes[int(compact)]
+    return sizes[0] if sizes[0] <= MAX_BLOB_LEN else sizes[1]
+
+
+def compact_tables(blob: ModelBlob) -> ModelBlob:
+    """The blob with every table in the compact encoding (x, y only: 27 bytes fewer per
+    10-breakpoint table; the board computes each lookup's slope with one division)."""
+    def c(t):
+        return None if t is None else PwlQ(t.x, t.y, compact=True)
+
+    outs = tuple(OutputQ(tuple(dataclasses.replace(b, f=c(b.f)) for b in o.branches), c(o.g), o.h2, o.offset)
+                 for o in blob.outputs)
+    return dataclasses.replace(blob, outputs=outs)
 
 
 def orders_that_fit(structure: EstimatorStructure, section_bytes: float = 14.0, limit: int = 4) -> list[str]:

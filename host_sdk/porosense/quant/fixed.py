@@ -26,6 +26,11 @@ def pwl_eval(p: PwlQ, x: np.ndarray, sat: np.ndarray) -> np.ndarray:
     """Evaluate a table on int64 inputs; marks saturated samples in ``sat`` (bool)."""
     xs = np.asarray(p.x, dtype=np.int64)
     k = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, len(xs) - 2)
+    if p.compact:
+        ys = np.asarray(p.y, dtype=np.int64)
+        span, dy, dx = xs[k + 1] - xs[k], ys[k + 1] - ys[k], x - xs[k]
+        q = np.minimum((np.abs(dx) * np.abs(dy) + span // 2) // span, 0x10000)
+        return _sat16(ys[k] + np.where((dx < 0) != (dy < 0), -q, q), sat)
     slope = np.asarray(p.slope, dtype=np.int64)[k]
     shift = np.asarray(p.shift, dtype=np.int64)[k]
     prod = (x - xs[k]) * slope

@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
 import zlib
 from dataclasses import dataclass
 
 import numpy as np
 
-from porosense.errors import InputError
+from porosense.errors import InputError, ModelError
 from porosense.quant.blob import MAX_BLOB_LEN, ModelBlob
-from porosense.quant.design import DEFAULT_INPUT_LSB, FULL_SCALE, check_size, design_blob
+from porosense.quant.design import DEFAULT_INPUT_LSB, FULL_SCALE, check_size, compact_tables, design_blob
 from porosense.quant.fixed import FixedPointEstimator
 from porosense.quant.report import QuantReport, RecordingFit, fit_percent
 from porosense.structure import EstimatorStructure
@@ -31,7 +32,12 @@ class QuantResult:
         return self.blob.to_bytes()
 
 
-def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None, input_lsb: float | None = None,
+# A model whose inputs were declared in % (or not at all) but never exceeded this magnitude in
+# identification was almost surely fitted on dR / 100: the actuators' dR spans tens of %.
+FRACTION_SUSPECT_PEAK = 1.5
+
+
+def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None,
              model_id: int | None = None, noise_lsb: float | None = None) -> QuantResult:
     """Quantize ``structure`` for the firmware.
 
@@ -42,9 +48,12 @@ def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None
     input_range: (lo, hi) in the structure's input unit, one pair or one per input; the scaling
         guarantees no overflow for inputs inside it. Default: the recordings' range widened by
         25 % of its span (or -100..100 % without data).
-    input_lsb: structure input units per device LSB (default 0.01: inputs are dR in %, the
-        device sends 0.01 %); taken from ``structure.meta["input_lsb"]`` when present.
-    model_id: tag stored in the blob (default: CRC-32 of the structure's repr, 32 bits).
+    The input scaling comes from the structure alone (``structure.input_units``: dR in % or
+    dR/100; the device sends 0.01 % steps) and the sample period from ``structure.ts``; both
+    are stored in the blob. A structure with undeclared units whose identification inputs never
+    exceeded 1.5 in magnitude is refused (ModelError): it was almost surely fitted on dR/100.
+    model_id: tag stored in the blob (default: CRC-32 of the blob with model_id 0, so the same
+    coefficients, sample period and scaling always give the same blob).
     noise_lsb: RMS of the white noise (device input LSB) of the report's noise probe
         (default NOISE_PROBE_LSB; 0 skips it).
 
@@ -52,12 +61,22 @@ def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None
     the recordings' inputs converted exactly as the device converts them (:func:`evaluate`).
     """
     noise_lsb = NOISE_PROBE_LSB if noise_lsb is None else float(noise_lsb)
-    lsb = float(input_lsb or structure.meta.get("input_lsb", DEFAULT_INPUT_LSB))
+    _check_units(structure)
+    lsb = structure.input_lsb()
+    ts_us = _ts_us(structure.ts)
     recs = [_as_recording(r, structure, i) for i, r in enumerate(recordings or [])]
     ranges = _input_ranges(structure, recs, input_range, lsb)
-    mid = model_id if model_id is not None else zlib.crc32(repr(structure).encode()) & 0xFFFFFFFF
     notes: list[str] = []
-    blob, nodes = design_blob(structure, ranges, lsb, mid, notes)
+    blob, nodes = design_blob(structure, ranges, lsb, 0, notes)
+    blob = dataclasses.replace(blob, ts_us=ts_us)
+    if blob.length > MAX_BLOB_LEN:  # too large with full tables: try compact ones
+        small = compact_tables(blob)
+        if small.length < blob.length:
+            notes.append(f"compact tables: {blob.length} bytes with full tables, {small.length} compact (the board "
+                         "computes each lookup's slope from the two breakpoints, one division)")
+            blob = small
+    mid = model_id if model_id is not None else zlib.crc32(blob.to_bytes()) & 0xFFFFFFFF
+    blob = dataclasses.replace(blob, model_id=mid & 0xFFFFFFFF)
     check_size(blob, structure)
     secs = [s for o in blob.outputs for b in o.branches for s in b.sections] + [s for o in blob.outputs for s in o.h2]
     scaling = ("l1 interval bound: each node's range is the input interval through the positive and "
@@ -74,6 +93,28 @@ def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None
     for name, u, y in recs:
         report.fits.extend(evaluate(structure, blob, u, y, name, lsb, noise_lsb))
     return QuantResult(blob, report)
+
+
+def _ts_us(ts: float) -> int:
+    """The sample period in whole microseconds, as the blob stores it."""
+    if not np.isfinite(ts) or ts <= 0:
+        raise ModelError(f"the model's sample period {ts} s is not a positive number")
+    us = int(round(ts * 1e6))
+    if not 1 <= us <= 65_535_000 or abs(us - ts * 1e6) > 1e-6 * ts * 1e6 + 0.5:
+        raise ModelError(f"the model's sample period {ts} s cannot be stored (1 us .. 65.5 s)")
+    return us
+
+
+def _check_units(structure: EstimatorStructure) -> None:
+    """Refuse a model that looks fitted on dR/100 but does not say so."""
+    for i, name in enumerate(structure.inputs):
+        unit = structure.input_unit(i)
+        peak = structure.input_peak[i] if i < len(structure.input_peak) else None
+        if unit is None and peak is not None and 0 < peak <= FRACTION_SUSPECT_PEAK:
+            raise ModelError(
+                f"input {name} peaked at {peak:.3g} in identification: that is dR/100, not dR in %, "
+                "but the model does not say which; declare it (fit(..., input_unit='dR/100') or "
+                "porosense quantize --input-unit dR/100)")
 
 
 def device_inputs(u, input_lsb: float = DEFAULT_INPUT_LSB) -> np.ndarray:
@@ -168,6 +209,6 @@ def _input_ranges(structure, recs, input_range, lsb) -> list[tuple[float, float]
         # would widen a range given in fractions (input_lsb 1e-4) a hundredfold too much.
         span = np.maximum(hi - lo, 100.0 * lsb)
         pairs = list(zip(lo - 0.25 * span, hi + 0.25 * span))
-    else:
-        pairs = [DEFAULT_INPUT_RANGE] * n
+    else:  # DEFAULT_INPUT_RANGE is in % of dR; lsb / 0.01 converts % to structure units
+        pairs = [tuple(v * lsb / DEFAULT_INPUT_LSB for v in DEFAULT_INPUT_RANGE)] * n
     return [(max(float(lo), dev_lo), min(float(hi), dev_hi)) for lo, hi in pairs]

@@ -26,7 +26,7 @@ class FlashReader : public est::BlobReader {
 class EepromReader : public est::BlobReader {
  public:
   void read(uint16_t offset, void* dst, uint8_t n) const override {
-    eeprom_read_block(dst, reinterpret_cast<const void*>(72 + offset), n);
+    eeprom_read_block(dst, reinterpret_cast<const void*>(est::layout::kAreaBase + offset), n);
   }
 };
 
@@ -49,7 +49,7 @@ int main() {
   fdev_setup_stream(&uart_out, uart_putchar, NULL, _FDEV_SETUP_WRITE);
   stdout = &uart_out;
 #if MODEL_IN_EEPROM
-  for (uint16_t i = 0; i < MODEL_LEN; ++i) eeprom_update_byte(reinterpret_cast<uint8_t*>(72 + i), pgm_read_byte(MODEL_BLOB + i));
+  for (uint16_t i = 0; i < MODEL_LEN; ++i) eeprom_update_byte(reinterpret_cast<uint8_t*>(est::layout::kAreaBase + i), pgm_read_byte(MODEL_BLOB + i));
   static EepromReader reader;
 #else
   static FlashReader reader;

@@ -44,8 +44,20 @@ int main() {
   ps_boot(c, PS_RESET_POWER_ON, 0);
   proto::FrameDecoder dec;
 
+  // HELLO opens the session that commands turning outputs on must name.
   send(c, proto::msg::HELLO, 0, 0);
-  CHECK(frames(c, &dec, proto::HelloReply::kType, 0) == 1);
+  proto::HelloReply hello;
+  {
+    uint8_t buf[256];
+    const uint32_t n = ps_take(c, buf, sizeof buf);
+    int replies = 0;
+    for (uint32_t i = 0; i < n; ++i)
+      if (dec.feed(buf[i]) && dec.type() == proto::HelloReply::kType) {
+        hello.decode(dec.payload(), dec.length());
+        ++replies;
+      }
+    CHECK(replies == 1);
+  }
 
   // Streaming at 100 Hz: one SAMPLE per 10 ms of device time, on whole milliseconds.
   proto::StartStream ss;
@@ -90,6 +102,8 @@ int main() {
   so.setpoint_dkpa[0] = -200;
   so.pump_mask = 1;
   so.valve_mask = 1;
+  so.session = hello.session;
+  so.counter = 1;
   send(c, proto::SetOutputs::kType, p, so.encode(p));
   ps_state st;
   ps_state_get(c, &st);
@@ -101,13 +115,16 @@ int main() {
   CHECK(st.pump_mask == 0 && st.valve_mask == 0 && st.setpoint_dkpa[0] == 0);
   CHECK(st.flags & proto::flag::WATCHDOG_TRIPPED);
 
-  // A power loss at the first EEPROM write of the model region (MODEL_BEGIN's invalidation).
+  // A power loss at the first EEPROM write of the model region (the first chunk of a model).
   uint8_t drop[4096];
   ps_take(c, drop, sizeof drop);
-  ps_eeprom(c)[64] = 'M';  // a stored magic for BEGIN to overwrite (unchanged bytes are skipped)
   ps_fail_after_writes(c, 0, 64);
-  uint8_t begin[5] = {0, 1, 0x34, 0x12, 1};  // length 256, crc 0x1234, format 1
+  uint8_t begin[5] = {0, 1, 0x34, 0x12, 2};  // length 256, crc 0x1234, format 2
   send(c, proto::msg::MODEL_BEGIN, begin, sizeof begin);
+  ps_take(c, drop, sizeof drop);
+  uint8_t chunk[2 + 64] = {0, 0};
+  memset(chunk + 2, 0x5A, 64);
+  send(c, proto::msg::MODEL_CHUNK, chunk, sizeof chunk);
   ps_state_get(c, &st);
   CHECK(st.power_lost);
   CHECK(ps_take(c, drop, sizeof drop) == 0);  // nothing leaves a board without power

@@ -25,14 +25,8 @@ def send_chunks(dev, blob, upto=None):
         dev.command(m.ModelChunk(offset=off, data=blob[off : min(off + MODEL_CHUNK_BYTES, end)]))
 
 
-two_slot = pytest.mark.usefixtures("firmware_store")
-
-
-@pytest.fixture
-def firmware_store(backend):
-    if backend.is_emulator:
-        pytest.skip("the Python emulator's one-slot store predates the two-slot store (it is being replaced "
-                    "by the firmware core)")
+# The two-slot store is the firmware's: the emulator runs the same core, so these run on every back-end.
+two_slot = pytest.mark.usefixtures()
 
 
 def nak(fn, *args) -> NakError:

@@ -89,8 +89,8 @@ def _one_output_blob() -> bytes:
     g = PiecewiseLinear(np.array([-2.0, -0.5, 0.0, 1.0]), np.array([40.0, 12.0, 0.0, -5.0]))
     chain = OutputChain(name="strain_0", g=g, h2=SOSCascade(signal.zpk2sos([], [0.7, 0.2], 0.24)),
                         branches=(Branch(input=0, f=f, h1=SOSCascade(signal.zpk2sos([-0.5], [0.9, 0.5], 0.05))),))
-    structure = EstimatorStructure(inputs=("dR_0",), outputs=(chain,), ts=1.0 / RATE_HZ)
-    return quantize(structure, input_range=(-1.0, 0.5), input_lsb=1e-4).blob.to_bytes()
+    structure = EstimatorStructure(inputs=("dR_0",), outputs=(chain,), ts=1.0 / RATE_HZ, input_units=("dR/100",))
+    return quantize(structure, input_range=(-1.0, 0.5)).blob.to_bytes()
 
 
 def simboard_figures(size: str) -> dict | None:

@@ -225,8 +225,9 @@ def build(cat: dict) -> dict:
     add("replay_full", replay, _values(replay, random.Random(2), var_count=replay.variable.max), 17,
         why="largest REPLAY: 16 samples of 3 inputs")
     hello, hello_reply, ping = by_name["HELLO"], by_name["HELLO_REPLY"], by_name["PING"]
-    add("hello_other_major", hello, {}, 3, ver=0x21, why="HELLO is accepted with any version")
-    add("hello_reply_other_major", hello_reply, _values(hello_reply, random.Random(3)), 3, ver=0x30,
+    other = (p["major"] % 15) + 1  # another major than ours
+    add("hello_other_major", hello, {}, 3, ver=other * 16 + 1, why="HELLO is accepted with any version")
+    add("hello_reply_other_major", hello_reply, _values(hello_reply, random.Random(3)), 3, ver=other * 16,
         why="HELLO_REPLY too, so the host can report the mismatch")
     add("ping_newer_minor", ping, {"nonce": 0x01020304}, 9, ver=version | 0x0F,
         why="a different minor of the same major is accepted")
@@ -263,8 +264,8 @@ def build(cat: dict) -> dict:
                "header says 5 payload bytes, the frame holds 4 (CRC correct)", "bad_length", 0)
     add_stream("bad_length_type", body_frame(bytes((version, ping.type, 1, 3)) + b"\x01\x02\x03"),
                "PING needs 4 payload bytes, 3 sent (CRC correct)", "bad_length", 0)
-    add_stream("bad_version", body_frame(bytes((0x20, ping.type, 1, 4)) + b"\x01\x02\x03\x04"),
-               "protocol major 2 on a PING", "bad_version", 0)
+    add_stream("bad_version", body_frame(bytes((other * 16, ping.type, 1, 4)) + b"\x01\x02\x03\x04"),
+               f"protocol major {other} on a PING", "bad_version", 0)
     add_stream("unknown_type", body_frame(bytes((version, 0x7E, 1, 0))), "type 0x7E is not in the catalogue",
                "unknown_type", 0)
     add_stream("overlong", bytes([0x55]) * 300 + b"\x00", "300 bytes without a delimiter", "overlong", 0)
@@ -281,9 +282,11 @@ def build(cat: dict) -> dict:
     half = ref_frame("status_reply")
     add_stream("truncated_then_frame", good + half[: len(half) // 2] + ref_frame("ack"),
                "half a frame (transmitter reset) then an ACK: PING and ACK recovered", None, 2)
-    add_stream("hello_reply_major2_layout", body_frame(bytes((0x20, hello_reply.type, 7, 3)) + b"\x02\x01\x00"),
-               "a HELLO_REPLY of major 2 with its own layout is delivered: the host reads proto_major", None, 1)
-    add_stream("hello_reply_bad_length", body_frame(bytes((version, hello_reply.type, 7, 3)) + b"\x01\x00\x00"),
+    add_stream("hello_reply_other_major_layout", body_frame(bytes((other * 16, hello_reply.type, 7, 3))
+                                                            + bytes((other, 1, 0))),
+               f"a HELLO_REPLY of major {other} with its own layout is delivered: the host reads proto_major", None, 1)
+    add_stream("hello_reply_bad_length", body_frame(bytes((version, hello_reply.type, 7, 3))
+                                                    + bytes((p["major"], 0, 0))),
                "the same length under our own major is wrong", "bad_length", 0)
     zero_in = bytearray(ref_frame("sample"))
     zero_in[10] = 0

@@ -519,7 +519,7 @@ void test_other_commands() {
   // HELLO with a payload (a later release) and another major version is still answered.
   const uint8_t extra[3] = {1, 2, 3};
   uint8_t frame[proto::kMaxFrameLen];
-  const uint8_t fl = proto::encode_frame(proto::msg::HELLO, 40, extra, 3, frame, 0x20);
+  const uint8_t fl = proto::encode_frame(proto::msg::HELLO, 40, extra, 3, frame, (proto::kVersionMajor % 15 + 1) << 4);
   rig.hal.rx.insert(rig.hal.rx.end(), frame, frame + fl);
   rig.dev.poll();
   fr = rig.one();

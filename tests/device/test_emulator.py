@@ -13,6 +13,7 @@ from porosense.device import Device, NakError
 from porosense.emulator import Emulator, Faults
 from porosense.errors import DeviceError
 from porosense.protocol import Result, StatusFlag
+from porosense.protocol._messages import VERSION_MAJOR
 from porosense.quant import ModelBlob
 
 
@@ -153,10 +154,10 @@ def test_vacuum_collapses_the_foam_and_venting_recovers():
 
 
 def test_protocol_minor_differences_are_accepted_major_refused():
-    with Emulator(proto_version=(1, 3)) as emu, Device.open(emu.url) as dev:
+    with Emulator(proto_version=(VERSION_MAJOR, 3)) as emu, Device.open(emu.url) as dev:
         assert dev.info.proto_minor == 3
-    with Emulator(proto_version=(2, 0)) as emu:
-        with pytest.raises(DeviceError, match=r"protocol 2\.0"):
+    with Emulator(proto_version=(VERSION_MAJOR + 1, 0)) as emu:
+        with pytest.raises(DeviceError, match=rf"protocol {VERSION_MAJOR + 1}\.0"):
             Device.open(emu.url)
 
 

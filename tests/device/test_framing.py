@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from porosense.protocol import MsgType, encode_frame, encode_message
 from porosense.protocol import _messages as m
+from porosense.protocol._messages import VERSION_BYTE
 
 
 def counters(dev):
@@ -34,13 +35,13 @@ def test_bad_length(dev):
 
     from porosense.protocol import crc16
 
-    body = bytes((0x10, MsgType.PING, 0x11, 5)) + (7).to_bytes(4, "little")
+    body = bytes((VERSION_BYTE, MsgType.PING, 0x11, 5)) + (7).to_bytes(4, "little")
     crc = crc16(body)
     expect_silence_and_count(dev, cobs.encode(body + crc.to_bytes(2, "little")) + b"\x00", 1)
 
 
 def test_bad_version(dev):
-    expect_silence_and_count(dev, encode_frame(MsgType.PING, 0x12, (1).to_bytes(4, "little"), version=0x20), 2)
+    expect_silence_and_count(dev, encode_frame(MsgType.PING, 0x12, (1).to_bytes(4, "little"), version=(VERSION_BYTE + 0x10) & 0xF0), 2)
 
 
 def test_unknown_type(dev):

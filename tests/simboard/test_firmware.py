@@ -9,6 +9,7 @@ import serial
 
 from porosense.protocol import (Ack, FrameDecoder, Hello, HelloReply, Sample, SetOutputs, StartStream,
                                 StopStream, encode_message)
+from porosense.protocol._messages import VERSION_MAJOR
 from porosense.simboard import DEFAULT_ELF, ConstantPlant, SimBoard
 
 pytestmark = pytest.mark.simboard
@@ -41,7 +42,7 @@ def test_firmware_answers_hello(firmware_elf):
         frame = hello(board.url, seq=7)
         reply = frame.message()
         assert isinstance(reply, HelloReply) and frame.seq == 7
-        assert reply.proto_major == 1 and reply.n_channels == 3
+        assert reply.proto_major == VERSION_MAJOR and reply.n_channels == 3
         # uptime is AVR time: it cannot exceed the time the board has run
         assert 0 < reply.uptime_ms <= board.sim_time_s * 1000 + 1
         assert board.counters["twi_nacks"] == 0      # both sensors found at boot

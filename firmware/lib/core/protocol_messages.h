@@ -12,9 +12,9 @@
 
 namespace proto {
 
-constexpr uint8_t kVersionMajor = 1;
+constexpr uint8_t kVersionMajor = 2;
 constexpr uint8_t kVersionMinor = 0;
-constexpr uint8_t kVersionByte = 16;
+constexpr uint8_t kVersionByte = 32;
 constexpr uint8_t kMaxPayload = 120;
 
 namespace msg {

@@ -12,9 +12,9 @@ import struct
 from dataclasses import dataclass, field
 from typing import ClassVar
 
-VERSION_MAJOR = 1
+VERSION_MAJOR = 2
 VERSION_MINOR = 0
-VERSION_BYTE = 16
+VERSION_BYTE = 32
 MAX_PAYLOAD = 120
 
 

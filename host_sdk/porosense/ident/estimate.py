@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from porosense.ident import blocks
+from porosense.ident import bla_split, blocks
 from porosense.ident.chain import Chain, ChainSpec, _filter
 from porosense.ident.linear_init import arx, iv
 
@@ -140,6 +140,7 @@ def _hammerstein_starts(lin: Fit, us, ys, n_bp, delay, opts):
         theta[sl["offset"]] = offset
         return theta
 
+    # The identity f (equal to the linear model) is always a start; others are added to it.
     starts = [theta_with(xs, lchain.offset)]
     # Least squares for the f values with the BLA's dynamics held: y - c = sum H1_i(hat(u_i)) fy_i.
     cols = []
@@ -154,13 +155,14 @@ def _hammerstein_starts(lin: Fit, us, ys, n_bp, delay, opts):
     sol = lstsq(phi, np.concatenate(ys))
     if np.all(np.isfinite(sol)):
         fys = [sol[i * n_bp:(i + 1) * n_bp] for i in range(n_in)]
-        starts.insert(0, theta_with(fys, sol[-1]))
+        starts.append(theta_with(fys, sol[-1]))
     return spec, starts[: max(opts.starts, 1)]
 
 
 def _bla_options(opts: Options) -> Options:
-    """A rough best linear approximation is enough to start a nonlinear model."""
-    return Options(max_nfev=max(opts.max_nfev // 5, 10), tol=max(opts.tol, 1e-5), skip=opts.skip, starts=1)
+    """The linear model a nonlinear one starts from: the best linear model of its order (fully
+    refined), so that the nonlinear model's first iterate already equals the linear fit."""
+    return Options(max_nfev=opts.max_nfev, tol=opts.tol, skip=opts.skip, starts=1)
 
 
 def fit_hammerstein(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, lin: Fit | None = None) -> Fit:
@@ -180,17 +182,17 @@ def _wiener_starts(lin: Fit, us, ys, n_bp, delay, opts):
     base = np.zeros(spec.n_params)
     base[: sl["g.p"].start] = lin.theta[: sl["g.p"].start]
     base[sl["g.p"]] = blocks.positions_to_p(x)
-    starts = []
+    # The identity g (equal to the linear model) is always a start; others are added to it.
+    t = base.copy()
+    t[sl["g.y"]] = x
+    t[sl["offset"]] = lchain.offset
+    starts = [t]
     phi = np.vstack([_hat_basis(x, s) for s in ss])
     gy = lstsq(phi, np.concatenate(ys))
     if np.all(np.isfinite(gy)):
         t = base.copy()
         t[sl["g.y"]] = gy
         starts.append(t)
-    t = base.copy()
-    t[sl["g.y"]] = x
-    t[sl["offset"]] = lchain.offset
-    starts.append(t)
     return spec, starts[: max(opts.starts, 1)]
 
 
@@ -280,11 +282,19 @@ def fit_wh(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | N
 
 
 def wh_fits(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | None = None,
-            hammerstein: Fit | None = None) -> list[Fit]:
+            hammerstein: Fit | None = None, linear: Fit | None = None) -> list[Fit]:
     """As :func:`fit_wh`, but every member: the best refinement first, then the other
-    refinement and the two starting models (``build`` ends in " start")."""
-    if wiener is None or hammerstein is None:
+    refinements and the starting models (``build`` ends in " start").
+
+    With one input and at least 2 poles, a third build starts from the best linear model of
+    the order with its poles and zeros split between H1 and H2 (:mod:`bla_split`): both blocks
+    at full order, g the identity on the quantiles of H1's output, so the start equals the
+    linear model; the ``opts.starts`` best splits (g by least squares) are refined jointly.
+    """
+    lin = linear
+    if lin is None and (wiener is None or hammerstein is None or us[0].shape[1] == 1):
         lin = fit_linear(us, ys, n_poles, n_zeros, delay, _bla_options(opts))
+    if wiener is None or hammerstein is None:
         wiener = wiener or fit_wiener(us, ys, n_poles, n_zeros, n_bp, delay, opts, lin=lin)
         hammerstein = hammerstein or fit_hammerstein(us, ys, n_poles, n_zeros, n_bp, delay, opts, lin=lin)
     fits, starts = [], []
@@ -301,8 +311,26 @@ def wh_fits(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | 
         fit.build = build
         fits.append(fit)
         starts.append(Fit(spec, theta0, start, 0, build + " start"))
+    if lin is not None:
+        split_fits, split_starts = _split_builds(lin, us, ys, n_bp, opts)
+        fits += split_fits
+        starts += split_starts
     fits.sort(key=lambda f: f.sse if np.isfinite(f.sse) else np.inf)
     return fits + starts
+
+
+def _split_builds(lin: Fit, us, ys, n_bp, opts: Options):
+    """Refinements of the best BLA pole/zero splits, and the split start equal to the linear model."""
+    ranked = bla_split.ranked_split_starts(lin.spec, lin.theta, us, ys, n_bp, opts.skip, keep=max(opts.starts, 1))
+    fits, starts = [], []
+    for k, (_, spec, theta_ls, theta_identity, split) in enumerate(ranked):
+        fit = refine(spec, theta_ls, us, ys, opts)
+        fit.build = f"bla split ({split.describe()})"
+        fits.append(fit)
+        if k == 0:
+            start = sse(spec, theta_identity, us, ys, opts.skip)
+            starts.append(Fit(spec, theta_identity, start, 0, "bla split start"))
+    return fits, starts
 
 
 def multistart(spec: ChainSpec, starts, us, ys, opts: Options) -> Fit:

@@ -81,8 +81,32 @@ class Model:
     def _estimate(self, us, ys, opts) -> estimate.Fit:  # pragma: no cover - abstract
         raise NotImplementedError
 
-    def fit(self, *, u, y, ts: float = 1.0, inputs=None, output: str = "y") -> Model:
-        """Estimate on the recordings ``u`` (list of (N, n_in)), ``y`` (list of (N,)); ts in s."""
+    def fit(self, *, u, y, ts: float = 1.0, inputs=None, output: str = "y", linear: Model | None = None) -> Model:
+        """Estimate on the recordings ``u`` (list of (N, n_in)), ``y`` (list of (N,)); ts in s.
+
+        ``linear``: the linear model of the same orders already fitted on the same data; a
+        nonlinear structure starts from it instead of estimating it again.
+        """
+        self._linear = linear
+        try:
+            return self._fit(u=u, y=y, ts=ts, inputs=inputs, output=output)
+        finally:
+            self._linear = None
+
+    def _start_fit(self, model):
+        """The estimate.Fit of ``model`` (same data and orders as this one), or None."""
+        if model is None:
+            return None
+        same = (model.theta is not None and model.n_poles == self.n_poles and model.n_zeros == self.n_zeros
+                and model.delay == self.delay and model.skip == self.skip
+                and np.array_equal(model.u_scale, self.u_scale) and model.y_mean == self.y_mean
+                and model.y_std == self.y_std)
+        if not same:
+            raise InputError(f"the {model.kind} model to start from must be fitted on the same data "
+                             "with the same orders")
+        return estimate.Fit(model.spec, model.theta, model.info["sse"] / self.y_std**2)
+
+    def _fit(self, *, u, y, ts, inputs, output) -> Model:
         us, ys = as_recordings(u, y)
         n_in = us[0].shape[1]
         if not 1 <= n_in <= MAX_INPUTS or any(x.shape[1] != n_in for x in us):
@@ -278,7 +302,8 @@ class Hammerstein(Model):
     kind = "hammerstein"
 
     def _estimate(self, us, ys, opts):
-        return estimate.fit_hammerstein(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts)
+        return estimate.fit_hammerstein(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts,
+                                        lin=self._start_fit(getattr(self, "_linear", None)))
 
 
 class Wiener(Model):
@@ -287,7 +312,8 @@ class Wiener(Model):
     kind = "wiener"
 
     def _estimate(self, us, ys, opts):
-        return estimate.fit_wiener(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts)
+        return estimate.fit_wiener(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts,
+                                   lin=self._start_fit(getattr(self, "_linear", None)))
 
 
 class WienerHammerstein(Model):
@@ -306,12 +332,13 @@ class WienerHammerstein(Model):
     kind = "wh"
 
     def fit(self, *, u, y, ts: float = 1.0, inputs=None, output: str = "y", wiener: Wiener | None = None,
-            hammerstein: Hammerstein | None = None) -> Model:
-        """As :meth:`Model.fit`; ``wiener`` / ``hammerstein``: models of the same orders already
-        fitted on the same data (reused as the starts instead of being estimated again)."""
+            hammerstein: Hammerstein | None = None, linear: Linear | None = None) -> Model:
+        """As :meth:`Model.fit`; ``wiener`` / ``hammerstein`` / ``linear``: models of the same
+        orders already fitted on the same data (reused as the starts instead of being estimated
+        again)."""
         self._parts = (wiener, hammerstein)
         try:
-            return super().fit(u=u, y=y, ts=ts, inputs=inputs, output=output)
+            return super().fit(u=u, y=y, ts=ts, inputs=inputs, output=output, linear=linear)
         finally:
             self._parts = (None, None)
 
@@ -330,7 +357,8 @@ class WienerHammerstein(Model):
     def _estimate(self, us, ys, opts):
         wiener, hammerstein = (self._part_fit(m) for m in getattr(self, "_parts", (None, None)))
         fits = estimate.wh_fits(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts,
-                                wiener=wiener, hammerstein=hammerstein)
+                                wiener=wiener, hammerstein=hammerstein,
+                                linear=self._start_fit(getattr(self, "_linear", None)))
         self.alternatives = fits[1:]
         return fits[0]
 

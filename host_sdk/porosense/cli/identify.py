@@ -9,6 +9,9 @@ from porosense.cli._args import parse_columns, parse_range
 from porosense.errors import InputError
 
 STRUCTURE_CHOICES = ("linear", "hammerstein", "wiener", "wh", "all")
+CRITERION_CHOICES = ("fit", "aic", "bic")
+HOLDOUT_FRACTION = 0.25
+MIN_SCORED = 20  # samples a held-out part needs to be scored
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -19,8 +22,11 @@ def register(sub) -> argparse.ArgumentParser:
             "Estimate discrete-time models (simulation error, jointly over every file, each file "
             "simulated from rest) of one or more output columns from up to 3 input columns of CSV "
             "files with a header row. Without --poles the paper's order search runs (poles 1..10, "
-            "zeros < poles) and the model with the best mean NRMSE fit over the estimation and "
-            "validation ranges is kept. A:B ranges (Python slices, applied to every file) choose the samples "
+            "zeros < poles). Models are selected on data not used to estimate them: --validation "
+            "(a range of every file), --validation-data (other files), or by default a hold-out (the "
+            "last file when there are at least 3 files, else the last 25 %% of every file); "
+            "--criterion fit selects by the validation fit (candidates within one standard error are "
+            "tied and the smallest is taken), aic/bic by the information criteria. A:B ranges (Python slices, applied to every file) choose the samples "
             "that are scored; each file is still simulated from its first sample. Fit and RMS are in %; "
             "--ts is the sample period in seconds."
         ),
@@ -41,6 +47,15 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--starts", type=int, default=2, metavar="N", help="starts per nonlinear model (default 2)")
     p.add_argument("--estimation", metavar="A:B", help="sample range of every file used for estimation")
     p.add_argument("--validation", metavar="A:B", help="sample range of every file used for validation")
+    p.add_argument("--validation-data", nargs="+", metavar="FILE",
+                   help="separate CSV files used for validation only (like MATLAB's compare(val, m))")
+    p.add_argument("--criterion", default="fit", metavar="|".join(CRITERION_CHOICES),
+                   help="selection criterion: fit (validation NRMSE fit, default), aic or bic")
+    p.add_argument("--full-grid", action="store_true",
+                   help="estimate every structure at every order (default: linear orders first, then the "
+                        "nonlinear structures at the 2 best linear orders)")
+    p.add_argument("--max-iter", type=int, default=200, metavar="N",
+                   help="function evaluations per refinement (default 200, as in the paper)")
     p.add_argument("--jobs", type=int, metavar="N", help="worker processes of the order search (default: all cores)")
     p.add_argument("--save", required=True, metavar="MODEL.json", help="where to write the model")
     p.add_argument("--json", metavar="REPORT.json", help="also write the search report as JSON")
@@ -83,6 +98,42 @@ def load_recordings(files, inputs, outputs, rng: slice):
     return us, ys, starts[0]
 
 
+def load_with_tail_holdout(files, inputs, outputs, rng: slice):
+    """Estimation on the first 75 % of the range of every file, validation on the last 25 %.
+
+    Returns (est_u, est_y, est_skip, (val_u, val_y, val_skips)); every validation recording is
+    the whole file up to the range's end, simulated from rest, scored from its own split point.
+    """
+    import numpy as np
+
+    from porosense.data import read_table
+
+    est_u, est_y, val_u, val_y, val_skips, starts = [], [], [], [], [], []
+    for f in files:
+        table = read_table(f)
+        for name in inputs + outputs:
+            if name not in table.columns:
+                raise InputError(f"{f}: no column '{name}' (columns: {', '.join(table.names)})")
+        start, stop, _ = rng.indices(len(table))
+        cut = start + int(round((1.0 - HOLDOUT_FRACTION) * (stop - start)))
+        if stop - cut < MIN_SCORED or cut - start < 10:
+            raise InputError(f"{f}: the hold-out (last 25 % of {max(stop - start, 0)} samples) is too short to "
+                             f"score (need >= {MIN_SCORED} samples); give --validation or --validation-data")
+        u = np.column_stack([table.columns[c] for c in inputs])[:stop]
+        y = np.column_stack([table.columns[c] for c in outputs])[:stop]
+        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
+            raise InputError(f"{f}: empty or non-finite cells in the selected columns and range")
+        est_u.append(u[:cut])
+        est_y.append(y[:cut])
+        val_u.append(u)
+        val_y.append(y)
+        val_skips.append(cut)
+        starts.append(start)
+    if len(set(starts)) > 1:
+        raise InputError("the sample range starts at different samples in different files (negative A?)")
+    return est_u, est_y, starts[0], (val_u, val_y, val_skips)
+
+
 def run(args) -> int:
     import os
     from concurrent.futures import ProcessPoolExecutor
@@ -101,10 +152,30 @@ def run(args) -> int:
         raise InputError("--zeros must be smaller than --poles")
     if not 2 <= args.breakpoints <= 64:
         raise InputError("--breakpoints must be 2..64")
-    est_u, est_y, est_skip = load_recordings(args.data, inputs, outputs, parse_range(args.estimation) or slice(None))
-    val = None
+    if args.criterion not in CRITERION_CHOICES:
+        raise InputError(f"unknown --criterion '{args.criterion}'; choose from {', '.join(CRITERION_CHOICES)}")
+    if args.max_iter < 1:
+        raise InputError("--max-iter must be at least 1")
+    if args.validation is not None and args.validation_data:
+        raise InputError("give either --validation (a range) or --validation-data (files), not both")
+    est_range = parse_range(args.estimation) or slice(None)
+    holdout = ""
     if args.validation is not None:
+        est_u, est_y, est_skip = load_recordings(args.data, inputs, outputs, est_range)
         val = load_recordings(args.data, inputs, outputs, parse_range(args.validation) or slice(None))
+        holdout = f"range {args.validation} of every file"
+    elif args.validation_data:
+        est_u, est_y, est_skip = load_recordings(args.data, inputs, outputs, est_range)
+        val = load_recordings(args.validation_data, inputs, outputs, slice(None))
+        holdout = f"{len(args.validation_data)} separate file(s)"
+    elif len(args.data) >= 3:
+        est_u, est_y, est_skip = load_recordings(args.data[:-1], inputs, outputs, est_range)
+        val = load_recordings(args.data[-1:], inputs, outputs, est_range)
+        holdout = f"hold-out: the last file ({args.data[-1]}) left out of estimation"
+    else:
+        est_u, est_y, est_skip, val = load_with_tail_holdout(args.data, inputs, outputs, est_range)
+        holdout = "hold-out: the last 25 % of every file left out of estimation"
+    print(holdout if holdout.startswith("hold-out") else f"validation: {holdout}")
     structures = tuple(ident.KINDS) if args.structure == "all" else (args.structure,)
     if args.poles is not None:
         poles = [args.poles]
@@ -125,7 +196,8 @@ def run(args) -> int:
                 u=est_u, y=[y[:, j] for y in est_y], ts=args.ts,
                 validation=(val[0], [y[:, j] for y in val[1]]) if val else None,
                 grid=grid, n_breakpoints=args.breakpoints, delay=args.delay, starts=args.starts,
-                skip=est_skip, validation_skip=val[2] if val else 0,
+                skip=est_skip, validation_skip=val[2] if val else 0, max_nfev=args.max_iter,
+                criterion=args.criterion, holdout=holdout, staged=args.poles is None and not args.full_grid,
                 inputs=inputs, output=name, executor=executor, progress=not args.quiet)
             models.append(result.model)
             reports.append({"output": name, **result.to_dict()})
@@ -139,7 +211,9 @@ def run(args) -> int:
     print(f"model saved to {args.save}")
     if args.json:
         report = {"files": list(args.data), "inputs": inputs, "outputs": outputs, "ts": args.ts,
-                  "estimation": args.estimation, "validation": args.validation, "results": reports}
+                  "estimation": args.estimation, "validation": args.validation,
+                  "validation_data": args.validation_data, "holdout": holdout, "criterion": args.criterion,
+                  "results": reports}
         with open(args.json, "w") as fh:
             json.dump(report, fh, indent=1, default=float)
     return 0

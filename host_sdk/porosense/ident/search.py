@@ -332,7 +332,8 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
            n_breakpoints: int = 10, delay: int = 0, starts: int = 2, max_nfev: int = 100, skip: int = 0,
            inputs=None, output: str = "y", executor: Executor | None = None, progress: bool = True,
            constraint=None, size_fn=None, max_bytes: int | None = None, grid=None,
-           tie_tol: float = 0.01, validation_skip=0, criterion: str = "paper", holdout: str = "") -> SearchResult:
+           tie_tol: float = 0.01, validation_skip=0, criterion: str = "paper", holdout: str = "",
+           staged: bool = False, staged_orders: int = 2) -> SearchResult:
     """Estimate the whole grid and select by ``criterion`` (see :class:`SearchResult`).
 
     u, y: estimation recordings (lists of (N, n_in) and (N,)); validation: (u_list, y_list) or
@@ -345,9 +346,21 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     (structure, n_poles, n_zeros) instead of structures/poles/zeros. ``criterion``: paper
     (default, the paper's mean fit over all recordings), fit (validation fit), aic or bic.
     ``holdout``: how the validation data was made, reported with the rule.
+
+    ``staged``: first every linear order of the grid, then the nonlinear structures only at the
+    ``staged_orders`` best linear orders by ``criterion`` (and the order the tie rule picks):
+    a nonlinear model starts from the linear model of its order, so orders whose linear model
+    ranks low are not worth refining (the fast default of ``porosense identify`` on long records).
     """
     if criterion not in CRITERIA:
         raise InputError(f"unknown criterion {criterion!r}; choose from {', '.join(CRITERIA)}")
+    if staged:
+        args = dict(u=u, y=y, ts=ts, validation=validation, n_breakpoints=n_breakpoints, delay=delay,
+                    starts=starts, max_nfev=max_nfev, skip=skip, inputs=inputs, output=output,
+                    progress=progress, constraint=constraint, size_fn=size_fn, max_bytes=max_bytes,
+                    tie_tol=tie_tol, validation_skip=validation_skip, criterion=criterion, holdout=holdout)
+        return _staged_search(list(grid) if grid is not None else order_grid(structures, poles, zeros),
+                              executor, staged_orders, args)
     us, ys = as_recordings(u, y)
     val = None
     if validation is not None:
@@ -399,6 +412,34 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
         c.feasible = _feasible(c.model, constraint, size_fn, max_bytes)
     candidates.sort(key=lambda c: rank[(c.structure, c.n_poles, c.n_zeros)])
     return SearchResult(candidates, time.perf_counter() - t0, tie_tol, criterion, holdout)
+
+
+def _staged_search(grid, executor, n_orders: int, args) -> SearchResult:
+    """Linear orders first, then the nonlinear structures at the best linear orders."""
+    t0 = time.perf_counter()
+    own = executor is None
+    linear_grid = [g for g in grid if g[0] == "linear"] or [("linear", p, z) for _, p, z in grid]
+    if own and len(linear_grid) > 1:
+        executor = ProcessPoolExecutor(max_workers=os.cpu_count() or 1)
+    try:
+        first = search(grid=sorted(set(linear_grid), key=linear_grid.index), executor=executor, **args)
+        ranked = sorted(first.candidates, key=lambda c: -c.score(args["criterion"]))
+        orders = [(first.best.n_poles, first.best.n_zeros)]
+        for c in ranked:
+            if len(orders) >= n_orders + 1:
+                break
+            if (c.n_poles, c.n_zeros) not in orders:
+                orders.append((c.n_poles, c.n_zeros))
+        second_grid = [(s, p, z) for s, p, z in grid if s != "linear" and (p, z) in orders]
+        candidates = [c for c in first.candidates if ("linear", c.n_poles, c.n_zeros) in grid]
+        if second_grid:
+            candidates += search(grid=second_grid, executor=executor, **args).candidates
+    finally:
+        if own and executor is not None:
+            executor.shutdown()
+    return SearchResult(candidates, time.perf_counter() - t0, args["tie_tol"], args["criterion"],
+                        args["holdout"] + ("; " if args["holdout"] else "") +
+                        f"staged search: nonlinear structures at linear orders {', '.join(f'{p}p{z}z' for p, z in orders)}")
 
 
 def _feasible(model, constraint, size_fn, max_bytes) -> bool:

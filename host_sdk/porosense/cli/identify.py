@@ -54,6 +54,12 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--full-grid", action="store_true",
                    help="estimate every structure at every order (default: linear orders first, then the "
                         "nonlinear structures at the 2 best linear orders)")
+    p.add_argument("--smoothness", default="auto", metavar="auto|WEIGHT",
+                   help="smoothness penalty on the breakpoint values: auto (default) refits the selected "
+                        "nonlinear model with weights 1e-4, 1e-3, 1e-2 and keeps the best on validation; "
+                        "a number fixes the weight (0: none)")
+    p.add_argument("--monotone", action="store_true",
+                   help="constrain the static nonlinearities to be monotone (the paper's maps all are)")
     p.add_argument("--max-iter", type=int, default=200, metavar="N",
                    help="function evaluations per refinement (default 200, as in the paper)")
     p.add_argument("--jobs", type=int, metavar="N", help="worker processes of the order search (default: all cores)")
@@ -154,6 +160,14 @@ def run(args) -> int:
         raise InputError("--breakpoints must be 2..64")
     if args.criterion not in CRITERION_CHOICES:
         raise InputError(f"unknown --criterion '{args.criterion}'; choose from {', '.join(CRITERION_CHOICES)}")
+    smooth = None
+    if args.smoothness != "auto":
+        try:
+            smooth = float(args.smoothness)
+        except ValueError:
+            raise InputError(f"--smoothness must be 'auto' or a weight >= 0, not '{args.smoothness}'") from None
+        if not smooth >= 0:
+            raise InputError(f"--smoothness must be 'auto' or a weight >= 0, not '{args.smoothness}'")
     if args.max_iter < 1:
         raise InputError("--max-iter must be at least 1")
     if args.validation is not None and args.validation_data:
@@ -198,11 +212,21 @@ def run(args) -> int:
                 grid=grid, n_breakpoints=args.breakpoints, delay=args.delay, starts=args.starts,
                 skip=est_skip, validation_skip=val[2] if val else 0, max_nfev=args.max_iter,
                 criterion=args.criterion, holdout=holdout, staged=args.poles is None and not args.full_grid,
+                smoothness=smooth or 0.0, monotone=args.monotone,
                 inputs=inputs, output=name, executor=executor, progress=not args.quiet)
-            models.append(result.model)
-            reports.append({"output": name, **result.to_dict()})
             print(f"{name}:")
             print(str(result))
+            model_j, choice = result.model, None
+            if smooth is None and val is not None and result.best.structure != "linear":
+                choice = ident.choose_smoothness(
+                    result, u=est_u, y=[y[:, j] for y in est_y], ts=args.ts,
+                    validation=(val[0], [y[:, j] for y in val[1]]), validation_skip=val[2],
+                    monotone=args.monotone, inputs=inputs, output=name)
+                model_j = choice.model
+                print(str(choice))
+            models.append(model_j)
+            reports.append({"output": name, **result.to_dict(),
+                            "smoothness": {"weight": choice.weight, "validation_fit": choice.fits} if choice else None})
     finally:
         if executor is not None:
             executor.shutdown()

@@ -7,7 +7,7 @@ of (N_r,) arrays, one pair per recording (each simulated from rest). They return
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -45,6 +45,8 @@ class Options:
     tol: float = 1e-7
     skip: int = 0
     starts: int = 2
+    smoothness: float = 0.0
+    monotone: bool = False
 
 
 def sse(spec, theta, us, ys, skip=0) -> float:
@@ -52,18 +54,63 @@ def sse(spec, theta, us, ys, skip=0) -> float:
     return float(sum(np.sum((chain.simulate(u)[skip:] - y[skip:]) ** 2) for u, y in zip(us, ys)))
 
 
+def _penalty_rows(spec: ChainSpec, theta, n_res: int, opts: Options):
+    """Extra residuals and their Jacobian rows regularising the piecewise-linear values.
+
+    Smoothness: sqrt(smoothness * n_res) times the second differences of every map's values
+    (normalised units, so the weight is dimensionless: the penalty is smoothness x the mean
+    squared error of a model whose maps bend by one output standard deviation per breakpoint).
+    Monotone: a stiff penalty (weight n_res) on every step against the direction of the map's
+    first-to-last change, so the refined maps come out monotone up to rounding.
+    """
+    rows, jac = [], []
+    sl = spec.slices()
+    names = [n for n in sl if n.endswith(".y")]
+    for name in names:
+        idx = np.arange(sl[name].start, sl[name].stop)
+        v = theta[idx]
+        if opts.smoothness > 0 and len(v) >= 3:
+            w = np.sqrt(opts.smoothness * n_res)
+            d2 = np.zeros((len(v) - 2, spec.n_params))
+            for k in range(len(v) - 2):
+                d2[k, idx[k:k + 3]] = w * np.array([1.0, -2.0, 1.0])
+            rows.append(d2 @ theta)
+            jac.append(d2)
+        if opts.monotone and len(v) >= 2:
+            sign = 1.0 if v[-1] >= v[0] else -1.0
+            w = np.sqrt(float(n_res))
+            step = np.diff(v) * sign
+            active = step < 0
+            m = np.zeros((len(v) - 1, spec.n_params))
+            for k in np.flatnonzero(active):
+                m[k, idx[k]], m[k, idx[k + 1]] = -w * sign, w * sign
+            rows.append(np.where(active, w * step, 0.0))
+            jac.append(m)
+    if not rows:
+        return None, None
+    return np.concatenate(rows), np.vstack(jac)
+
+
 def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
-    """Minimise the simulation error over all recordings with least_squares (LM, exact J)."""
+    """Minimise the simulation error over all recordings with least_squares (LM, exact J),
+    plus the optional smoothness / monotone penalties of :func:`_penalty_rows`."""
     skip = opts.skip
+    n_sim = sum(len(y) - skip for y in ys)
+    regular = (opts.smoothness > 0 or opts.monotone) and (spec.f_bp or spec.g_bp)
 
     def residuals(theta):
         chain = Chain(spec, theta)
         r = np.concatenate([chain.simulate(u)[skip:] - y[skip:] for u, y in zip(us, ys)])
+        if regular:
+            extra, _ = _penalty_rows(spec, theta, n_sim, opts)
+            r = np.concatenate([r, extra])
         return np.where(np.isfinite(r), r, 1e6)
 
     def jacobian(theta):
         chain = Chain(spec, theta)
         j = np.vstack([chain.jacobian(u)[1][skip:] for u in us])
+        if regular:
+            j = np.vstack([j, _penalty_rows(spec, theta, n_sim, opts)[1]])
         return np.where(np.isfinite(j), j, 0.0)
 
     theta0 = np.asarray(theta0, dtype=float)
@@ -78,6 +125,8 @@ def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
         theta, cost, nfev = theta0, start_sse, 0
     if not cost <= start_sse:
         theta, cost = theta0, start_sse
+    if regular:  # report the simulation error alone
+        cost = sse(spec, theta, us, ys, skip)
     return Fit(spec, theta, float(cost), int(nfev))
 
 
@@ -338,9 +387,9 @@ def multistart(spec: ChainSpec, starts, us, ys, opts: Options) -> Fit:
     if len(starts) == 1:
         return refine(spec, starts[0], us, ys, opts)
     screen = max(opts.max_nfev // 10, 8)
-    short = Options(max_nfev=screen, tol=max(opts.tol, 1e-5), skip=opts.skip, starts=opts.starts)
+    short = replace(opts, max_nfev=screen, tol=max(opts.tol, 1e-5))
     best = _best([refine(spec, t, us, ys, short) for t in starts])
-    rest = Options(max_nfev=max(opts.max_nfev - screen, 1), tol=opts.tol, skip=opts.skip, starts=opts.starts)
+    rest = replace(opts, max_nfev=max(opts.max_nfev - screen, 1))
     final = refine(spec, best.theta, us, ys, rest)
     final.nfev += screen * len(starts)
     return final

@@ -57,7 +57,8 @@ class Model:
     kind = "base"
 
     def __init__(self, *, n_poles: int = 2, n_zeros: int = 1, n_breakpoints: int = 10, delay: int = 0,
-                 starts: int = 2, max_nfev: int = 200, skip: int = 0):
+                 starts: int = 2, max_nfev: int = 200, skip: int = 0, smoothness: float = 0.0,
+                 monotone: bool = False):
         if n_poles < 0 or n_zeros < 0:
             raise InputError("n_poles and n_zeros must be >= 0")
         if not 2 <= n_breakpoints <= MAX_BREAKPOINTS:
@@ -66,6 +67,10 @@ class Model:
             raise InputError("delay must be >= 0 samples")
         self.n_poles, self.n_zeros, self.n_breakpoints = int(n_poles), int(n_zeros), int(n_breakpoints)
         self.delay, self.starts, self.max_nfev, self.skip = int(delay), int(starts), int(max_nfev), int(skip)
+        if not smoothness >= 0:
+            raise InputError("smoothness must be >= 0")
+        # Regularisation of the piecewise-linear values (estimate._penalty_rows).
+        self.smoothness, self.monotone = float(smoothness), bool(monotone)
         self.spec: ChainSpec | None = None
         self.theta: np.ndarray | None = None
         self.u_scale = None
@@ -124,7 +129,8 @@ class Model:
         self.y_std = float(np.std(all_y)) or 1.0
         nus = [x / self.u_scale for x in us]
         nys = [(v - self.y_mean) / self.y_std for v in ys]
-        opts = estimate.Options(max_nfev=self.max_nfev, skip=self.skip, starts=self.starts)
+        opts = estimate.Options(max_nfev=self.max_nfev, skip=self.skip, starts=self.starts,
+                                smoothness=self.smoothness, monotone=self.monotone)
         result = self._estimate(nus, nys, opts)
         self._set_result(result, sum(len(v) - self.skip for v in ys))
         return self
@@ -244,7 +250,9 @@ class Model:
             "format": FORMAT, "version": FORMAT_VERSION, "kind": self.kind,
             "orders": {"n_poles": self.n_poles, "n_zeros": self.n_zeros,
                        "n_breakpoints": self.n_breakpoints, "delay": self.delay},
-            "options": {"starts": self.starts, "max_nfev": self.max_nfev, "skip": self.skip},
+            "options": {"starts": self.starts, "max_nfev": self.max_nfev, "skip": self.skip,
+                        **({"smoothness": self.smoothness} if self.smoothness else {}),
+                        **({"monotone": True} if self.monotone else {})},
             "spec": asdict(self.spec),
             "theta": [float(v) for v in self.theta],
             "scaling": {"u_scale": [float(v) for v in self.u_scale], "y_mean": self.y_mean, "y_std": self.y_std},

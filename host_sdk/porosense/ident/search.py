@@ -333,7 +333,8 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
            inputs=None, output: str = "y", executor: Executor | None = None, progress: bool = True,
            constraint=None, size_fn=None, max_bytes: int | None = None, grid=None,
            tie_tol: float = 0.01, validation_skip=0, criterion: str = "paper", holdout: str = "",
-           staged: bool = False, staged_orders: int = 2) -> SearchResult:
+           staged: bool = False, staged_orders: int = 2, smoothness: float = 0.0,
+           monotone: bool = False) -> SearchResult:
     """Estimate the whole grid and select by ``criterion`` (see :class:`SearchResult`).
 
     u, y: estimation recordings (lists of (N, n_in) and (N,)); validation: (u_list, y_list) or
@@ -347,6 +348,9 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     (default, the paper's mean fit over all recordings), fit (validation fit), aic or bic.
     ``holdout``: how the validation data was made, reported with the rule.
 
+    ``smoothness`` / ``monotone``: regularisation of the piecewise-linear maps of every
+    nonlinear candidate (:func:`choose_smoothness` picks the weight on validation data).
+
     ``staged``: first every linear order of the grid, then the nonlinear structures only at the
     ``staged_orders`` best linear orders by ``criterion`` (and the order the tie rule picks):
     a nonlinear model starts from the linear model of its order, so orders whose linear model
@@ -358,7 +362,8 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
         args = dict(u=u, y=y, ts=ts, validation=validation, n_breakpoints=n_breakpoints, delay=delay,
                     starts=starts, max_nfev=max_nfev, skip=skip, inputs=inputs, output=output,
                     progress=progress, constraint=constraint, size_fn=size_fn, max_bytes=max_bytes,
-                    tie_tol=tie_tol, validation_skip=validation_skip, criterion=criterion, holdout=holdout)
+                    tie_tol=tie_tol, validation_skip=validation_skip, criterion=criterion, holdout=holdout,
+                    smoothness=smoothness, monotone=monotone)
         return _staged_search(list(grid) if grid is not None else order_grid(structures, poles, zeros),
                               executor, staged_orders, args)
     us, ys = as_recordings(u, y)
@@ -374,6 +379,8 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
         raise InputError("empty order grid")
     rank = {g: i for i, g in enumerate(grid)}
     kwargs = {"n_breakpoints": n_breakpoints, "delay": delay, "starts": starts, "max_nfev": max_nfev, "skip": skip}
+    if smoothness or monotone:
+        kwargs.update(smoothness=smoothness, monotone=monotone)
     fit_args = {"u": us, "y": ys, "ts": ts, "inputs": inputs, "output": output}
     # Most expensive first so that the pool stays busy to the end.
     weight = {"wh": 2, "hammerstein": 2, "wiener": 2, "linear": 1}
@@ -466,3 +473,43 @@ def approx_blob_bytes(structure) -> int:
         size += 8 * len(out.g.x) if out.g is not None else 0
         size += 10 * out.h2.n_sections if out.h2 is not None else 0
     return size
+
+
+@dataclass
+class SmoothnessChoice:
+    """Weights of the breakpoint smoothness penalty tried on the selected model, with their
+    validation fits (%); ``weight`` the one kept (0 = no penalty)."""
+
+    weight: float
+    fits: dict
+    model: Model = field(repr=False, default=None)
+
+    def __str__(self) -> str:
+        tried = ", ".join(f"{w:g}: {f:.2f} %" for w, f in self.fits.items())
+        return f"smoothness weight {self.weight:g} kept (validation fit per weight: {tried})"
+
+
+def choose_smoothness(result: SearchResult, *, u, y, ts: float, validation, validation_skip=0,
+                      weights=(1e-4, 1e-3, 1e-2), monotone: bool = False, inputs=None,
+                      output: str = "y") -> SmoothnessChoice:
+    """Refit the selected (nonlinear) model with each smoothness weight (dimensionless, see
+    ``estimate._penalty_rows``) and keep the weight with the best validation fit; the
+    unpenalised model is the weight-0 entry. Linear models have no breakpoints: returned as is."""
+    best = result.best
+    base = best.model
+    if best.structure == "linear" or validation is None:
+        return SmoothnessChoice(0.0, {}, base)
+    vu, vy = as_recordings(*validation)
+    skips = _skips(validation_skip, len(vy))
+    fits = {0.0: best.validation_fit}
+    chosen, top = base, best.validation_fit
+    for w in weights:
+        m = make_model(best.structure, n_poles=base.n_poles, n_zeros=base.n_zeros, n_breakpoints=base.n_breakpoints,
+                       delay=base.delay, starts=base.starts, max_nfev=base.max_nfev, skip=base.skip,
+                       smoothness=w, monotone=monotone)
+        m.fit(u=u, y=y, ts=ts, inputs=inputs, output=output)
+        f = float(np.mean(_score_records(m, vu, vy, skips)["fit"]))
+        fits[float(w)] = f
+        if f > top:
+            chosen, top = m, f
+    return SmoothnessChoice(chosen.smoothness, fits, chosen)

@@ -338,7 +338,7 @@ def wh_fits(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | 
     With one input and at least 2 poles, a third build starts from the best linear model of
     the order with its poles and zeros split between H1 and H2 (:mod:`bla_split`): both blocks
     at full order, g the identity on the quantiles of H1's output, so the start equals the
-    linear model; the ``opts.starts`` best splits (g by least squares) are refined jointly.
+    linear model; the best-scoring split (g by least squares) is refined jointly.
     """
     lin = linear
     if lin is None and (wiener is None or hammerstein is None or us[0].shape[1] == 1):
@@ -370,7 +370,8 @@ def wh_fits(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | 
 
 def _split_builds(lin: Fit, us, ys, n_bp, opts: Options):
     """Refinements of the best BLA pole/zero splits, and the split start equal to the linear model."""
-    ranked = bla_split.ranked_split_starts(lin.spec, lin.theta, us, ys, n_bp, opts.skip, keep=max(opts.starts, 1))
+    # The best-scored split only: the two routes are the other starts (cost of the paper's grid).
+    ranked = bla_split.ranked_split_starts(lin.spec, lin.theta, us, ys, n_bp, opts.skip, keep=1)
     fits, starts = [], []
     for k, (_, spec, theta_ls, theta_identity, split) in enumerate(ranked):
         fit = refine(spec, theta_ls, us, ys, opts)

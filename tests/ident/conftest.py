@@ -62,3 +62,15 @@ def truth():
 @pytest.fixture
 def make_recordings():
     return recordings
+
+
+@pytest.fixture(scope="session")
+def shared_data():
+    """The measured benchmark folder: POROSENSE_SHARED_DATA, else <repo>/../shared/data, else
+    /work/shared/data; skip with the reason when none exists."""
+    from porosense.bench.ident import shared_data_folder
+
+    folder = shared_data_folder()
+    if folder is None:
+        pytest.skip("measured benchmark data not found (POROSENSE_SHARED_DATA, ../shared/data, /work/shared/data)")
+    return folder

@@ -14,5 +14,8 @@ def test_bench_ident_small():
     assert r["grid_best_fit"] > 90.0
     assert r["grid_best_fit_per_structure"]["wh"] >= r["grid_best_fit_per_structure"]["linear"]
     assert r["oe_porosense_fit_noise_free"] > 99.0
+    # Time against samples: every size ran and selected a model that validates well.
+    assert [row["samples"] for row in r["scaling"]] == [2_000, 5_000]
+    assert all(row["cpu_s"] > 0 and row["validation_fit"] > 80.0 for row in r["scaling"])
     if "oe_sippy_fit" in r:
         assert r["oe_porosense_fit"] >= r["oe_sippy_fit"] - 0.01

@@ -60,3 +60,51 @@ def test_predict_on_a_missing_model_file(tmp_path, csv_files, capsys):
     rc = main(["predict", "--model", str(tmp_path / "none.json"), "--data", str(csv_files[0]),
                "--out", str(tmp_path / "p.csv")])
     assert rc == 4 and "not found" in capsys.readouterr().err
+
+
+def _identify(files, tmp_path, *extra):
+    return main(["identify", "--data", *map(str, files), "--input", "dR_0", "--output", "strain_0",
+                 "--ts", "0.02", "--structure", "linear", "--poles", "2", "--zeros", "1",
+                 "--save", str(tmp_path / "m.json"), "--quiet", *extra])
+
+
+def test_default_selection_holds_out_the_last_quarter_and_prints_the_rule(csv_files, tmp_path, capsys):
+    assert _identify(csv_files, tmp_path, "--json", str(tmp_path / "r.json")) == 0
+    out = capsys.readouterr().out
+    assert "hold-out: the last 25 % of every file" in out
+    assert "selected row: linear" in out and "validation fit" in out and "rule:" in out
+    best = json.loads((tmp_path / "r.json").read_text())["results"][0]["best"]
+    # Two recordings, each scored on its own last quarter (200 of 800 samples).
+    assert len(best["fit_validation"]) == 2 and len(best["fit_estimation"]) == 2
+
+
+def test_three_files_leave_the_last_one_out(csv_files, tmp_path, capsys):
+    third = tmp_path / "rec2.csv"
+    third.write_text(csv_files[0].read_text())
+    assert _identify([*csv_files, third], tmp_path, "--json", str(tmp_path / "r.json")) == 0
+    assert "the last file" in capsys.readouterr().out
+    best = json.loads((tmp_path / "r.json").read_text())["results"][0]["best"]
+    assert len(best["fit_estimation"]) == 2 and len(best["fit_validation"]) == 1
+
+
+def test_validation_data_files_and_criterion(csv_files, tmp_path, capsys):
+    assert _identify(csv_files[:1], tmp_path, "--validation-data", str(csv_files[1]), "--criterion", "bic",
+                     "--json", str(tmp_path / "r.json")) == 0
+    rep = json.loads((tmp_path / "r.json").read_text())
+    assert rep["criterion"] == "bic" and "lowest BIC" in rep["results"][0]["rule"]
+    assert min(rep["results"][0]["best"]["fit_validation"]) > 60.0
+
+
+@pytest.mark.parametrize("extra, words", [
+    (("--criterion", "r2"), "criterion"),
+    (("--validation-data", "MISSING_COLUMNS"), "no column"),
+    (("--estimation", "0:40"), "too short"),
+])
+def test_selection_input_errors_are_one_line(csv_files, tmp_path, capsys, extra, words):
+    if "MISSING_COLUMNS" in extra:
+        bad = tmp_path / "other.csv"
+        bad.write_text("t,x\n0,1\n1,2\n")
+        extra = ("--validation-data", str(bad))
+    rc = _identify(csv_files, tmp_path, *extra)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and words in err[0]

@@ -13,6 +13,7 @@ from porosense.data import read_table
 
 SKIP = 200
 N_RECORDS = 5
+RATIO_BOUND = 1.0  # WH/linear test RMSE measured 0.94 (see the test); the bound: WH below linear
 
 
 @pytest.fixture(scope="module")
@@ -39,3 +40,29 @@ def test_wh_beats_linear_on_both_test_signals(wh_data):
         e_wh = ident.rmse(y[SKIP:], wh.predict(u=u)[SKIP:]) * 1e3
         print(f"{name}: test RMSE WH {e_wh:.2f} mV, linear {e_lin:.2f} mV")
         assert e_wh < e_lin
+
+
+@pytest.mark.slow
+def test_selected_wh_validates_and_tests_better_than_linear(wh_data):
+    """Search over linear and WH at the order 6 poles / 5 zeros (CI size: 3 realisations to
+    estimate, 1 to select), selection by the validation fit. The selected model validates at
+    least as well as linear, and the WH model's multisine test RMSE is below linear's.
+
+    Measured (this CI size): linear 38.64 mV, WH 36.26 mV on the test multisine (WH/linear 0.94;
+    the selection keeps linear: WH validates 0.36 points better, within one standard error). The process
+    noise enters before the static nonlinearity, so the output-error estimate of g is the
+    noise-smoothed map: on these records a WH model estimated on the noise-free test period
+    fits the estimation data worse than the linear model does (93.0 mV against 87.7 mV), and
+    no output-error estimator can reach the 2x ratio that the noise-free test would allow.
+    """
+    us, ys, ts, tests = wh_data
+    res = ident.search(u=us[:3], y=ys[:3], ts=ts, validation=(us[3:4], ys[3:4]), validation_skip=SKIP,
+                       skip=SKIP, grid=[("linear", 6, 5), ("wh", 6, 5)], criterion="fit", max_nfev=60,
+                       starts=1, progress=False)
+    per = res.best_per_structure("fit")
+    u, y = tests["multisine"]
+    err = {k: ident.rmse(y[SKIP:], c.model.predict(u=u)[SKIP:]) * 1e3 for k, c in per.items()}
+    print(res)
+    print("test RMSE (mV):", {k: round(v, 2) for k, v in err.items()}, "ratio", err["linear"] / err["wh"])
+    assert res.best.validation_fit >= per["linear"].validation_fit
+    assert err["wh"] < RATIO_BOUND * err["linear"]

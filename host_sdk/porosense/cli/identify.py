@@ -12,6 +12,9 @@ from porosense.errors import InputError
 MAX_POLES_UNFORCED = 20  # the paper searches up to 10; beyond 20 the grid takes hours
 
 STRUCTURE_CHOICES = ("linear", "hammerstein", "wiener", "wh", "all")
+CRITERION_CHOICES = ("fit", "aic", "bic")
+HOLDOUT_FRACTION = 0.25
+MIN_SCORED = 20  # samples a held-out part needs to be scored
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -21,9 +24,12 @@ def register(sub) -> argparse.ArgumentParser:
         description=(
             "Estimate discrete-time models (simulation error, jointly over every file, each file "
             "simulated from rest) of one or more output columns from up to 3 input columns of "
-            "recordings: CSV of any common dialect or MATLAB .mat (v5, v7.3). Without --poles the paper's order search runs (poles 1..10, "
-            "zeros < poles) and the model with the best mean NRMSE fit over the estimation and "
-            "validation ranges is kept. A:B ranges (Python slices, applied to every file) choose the samples "
+            "recordings: CSV of any common dialect or MATLAB .mat (v5, v7.3). Without --poles the paper's "
+            "order search runs (poles 1..10, zeros < poles). Models are selected on data not used to "
+            "estimate them: --validation (a range of every file), --validation-data (other files), or by "
+            "default a hold-out (the last file when there are at least 3 files, else the last 25 %% of every "
+            "file); --criterion fit selects by the validation fit (candidates within one standard error are "
+            "tied and the smallest is taken), aic/bic by the information criteria. A:B ranges (Python slices, applied to every file) choose the samples "
             "that are scored; each file is still simulated from its first sample. Fit and RMS are in %; "
             "--ts is the sample period in seconds, taken from the data's t column, sidecar or Ts when "
             "they state it."
@@ -47,6 +53,21 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--starts", type=int, default=2, metavar="N", help="starts per nonlinear model (default 2)")
     p.add_argument("--estimation", metavar="A:B", help="sample range of every file used for estimation")
     p.add_argument("--validation", metavar="A:B", help="sample range of every file used for validation")
+    p.add_argument("--validation-data", nargs="+", metavar="FILE",
+                   help="separate CSV files used for validation only (like MATLAB's compare(val, m))")
+    p.add_argument("--criterion", default="fit", metavar="|".join(CRITERION_CHOICES),
+                   help="selection criterion: fit (validation NRMSE fit, default), aic or bic")
+    p.add_argument("--full-grid", action="store_true",
+                   help="estimate every structure at every order (default: linear orders first, then the "
+                        "nonlinear structures at the 2 best linear orders)")
+    p.add_argument("--smoothness", default="auto", metavar="auto|WEIGHT",
+                   help="smoothness penalty on the breakpoint values: auto (default) refits the selected "
+                        "nonlinear model with weights 1e-4, 1e-3, 1e-2 and keeps the best on validation; "
+                        "a number fixes the weight (0: none)")
+    p.add_argument("--monotone", action="store_true",
+                   help="constrain the static nonlinearities to be monotone (the paper's maps all are)")
+    p.add_argument("--max-iter", type=int, default=200, metavar="N",
+                   help="function evaluations per refinement (default 200, as in the paper)")
     p.add_argument("--jobs", type=int, metavar="N", help="worker processes of the order search (default: all cores)")
     p.add_argument("--save", default="model.json", metavar="MODEL.json",
                    help="where to write the model (default model.json)")
@@ -86,6 +107,37 @@ def load_recordings(tables, inputs, outputs, rng: slice):
     return us, ys, starts[0]
 
 
+def load_with_tail_holdout(tables, inputs, outputs, rng: slice):
+    """Estimation on the first 75 % of the range of every file, validation on the last 25 %.
+
+    Returns (est_u, est_y, est_skip, (val_u, val_y, val_skips)); every validation recording is
+    the whole file up to the range's end, simulated from rest, scored from its own split point.
+    """
+    import numpy as np
+
+    est_u, est_y, val_u, val_y, val_skips, starts = [], [], [], [], [], []
+    for table in tables:
+        f = table.path
+        require_columns(table, inputs + outputs)
+        start, stop, _ = rng.indices(len(table))
+        cut = start + int(round((1.0 - HOLDOUT_FRACTION) * (stop - start)))
+        if stop - cut < MIN_SCORED or cut - start < 10:
+            raise InputError(f"{f}: the hold-out (last 25 % of {max(stop - start, 0)} samples) is too short to "
+                             f"score (need >= {MIN_SCORED} samples); give --validation or --validation-data")
+        table.require_finite(inputs + outputs, slice(0, stop), "selected range")
+        u = np.column_stack([table.columns[c] for c in inputs])[:stop]
+        y = np.column_stack([table.columns[c] for c in outputs])[:stop]
+        est_u.append(u[:cut])
+        est_y.append(y[:cut])
+        val_u.append(u)
+        val_y.append(y)
+        val_skips.append(cut)
+        starts.append(start)
+    if len(set(starts)) > 1:
+        raise InputError("the sample range starts at different samples in different files (negative A?)")
+    return est_u, est_y, starts[0], (val_u, val_y, val_skips)
+
+
 def run(args) -> int:
     import os
     from concurrent.futures import ProcessPoolExecutor
@@ -111,10 +163,38 @@ def run(args) -> int:
         raise InputError("--zeros must be smaller than --poles")
     if not 2 <= args.breakpoints <= 64:
         raise InputError("--breakpoints must be 2..64")
-    est_u, est_y, est_skip = load_recordings(tables, inputs, outputs, parse_range(args.estimation) or slice(None))
-    val = None
+    if args.criterion not in CRITERION_CHOICES:
+        raise InputError(f"unknown --criterion '{args.criterion}'; choose from {', '.join(CRITERION_CHOICES)}")
+    smooth = None
+    if args.smoothness != "auto":
+        try:
+            smooth = float(args.smoothness)
+        except ValueError:
+            raise InputError(f"--smoothness must be 'auto' or a weight >= 0, not '{args.smoothness}'") from None
+        if not smooth >= 0:
+            raise InputError(f"--smoothness must be 'auto' or a weight >= 0, not '{args.smoothness}'")
+    if args.max_iter < 1:
+        raise InputError("--max-iter must be at least 1")
+    if args.validation is not None and args.validation_data:
+        raise InputError("give either --validation (a range) or --validation-data (files), not both")
+    est_range = parse_range(args.estimation) or slice(None)
+    holdout = ""
     if args.validation is not None:
+        est_u, est_y, est_skip = load_recordings(tables, inputs, outputs, est_range)
         val = load_recordings(tables, inputs, outputs, parse_range(args.validation) or slice(None))
+        holdout = f"range {args.validation} of every file"
+    elif args.validation_data:
+        est_u, est_y, est_skip = load_recordings(tables, inputs, outputs, est_range)
+        val = load_recordings(read_tables(args.validation_data, args), inputs, outputs, slice(None))
+        holdout = f"{len(args.validation_data)} separate file(s)"
+    elif len(tables) >= 3:
+        est_u, est_y, est_skip = load_recordings(tables[:-1], inputs, outputs, est_range)
+        val = load_recordings(tables[-1:], inputs, outputs, est_range)
+        holdout = f"hold-out: the last file ({args.data[-1]}) left out of estimation"
+    else:
+        est_u, est_y, est_skip, val = load_with_tail_holdout(tables, inputs, outputs, est_range)
+        holdout = "hold-out: the last 25 % of every file left out of estimation"
+    say(args, holdout if holdout.startswith("hold-out") else f"validation: {holdout}")
     structures = tuple(ident.KINDS) if args.structure == "all" else (args.structure,)
     if args.poles is not None:
         poles = [args.poles]
@@ -135,12 +215,23 @@ def run(args) -> int:
                 u=est_u, y=[y[:, j] for y in est_y], ts=args.ts,
                 validation=(val[0], [y[:, j] for y in val[1]]) if val else None,
                 grid=grid, n_breakpoints=args.breakpoints, delay=args.delay, starts=args.starts,
-                skip=est_skip, validation_skip=val[2] if val else 0,
+                skip=est_skip, validation_skip=val[2] if val else 0, max_nfev=args.max_iter,
+                criterion=args.criterion, holdout=holdout, staged=args.poles is None and not args.full_grid,
+                smoothness=smooth or 0.0, monotone=args.monotone,
                 inputs=inputs, output=name, executor=executor, progress=not (args.quiet or args.json))
-            models.append(result.model)
-            reports.append({"output": name, **result.to_dict()})
             say(args, f"{name}:")
             say(args, str(result))
+            model_j, choice = result.model, None
+            if smooth is None and val is not None and result.best.structure != "linear":
+                choice = ident.choose_smoothness(
+                    result, u=est_u, y=[y[:, j] for y in est_y], ts=args.ts,
+                    validation=(val[0], [y[:, j] for y in val[1]]), validation_skip=val[2],
+                    monotone=args.monotone, inputs=inputs, output=name)
+                model_j = choice.model
+                say(args, str(choice))
+            models.append(model_j)
+            reports.append({"output": name, **result.to_dict(),
+                            "smoothness": {"weight": choice.weight, "validation_fit": choice.fits} if choice else None})
     finally:
         if executor is not None:
             executor.shutdown()
@@ -148,7 +239,8 @@ def run(args) -> int:
     model.save(args.save)
     say(args, f"model saved to {args.save}")
     report = {"files": list(args.data), "inputs": inputs, "outputs": outputs, "ts": args.ts,
-              "estimation": args.estimation, "validation": args.validation, "model": str(args.save),
-              "results": reports}
+              "estimation": args.estimation, "validation": args.validation,
+              "validation_data": args.validation_data, "holdout": holdout, "criterion": args.criterion,
+              "model": str(args.save), "results": reports}
     emit_json(report, args)
     return 0

@@ -18,10 +18,19 @@ from porosense.ident.models import (
     make_model,
     save_models,
 )
-from porosense.ident.search import Candidate, SearchResult, approx_blob_bytes, order_grid, search
+from porosense.ident.search import (
+    CRITERIA,
+    Candidate,
+    SearchResult,
+    SmoothnessChoice,
+    approx_blob_bytes,
+    choose_smoothness,
+    order_grid,
+    search,
+)
 
 __all__ = [
-    "KINDS", "Candidate", "Hammerstein", "Linear", "Model", "ModelSet", "SearchResult", "Wiener",
+    "CRITERIA", "KINDS", "Candidate", "SmoothnessChoice", "choose_smoothness", "Hammerstein", "Linear", "Model", "ModelSet", "SearchResult", "Wiener",
     "WienerHammerstein", "approx_blob_bytes", "fit_percent", "information_criteria", "load_model",
     "make_model", "order_grid", "rms_percent", "rmse", "save_models", "search",
 ]

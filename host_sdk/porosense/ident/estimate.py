@@ -7,12 +7,12 @@ of (N_r,) arrays, one pair per recording (each simulated from rest). They return
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import least_squares
 
-from porosense.ident import blocks
+from porosense.ident import bla_split, blocks
 from porosense.ident.chain import Chain, ChainSpec, _filter
 from porosense.ident.linear_init import arx, iv
 
@@ -45,6 +45,8 @@ class Options:
     tol: float = 1e-7
     skip: int = 0
     starts: int = 2
+    smoothness: float = 0.0
+    monotone: bool = False
 
 
 def sse(spec, theta, us, ys, skip=0) -> float:
@@ -52,18 +54,63 @@ def sse(spec, theta, us, ys, skip=0) -> float:
     return float(sum(np.sum((chain.simulate(u)[skip:] - y[skip:]) ** 2) for u, y in zip(us, ys)))
 
 
+def _penalty_rows(spec: ChainSpec, theta, n_res: int, opts: Options):
+    """Extra residuals and their Jacobian rows regularising the piecewise-linear values.
+
+    Smoothness: sqrt(smoothness * n_res) times the second differences of every map's values
+    (normalised units, so the weight is dimensionless: the penalty is smoothness x the mean
+    squared error of a model whose maps bend by one output standard deviation per breakpoint).
+    Monotone: a stiff penalty (weight n_res) on every step against the direction of the map's
+    first-to-last change, so the refined maps come out monotone up to rounding.
+    """
+    rows, jac = [], []
+    sl = spec.slices()
+    names = [n for n in sl if n.endswith(".y")]
+    for name in names:
+        idx = np.arange(sl[name].start, sl[name].stop)
+        v = theta[idx]
+        if opts.smoothness > 0 and len(v) >= 3:
+            w = np.sqrt(opts.smoothness * n_res)
+            d2 = np.zeros((len(v) - 2, spec.n_params))
+            for k in range(len(v) - 2):
+                d2[k, idx[k:k + 3]] = w * np.array([1.0, -2.0, 1.0])
+            rows.append(d2 @ theta)
+            jac.append(d2)
+        if opts.monotone and len(v) >= 2:
+            sign = 1.0 if v[-1] >= v[0] else -1.0
+            w = np.sqrt(float(n_res))
+            step = np.diff(v) * sign
+            active = step < 0
+            m = np.zeros((len(v) - 1, spec.n_params))
+            for k in np.flatnonzero(active):
+                m[k, idx[k]], m[k, idx[k + 1]] = -w * sign, w * sign
+            rows.append(np.where(active, w * step, 0.0))
+            jac.append(m)
+    if not rows:
+        return None, None
+    return np.concatenate(rows), np.vstack(jac)
+
+
 def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
-    """Minimise the simulation error over all recordings with least_squares (LM, exact J)."""
+    """Minimise the simulation error over all recordings with least_squares (LM, exact J),
+    plus the optional smoothness / monotone penalties of :func:`_penalty_rows`."""
     skip = opts.skip
+    n_sim = sum(len(y) - skip for y in ys)
+    regular = (opts.smoothness > 0 or opts.monotone) and (spec.f_bp or spec.g_bp)
 
     def residuals(theta):
         chain = Chain(spec, theta)
         r = np.concatenate([chain.simulate(u)[skip:] - y[skip:] for u, y in zip(us, ys)])
+        if regular:
+            extra, _ = _penalty_rows(spec, theta, n_sim, opts)
+            r = np.concatenate([r, extra])
         return np.where(np.isfinite(r), r, 1e6)
 
     def jacobian(theta):
         chain = Chain(spec, theta)
         j = np.vstack([chain.jacobian(u)[1][skip:] for u in us])
+        if regular:
+            j = np.vstack([j, _penalty_rows(spec, theta, n_sim, opts)[1]])
         return np.where(np.isfinite(j), j, 0.0)
 
     theta0 = np.asarray(theta0, dtype=float)
@@ -78,6 +125,8 @@ def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
         theta, cost, nfev = theta0, start_sse, 0
     if not cost <= start_sse:
         theta, cost = theta0, start_sse
+    if regular:  # report the simulation error alone
+        cost = sse(spec, theta, us, ys, skip)
     return Fit(spec, theta, float(cost), int(nfev))
 
 
@@ -140,6 +189,7 @@ def _hammerstein_starts(lin: Fit, us, ys, n_bp, delay, opts):
         theta[sl["offset"]] = offset
         return theta
 
+    # The identity f (equal to the linear model) is always a start; others are added to it.
     starts = [theta_with(xs, lchain.offset)]
     # Least squares for the f values with the BLA's dynamics held: y - c = sum H1_i(hat(u_i)) fy_i.
     cols = []
@@ -154,13 +204,14 @@ def _hammerstein_starts(lin: Fit, us, ys, n_bp, delay, opts):
     sol = lstsq(phi, np.concatenate(ys))
     if np.all(np.isfinite(sol)):
         fys = [sol[i * n_bp:(i + 1) * n_bp] for i in range(n_in)]
-        starts.insert(0, theta_with(fys, sol[-1]))
+        starts.append(theta_with(fys, sol[-1]))
     return spec, starts[: max(opts.starts, 1)]
 
 
 def _bla_options(opts: Options) -> Options:
-    """A rough best linear approximation is enough to start a nonlinear model."""
-    return Options(max_nfev=max(opts.max_nfev // 5, 10), tol=max(opts.tol, 1e-5), skip=opts.skip, starts=1)
+    """The linear model a nonlinear one starts from: the best linear model of its order (fully
+    refined), so that the nonlinear model's first iterate already equals the linear fit."""
+    return Options(max_nfev=opts.max_nfev, tol=opts.tol, skip=opts.skip, starts=1)
 
 
 def fit_hammerstein(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, lin: Fit | None = None) -> Fit:
@@ -180,17 +231,17 @@ def _wiener_starts(lin: Fit, us, ys, n_bp, delay, opts):
     base = np.zeros(spec.n_params)
     base[: sl["g.p"].start] = lin.theta[: sl["g.p"].start]
     base[sl["g.p"]] = blocks.positions_to_p(x)
-    starts = []
+    # The identity g (equal to the linear model) is always a start; others are added to it.
+    t = base.copy()
+    t[sl["g.y"]] = x
+    t[sl["offset"]] = lchain.offset
+    starts = [t]
     phi = np.vstack([_hat_basis(x, s) for s in ss])
     gy = lstsq(phi, np.concatenate(ys))
     if np.all(np.isfinite(gy)):
         t = base.copy()
         t[sl["g.y"]] = gy
         starts.append(t)
-    t = base.copy()
-    t[sl["g.y"]] = x
-    t[sl["offset"]] = lchain.offset
-    starts.append(t)
     return spec, starts[: max(opts.starts, 1)]
 
 
@@ -280,11 +331,19 @@ def fit_wh(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | N
 
 
 def wh_fits(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | None = None,
-            hammerstein: Fit | None = None) -> list[Fit]:
+            hammerstein: Fit | None = None, linear: Fit | None = None) -> list[Fit]:
     """As :func:`fit_wh`, but every member: the best refinement first, then the other
-    refinement and the two starting models (``build`` ends in " start")."""
-    if wiener is None or hammerstein is None:
+    refinements and the starting models (``build`` ends in " start").
+
+    With one input and at least 2 poles, a third build starts from the best linear model of
+    the order with its poles and zeros split between H1 and H2 (:mod:`bla_split`): both blocks
+    at full order, g the identity on the quantiles of H1's output, so the start equals the
+    linear model; the best-scoring split (g by least squares) is refined jointly.
+    """
+    lin = linear
+    if lin is None and (wiener is None or hammerstein is None or us[0].shape[1] == 1):
         lin = fit_linear(us, ys, n_poles, n_zeros, delay, _bla_options(opts))
+    if wiener is None or hammerstein is None:
         wiener = wiener or fit_wiener(us, ys, n_poles, n_zeros, n_bp, delay, opts, lin=lin)
         hammerstein = hammerstein or fit_hammerstein(us, ys, n_poles, n_zeros, n_bp, delay, opts, lin=lin)
     fits, starts = [], []
@@ -301,8 +360,27 @@ def wh_fits(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | 
         fit.build = build
         fits.append(fit)
         starts.append(Fit(spec, theta0, start, 0, build + " start"))
+    if lin is not None:
+        split_fits, split_starts = _split_builds(lin, us, ys, n_bp, opts)
+        fits += split_fits
+        starts += split_starts
     fits.sort(key=lambda f: f.sse if np.isfinite(f.sse) else np.inf)
     return fits + starts
+
+
+def _split_builds(lin: Fit, us, ys, n_bp, opts: Options):
+    """Refinements of the best BLA pole/zero splits, and the split start equal to the linear model."""
+    # The best-scored split only: the two routes are the other starts (cost of the paper's grid).
+    ranked = bla_split.ranked_split_starts(lin.spec, lin.theta, us, ys, n_bp, opts.skip, keep=1)
+    fits, starts = [], []
+    for k, (_, spec, theta_ls, theta_identity, split) in enumerate(ranked):
+        fit = refine(spec, theta_ls, us, ys, opts)
+        fit.build = f"bla split ({split.describe()})"
+        fits.append(fit)
+        if k == 0:
+            start = sse(spec, theta_identity, us, ys, opts.skip)
+            starts.append(Fit(spec, theta_identity, start, 0, "bla split start"))
+    return fits, starts
 
 
 def multistart(spec: ChainSpec, starts, us, ys, opts: Options) -> Fit:
@@ -310,9 +388,9 @@ def multistart(spec: ChainSpec, starts, us, ys, opts: Options) -> Fit:
     if len(starts) == 1:
         return refine(spec, starts[0], us, ys, opts)
     screen = max(opts.max_nfev // 10, 8)
-    short = Options(max_nfev=screen, tol=max(opts.tol, 1e-5), skip=opts.skip, starts=opts.starts)
+    short = replace(opts, max_nfev=screen, tol=max(opts.tol, 1e-5))
     best = _best([refine(spec, t, us, ys, short) for t in starts])
-    rest = Options(max_nfev=max(opts.max_nfev - screen, 1), tol=opts.tol, skip=opts.skip, starts=opts.starts)
+    rest = replace(opts, max_nfev=max(opts.max_nfev - screen, 1))
     final = refine(spec, best.theta, us, ys, rest)
     final.nfev += screen * len(starts)
     return final

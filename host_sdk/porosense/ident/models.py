@@ -58,7 +58,8 @@ class Model:
     kind = "base"
 
     def __init__(self, *, n_poles: int = 2, n_zeros: int = 1, n_breakpoints: int = 10, delay: int = 0,
-                 starts: int = 2, max_nfev: int = 200, skip: int = 0):
+                 starts: int = 2, max_nfev: int = 200, skip: int = 0, smoothness: float = 0.0,
+                 monotone: bool = False):
         if n_poles < 0 or n_zeros < 0:
             raise InputError("n_poles and n_zeros must be >= 0")
         if not 2 <= n_breakpoints <= MAX_BREAKPOINTS:
@@ -67,6 +68,10 @@ class Model:
             raise InputError("delay must be >= 0 samples")
         self.n_poles, self.n_zeros, self.n_breakpoints = int(n_poles), int(n_zeros), int(n_breakpoints)
         self.delay, self.starts, self.max_nfev, self.skip = int(delay), int(starts), int(max_nfev), int(skip)
+        if not smoothness >= 0:
+            raise InputError("smoothness must be >= 0")
+        # Regularisation of the piecewise-linear values (estimate._penalty_rows).
+        self.smoothness, self.monotone = float(smoothness), bool(monotone)
         self.spec: ChainSpec | None = None
         self.theta: np.ndarray | None = None
         self.u_scale = None
@@ -85,12 +90,35 @@ class Model:
         raise NotImplementedError
 
     def fit(self, *, u, y, ts: float = 1.0, inputs=None, output: str = "y", input_unit=None,
-            output_unit: str | None = None) -> Model:
+            output_unit: str | None = None, linear: Model | None = None) -> Model:
         """Estimate on the recordings ``u`` (list of (N, n_in)), ``y`` (list of (N,)); ts in s.
 
         ``input_unit``: what ``u`` holds, "%" (dR in %) or "dR/100" (dR as a fraction), one for
         all inputs or one per input; stored in the model file and used by the quantizer.
-        ``output_unit``: free text (for example "%" of strain or "deg")."""
+        ``output_unit``: free text (for example "%" of strain or "deg").
+        ``linear``: the linear model of the same orders already fitted on the same data; a
+        nonlinear structure starts from it instead of estimating it again.
+        """
+        self._linear = linear
+        try:
+            return self._fit(u=u, y=y, ts=ts, inputs=inputs, output=output, input_unit=input_unit,
+                             output_unit=output_unit)
+        finally:
+            self._linear = None
+    def _start_fit(self, model):
+        """The estimate.Fit of ``model`` (same data and orders as this one), or None."""
+        if model is None:
+            return None
+        same = (model.theta is not None and model.n_poles == self.n_poles and model.n_zeros == self.n_zeros
+                and model.delay == self.delay and model.skip == self.skip
+                and np.array_equal(model.u_scale, self.u_scale) and model.y_mean == self.y_mean
+                and model.y_std == self.y_std)
+        if not same:
+            raise InputError(f"the {model.kind} model to start from must be fitted on the same data "
+                             "with the same orders")
+        return estimate.Fit(model.spec, model.theta, model.info["sse"] / self.y_std**2)
+
+    def _fit(self, *, u, y, ts, inputs, output, input_unit=None, output_unit=None) -> Model:
         us, ys = as_recordings(u, y)
         n_in = us[0].shape[1]
         if not 1 <= n_in <= MAX_INPUTS or any(x.shape[1] != n_in for x in us):
@@ -115,7 +143,8 @@ class Model:
         self.y_std = float(np.std(all_y)) or 1.0
         nus = [x / self.u_scale for x in us]
         nys = [(v - self.y_mean) / self.y_std for v in ys]
-        opts = estimate.Options(max_nfev=self.max_nfev, skip=self.skip, starts=self.starts)
+        opts = estimate.Options(max_nfev=self.max_nfev, skip=self.skip, starts=self.starts,
+                                smoothness=self.smoothness, monotone=self.monotone)
         result = self._estimate(nus, nys, opts)
         self._set_result(result, sum(len(v) - self.skip for v in ys))
         return self
@@ -243,7 +272,9 @@ class Model:
             "format": FORMAT, "version": FORMAT_VERSION, "kind": self.kind,
             "orders": {"n_poles": self.n_poles, "n_zeros": self.n_zeros,
                        "n_breakpoints": self.n_breakpoints, "delay": self.delay},
-            "options": {"starts": self.starts, "max_nfev": self.max_nfev, "skip": self.skip},
+            "options": {"starts": self.starts, "max_nfev": self.max_nfev, "skip": self.skip,
+                        **({"smoothness": self.smoothness} if self.smoothness else {}),
+                        **({"monotone": True} if self.monotone else {})},
             "spec": asdict(self.spec),
             "theta": [float(v) for v in self.theta],
             "scaling": {"u_scale": [float(v) for v in self.u_scale], "y_mean": self.y_mean, "y_std": self.y_std},
@@ -318,7 +349,8 @@ class Hammerstein(Model):
     kind = "hammerstein"
 
     def _estimate(self, us, ys, opts):
-        return estimate.fit_hammerstein(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts)
+        return estimate.fit_hammerstein(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts,
+                                        lin=self._start_fit(getattr(self, "_linear", None)))
 
 
 class Wiener(Model):
@@ -327,7 +359,8 @@ class Wiener(Model):
     kind = "wiener"
 
     def _estimate(self, us, ys, opts):
-        return estimate.fit_wiener(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts)
+        return estimate.fit_wiener(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts,
+                                   lin=self._start_fit(getattr(self, "_linear", None)))
 
 
 class WienerHammerstein(Model):
@@ -346,13 +379,15 @@ class WienerHammerstein(Model):
     kind = "wh"
 
     def fit(self, *, u, y, ts: float = 1.0, inputs=None, output: str = "y", wiener: Wiener | None = None,
-            hammerstein: Hammerstein | None = None, input_unit=None, output_unit: str | None = None) -> Model:
-        """As :meth:`Model.fit`; ``wiener`` / ``hammerstein``: models of the same orders already
-        fitted on the same data (reused as the starts instead of being estimated again)."""
+            hammerstein: Hammerstein | None = None, linear: Linear | None = None, input_unit=None,
+            output_unit: str | None = None) -> Model:
+        """As :meth:`Model.fit`; ``wiener`` / ``hammerstein`` / ``linear``: models of the same
+        orders already fitted on the same data (reused as the starts instead of being estimated
+        again)."""
         self._parts = (wiener, hammerstein)
         try:
-            return super().fit(u=u, y=y, ts=ts, inputs=inputs, output=output, input_unit=input_unit,
-                               output_unit=output_unit)
+            return super().fit(u=u, y=y, ts=ts, inputs=inputs, output=output, linear=linear,
+                               input_unit=input_unit, output_unit=output_unit)
         finally:
             self._parts = (None, None)
 
@@ -371,7 +406,8 @@ class WienerHammerstein(Model):
     def _estimate(self, us, ys, opts):
         wiener, hammerstein = (self._part_fit(m) for m in getattr(self, "_parts", (None, None)))
         fits = estimate.wh_fits(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts,
-                                wiener=wiener, hammerstein=hammerstein)
+                                wiener=wiener, hammerstein=hammerstein,
+                                linear=self._start_fit(getattr(self, "_linear", None)))
         self.alternatives = fits[1:]
         return fits[0]
 

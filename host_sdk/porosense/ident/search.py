@@ -22,6 +22,7 @@ from porosense.errors import InputError
 from porosense.ident.models import KINDS, Model, as_recordings, make_model
 
 STRUCTURES = tuple(KINDS)
+CRITERIA = ("paper", "fit", "aic", "bic")
 
 
 @dataclass
@@ -42,6 +43,31 @@ class Candidate:
     feasible: bool = True
     model: Model | None = field(default=None, repr=False)
     cpu_seconds: float = float("nan")
+    n_validation: int = 0
+
+    @property
+    def validation_fit(self) -> float:
+        """Mean fit over the validation recordings (-inf without validation data)."""
+        vals = [v for v in self.fit_validation if np.isfinite(v)]
+        return float(np.mean(vals)) if vals else float("-inf")
+
+    @property
+    def estimation_fit(self) -> float:
+        vals = [v for v in self.fit_estimation if np.isfinite(v)]
+        return float(np.mean(vals)) if vals else float("-inf")
+
+    def score(self, criterion: str) -> float:
+        """Selection score, higher is better: the mean fit (``paper``: over estimation and
+        validation; ``fit``: over validation, or estimation without validation data), or minus
+        AIC / BIC (on the estimation data)."""
+        if criterion == "paper":
+            return self.mean_fit
+        if criterion == "fit":
+            return self.validation_fit if self.fit_validation else self.estimation_fit
+        if criterion in ("aic", "bic"):
+            v = self.aic if criterion == "aic" else self.bic
+            return -v if np.isfinite(v) else float("-inf")
+        raise InputError(f"unknown criterion {criterion!r}; choose from {', '.join(CRITERIA)}")
 
     @property
     def mean_fit(self) -> float:
@@ -60,39 +86,91 @@ class Candidate:
                 "fit_estimation": self.fit_estimation, "fit_validation": self.fit_validation,
                 "rms_estimation": self.rms_estimation, "rms_validation": self.rms_validation,
                 "aic": self.aic, "bic": self.bic, "n_params": self.n_params,
-                "seconds": self.seconds, "cpu_seconds": self.cpu_seconds, "feasible": self.feasible}
+                "seconds": self.seconds, "cpu_seconds": self.cpu_seconds, "feasible": self.feasible,
+                "build": (self.model.info.get("build") if self.model is not None else None)}
 
 
 @dataclass
 class SearchResult:
-    """All candidates of a search; ``best`` by mean fit (the paper's rule, ties within
-    ``tie_tol`` % points go to the smaller model), ``best_per_structure`` for the ranking."""
+    """All candidates of a search and the selection.
+
+    ``criterion``: ``paper`` (mean fit over estimation + validation recordings, the paper's
+    rule), ``fit`` (mean fit on the validation recordings only), ``aic`` or ``bic``. With a fit
+    criterion, candidates whose score is within the noise of the best (one standard error of
+    the fit, (100 - fit) / sqrt(2 N) points for N scored samples, at least ``tie_tol``) are tied
+    and the one with the fewest parameters is taken. With validation data, a nonlinear model
+    that validates worse than the best linear model is never selected over it.
+    """
 
     candidates: list
     seconds: float
     tie_tol: float = 0.01
+    criterion: str = "paper"
+    holdout: str = ""
 
     @property
     def feasible(self) -> list:
         return [c for c in self.candidates if c.feasible]
 
+    def tolerance(self, top: Candidate) -> float:
+        """Fit points within which candidates are tied (one standard error of ``top``'s fit)."""
+        if self.criterion not in ("fit", "paper"):
+            return 0.0
+        n = top.n_validation if top.fit_validation else top.model.info.get("n_samples", 0) if top.model else 0
+        if self.criterion == "paper" or n <= 0:
+            return self.tie_tol
+        return max(self.tie_tol, (100.0 - top.score(self.criterion)) / np.sqrt(2.0 * n))
+
+    def _select(self):
+        pool = self.feasible or self.candidates
+        key = (lambda c: c.score(self.criterion))
+        top = max(pool, key=key)
+        tol = self.tolerance(top)
+        near = [c for c in pool if key(c) >= key(top) - tol]
+        best = min(near, key=lambda c: (c.n_params, -key(c)))
+        note = ""
+        linears = [c for c in pool if c.structure == "linear"]
+        if best.structure != "linear" and linears and best.fit_validation:
+            lin = max(linears, key=lambda c: c.validation_fit)
+            if best.validation_fit < lin.validation_fit:
+                note = (f"{best.structure} {best.n_poles}p{best.n_zeros}z validates worse than linear "
+                        f"({best.validation_fit:.2f} % < {lin.validation_fit:.2f} %): linear kept")
+                best = lin
+        return best, top, tol, near, note
+
     @property
     def best(self) -> Candidate:
-        """Highest mean fit; among candidates within ``tie_tol`` points of it, the fewest parameters."""
-        pool = self.feasible or self.candidates
-        top = max(c.mean_fit for c in pool)
-        near = [c for c in pool if c.mean_fit >= top - self.tie_tol]
-        return min(near, key=lambda c: (c.n_params, -c.mean_fit))
+        """The selected candidate (see the class docstring for the rule)."""
+        return self._select()[0]
+
+    @property
+    def rule(self) -> str:
+        """One line: how the selected candidate was chosen."""
+        best, top, tol, near, note = self._select()
+        what = {"paper": "mean fit over estimation and validation recordings",
+                "fit": "mean fit on the validation data" if top.fit_validation else
+                       "mean fit on the estimation data (no validation data)",
+                "aic": "lowest AIC on the estimation data", "bic": "lowest BIC on the estimation data"}[self.criterion]
+        text = f"rule: {what}"
+        if self.criterion in ("fit", "paper"):
+            text += (f"; {len(near)} candidate(s) within {tol:.3g} points of the best "
+                     f"({top.score(self.criterion):.2f} %), the fewest parameters taken")
+        if self.holdout:
+            text += f"; validation: {self.holdout}"
+        if note:
+            text += f"; {note}"
+        return text
 
     @property
     def model(self) -> Model:
         """The selected model."""
         return self.best.model
 
-    def best_per_structure(self) -> dict:
+    def best_per_structure(self, criterion: str = "paper") -> dict:
+        """The best candidate of each structure by ``criterion`` (default the paper's mean fit)."""
         out = {}
         for c in self.feasible or self.candidates:
-            if c.structure not in out or c.mean_fit > out[c.structure].mean_fit:
+            if c.structure not in out or c.score(criterion) > out[c.structure].score(criterion):
                 out[c.structure] = c
         return out
 
@@ -103,18 +181,26 @@ class SearchResult:
 
     def to_dict(self) -> dict:
         best = self.best
-        return {"best": best.to_dict(), "seconds": self.seconds,
+        return {"best": best.to_dict(), "seconds": self.seconds, "criterion": self.criterion,
+                "rule": self.rule, "holdout": self.holdout,
                 "best_per_structure": {k: v.to_dict() for k, v in self.best_per_structure().items()},
                 "candidates": self.table()}
 
     def __str__(self) -> str:
-        lines = [f"{'structure':<12}{'poles':>6}{'zeros':>6}{'mean fit %':>12}{'mean RMS %':>12}"
-                 f"{'AIC':>12}{'BIC':>12}"]
-        for c in sorted(self.best_per_structure().values(), key=lambda c: -c.mean_fit):
-            lines.append(f"{c.structure:<12}{c.n_poles:>6}{c.n_zeros:>6}{c.mean_fit:>12.2f}"
-                         f"{c.mean_rms:>12.2f}{c.aic:>12.4g}{c.bic:>12.4g}")
-        lines.append(f"selected: {self.best.structure} ({self.best.n_poles} poles, {self.best.n_zeros} zeros), "
+        lines = [f"{'structure':<12}{'poles':>6}{'zeros':>6}{'mean fit %':>12}{'est fit %':>11}{'val fit %':>11}"
+                 f"{'mean RMS %':>12}{'AIC':>12}{'BIC':>12}"]
+        for c in sorted(self.best_per_structure(self.criterion).values(), key=lambda c: -c.score(self.criterion)):
+            val = f"{c.validation_fit:>11.2f}" if c.fit_validation else f"{'-':>11}"
+            lines.append(f"{c.structure:<12}{c.n_poles:>6}{c.n_zeros:>6}{c.mean_fit:>12.2f}{c.estimation_fit:>11.2f}"
+                         f"{val}{c.mean_rms:>12.2f}{c.aic:>12.4g}{c.bic:>12.4g}")
+        b = self.best
+        val = f"{b.validation_fit:.2f} %" if b.fit_validation else "-"
+        lines.append(f"selected: {b.structure} ({b.n_poles} poles, {b.n_zeros} zeros), "
                      f"{len(self.candidates)} candidates in {self.seconds:.1f} s")
+        lines.append(f"selected row: {b.structure:<12}{b.n_poles:>3}p{b.n_zeros:>3}z  estimation fit "
+                     f"{b.estimation_fit:.2f} %  validation fit {val}  AIC {b.aic:.5g}  BIC {b.bic:.5g}"
+                     + (f"  [{b.model.info['build']}]" if b.model is not None and b.model.info.get("build") else ""))
+        lines.append(self.rule)
         return "\n".join(lines)
 
     def plot(self, ax=None):
@@ -154,11 +240,26 @@ def order_grid(structures=STRUCTURES, poles=range(1, 11), zeros=None) -> list[tu
     return grid
 
 
+def _score_records(model, us, ys, skips) -> dict:
+    """Fit % and RMS % per recording, each with its own number of unscored leading samples."""
+    out = {"fit": [], "rms": []}
+    for u, y, k in zip(us, ys, skips):
+        r = model.score(u=[u], y=[y], skip=int(k))
+        out["fit"] += r["fit"]
+        out["rms"] += r["rms"]
+    return out
+
+
+def _skips(skip, n: int) -> list:
+    return list(skip) if isinstance(skip, (list, tuple, np.ndarray)) else [int(skip)] * n
+
+
 def _score(structure, n_poles, n_zeros, model, kwargs, fit_args, val, seconds, cpu_seconds) -> Candidate:
     est = model.score(u=fit_args["u"], y=fit_args["y"], skip=kwargs["skip"])
-    vs = model.score(u=val[0], y=val[1], skip=val[2]) if val else {"fit": [], "rms": []}
+    vs = _score_records(model, *val) if val else {"fit": [], "rms": []}
+    n_val = int(sum(len(y) - k for y, k in zip(val[1], val[2]))) if val else 0
     return Candidate(structure, n_poles, n_zeros, est["fit"], vs["fit"], est["rms"], vs["rms"],
-                     model.aic, model.bic, model.n_params, seconds, True, model, cpu_seconds)
+                     model.aic, model.bic, model.n_params, seconds, True, model, cpu_seconds, n_val)
 
 
 def _fit_candidate(structure, n_poles, n_zeros, kwargs, fit_args, val):
@@ -170,88 +271,116 @@ def _fit_candidate(structure, n_poles, n_zeros, kwargs, fit_args, val):
                   time.perf_counter() - t0, time.process_time() - c0)
 
 
-def _fit_wh_group(structures, n_poles, n_zeros, kwargs, fit_args, val) -> list:
-    """Worker: the Wiener and Hammerstein models of one order, then the WH model started from them.
+def _fit_order_group(structures, n_poles, n_zeros, kwargs, fit_args, val, criterion="paper") -> list:
+    """Worker: every structure of one order, each nonlinear one started from the linear model
+    of the order (fitted first), the WH model also from the Wiener and Hammerstein models.
 
-    Returns the candidates of ``structures`` (which contains "wh"). The WH candidate is the
-    member with the best selection score among the jointly refined builds and their two
-    starting points (WH models with identity blocks equal to the Wiener and Hammerstein
-    models), so it scores at least as well as both. The WH candidate's times
-    are those of its joint refinements plus the parts that are not candidates themselves.
+    Returns the candidates of ``structures``. The WH candidate is the member with the best
+    selection score among the jointly refined builds and their starting points (WH models
+    with identity blocks equal to the linear, Wiener and Hammerstein models), so it scores at
+    least as well as each of them. Times of parts that are not candidates themselves are
+    added to the WH candidate's.
     """
     out, extra = [], [0.0, 0.0]
     parts = {}
-    for s in ("wiener", "hammerstein"):
+    needed = ["linear"] + [s for s in ("wiener", "hammerstein") if s in structures or "wh" in structures]
+    for s in needed:
         t0, c0 = time.perf_counter(), time.process_time()
-        parts[s] = make_model(s, n_poles=n_poles, n_zeros=n_zeros, **kwargs).fit(**fit_args)
+        start = {"linear": parts["linear"]} if s != "linear" else {}
+        parts[s] = make_model(s, n_poles=n_poles, n_zeros=n_zeros, **kwargs).fit(**fit_args, **start)
         dt, dc = time.perf_counter() - t0, time.process_time() - c0
         if s in structures:
             out.append(_score(s, n_poles, n_zeros, parts[s], kwargs, fit_args, val, dt, dc))
         else:
             extra[0] += dt
             extra[1] += dc
-    t0, c0 = time.perf_counter(), time.process_time()
-    wh = make_model("wh", n_poles=n_poles, n_zeros=n_zeros, **kwargs).fit(**fit_args, **parts)
-    # The refined model and the WH members it was refined from, scored by the selection rule:
-    # the WH candidate of this order is never below the Wiener and Hammerstein candidates.
-    members = [_score("wh", n_poles, n_zeros, m, kwargs, fit_args, val, 0.0, 0.0)
-               for m in [wh] + wh.alternative_models()]
-    best = max(members, key=lambda c: c.mean_fit)
-    best.model.alternatives = []
-    best.seconds = time.perf_counter() - t0 + extra[0]
-    best.cpu_seconds = time.process_time() - c0 + extra[1]
-    out.append(best)
+    if "wh" in structures:
+        t0, c0 = time.perf_counter(), time.process_time()
+        wh = make_model("wh", n_poles=n_poles, n_zeros=n_zeros, **kwargs).fit(**fit_args, **parts)
+        # The refined model and the WH members it was refined from, scored by the selection rule:
+        # the WH candidate of this order is never below the linear, Wiener and Hammerstein ones.
+        members = [_score("wh", n_poles, n_zeros, m, kwargs, fit_args, val, 0.0, 0.0)
+                   for m in [wh] + wh.alternative_models()]
+        best = max(members, key=lambda c: c.score(criterion))
+        best.model.alternatives = []
+        best.seconds = time.perf_counter() - t0 + extra[0]
+        best.cpu_seconds = time.process_time() - c0 + extra[1]
+        out.append(best)
     return out
 
 
 def _tasks(grid) -> list[tuple[tuple[str, ...], int, int]]:
-    """Group the grid into tasks: a WH order together with the Wiener and Hammerstein models of
-    that order (the WH starts from them), every other candidate alone."""
-    orders_with_wh = {(p, z) for s, p, z in grid if s == "wh"}
+    """Group the grid into tasks: every structure of an order that has a nonlinear one runs in
+    one task (they start from the linear model of the order); a lone linear candidate alone."""
     groups: dict = {}
     tasks = []
     for s, p, z in grid:
-        if (p, z) in orders_with_wh and s in ("wh", "wiener", "hammerstein"):
-            if (p, z) not in groups:
-                groups[(p, z)] = []
-                tasks.append(((p, z), groups[(p, z)]))
-            groups[(p, z)].append(s)
-        else:
-            tasks.append(((p, z), [s]))
+        if (p, z) not in groups:
+            groups[(p, z)] = []
+            tasks.append(((p, z), groups[(p, z)]))
+        groups[(p, z)].append(s)
     return [(tuple(ss), p, z) for (p, z), ss in tasks]
 
 
-def _run_task(structures, n_poles, n_zeros, kwargs, fit_args, val) -> list:
-    if "wh" in structures:
-        return _fit_wh_group(structures, n_poles, n_zeros, kwargs, fit_args, val)
-    return [_fit_candidate(structures[0], n_poles, n_zeros, kwargs, fit_args, val)]
+def _run_task(structures, n_poles, n_zeros, kwargs, fit_args, val, criterion="paper") -> list:
+    if structures == ("linear",):
+        return [_fit_candidate("linear", n_poles, n_zeros, kwargs, fit_args, val)]
+    return _fit_order_group(structures, n_poles, n_zeros, kwargs, fit_args, val, criterion)
 
 
 def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=range(1, 11), zeros=None,
            n_breakpoints: int = 10, delay: int = 0, starts: int = 2, max_nfev: int = 100, skip: int = 0,
            inputs=None, output: str = "y", executor: Executor | None = None, progress: bool = True,
            constraint=None, size_fn=None, max_bytes: int | None = None, grid=None,
-           tie_tol: float = 0.01, validation_skip: int = 0) -> SearchResult:
-    """Estimate the whole grid and select by mean fit over estimation + validation recordings.
+           tie_tol: float = 0.01, validation_skip=0, criterion: str = "paper", holdout: str = "",
+           staged: bool = False, staged_orders: int = 2, smoothness: float = 0.0,
+           monotone: bool = False) -> SearchResult:
+    """Estimate the whole grid and select by ``criterion`` (see :class:`SearchResult`).
 
     u, y: estimation recordings (lists of (N, n_in) and (N,)); validation: (u_list, y_list) or
     None; ts in s. ``constraint(structure) -> bool`` or ``size_fn(structure) -> bytes`` with
     ``max_bytes`` mark candidates infeasible (they are reported, never selected unless no
     candidate is feasible). ``executor``: any concurrent.futures Executor; default a process
     pool over the machine's cores (a single candidate runs in this process). ``skip`` and
-    ``validation_skip``: leading samples of each recording simulated but not scored. ``grid``: an
-    explicit list of (structure, n_poles, n_zeros) instead of structures/poles/zeros.
+    ``validation_skip``: leading samples of each recording simulated but not scored (for the
+    validation recordings one number or one per recording). ``grid``: an explicit list of
+    (structure, n_poles, n_zeros) instead of structures/poles/zeros. ``criterion``: paper
+    (default, the paper's mean fit over all recordings), fit (validation fit), aic or bic.
+    ``holdout``: how the validation data was made, reported with the rule.
+
+    ``smoothness`` / ``monotone``: regularisation of the piecewise-linear maps of every
+    nonlinear candidate (:func:`choose_smoothness` picks the weight on validation data).
+
+    ``staged``: first every linear order of the grid, then the nonlinear structures only at the
+    ``staged_orders`` best linear orders by ``criterion`` (and the order the tie rule picks):
+    a nonlinear model starts from the linear model of its order, so orders whose linear model
+    ranks low are not worth refining (the fast default of ``porosense identify`` on long records).
     """
+    if criterion not in CRITERIA:
+        raise InputError(f"unknown criterion {criterion!r}; choose from {', '.join(CRITERIA)}")
+    if staged:
+        args = dict(u=u, y=y, ts=ts, validation=validation, n_breakpoints=n_breakpoints, delay=delay,
+                    starts=starts, max_nfev=max_nfev, skip=skip, inputs=inputs, output=output,
+                    progress=progress, constraint=constraint, size_fn=size_fn, max_bytes=max_bytes,
+                    tie_tol=tie_tol, validation_skip=validation_skip, criterion=criterion, holdout=holdout,
+                    smoothness=smoothness, monotone=monotone)
+        return _staged_search(list(grid) if grid is not None else order_grid(structures, poles, zeros),
+                              executor, staged_orders, args)
     us, ys = as_recordings(u, y)
     val = None
     if validation is not None:
         vu, vy = as_recordings(*validation)
-        val = (vu, vy, int(validation_skip))
+        vskips = _skips(validation_skip, len(vy))
+        if len(vskips) != len(vy) or any(len(v) - k < 2 for v, k in zip(vy, vskips)):
+            raise InputError("every validation recording needs at least 2 scored samples after its skip")
+        val = (vu, vy, vskips)
     grid = list(grid) if grid is not None else order_grid(structures, poles, zeros)
     if not grid:
         raise InputError("empty order grid")
     rank = {g: i for i, g in enumerate(grid)}
     kwargs = {"n_breakpoints": n_breakpoints, "delay": delay, "starts": starts, "max_nfev": max_nfev, "skip": skip}
+    if smoothness or monotone:
+        kwargs.update(smoothness=smoothness, monotone=monotone)
     fit_args = {"u": us, "y": ys, "ts": ts, "inputs": inputs, "output": output}
     # Most expensive first so that the pool stays busy to the end.
     weight = {"wh": 2, "hammerstein": 2, "wiener": 2, "linear": 1}
@@ -259,18 +388,18 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     tasks.sort(key=lambda t: -(sum(weight[s] for s in t[0]) + (2 if "wh" in t[0] else 0)) * (t[1] + t[2] + 1))
     if executor is None and len(tasks) == 1:
         t0 = time.perf_counter()
-        candidates = _run_task(*tasks[0], kwargs, fit_args, val)
+        candidates = _run_task(*tasks[0], kwargs, fit_args, val, criterion)
         for c in candidates:
             c.feasible = _feasible(c.model, constraint, size_fn, max_bytes)
         candidates.sort(key=lambda c: rank[(c.structure, c.n_poles, c.n_zeros)])
-        return SearchResult(candidates, time.perf_counter() - t0, tie_tol)
+        return SearchResult(candidates, time.perf_counter() - t0, tie_tol, criterion, holdout)
     own = executor is None
     if own:
         executor = ProcessPoolExecutor(max_workers=min(os.cpu_count() or 1, len(tasks)))
     t0 = time.perf_counter()
     candidates = []
     try:
-        futures = [executor.submit(_run_task, ss, p, z, kwargs, fit_args, val) for ss, p, z in tasks]
+        futures = [executor.submit(_run_task, ss, p, z, kwargs, fit_args, val, criterion) for ss, p, z in tasks]
         bar = None
         if progress:
             from tqdm.auto import tqdm
@@ -289,7 +418,35 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     for c in candidates:
         c.feasible = _feasible(c.model, constraint, size_fn, max_bytes)
     candidates.sort(key=lambda c: rank[(c.structure, c.n_poles, c.n_zeros)])
-    return SearchResult(candidates, time.perf_counter() - t0, tie_tol)
+    return SearchResult(candidates, time.perf_counter() - t0, tie_tol, criterion, holdout)
+
+
+def _staged_search(grid, executor, n_orders: int, args) -> SearchResult:
+    """Linear orders first, then the nonlinear structures at the best linear orders."""
+    t0 = time.perf_counter()
+    own = executor is None
+    linear_grid = [g for g in grid if g[0] == "linear"] or [("linear", p, z) for _, p, z in grid]
+    if own and len(linear_grid) > 1:
+        executor = ProcessPoolExecutor(max_workers=os.cpu_count() or 1)
+    try:
+        first = search(grid=sorted(set(linear_grid), key=linear_grid.index), executor=executor, **args)
+        ranked = sorted(first.candidates, key=lambda c: -c.score(args["criterion"]))
+        orders = [(first.best.n_poles, first.best.n_zeros)]
+        for c in ranked:
+            if len(orders) >= n_orders + 1:
+                break
+            if (c.n_poles, c.n_zeros) not in orders:
+                orders.append((c.n_poles, c.n_zeros))
+        second_grid = [(s, p, z) for s, p, z in grid if s != "linear" and (p, z) in orders]
+        candidates = [c for c in first.candidates if ("linear", c.n_poles, c.n_zeros) in grid]
+        if second_grid:
+            candidates += search(grid=second_grid, executor=executor, **args).candidates
+    finally:
+        if own and executor is not None:
+            executor.shutdown()
+    return SearchResult(candidates, time.perf_counter() - t0, args["tie_tol"], args["criterion"],
+                        args["holdout"] + ("; " if args["holdout"] else "") +
+                        f"staged search: nonlinear structures at linear orders {', '.join(f'{p}p{z}z' for p, z in orders)}")
 
 
 def _feasible(model, constraint, size_fn, max_bytes) -> bool:
@@ -316,3 +473,43 @@ def approx_blob_bytes(structure) -> int:
         size += 8 * len(out.g.x) if out.g is not None else 0
         size += 10 * out.h2.n_sections if out.h2 is not None else 0
     return size
+
+
+@dataclass
+class SmoothnessChoice:
+    """Weights of the breakpoint smoothness penalty tried on the selected model, with their
+    validation fits (%); ``weight`` the one kept (0 = no penalty)."""
+
+    weight: float
+    fits: dict
+    model: Model = field(repr=False, default=None)
+
+    def __str__(self) -> str:
+        tried = ", ".join(f"{w:g}: {f:.2f} %" for w, f in self.fits.items())
+        return f"smoothness weight {self.weight:g} kept (validation fit per weight: {tried})"
+
+
+def choose_smoothness(result: SearchResult, *, u, y, ts: float, validation, validation_skip=0,
+                      weights=(1e-4, 1e-3, 1e-2), monotone: bool = False, inputs=None,
+                      output: str = "y") -> SmoothnessChoice:
+    """Refit the selected (nonlinear) model with each smoothness weight (dimensionless, see
+    ``estimate._penalty_rows``) and keep the weight with the best validation fit; the
+    unpenalised model is the weight-0 entry. Linear models have no breakpoints: returned as is."""
+    best = result.best
+    base = best.model
+    if best.structure == "linear" or validation is None:
+        return SmoothnessChoice(0.0, {}, base)
+    vu, vy = as_recordings(*validation)
+    skips = _skips(validation_skip, len(vy))
+    fits = {0.0: best.validation_fit}
+    chosen, top = base, best.validation_fit
+    for w in weights:
+        m = make_model(best.structure, n_poles=base.n_poles, n_zeros=base.n_zeros, n_breakpoints=base.n_breakpoints,
+                       delay=base.delay, starts=base.starts, max_nfev=base.max_nfev, skip=base.skip,
+                       smoothness=w, monotone=monotone)
+        m.fit(u=u, y=y, ts=ts, inputs=inputs, output=output)
+        f = float(np.mean(_score_records(m, vu, vy, skips)["fit"]))
+        fits[float(w)] = f
+        if f > top:
+            chosen, top = m, f
+    return SmoothnessChoice(chosen.smoothness, fits, chosen)

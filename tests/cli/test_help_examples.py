@@ -114,5 +114,5 @@ def test_help_examples_run_as_printed(tmp_path):
     # What the examples promised to write is there.
     for path in ("runs", "model.json", "report.json", "pred.csv", "pred.png", "compare.png", "report/report.html",
                  "model.c", "model_tf.json", "model.bin", "quant.json", "diag.json", "diag/summary.md",
-                 "my_contractor.json", "contractor.gcode", "contractor.png"):
+                 "my_contractor.json", "contractor.gcode", "c.png", "bending.gcode", "segment.gcode", "parts", "build"):
         assert (work / path).exists(), path

@@ -20,6 +20,8 @@ from pathlib import Path
 
 import pytest
 
+from porosense.protocol._messages import VERSION_MAJOR
+
 ROOT = Path(__file__).resolve().parents[2]
 pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("wheel")]
 
@@ -115,7 +117,7 @@ def test_installed_wheel_identifies_quantizes_and_talks_to_the_emulator(installe
     assert out["source_tree"] == "None"
     assert Path(out["library"]).parent.name == "lib" and py.parent.parent in Path(out["library"]).parents
     assert not (Path(env["POROSENSE_CACHE"])).exists()  # nothing rebuilt: the wheel's library served
-    assert out["model_valid"] and out["samples"] == 50 and out["proto"][0] == 1
+    assert out["model_valid"] and out["samples"] == 50 and out["proto"][0] == VERSION_MAJOR
     assert any(e != 0 for e in out["estimates"])  # the firmware's estimator ran on the model
     assert all(b - a == 10_000 for a, b in zip(out["t_us"], out["t_us"][1:]))
     where = json.loads(_run([cli, "firmware", "where", "--json"], work, env).stdout)

@@ -137,29 +137,47 @@ class Diagnosis:
 TIE_BIC = 2.0 * np.log(10.0)  # a Bayes factor below 10 does not tell two causes apart
 
 
-def _bic(ctx, Z: np.ndarray | None, with_g0: bool = True):
-    """(BIC, effect RMS / innovation SD) of e_est ~ [G0 or constant, Z], AR-whitened residual."""
+def _common_ar(ctx, Zs: list) -> np.ndarray:
+    """One AR noise model for every candidate: fitted to the residual of e_est on G0 and the
+    union of all candidates' regressors, so that no candidate's systematic error is absorbed
+    into its own noise model (a slow error looks like a near-unit-root AR otherwise)."""
+    X = np.column_stack([ctx.G0_est] + [Z for Z in Zs if Z is not None])
+    coef = stats.lstsq(X, ctx.e_est)
+    return signals.fit_ar(ctx.e_est - X @ coef, 10)
+
+
+def _bic(ctx, Z: np.ndarray | None, ar: np.ndarray, with_g0: bool = True):
+    """(BIC, effect SD / noise SD) of e_est ~ [G0 or constant, Z] by GLS with the AR noise model ``ar``.
+
+    Regression on AR-filtered data (per record); BIC = N ln s2 + k ln N with s2 the whitened
+    residual's variance (the noise model is common to all candidates, so its order cancels).
+    The effect is the SD of the fitted Z part, the noise the residual's own SD implied by the AR
+    model and s2 (the strength relative to the residual's own noise).
+    """
     e = ctx.e_est
     n = len(e)
     X = ctx.G0_est if with_g0 else np.ones((n, 1))
     kz = 0 if Z is None else Z.shape[1]
     if kz:
         X = np.column_stack([X, Z])
-    coef = stats.lstsq(X, e)
-    r = e - X @ coef
-    ar = signals.fit_ar(r, 10)
-    parts = np.split(r, np.cumsum(ctx.seg_est)[:-1])
-    w = np.concatenate([signals.whiten(p, ar) for p in parts])
+    cuts = np.cumsum(ctx.seg_est)[:-1]
+    ew = np.concatenate([signals.whiten(p, ar) for p in np.split(e, cuts)])
+    Xw = np.vstack([signals.whiten(p, ar) for p in np.split(X, cuts)])
+    coef = stats.lstsq(Xw, ew)
+    w = ew - Xw @ coef
     s2 = float(np.mean(w * w)) or 1e-300
-    bic = len(w) * np.log(s2) + (X.shape[1] + len(ar) - 1) * np.log(len(w))
+    bic = len(w) * np.log(s2) + X.shape[1] * np.log(len(w))
     if kz:
         effect = float(np.std(Z @ coef[-kz:]))
     elif with_g0:
         effect = float(np.std(ctx.G0_est[:, :-1] @ coef[:-1]))
     else:
         effect = 0.0
-    # the effect against the residual's own noise: its innovation SD through the AR's DC gain
-    noise = np.sqrt(s2) / max(abs(float(np.sum(ar))), 1e-12)
+    # SD of an AR process with this innovation variance: s2 / (1 - sum of rho_k a_k) ~ via impulse response
+    from scipy import signal as sps
+
+    h = sps.lfilter([1.0], ar, np.r_[1.0, np.zeros(2000)])
+    noise = np.sqrt(s2 * float(np.sum(h * h)))
     return float(bic), effect / noise
 
 
@@ -219,11 +237,12 @@ def diagnose(estimation: list, validation: list, *, alpha: float = stats.DEFAULT
     g0_val = ctx.generic_validation()
     y_val = ctx.y_val
     fit_nom = fit_percent(y_val, ctx.yhat_val)
-    bic_none, _ = _bic(ctx, None, with_g0=False)
+    ar = _common_ar(ctx, [r.Z_est for r in results.values() if r.gate and r.test.significant])
+    bic_none, _ = _bic(ctx, None, ar, with_g0=False)
     findings, found = {}, {}
     for cause, res in results.items():
         if res.Z_est is not None:
-            bic, eff = _bic(ctx, res.Z_est)
+            bic, eff = _bic(ctx, res.Z_est, ar)
         else:
             bic, eff = np.inf, 0.0
         bic += 2.0 * np.log(max(res.n_search, 1)) - 2.0 * res.evidence_llr

@@ -275,16 +275,21 @@ def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
 
 
 def _play_set(ctx: Context):
-    """Regressors of rate-independent memory: play operators (4 radii) of the model output minus
-    the output, raw and through the model's own dynamics."""
+    """Regressors of rate-independent memory: play operators of the model output minus the
+    output (raw and through the model's own dynamics: output-side hysteresis) and of every input
+    minus the input, through the model's dynamics (input-side backlash). Radii on a generic
+    half-decade grid, 1-30 % of each signal's span."""
+    fractions = np.array([0.01, 0.03, 0.1, 0.3])
     span = float(np.ptp(ctx.yhat_est)) or 1.0
-    radii = span * np.array([0.03, 0.08, 0.15, 0.3])
+    spans_u = [float(np.ptp(ctx.u_est[:, i])) or 1.0 for i in range(ctx.n_in)]
 
     def z_h(r):
         cols = []
-        for rad in radii:
-            d = signals.play_operator(r.yhat, rad) - r.yhat
+        for f in fractions:
+            d = signals.play_operator(r.yhat, f * span) - r.yhat
             cols += [d, ctx.base_filter(d)]
+            for i in range(ctx.n_in):
+                cols.append(ctx.base_filter(signals.play_operator(r.u[:, i], f * spans_u[i]) - r.u[:, i]))
         return np.column_stack(cols)
 
     return z_h
@@ -337,7 +342,7 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
     pred, _ = ctx.fit_apply(z_full)
     return CauseResult(res, True, "at equal output level the residual depends on the direction of motion "
                        f"({_explained(res)} beyond the level alone)",
-                       "Prandtl-Ishlinskii play operators (4 radii) of the model output with a static PWL", pred,
+                       "Prandtl-Ishlinskii play operators (4 radii) of the model output and inputs with a static PWL", pred,
                        Z_est=ctx.stack(z_full, ctx.est))
 
 
@@ -347,15 +352,15 @@ def _slow_sets(ctx: Context):
     A slow viscoelastic mode leaves a long exponential tail after every step: the residual
     follows the input after the model's own dynamics (the base filter) and the model output,
     both through a first-order lag of time constant tau, also scaled by the output level (the
-    mode's share changes with the level). tau on a geometric grid from 5 times the model's own
-    time constant (at least 3 s) up to half a record. The test is conditional on static PWL maps
+    mode's share changes with the level). tau on a geometric grid (ratio 2) from twice the model's own
+    time constant up to half a record. The test is conditional on static PWL maps
     of the level on every side, a linear drift in time and play operators: what remains is memory that fades
     with tau and follows the input, which neither drift nor hysteresis has.
     """
     if "slow" in ctx._cache:
         return ctx._cache["slow"]
     t_rec = sum(ctx.seg_est) * ctx.ts / len(ctx.seg_est)
-    tau = max(5.0 * ctx.tau_s, 3.0)
+    tau = 2.0 * ctx.tau_s
     taus = []
     while tau < t_rec / 2:
         taus.append(tau)
@@ -405,11 +410,12 @@ def time_delay(ctx: Context, alpha: float) -> CauseResult:
     best = None
     for d in range(1, d_max + 1):
         def z(r, d=d):
-            return signals.shift(r.yhat, d) - r.yhat
+            # the model output delayed, and the delayed inputs through a short Laguerre bank (a
+            # delay in front of dynamics the nominal model has partly bent to fit it)
+            banks = [ctx.lag_bank(signals.shift(r.u[:, i], d)) for i in range(ctx.n_in)]
+            return np.column_stack([signals.shift(r.yhat, d) - r.yhat] + banks)
 
         t = ctx.f_test(ctx.stack(z, ctx.est))
-        if t.coef.size and t.coef[0] <= 0:  # a delay moves the prediction later, never earlier
-            t = stats.FTest(t.f, t.df1, t.df2, 1.0, 0.0, t.ar_order, t.coef, 0.0)
         if best is None or t.log10_p < best[0].log10_p:
             best = (t, z, d)
     test, z, d = best

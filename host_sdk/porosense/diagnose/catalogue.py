@@ -16,7 +16,8 @@ CAUSES = (
     "unmodelled_dynamics",
 )
 #: Causes whose extension the on-device structure y = H2(g(sum H1(f(u)))) can carry.
-EXPRESSIBLE = ("static_nonlinearity", "time_delay", "slow_relaxation", "cross_coupling", "unmodelled_dynamics")
+EXPRESSIBLE = ("static_nonlinearity", "saturation", "time_delay", "slow_relaxation", "cross_coupling",
+               "unmodelled_dynamics")
 NONE = "none"
 
 #: What each cause means and the extension that models it.

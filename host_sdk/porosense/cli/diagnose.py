@@ -20,9 +20,10 @@ def register(sub) -> argparse.ArgumentParser:
             "input cross-correlation, Billings-Voon nonlinearity tests, level, direction, trend, spectral "
             "lines, condition columns, clipping, spikes) name the most likely causes from a fixed catalogue "
             "(static_nonlinearity, hysteresis, slow_relaxation, time_delay, drift, periodic_disturbance, "
-            "load_dependence, saturation, cross_coupling, outliers, or none); each cause's extension is "
-            "refitted on the estimation range and its gain measured on the validation range (fit and RMS "
-            "in %). --ts is the sample period in seconds; A:B are sample ranges (Python slices) applied to "
+            "load_dependence, saturation, cross_coupling, outliers, unmodelled_dynamics, or none), ranked by "
+            "the information criterion of their extensions; each extension is refitted on the estimation "
+            "range and its gain is a simulation fit difference on the validation range against the nominal "
+            "prediction plus a generic linear correction, on the same samples. --ts is the sample period in seconds; A:B are sample ranges (Python slices) applied to "
             "every file. Without ranges, several files split into estimation (all but the last) and "
             "validation (the last); one file splits 60/40."
         ),
@@ -53,6 +54,10 @@ def register(sub) -> argparse.ArgumentParser:
                    help="family-wise false-alarm level over the catalogue (default 0.01)")
     p.add_argument("--json", required=True, metavar="OUT.json", help="write the findings here")
     p.add_argument("--report", metavar="DIR", help="write figures and a Markdown summary into DIR")
+    p.add_argument("--save-extended", metavar="EXT.json",
+                   help="write the top cause's extended model here (with --model or --baseline): a model file "
+                        "that 'porosense predict' runs and, where the device structure carries it, 'quantize' "
+                        "and 'flash' take")
     p.set_defaults(func=run)
     return p
 
@@ -117,7 +122,7 @@ def _predictor(args, inputs, est):
         from porosense.diagnose.calibrate import calibrate
 
         cal = calibrate(args.sim, args.output, us, ys, args.ts)
-        return (lambda u: cal.predict(u, args.ts),
+        return (lambda u: cal.predict(u, args.ts), None,
                 f"{args.sim} simulator calibrated on estimation: porosity {cal.porosity:.1f} %, scale "
                 f"{cal.scale:.4g}, offset {cal.offset:.4g} (fit {cal.fit_estimation:.1f} %)")
     if args.model:
@@ -131,14 +136,18 @@ def _predictor(args, inputs, est):
             model = match[0]
         if len(model.inputs) != len(inputs):
             raise ModelError(f"{args.model} takes {len(model.inputs)} inputs, --input gives {len(inputs)}")
-        return (lambda u: model.predict(u=u), f"model {args.model} ({model.kind})")
+        from porosense.ident.extended import predict_settled
+
+        return (lambda u: predict_settled(model, u), model, f"model {args.model} ({model.kind})")
     if not 0 <= args.zeros < max(args.poles, 1) or args.poles > 10:
         raise InputError("--poles must be 1..10 and --zeros smaller than --poles")
     from porosense import ident
 
     model = ident.make_model(args.baseline, n_poles=args.poles, n_zeros=args.zeros)
     model.fit(u=us, y=ys, ts=args.ts, inputs=inputs, output=args.output)
-    return (lambda u: model.predict(u=u),
+    from porosense.ident.extended import predict_settled
+
+    return (lambda u: predict_settled(model, u), model,
             f"{args.baseline} baseline with {args.poles} poles and {args.zeros} zeros identified on estimation")
 
 
@@ -154,10 +163,12 @@ def run(args) -> int:
         raise InputError("--ts must be a positive sample period in seconds")
     if not 0 < args.alpha < 1:
         raise InputError("--alpha must be between 0 and 1")
+    if args.save_extended and args.sim:
+        raise InputError("--save-extended needs a model to extend: use --model or --baseline, not --sim")
     est, val = _split(args, inputs, conditions)
-    predict, what = _predictor(args, inputs, est)
+    predict, nominal, what = _predictor(args, inputs, est)
     records = [[Record(u, y, predict(u), args.ts, cond) for u, y, cond in part] for part in (est, val)]
-    result = diagnose(records[0], records[1], alpha=args.alpha)
+    result = diagnose(records[0], records[1], alpha=args.alpha, nominal=nominal if args.save_extended else None)
     out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result.to_dict(), indent=2) + "\n")
@@ -167,4 +178,13 @@ def run(args) -> int:
         report.write_report(result, args.report, title=f"Diagnosis of {what}")
     print(f"diagnosed: {what}")
     print(result)
+    if args.save_extended:
+        if result.extended is None:
+            print(f"no cause found: nothing to extend, {args.save_extended} not written")
+        else:
+            path = Path(args.save_extended)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            result.extended.save(path)
+            top = result.findings[0]
+            print(f"extended model ({top.cause}) written to {path}; on the device: {top.on_device}")
     return 0

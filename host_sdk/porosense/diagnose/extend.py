@@ -80,8 +80,12 @@ def _structural(cause: str, res, ctx, nominal):
     if cause == "saturation" and res.detail.get("where") == "output":
         return refit("wiener", nominal, us, ys, ctx.ts, inputs), [r.u for r in ctx.val]
     if cause == "time_delay":
-        d = int(res.detail["delay"])
-        return refit(nominal.kind, nominal, us, ys, ctx.ts, inputs, delay=nominal.delay + d), [r.u for r in ctx.val]
+        # the residual's shift estimates the missing delay only roughly (the nominal model has
+        # bent its dynamics to fit it): re-identify around it, keep the least estimation error
+        d0 = int(res.detail["delay"])
+        fits = [refit(nominal.kind, nominal, us, ys, ctx.ts, inputs, delay=nominal.delay + d)
+                for d in range(max(1, d0 - 3), d0 + 4)]
+        return min(fits, key=lambda m: m.info["sse"]), [r.u for r in ctx.val]
     if cause in ("slow_relaxation", "unmodelled_dynamics"):
         more = {"n_poles": nominal.n_poles + 1, "n_zeros": min(nominal.n_zeros + 1, nominal.n_poles)}
         return refit(nominal.kind, nominal, us, ys, ctx.ts, inputs, **more), [r.u for r in ctx.val]

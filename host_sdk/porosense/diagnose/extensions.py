@@ -642,10 +642,9 @@ def _record_limit(y: np.ndarray, side: str, default: float) -> float:
 def saturation(ctx: Context, alpha: float) -> CauseResult:
     y_est = np.concatenate([r.y for r in ctx.est])
     # tested per record: a limit in dR moves with each record's R0 calibration
+    # only the measured output: an input that sits exactly at its extreme is, for a command, its
+    # rest level, which no statistic tells apart from a clipped measured input
     candidates = [("output", None, stats.limit_clustering(r.y, alpha)) for r in ctx.est]
-    for i in range(ctx.n_in):
-        if not stats.is_piecewise_constant(ctx.u_est[:, i]):
-            candidates.append((f"input {i}", i, stats.limit_clustering(ctx.u_est[:, i], alpha)))
     where, idx, clus = min(candidates, key=lambda c: c[2].p)
     n_sig = len(candidates)
     limit, side = clus.detail["limit"], clus.detail["side"]
@@ -686,7 +685,9 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
     else:
         pred, _ = ctx.fit_apply(z)
     # the pile-up is evidence of its own (independent of the residual regression): its binomial
-    # log-likelihood ratio against the null share of 1/2 enters the ranking
+    # log-likelihood ratio against the null share of 1/2 enters the ranking. The ranked model is
+    # a clip at the measured limit on top of a static output-side map (noise smooths the
+    # transition into the clip, which a hard clip alone does not render)
     k_at, k_ref = clus.detail["k_at"], clus.detail["k_near"]
     share = k_at / max(k_at + k_ref, 1)
     llr = 0.0
@@ -695,7 +696,8 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
     return CauseResult(res, p < alpha, f"{clus.detail['k_at']} samples ({100 * clus.detail['fraction']:.1f} % of "
                        f"the record) sit exactly at the {side} limit {limit:.4g} of the {where}",
                        f"clipping of the {where} at its limit (ADC/divider)", pred, {"limit": limit, "where": where},
-                       Z_est=ctx.stack(z, ctx.est), n_search=n_sig, evidence_llr=llr)
+                       Z_est=np.column_stack([ctx.stack(_static_sets(ctx)["output"], ctx.est), ctx.stack(z, ctx.est)]),
+                       n_search=n_sig, evidence_llr=llr)
 
 
 def outliers(ctx: Context, alpha: float) -> CauseResult:

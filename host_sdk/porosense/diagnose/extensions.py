@@ -262,6 +262,7 @@ def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
     tests = {side: ctx.f_test(ctx.stack(nl, ctx.est), extra_base=ctx.stack(lin, ctx.est))
              for side, (lin, nl) in parts.items()}
     side = min(tests, key=lambda k: tests[k].log10_p)
+    ctx._cache["static_side"] = side
     test, z = tests[side], sets[side]
     res = stats.f_result(f"F(residual ~ PWL of the level beyond its linear part, {side} side)", test, alpha,
                          len(sets), side=side)
@@ -336,8 +337,12 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
     base = np.column_stack([ctx.stack(z_static, ctx.est), ctx.stack(z_slow, ctx.est), ctx.yhat_est])
     test = ctx.f_test(ctx.stack(z_h, ctx.est), extra_base=base)
     res = stats.f_result("F(residual ~ direction of motion at equal level | level)", test, alpha)
+    # direction dependence beyond the level: on top of the static map of the side that explains
+    # the level best (so that hysteresis is ranked on what the static map cannot explain)
+    side = ctx._cache.get("static_side") or "output"
+
     def z_full(r):
-        return np.column_stack([sets["output"](r), z_h(r)])
+        return np.column_stack([sets[side](r), z_h(r)])
 
     pred, _ = ctx.fit_apply(z_full)
     return CauseResult(res, True, "at equal output level the residual depends on the direction of motion "
@@ -412,7 +417,7 @@ def time_delay(ctx: Context, alpha: float) -> CauseResult:
         def z(r, d=d):
             # the model output delayed, and the delayed inputs through a short Laguerre bank (a
             # delay in front of dynamics the nominal model has partly bent to fit it)
-            banks = [ctx.lag_bank(signals.shift(r.u[:, i], d)) for i in range(ctx.n_in)]
+            banks = [ctx.lag_bank(signals.shift(r.u[:, i], d), 2) for i in range(ctx.n_in)]
             return np.column_stack([signals.shift(r.yhat, d) - r.yhat] + banks)
 
         t = ctx.f_test(ctx.stack(z, ctx.est))

@@ -164,15 +164,6 @@ class Trial:
     diagnosis: engine.Diagnosis = field(repr=False, default=None)
 
 
-def _gain(d, cause: str) -> float:
-    """The cause's gain: in simulation, or as a one-step predictor where no simulation-mode
-    extension exists (a periodic disturbance's phase does not carry over to a new record)."""
-    if cause == NONE:
-        return 0.0
-    f = d.finding(cause)
-    return f.predictor_gain if cause == "periodic_disturbance" and f.predictor_gain is not None else f.gain
-
-
 def run_trial(cause: str, seed: int) -> Trial:
     """One trial: hide ``cause`` (or none), fit the baseline, diagnose; returns the verdict."""
     t0 = time.perf_counter()
@@ -184,7 +175,7 @@ def run_trial(cause: str, seed: int) -> Trial:
     est.yhat = model.predict(est.u)
     val.yhat = model.predict(val.u)
     d = engine.diagnose([est], [val])
-    gain = _gain(d, cause)
+    gain = d.finding(cause).gain if cause != NONE else 0.0
     return Trial(cause, d.top, float(gain), time.perf_counter() - t0, d)
 
 
@@ -287,7 +278,7 @@ def run_sim_3dof_trial(cause: str, seed: int) -> Trial:
     cal = calibrate("3dof", "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts)
     recs = [[engine.Record(u, y, cal.predict(u, ts), ts, c) for u, y, c in part] for part in (est, val)]
     d = engine.diagnose(recs[0], recs[1])
-    gain = _gain(d, cause)
+    gain = d.finding(cause).gain if cause != NONE else 0.0
     return Trial(cause, d.top, float(gain), time.perf_counter() - t0, d)
 
 
@@ -323,5 +314,5 @@ def run_sim_trial(cause: str, seed: int) -> Trial:
     cal = calibrate("contractor", "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts)
     recs = [[engine.Record(u, y, cal.predict(u, ts), ts, c) for u, y, c in part] for part in (est, val)]
     d = engine.diagnose(recs[0], recs[1])
-    gain = _gain(d, cause)
+    gain = d.finding(cause).gain if cause != NONE else 0.0
     return Trial(cause, d.top, float(gain), time.perf_counter() - t0, d)

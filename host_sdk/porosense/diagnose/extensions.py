@@ -540,13 +540,12 @@ def periodic_disturbance(ctx: Context, alpha: float) -> CauseResult:
         if best is None or rss < best[0]:
             best = (rss, a, periods)
     pred_trk = pred_g0_val + _track_per_record(ctx.val, r_val, tracker(best[1]))
-    # simulation mode: a disturbance that is not locked to the record start has an unknown phase
-    # in a new record, so it cannot be simulated; the simulation extension is nominal + G0
-    # (gain 0) and the tracker is reported as a one-step predictor
-    pred = ctx.generic_validation()
+    # simulation mode: the sinusoid fitted on estimation continues with its phase from each
+    # record's start (a disturbance not locked to the record start does not carry over)
+    pred, _ = ctx.fit_apply(z)
     return CauseResult(res, line.significant, f"the residual has a spectral line at {f:.4g} Hz that the input "
-                       "does not have", "simulation: none possible (unknown phase in a new record); predictor: a "
-                       f"sinusoid at {f:.4g} Hz with amplitude and phase tracked from the measured output", pred, {"freq_hz": f, "predictor_val": pred_trk},
+                       "does not have", f"simulation: a sinusoid at {f:.4g} Hz; predictor: the sinusoid's amplitude "
+                       "and phase tracked from the measured output", pred, {"freq_hz": f, "predictor_val": pred_trk},
                        Z_est=np.column_stack(blocks), n_search=int(line.detail.get("tested", 1)))
 
 

@@ -753,7 +753,8 @@ def unmodelled_dynamics(ctx: Context, alpha: float) -> CauseResult:
     return CauseResult(res, True, f"the residual depends linearly on past inputs ({_explained(res)}; prewhitened "
                        f"input-residual cross-correlation {worst.value:.3g} against the band {worst.threshold:.3g}, "
                        f"p = {worst.p:.2g})", "re-identify at a higher order", ctx.generic_validation(),
-                       {"xcorr_p": worst.p}, Z_est=ctx.stack(z_fast, ctx.est), n_search=3)
+                       {"xcorr_p": worst.p, "gain_against": "nominal"}, Z_est=ctx.stack(z_fast, ctx.est),
+                       n_search=3)
 
 
 HANDLERS = {

@@ -416,3 +416,61 @@ def is_piecewise_constant(x: np.ndarray) -> bool:
     """True for command-like signals (more than half of the steps are exactly zero)."""
     x = np.asarray(x, float)
     return len(x) > 2 and float(np.mean(np.diff(x) == 0.0)) > 0.5
+
+
+N_BATCHES = 20
+CONFIRM_ALPHA = 0.05
+
+
+@dataclass
+class GainTest:
+    """One-sided test that an extension's held-out squared error is below the baseline's.
+
+    t: batch-means t statistic of the mean paired difference (baseline - extension) of squared
+    errors (df = batches - 1); p: one-sided p value; confirmed: p < alpha.
+    """
+
+    t: float
+    p: float
+    df: int
+    alpha: float
+
+    @property
+    def confirmed(self) -> bool:
+        """The extension is better on held-out data (one-sided, level alpha)."""
+        return bool(self.p < self.alpha)
+
+    @property
+    def refuted(self) -> bool:
+        """The extension is worse on held-out data (one-sided, level alpha)."""
+        return bool(self.df > 0 and sps.t.cdf(self.t, self.df) < self.alpha)
+
+    def sentence(self) -> str:
+        verdict = "refuted (worse on held-out data)" if self.refuted else (
+            "confirmed" if self.confirmed else "not distinguishable from zero")
+        return (f"held-out gain {verdict}: batch-means t = {self.t:.3g} on {self.df} df "
+                f"(one-sided tests at {100 * self.alpha:g} %)")
+
+
+def paired_gain_test(y: np.ndarray, base: np.ndarray, ext: np.ndarray, alpha: float = CONFIRM_ALPHA,
+                     n_batches: int = N_BATCHES) -> GainTest:
+    """Is ``ext`` closer to ``y`` than ``base`` beyond the sampling uncertainty of the difference?
+
+    d[k] = (y - base)^2 - (y - ext)^2 is serially correlated (both errors share the residual's
+    colour), so its mean's standard error is estimated by batch means: the record is cut into
+    ``n_batches`` contiguous batches, whose means are nearly independent when a batch is much
+    longer than the correlation time; t = mean / (SD of batch means / sqrt(B)) with B - 1 df.
+    A positive mean is a lower validation RMS, i.e. a positive fit gain.
+    """
+    d = (np.asarray(y, float) - base) ** 2 - (np.asarray(y, float) - ext) ** 2
+    d = d[np.isfinite(d)]
+    b = int(min(n_batches, len(d) // 10))
+    if b < 3:
+        return GainTest(0.0, 1.0, 0, alpha)
+    means = np.array([p.mean() for p in np.array_split(d, b)])
+    sd = float(np.std(means, ddof=1))
+    if sd <= 0:
+        t = np.inf if means.mean() > 0 else 0.0
+    else:
+        t = float(means.mean() / (sd / np.sqrt(b)))
+    return GainTest(float(t), float(sps.t.sf(t, b - 1)), b - 1, alpha)

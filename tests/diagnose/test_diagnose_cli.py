@@ -10,7 +10,8 @@ from porosense import sim
 from porosense.cli import main
 from porosense.diagnose import CAUSES, NONE, trials
 
-KEYS = {"cause", "confidence", "statistic", "evidence", "extension", "fit_before", "fit_after", "gain"}
+KEYS = {"cause", "confidence", "statistic", "evidence", "extension", "fit_before", "fit_after", "gain", "significant",
+        "effect_to_noise", "predictor_gain", "on_device"}
 
 
 def _write_sim(tmp_path, effects):
@@ -30,7 +31,7 @@ def test_cli_sim_finds_a_hidden_periodic_disturbance_and_writes_the_report(tmp_p
                "--sim", "contractor", "--condition", "load_g", "--json", str(out), "--report", str(tmp_path / "rep")])
     assert rc == 0
     doc = json.loads(out.read_text())
-    assert set(doc) == {"top", "findings"}
+    assert set(doc) == {"top", "findings", "ties"}
     assert doc["top"] == "periodic_disturbance"
     assert [f["cause"] for f in doc["findings"]][0] == doc["top"]
     assert {f["cause"] for f in doc["findings"]} == set(CAUSES) | {NONE}

@@ -80,9 +80,10 @@ def require_columns(table, names) -> None:
 
 
 def load_model_checked(path):
-    """A saved model, refused (ModelError) when any coefficient is not finite."""
-    import numpy as np
+    """A saved model, refused (ModelError) when any coefficient is not finite.
 
+    An extended model (a nominal model plus terms the device cannot run) is checked through its
+    nominal model and its own coefficients."""
     from porosense.ident import load_model
     from porosense.ident.models import FORMAT_VERSION
 
@@ -94,6 +95,16 @@ def load_model_checked(path):
     bad = [v for v in inner if v != FORMAT_VERSION]
     if bad:
         raise ModelError(f"{path}: inner model format version {bad[0]}, this build reads {FORMAT_VERSION}")
+    nominal = getattr(model, "nominal", None)
+    _check_blocks_finite(path, nominal if nominal is not None else model)
+    if nominal is not None and not all(math.isfinite(float(c)) for c in model.coef):
+        raise ModelError(f"{path}: the {model.cause} extension has non-finite (NaN or inf) coefficients")
+    return model
+
+
+def _check_blocks_finite(path, model) -> None:
+    import numpy as np
+
     try:
         structure = model.to_structure()
     except (ValueError, np.linalg.LinAlgError) as exc:
@@ -104,7 +115,6 @@ def load_model_checked(path):
                   for a in ("x", "y", "sos") if hasattr(b, a)]
         if not all(np.all(np.isfinite(v)) for v in values) or not math.isfinite(out.offset):
             raise ModelError(f"{path}: output '{out.name}' has non-finite (NaN or inf) coefficients")
-    return model
 
 
 def output_file(path, what: str = "output") -> Path:

@@ -10,6 +10,7 @@ from porosense.cli._data import (
     add_json_options,
     emit_json,
     normalise_json_args,
+    output_file,
     read_tables,
     require_columns,
     sample_period,
@@ -30,9 +31,10 @@ def register(sub) -> argparse.ArgumentParser:
             "input cross-correlation, Billings-Voon nonlinearity tests, level, direction, trend, spectral "
             "lines, condition columns, clipping, spikes) name the most likely causes from a fixed catalogue "
             "(static_nonlinearity, hysteresis, slow_relaxation, time_delay, drift, periodic_disturbance, "
-            "load_dependence, saturation, cross_coupling, outliers, or none); each cause's extension is "
-            "refitted on the estimation range and its gain measured on the validation range (fit and RMS "
-            "in %). --ts is the sample period in seconds; A:B are sample ranges (Python slices) applied to "
+            "load_dependence, saturation, cross_coupling, outliers, unmodelled_dynamics, or none), ranked by "
+            "the information criterion of their extensions; each extension is refitted on the estimation "
+            "range and its gain is a simulation fit difference on the validation range against the nominal "
+            "prediction plus a generic linear correction, on the same samples. --ts is the sample period in seconds; A:B are sample ranges (Python slices) applied to "
             "every file. Without ranges, several files split into estimation (all but the last) and "
             "validation (the last); one file splits 60/40."
         ),
@@ -65,6 +67,10 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--report", metavar="DIR", help="write figures and a Markdown summary into DIR")
     p.add_argument("--unit", metavar="UNIT", help="the output's unit on the figures (default: from the "
                    "recording's sidecar)")
+    p.add_argument("--save-extended", metavar="EXT.json",
+                   help="write the top cause's extended model here (with --model or --baseline): a model file "
+                        "that 'porosense predict' runs and, where the device structure carries it, 'quantize' "
+                        "and 'flash' take")
     p.set_defaults(func=run)
     return p
 
@@ -125,7 +131,7 @@ def _predictor(args, inputs, est):
         from porosense.diagnose.calibrate import calibrate
 
         cal = calibrate(args.sim, args.output, us, ys, args.ts)
-        return (lambda u: cal.predict(u, args.ts),
+        return (lambda u: cal.predict(u, args.ts), None,
                 f"{args.sim} simulator calibrated on estimation: porosity {cal.porosity:.1f} %, scale "
                 f"{cal.scale:.4g}, offset {cal.offset:.4g} (fit {cal.fit_estimation:.1f} %)")
     if args.model:
@@ -139,20 +145,22 @@ def _predictor(args, inputs, est):
             model = match[0]
         if len(model.inputs) != len(inputs):
             raise ModelError(f"{args.model} takes {len(model.inputs)} inputs, --input gives {len(inputs)}")
-        return (lambda u: model.predict(u=u), f"model {args.model} ({model.kind})")
+        from porosense.ident.extended import predict_settled
+
+        return (lambda u: predict_settled(model, u), model, f"model {args.model} ({model.kind})")
     if not 0 <= args.zeros < max(args.poles, 1) or args.poles > 10:
         raise InputError("--poles must be 1..10 and --zeros smaller than --poles")
     from porosense import ident
 
     model = ident.make_model(args.baseline, n_poles=args.poles, n_zeros=args.zeros)
     model.fit(u=us, y=ys, ts=args.ts, inputs=inputs, output=args.output)
-    return (lambda u: model.predict(u=u),
+    from porosense.ident.extended import predict_settled
+
+    return (lambda u: predict_settled(model, u), model,
             f"{args.baseline} baseline with {args.poles} poles and {args.zeros} zeros identified on estimation")
 
 
 def run(args) -> int:
-    from pathlib import Path
-
     from porosense.diagnose import Record, diagnose
 
     normalise_json_args(args, make_folder=True)
@@ -160,13 +168,17 @@ def run(args) -> int:
     conditions = [c for c in args.condition if c not in inputs and c != args.output]
     if not 0 < args.alpha < 1:
         raise InputError("--alpha must be between 0 and 1")
+    if args.save_extended and args.sim:
+        raise InputError("--save-extended needs a model to extend: use --model or --baseline, not --sim")
+    if args.save_extended:
+        output_file(args.save_extended, "--save-extended")
     tables = read_tables(args.data, args)
     vtables = read_tables(args.validation_data, args) if args.validation_data else []
     args.ts = sample_period(tables + vtables, args)
     est, val = _split(args, inputs, conditions, tables, vtables)
-    predict, what = _predictor(args, inputs, est)
+    predict, nominal, what = _predictor(args, inputs, est)
     records = [[Record(u, y, predict(u), args.ts, cond) for u, y, cond in part] for part in (est, val)]
-    result = diagnose(records[0], records[1], alpha=args.alpha)
+    result = diagnose(records[0], records[1], alpha=args.alpha, nominal=nominal if args.save_extended else None)
     doc = result.to_dict()
     if not _all_finite(doc):
         raise InputError("the diagnosis holds non-finite numbers (NaN or inf): check --ts and the data")
@@ -178,6 +190,13 @@ def run(args) -> int:
         report.write_report(result, args.report, title=f"Diagnosis of {what}", unit=unit)
     say(args, f"diagnosed: {what}")
     say(args, str(result))
+    if args.save_extended:
+        if result.extended is None:
+            say(args, f"no cause found: nothing to extend, {args.save_extended} not written")
+        else:
+            result.extended.save(args.save_extended)
+            top = result.findings[0]
+            say(args, f"extended model ({top.cause}) written to {args.save_extended}; on the device: {top.on_device}")
     return 0
 
 

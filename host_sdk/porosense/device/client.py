@@ -341,10 +341,11 @@ class Device:
             raise ModelError(f"the model was identified at {model_hz:g} Hz (Ts {model.ts_us / 1000:g} ms) but the "
                              f"board samples at {board} Hz: re-identify at {board} Hz, or flash with --set-rate "
                              f"to run the board at {model_hz:g} Hz")
-        if abs(model_hz - round(model_hz)) > 1e-6 * model_hz:
+        whole_hz = max(int(round(model_hz)), 1)
+        if round(1e6 / whole_hz) != model.ts_us:  # the blob keeps Ts in whole microseconds
             raise ModelError(f"the model's rate {model_hz:g} Hz is not a whole number of Hz; the board cannot "
                              "sample at it")
-        self.config_set("SAMPLE_RATE_HZ", int(round(model_hz)))
+        self.config_set("SAMPLE_RATE_HZ", whole_hz)
         self.config_save()
         return self.sample_rate_hz()
 

@@ -1,4 +1,4 @@
-"""The fixed catalogue of causes diagnosis can name (the same names as the simulator's effects)."""
+"""The fixed catalogue of causes diagnosis can name (the simulator's effect names and unmodelled_dynamics)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,11 @@ CAUSES = (
     "saturation",
     "cross_coupling",
     "outliers",
+    "unmodelled_dynamics",
 )
+#: Causes whose extension the on-device structure y = H2(g(sum H1(f(u)))) can carry.
+EXPRESSIBLE = ("static_nonlinearity", "saturation", "time_delay", "slow_relaxation", "cross_coupling",
+               "unmodelled_dynamics")
 NONE = "none"
 
 #: What each cause means and the extension that models it.
@@ -38,5 +42,7 @@ DESCRIPTION = {
                        "that column as an extra MISO input"),
     "outliers": ("the residual has isolated spikes far beyond its noise",
                  "outlier rejection (Hampel) and a robust Huber refit"),
+    "unmodelled_dynamics": ("the residual follows past inputs linearly: the nominal order or structure is too low",
+                            "re-identify at a higher order"),
     "none": ("no residual test is significant", "none"),
 }

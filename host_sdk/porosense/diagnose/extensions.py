@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from scipy.stats import binom as sps_binom
+
 from porosense.diagnose import signals, stats
 
 LAGUERRE_ORDER = 4
@@ -26,6 +28,12 @@ class CauseResult:
     extension: str
     yhat_val: np.ndarray | None
     detail: dict = field(default_factory=dict)
+    #: the extension's regressors on the estimation records (beyond G0): what the ranking scores
+    Z_est: np.ndarray | None = None
+    #: how many candidate regressor sets the handler searched (a delay, a time constant, a side)
+    n_search: int = 1
+    #: log-likelihood ratio of evidence outside the residual regression (a pile-up at a limit)
+    evidence_llr: float = 0.0
 
 
 def _huber_lstsq(X: np.ndarray, y: np.ndarray, iters: int = 10) -> np.ndarray:
@@ -190,64 +198,99 @@ def _static_sets(ctx: Context) -> dict:
 
     output: hinge(yhat) (Wiener); input: the model's dynamics applied to hinge(u) (Hammerstein);
     between: the model's dynamics applied to hinge(yhat) (a nonlinearity inside the loop or
-    between two linear blocks, Wiener-Hammerstein-like).
+    between two linear blocks, Wiener-Hammerstein-like). Each side is a pair (linear, hinges):
+    the linear counterpart applies the same filters to the signal itself, so that what the
+    hinges add beyond it is the nonlinearity and not linear dynamics. The full builder of a
+    side (both) is ``sets[side]``; the pairs are cached as ``ctx._cache["static_parts"]``.
     """
     if "static_sets" in ctx._cache:
         return ctx._cache["static_sets"]
     knots_out = signals.quantile_knots(ctx.yhat_est, 5)
     knots_in = [signals.quantile_knots(ctx.u_est[:, i], 5) for i in range(ctx.n_in)]
-
-    def z_out(r):
-        return signals.hinge_basis(r.yhat, knots_out)
-
-    def z_in(r):
-        cols = []
-        for i in range(ctx.n_in):
-            h = signals.hinge_basis(r.u[:, i], knots_in[i])
-            cols += [ctx.base_filter(h[:, j]) for j in range(h.shape[1])]
-            cols += [ctx.lag_bank(h[:, j], 1)[:, 0] for j in range(h.shape[1])]
-        return np.column_stack(cols)
-
     x_mid = [ctx.lag_bank(ctx.u_est[:, i], 1)[:, 0] for i in range(ctx.n_in)]
     knots_mid = [signals.quantile_knots(x, 5) for x in x_mid]
 
-    def z_mid(r):
-        h = signals.hinge_basis(r.yhat, knots_out)
-        cols = [ctx.base_filter(h[:, j]) for j in range(h.shape[1])]
+    def filt(cols, both=True):
+        out = []
+        for c in cols:
+            out.append(ctx.base_filter(c))
+            if both:
+                out.append(ctx.lag_bank(c, 1)[:, 0])
+        return out
+
+    def out_lin(r):
+        return r.yhat[:, None]
+
+    def out_nl(r):
+        return signals.hinge_basis(r.yhat, knots_out)
+
+    def in_lin(r):
+        return np.column_stack([c for i in range(ctx.n_in) for c in filt([r.u[:, i]])])
+
+    def in_nl(r):
+        cols = []
         for i in range(ctx.n_in):
-            hm = signals.hinge_basis(ctx.lag_bank(r.u[:, i], 1)[:, 0], knots_mid[i])
-            cols += [ctx.base_filter(hm[:, j]) for j in range(hm.shape[1])]
+            cols += filt(signals.hinge_basis(r.u[:, i], knots_in[i]).T)
         return np.column_stack(cols)
 
-    ctx._cache["static_sets"] = {"output": z_out, "input": z_in, "between": z_mid}
-    return ctx._cache["static_sets"]
+    def mid_x(r, i):
+        return ctx.lag_bank(r.u[:, i], 1)[:, 0]
+
+    def mid_lin(r):
+        return np.column_stack(filt([r.yhat], False) + [c for i in range(ctx.n_in) for c in filt([mid_x(r, i)], False)])
+
+    def mid_nl(r):
+        cols = filt(signals.hinge_basis(r.yhat, knots_out).T, False)
+        for i in range(ctx.n_in):
+            cols += filt(signals.hinge_basis(mid_x(r, i), knots_mid[i]).T, False)
+        return np.column_stack(cols)
+
+    parts = {"output": (out_lin, out_nl), "input": (in_lin, in_nl), "between": (mid_lin, mid_nl)}
+
+    def both(lin, nl):
+        return lambda r: np.column_stack([lin(r), nl(r)])
+
+    sets = {side: both(*p) for side, p in parts.items()}
+    ctx._cache["static_sets"] = sets
+    ctx._cache["static_parts"] = parts
+    return sets
 
 
 def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
     sets = _static_sets(ctx)
-    tests = {side: ctx.f_test(ctx.stack(z, ctx.est)) for side, z in sets.items()}
+    parts = ctx._cache["static_parts"]
+    tests = {side: ctx.f_test(ctx.stack(nl, ctx.est), extra_base=ctx.stack(lin, ctx.est))
+             for side, (lin, nl) in parts.items()}
     side = min(tests, key=lambda k: tests[k].log10_p)
+    ctx._cache["static_side"] = side
     test, z = tests[side], sets[side]
-    res = stats.f_result(f"F(residual ~ PWL of the level, {side} side)", test, alpha, len(sets), side=side)
+    res = stats.f_result(f"F(residual ~ PWL of the level beyond its linear part, {side} side)", test, alpha,
+                         len(sets), side=side)
     pred, _ = ctx.fit_apply(z)
     kind = {"output": "Wiener: PWL on the output side", "input": "Hammerstein: PWL on the input side",
             "between": "PWL between the linear blocks (Wiener-Hammerstein)"}[side]
     return CauseResult(res, True, f"the residual depends on the signal level, best explained on the {side} side "
                        f"({_explained(res)})", f"{kind}, 5 breakpoints", pred,
-                       {"side": side, **{f"p_{k}": t.p for k, t in tests.items()}})
+                       {"side": side, **{f"p_{k}": t.p for k, t in tests.items()}},
+                       Z_est=ctx.stack(z, ctx.est), n_search=len(sets))
 
 
 def _play_set(ctx: Context):
-    """Regressors of rate-independent memory: play operators (4 radii) of the model output minus
-    the output, raw and through the model's own dynamics."""
+    """Regressors of rate-independent memory: play operators of the model output minus the
+    output (raw and through the model's own dynamics: output-side hysteresis) and of every input
+    minus the input, through the model's dynamics (input-side backlash). Radii on a generic
+    half-decade grid, 1-30 % of each signal's span."""
+    fractions = np.array([0.01, 0.03, 0.1, 0.3])
     span = float(np.ptp(ctx.yhat_est)) or 1.0
-    radii = span * np.array([0.03, 0.08, 0.15, 0.3])
+    spans_u = [float(np.ptp(ctx.u_est[:, i])) or 1.0 for i in range(ctx.n_in)]
 
     def z_h(r):
         cols = []
-        for rad in radii:
-            d = signals.play_operator(r.yhat, rad) - r.yhat
+        for f in fractions:
+            d = signals.play_operator(r.yhat, f * span) - r.yhat
             cols += [d, ctx.base_filter(d)]
+            for i in range(ctx.n_in):
+                cols.append(ctx.base_filter(signals.play_operator(r.u[:, i], f * spans_u[i]) - r.u[:, i]))
         return np.column_stack(cols)
 
     return z_h
@@ -294,10 +337,18 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
     base = np.column_stack([ctx.stack(z_static, ctx.est), ctx.stack(z_slow, ctx.est), ctx.yhat_est])
     test = ctx.f_test(ctx.stack(z_h, ctx.est), extra_base=base)
     res = stats.f_result("F(residual ~ direction of motion at equal level | level)", test, alpha)
-    pred, _ = ctx.fit_apply(lambda r: np.column_stack([sets["output"](r), z_h(r)]))
+    # direction dependence beyond the level: on top of the static map of the side that explains
+    # the level best (so that hysteresis is ranked on what the static map cannot explain)
+    side = ctx._cache.get("static_side") or "output"
+
+    def z_full(r):
+        return np.column_stack([sets[side](r), z_h(r)])
+
+    pred, _ = ctx.fit_apply(z_full)
     return CauseResult(res, True, "at equal output level the residual depends on the direction of motion "
                        f"({_explained(res)} beyond the level alone)",
-                       "Prandtl-Ishlinskii play operators (4 radii) of the model output with a static PWL", pred)
+                       "Prandtl-Ishlinskii play operators (4 radii) of the model output and inputs with a static PWL", pred,
+                       Z_est=ctx.stack(z_full, ctx.est))
 
 
 def _slow_sets(ctx: Context):
@@ -306,15 +357,15 @@ def _slow_sets(ctx: Context):
     A slow viscoelastic mode leaves a long exponential tail after every step: the residual
     follows the input after the model's own dynamics (the base filter) and the model output,
     both through a first-order lag of time constant tau, also scaled by the output level (the
-    mode's share changes with the level). tau on a geometric grid from 5 times the model's own
-    time constant (at least 3 s) up to half a record. The test is conditional on static PWL maps
+    mode's share changes with the level). tau on a geometric grid (ratio 2) from twice the model's own
+    time constant up to half a record. The test is conditional on static PWL maps
     of the level on every side, a linear drift in time and play operators: what remains is memory that fades
     with tau and follows the input, which neither drift nor hysteresis has.
     """
     if "slow" in ctx._cache:
         return ctx._cache["slow"]
     t_rec = sum(ctx.seg_est) * ctx.ts / len(ctx.seg_est)
-    tau = max(5.0 * ctx.tau_s, 3.0)
+    tau = 2.0 * ctx.tau_s
     taus = []
     while tau < t_rec / 2:
         taus.append(tau)
@@ -349,10 +400,14 @@ def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
     (test, z, tau), n_taus = _slow_sets(ctx)
     shape, _, _ = _output_shape(ctx)
     res = stats.f_result("F(residual ~ slowly filtered input | drift, hysteresis)", test, alpha, n_taus, tau_s=tau)
-    pred, _ = ctx.fit_apply(lambda r: np.column_stack([z(r), shape(r)]))
+    def z_full(r):
+        return np.column_stack([z(r), shape(r)])
+
+    pred, _ = ctx.fit_apply(z_full)
     return CauseResult(res, True, f"the residual follows the input through a slow mode of about {tau:.3g} s "
                        f"({_explained(res)}; the model's own time constant is {ctx.tau_s:.3g} s)",
-                       f"an extra relaxation pole at tau = {tau:.3g} s", pred, {"tau_s": tau})
+                       f"an extra relaxation pole at tau = {tau:.3g} s", pred, {"tau_s": tau},
+                       Z_est=ctx.stack(z_full, ctx.est), n_search=n_taus)
 
 
 def time_delay(ctx: Context, alpha: float) -> CauseResult:
@@ -360,11 +415,12 @@ def time_delay(ctx: Context, alpha: float) -> CauseResult:
     best = None
     for d in range(1, d_max + 1):
         def z(r, d=d):
-            return signals.shift(r.yhat, d) - r.yhat
+            # the model output delayed, and the delayed inputs through a short Laguerre bank (a
+            # delay in front of dynamics the nominal model has partly bent to fit it)
+            banks = [ctx.lag_bank(signals.shift(r.u[:, i], d), 2) for i in range(ctx.n_in)]
+            return np.column_stack([signals.shift(r.yhat, d) - r.yhat] + banks)
 
         t = ctx.f_test(ctx.stack(z, ctx.est))
-        if t.coef.size and t.coef[0] <= 0:  # a delay moves the prediction later, never earlier
-            t = stats.FTest(t.f, t.df1, t.df2, 1.0, 0.0, t.ar_order, t.coef, 0.0)
         if best is None or t.log10_p < best[0].log10_p:
             best = (t, z, d)
     test, z, d = best
@@ -373,7 +429,8 @@ def time_delay(ctx: Context, alpha: float) -> CauseResult:
     pred, _ = ctx.fit_apply(z)
     return CauseResult(res, True, f"the measurement lags the model by about {d} samples ({d * ctx.ts:.3g} s; "
                        f"prewhitened input-residual cross-correlation peaks at lag {xc.detail['peak_lag']})",
-                       f"an input delay of {d} samples", pred, {"delay": d})
+                       f"an input delay of {d} samples", pred, {"delay": d},
+                       Z_est=ctx.stack(z, ctx.est), n_search=d_max)
 
 
 def _ema_causal(x: np.ndarray, a: float) -> np.ndarray:
@@ -421,22 +478,14 @@ def drift(ctx: Context, alpha: float) -> CauseResult:
     trk_est = _track_per_record(ctx.est, r_est, lambda rec, x: _ema_causal(x, a))
     pred_trk = pred_g0_val + _track_per_record(ctx.val, r_val, lambda rec, x: _ema_causal(x, a))
 
-    # the other drift model: a deterministic trend since the start of each record (offset and
-    # gain drifting at constant rates, as a sensor's R0 after calibration at the record start)
-    z_trend = _trend
-    holdout = np.concatenate([np.arange(len(r.y)) >= 0.7 * len(r.y) for r in ctx.est])
-    _, pred_trend_est = ctx.fit_apply(z_trend, mask_est=holdout)
-    y_est = np.concatenate([r.y for r in ctx.est])
-    rss_trend = float(np.sum((y_est - pred_trend_est)[holdout] ** 2))
-    rss_trk = float(np.sum((r_est - trk_est)[holdout] ** 2))
-    # chosen on the last 30 % of every estimation record, fitted on the first 70 %
-    if rss_trend < rss_trk:
-        pred, _ = ctx.fit_apply(z_trend)
-        ext = "a drift state: offset and gain drifting linearly from the start of each record"
-    else:
-        pred = pred_trk
-        ext = f"a drift state tracked from the measured output (time constant {tau:.3g} s)"
-    return CauseResult(res, True, f"the residual has a slow trend over time ({_explained(res)})", ext, pred)
+    # simulation mode: a deterministic trend since the start of each record (offset and gain
+    # drifting at constant rates); a drift that no input explains cannot be simulated beyond
+    # that. Predictor mode (one step ahead, uses the measured output): the tracked drift state.
+    pred, _ = ctx.fit_apply(_trend)
+    ext = ("simulation: offset and gain drifting linearly from the start of each record; predictor: a drift "
+           f"state tracked from the measured output (time constant {tau:.3g} s)")
+    return CauseResult(res, True, f"the residual has a slow trend over time ({_explained(res)})", ext, pred,
+                       {"predictor_val": pred_trk}, Z_est=_trend_blocks(ctx, n_terms))
 
 
 def periodic_disturbance(ctx: Context, alpha: float) -> CauseResult:
@@ -490,10 +539,14 @@ def periodic_disturbance(ctx: Context, alpha: float) -> CauseResult:
         rss = float(np.sum((r_est - _track_per_record(ctx.est, r_est, tracker(a))) ** 2))
         if best is None or rss < best[0]:
             best = (rss, a, periods)
-    pred = pred_g0_val + _track_per_record(ctx.val, r_val, tracker(best[1]))
+    pred_trk = pred_g0_val + _track_per_record(ctx.val, r_val, tracker(best[1]))
+    # simulation mode: the sinusoid fitted on estimation continues with its phase from each
+    # record's start (a disturbance not locked to the record start does not carry over)
+    pred, _ = ctx.fit_apply(z)
     return CauseResult(res, line.significant, f"the residual has a spectral line at {f:.4g} Hz that the input "
-                       "does not have", f"a sinusoidal disturbance at {f:.4g} Hz tracked from the measured output",
-                       pred, {"freq_hz": f})
+                       "does not have", f"simulation: a sinusoid at {f:.4g} Hz; predictor: the sinusoid's amplitude "
+                       "and phase tracked from the measured output", pred, {"freq_hz": f, "predictor_val": pred_trk},
+                       Z_est=np.column_stack(blocks), n_search=int(line.detail.get("tested", 1)))
 
 
 def _condition_columns(ctx: Context) -> list:
@@ -562,11 +615,10 @@ def load_dependence(ctx: Context, alpha: float) -> CauseResult:
     res = stats.f_result(f"F(residual ~ {name} and {name} x output)", c["both"], alpha, len(cols), column=name)
     inter = stats.f_result("interaction", c["sched"], alpha, len(cols))
     pred, _ = ctx.fit_apply(c["z_load"])
-    # a load changes the gain: the column x output interaction must matter beyond additive dynamics
-    return CauseResult(res, inter.significant, f"the residual depends on the measured column {name}, and the "
+    return CauseResult(res, True, f"the residual depends on the measured column {name}, and the "
                        f"model's gain changes with it (interaction F = {c['sched'].f:.3g}, p = {inter.p:.2g}; "
                        f"{_explained(res)})", f"{name} as an extra input and a {name}-scheduled gain", pred,
-                       {"column": name})
+                       {"column": name}, Z_est=ctx.stack(c["z_load"], ctx.est), n_search=len(cols))
 
 
 def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
@@ -578,11 +630,10 @@ def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
     res = stats.f_result(f"F(residual ~ dynamics of unused input {name})", c["dyn"], alpha, len(cols), column=name)
     inter = stats.f_result("interaction", c["inter"], alpha, len(cols))
     pred, _ = ctx.fit_apply(c["z_dyn"])
-    # coupling adds the other channel's response; a gain change with the column is a load effect
-    return CauseResult(res, not inter.significant, f"the residual follows the unused input {name} through "
+    return CauseResult(res, True, f"the residual follows the unused input {name} through "
                        f"dynamics, additively (interaction with the output F = {c['inter'].f:.3g}, "
                        f"p = {inter.p:.2g}; {_explained(res)})", f"{name} as an extra MISO input", pred,
-                       {"column": name})
+                       {"column": name}, Z_est=ctx.stack(c["z_dyn"], ctx.est), n_search=len(cols))
 
 
 def _record_limit(y: np.ndarray, side: str, default: float) -> float:
@@ -596,10 +647,9 @@ def _record_limit(y: np.ndarray, side: str, default: float) -> float:
 def saturation(ctx: Context, alpha: float) -> CauseResult:
     y_est = np.concatenate([r.y for r in ctx.est])
     # tested per record: a limit in dR moves with each record's R0 calibration
+    # only the measured output: an input that sits exactly at its extreme is, for a command, its
+    # rest level, which no statistic tells apart from a clipped measured input
     candidates = [("output", None, stats.limit_clustering(r.y, alpha)) for r in ctx.est]
-    for i in range(ctx.n_in):
-        if not stats.is_piecewise_constant(ctx.u_est[:, i]):
-            candidates.append((f"input {i}", i, stats.limit_clustering(ctx.u_est[:, i], alpha)))
     where, idx, clus = min(candidates, key=lambda c: c[2].p)
     n_sig = len(candidates)
     limit, side = clus.detail["limit"], clus.detail["side"]
@@ -639,36 +689,72 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
             pred = clip(ctx.yhat_val, lim_val)
     else:
         pred, _ = ctx.fit_apply(z)
+    # the pile-up is evidence of its own (independent of the residual regression): its binomial
+    # log-likelihood ratio against the null share of 1/2 enters the ranking. The ranked model is
+    # a clip at the measured limit on top of a static output-side map (noise smooths the
+    # transition into the clip, which a hard clip alone does not render)
+    k_at, k_ref = clus.detail["k_at"], clus.detail["k_near"]
+    share = k_at / max(k_at + k_ref, 1)
+    llr = 0.0
+    if k_at + k_ref > 0 and p < alpha:
+        llr = float(sps_binom.logpmf(k_at, k_at + k_ref, share) - sps_binom.logpmf(k_at, k_at + k_ref, 0.5))
     return CauseResult(res, p < alpha, f"{clus.detail['k_at']} samples ({100 * clus.detail['fraction']:.1f} % of "
                        f"the record) sit exactly at the {side} limit {limit:.4g} of the {where}",
-                       f"clipping of the {where} at its limit (ADC/divider)", pred, {"limit": limit, "where": where})
+                       f"clipping of the {where} at its limit (ADC/divider)", pred, {"limit": limit, "where": where},
+                       Z_est=np.column_stack([ctx.stack(_static_sets(ctx)["output"], ctx.est), ctx.stack(z, ctx.est)]),
+                       n_search=n_sig, evidence_llr=llr)
 
 
 def outliers(ctx: Context, alpha: float) -> CauseResult:
-    spikes = stats.isolated_spikes(ctx.e_est, alpha)
-    _, mask = signals.hampel(ctx.e_est, 3, 6.0)
-    despiked = []
-    for i in range(ctx.n_in):
-        if stats.is_piecewise_constant(ctx.u_est[:, i]):
-            continue
-        _, m = signals.hampel(ctx.u_est[:, i], 3, 6.0)
-        if m.sum():
-            despiked.append(i)
-
-    def z(r):
-        cols = [ctx.lag_bank(signals.hampel(r.u[:, i], 3, 6.0)[0] - r.u[:, i], 2) for i in despiked]
-        return np.column_stack(cols) if cols else np.zeros((len(r.y), 0))
-
-    pred, _ = ctx.fit_apply(z if despiked else None, robust=True, mask_est=mask)
-    # Outlier rejection on the measurement: validation samples the Hampel identifier flags in
-    # the residual are glitches of the measurement, not behaviour to predict; they are left out
-    # of the extended model's score (reported as such in the evidence).
-    _, reject = signals.hampel(ctx.y_val - pred, 3, 6.0)
+    step = max(stats.resolution(r.y) for r in ctx.est)
+    spikes = stats.isolated_spikes(ctx.e_est, alpha, step)
+    mask, _, _ = stats.spike_mask(ctx.e_est, alpha, step)
+    pred, _ = ctx.fit_apply(None, robust=True, mask_est=mask)
+    # validation samples flagged in the residual of nominal + G0 are glitches of the measurement,
+    # not behaviour to predict: they are left out of the score of both sides of the gain
+    reject, _, _ = stats.spike_mask(ctx.y_val - ctx.generic_validation(), alpha, step)
+    idx = np.flatnonzero(mask)
+    Z = np.zeros((len(ctx.e_est), len(idx)))
+    Z[idx, np.arange(len(idx))] = 1.0
     kurt = spikes.detail["kurtosis"]
+    res_note = f"; measurement resolution {step:.3g} allowed for" if step > 0 else ""
     return CauseResult(spikes, spikes.significant, f"{int(spikes.value)} isolated spikes "
                        f"({100 * spikes.detail['fraction']:.2f} % of samples; excess kurtosis of the residual "
-                       f"differences {kurt:.3g}; {int(reject.sum())} validation samples rejected)",
-                       "Hampel outlier rejection and a robust (Huber) refit", pred, {"score_mask": ~reject})
+                       f"differences {kurt:.3g}; {int(reject.sum())} validation samples rejected{res_note})",
+                       "outlier rejection (alpha/N band around the local median) and a robust (Huber) refit", pred,
+                       {"score_mask": ~reject}, Z_est=Z, n_search=1)
+
+
+def unmodelled_dynamics(ctx: Context, alpha: float) -> CauseResult:
+    """The generic linear correction G0 itself, tested against the nominal residual.
+
+    When the residual still depends linearly on past inputs (MATLAB resid's independence test,
+    here as a GLS F test of the Laguerre bank of every input), the nominal linear dynamics are
+    too simple. The extension is a re-identification at a higher order, done by the engine
+    when it has the nominal model (its gain is measured there); G0 is the stand-in otherwise.
+    """
+    # G0 and a second, faster Laguerre bank (2, 4 or 8 times faster than the dominant pole):
+    # an order that is too low misses faster poles that a bank at the dominant pole renders poorly
+    best = None
+    for speed in (2.0, 4.0, 8.0):
+        a = float(ctx.pole ** speed)
+
+        def z(r, a=a):
+            return np.column_stack([ctx.lag_bank(r.u[:, i], 2, a) for i in range(ctx.n_in)])
+
+        Z = np.column_stack([ctx.G0_est[:, :-1], ctx.stack(z, ctx.est)])
+        t = stats.gls_f_test(ctx.e_est, Z, None, segments=ctx.seg_est)
+        if best is None or t.log10_p < best[0].log10_p:
+            best = (t, z, speed)
+    test, z_fast, speed = best
+    res = stats.f_result("F(residual ~ Laguerre banks of past inputs)", test, alpha, 3, speed=speed)
+    xc = [stats.input_crosscorrelation(ctx.u_est[:, i], ctx.e_est, 25, alpha) for i in range(ctx.n_in)]
+    worst = max(xc, key=lambda t: t.strength)
+    return CauseResult(res, True, f"the residual depends linearly on past inputs ({_explained(res)}; prewhitened "
+                       f"input-residual cross-correlation {worst.value:.3g} against the band {worst.threshold:.3g}, "
+                       f"p = {worst.p:.2g})", "re-identify at a higher order", ctx.generic_validation(),
+                       {"xcorr_p": worst.p, "gain_against": "nominal"}, Z_est=ctx.stack(z_fast, ctx.est),
+                       n_search=3)
 
 
 HANDLERS = {
@@ -682,4 +768,5 @@ HANDLERS = {
     "saturation": saturation,
     "cross_coupling": cross_coupling,
     "outliers": outliers,
+    "unmodelled_dynamics": unmodelled_dynamics,
 }

@@ -305,7 +305,7 @@ def spectral_lines(e: np.ndarray, ts: float, alpha: float = DEFAULT_ALPHA, guard
     log10_p = min(0.0, (float(logsf[k]) + np.log(tested)) / np.log(10.0))
     thr = float(sps.f.isf(alpha / tested, 2, max(dof[k], 1))) if dof[k] > 0 else float("inf")
     return StatResult("periodogram line / local background", float(ratio[k]), thr, max(10.0 ** log10_p, 1e-300),
-                      alpha, {"freq_hz": float(freqs[k]), "bin": k, "freqs": freqs.tolist(), "power": P.tolist()},
+                      alpha, {"freq_hz": float(freqs[k]), "bin": k, "tested": tested, "freqs": freqs.tolist(), "power": P.tolist()},
                       log10_p=log10_p)
 
 
@@ -352,27 +352,125 @@ def limit_clustering(x: np.ndarray, alpha: float = DEFAULT_ALPHA, tol_frac: floa
                        "fraction": k_at / len(x)})
 
 
-def isolated_spikes(e: np.ndarray, alpha: float = DEFAULT_ALPHA, n_sigma: float = 6.0) -> StatResult:
-    """Count of isolated spikes in e (Hampel identifier at n_sigma robust SDs of the differences).
+def resolution(x: np.ndarray) -> float:
+    """Quantisation step of x (0 for a continuous signal): the median gap between its distinct
+    values when it takes fewer distinct values than a quarter of its samples (an ADC's LSB)."""
+    x = np.asarray(x, float)
+    levels = np.unique(x)
+    if len(levels) < 2 or len(levels) > len(x) // 4:
+        return 0.0
+    return float(np.median(np.diff(levels)))
 
-    For a Gaussian residual the deviation from the local median has a standard deviation of
-    at most about 1.5 sigma, so the chance that one sample is flagged is taken as
-    q = 2 Phi(-n_sigma / 1.5) (conservative); the count's p-value is the binomial tail with that
-    q. The excess kurtosis of the differenced residual is reported too.
+
+def spike_mask(e: np.ndarray, alpha: float = DEFAULT_ALPHA, step: float = 0.0):
+    """(mask, threshold, sigma): samples of e whose innovation lies beyond the family-wise band.
+
+    The residual is whitened by its own AR model (Yule-Walker, BIC order): an isolated spike in
+    e is a spike of the innovation, while coloured noise and slow model errors are not. The
+    innovation's robust SD sigma is 1.4826 MAD; a sample is flagged when its innovation exceeds
+    z sigma + step_w, z the two-sided normal quantile at alpha / N (Bonferroni over the N
+    samples: on Gaussian noise no sample is flagged with probability about 1 - alpha).
+    ``step`` is the measurement's resolution: rounding moves each sample by at most step / 2,
+    which the AR filter turns into at most step_w = step / 2 sum |a_j| in the innovation, so
+    coarse ADC levels are not spikes.
     """
     e = np.asarray(e, float)
-    _, mask = signals.hampel(e, 3, n_sigma)
-    k = int(mask.sum())
     n = len(e)
-    q = 2.0 * sps.norm.sf(n_sigma / 1.5)
+    if n < 20:
+        return np.zeros(n, bool), np.inf, 0.0
+    ar = signals.fit_ar(e, 10)
+    p = len(ar) - 1
+    w = signals.whiten(e - np.mean(e), ar)
+    d = w - np.median(w)
+    sigma = 1.4826 * float(np.median(np.abs(d)))
+    if sigma <= 0:
+        sigma = float(np.std(d)) or 1e-12
+    thr = _zcrit(alpha, n) * sigma + 0.5 * step * float(np.sum(np.abs(ar)))
+    mask = np.zeros(n, bool)
+    mask[p:] = np.abs(d) > thr
+    return mask, thr, sigma
+
+
+def isolated_spikes(e: np.ndarray, alpha: float = DEFAULT_ALPHA, step: float = 0.0) -> StatResult:
+    """Count of isolated spikes in e beyond the family-wise band of :func:`spike_mask`.
+
+    Under Gaussian noise each sample exceeds the band with probability q = alpha / N, so the
+    count k has p = P(Binomial(N, q) >= k). The excess kurtosis of the differenced residual is
+    reported too.
+    """
+    e = np.asarray(e, float)
+    n = len(e)
+    mask, thr, sigma = spike_mask(e, alpha, step)
+    k = int(mask.sum())
+    q = alpha / max(n, 1)
     p = float(sps.binom.sf(k - 1, n, q)) if k > 0 else 1.0
+    logp = float(sps.binom.logsf(k - 1, n, q) / np.log(10.0)) if k > 0 else 0.0
     d = np.diff(e)
     kurt = float(sps.kurtosis(d)) if len(d) > 3 else 0.0
-    return StatResult("isolated spikes (Hampel, %g sigma)" % n_sigma, float(k), float(sps.binom.isf(alpha, n, q)),
-                      max(p, 1e-300), alpha, {"kurtosis": kurt, "fraction": k / max(n, 1), "index": np.flatnonzero(mask)[:50].tolist()})
+    return StatResult("isolated spikes beyond the alpha/N band", float(k), 1.0, max(p, 1e-300), alpha,
+                      {"kurtosis": kurt, "fraction": k / max(n, 1), "band": thr, "sigma": sigma, "step": step,
+                       "index": np.flatnonzero(mask)[:50].tolist()}, log10_p=min(logp, 0.0))
 
 
 def is_piecewise_constant(x: np.ndarray) -> bool:
     """True for command-like signals (more than half of the steps are exactly zero)."""
     x = np.asarray(x, float)
     return len(x) > 2 and float(np.mean(np.diff(x) == 0.0)) > 0.5
+
+
+N_BATCHES = 20
+CONFIRM_ALPHA = 0.05
+
+
+@dataclass
+class GainTest:
+    """One-sided test that an extension's held-out squared error is below the baseline's.
+
+    t: batch-means t statistic of the mean paired difference (baseline - extension) of squared
+    errors (df = batches - 1); p: one-sided p value; confirmed: p < alpha.
+    """
+
+    t: float
+    p: float
+    df: int
+    alpha: float
+
+    @property
+    def confirmed(self) -> bool:
+        """The extension is better on held-out data (one-sided, level alpha)."""
+        return bool(self.p < self.alpha)
+
+    @property
+    def refuted(self) -> bool:
+        """The extension is worse on held-out data (one-sided, level alpha)."""
+        return bool(self.df > 0 and sps.t.cdf(self.t, self.df) < self.alpha)
+
+    def sentence(self) -> str:
+        verdict = "refuted (worse on held-out data)" if self.refuted else (
+            "confirmed" if self.confirmed else "not distinguishable from zero")
+        return (f"held-out gain {verdict}: batch-means t = {self.t:.3g} on {self.df} df "
+                f"(one-sided tests at {100 * self.alpha:g} %)")
+
+
+def paired_gain_test(y: np.ndarray, base: np.ndarray, ext: np.ndarray, alpha: float = CONFIRM_ALPHA,
+                     n_batches: int = N_BATCHES) -> GainTest:
+    """Is ``ext`` closer to ``y`` than ``base`` beyond the sampling uncertainty of the difference?
+
+    d[k] = (y - base)^2 - (y - ext)^2 is serially correlated (both errors share the residual's
+    colour), so its mean's standard error is estimated by batch means: the record is cut into
+    ``n_batches`` contiguous batches, whose means are nearly independent when a batch is much
+    longer than the correlation time; t = mean / (SD of batch means / sqrt(B)) with B - 1 df.
+    A positive mean is a lower validation RMS, i.e. a positive fit gain.
+    """
+    d = (np.asarray(y, float) - base) ** 2 - (np.asarray(y, float) - ext) ** 2
+    d = d[np.isfinite(d)]
+    b = int(min(n_batches, len(d) // 10))
+    if b < 3:
+        return GainTest(0.0, 1.0, 0, alpha)
+    means = np.array([p.mean() for p in np.array_split(d, b)])
+    sd = float(np.std(means, ddof=1))
+    if sd <= 0:
+        t = np.inf if means.mean() > 0 else 0.0
+    else:
+        t = float(means.mean() / (sd / np.sqrt(b)))
+    return GainTest(float(t), float(sps.t.sf(t, b - 1)), b - 1, alpha)

@@ -492,6 +492,12 @@ def load_model(path):
         raise ModelError(f"model file {path} not found") from exc
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ModelError(f"{path} is not a model file: {exc}") from exc
+    if isinstance(doc, dict) and doc.get("format") == "porosense.ident.extended":
+        from porosense.ident.extended import FORMAT_VERSION as EXT_VERSION, ExtendedModel
+
+        if doc.get("version") != EXT_VERSION:
+            raise ModelError(f"{path}: extended model version {doc.get('version')}, this build reads {EXT_VERSION}")
+        return ExtendedModel.from_dict(doc)
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise ModelError(f"{path} is not a porosense model file")
     if doc.get("version") != FORMAT_VERSION:

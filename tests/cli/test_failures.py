@@ -46,6 +46,8 @@ def work(tmp_path_factory):
     doc["models"][0]["version"] = 99
     (d / "v99.json").write_text(json.dumps(doc))
     assert main(["quantize", str(d / "model.json"), "--out", str(d / "model.bin")]) == 0
+    slow_rows = "\n".join(f"{2 * a!r},{b!r},{c!r}" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist()))
+    (d / "run_50hz.csv").write_text("t,dR_0,strain_0\n" + slow_rows + "\n")  # the 100 Hz model's data at 50 Hz
     (d / "exists").write_text("a file\n")
     (d / "radii.csv").write_text("height_mm,radius_mm\n2.5,-0.7\n5,-1.7\n10,-3.7\n")
     return d
@@ -61,6 +63,8 @@ CASES = [
     ("predict --model {d}/nan_model.json --data {d}/run.csv", 4, "non-finite"),
     ("predict --model {d}/v99.json --data {d}/run.csv", 4, "version 99"),
     ("predict --model {d}/model.json --data {d}/run.csv --ts 0.5", 2, "disagrees"),
+    ("predict --model {d}/model.json --data {d}/run_50hz.csv", 2, "differs from the model's"),
+    ("compare --model {d}/model.json --data {d}/run_50hz.csv", 2, "differs from the model's"),
     ("quantize {d}/model.json --out {d}/absent/m.bin", 2, "does not exist"),
     ("quantize {d}/model.json --out {d}/m.bin --input-range nan 1", 2, "finite"),
     ("quantize {d}/model.json --out {d}/m.bin --data {d}/nan.csv", 2, "line 9"),

@@ -25,10 +25,6 @@ def send_chunks(dev, blob, upto=None):
         dev.command(m.ModelChunk(offset=off, data=blob[off : min(off + MODEL_CHUNK_BYTES, end)]))
 
 
-# The two-slot store is the firmware's: the emulator runs the same core, so these run on every back-end.
-two_slot = pytest.mark.usefixtures()
-
-
 def nak(fn, *args) -> NakError:
     with pytest.raises(NakError) as err:
         fn(*args)
@@ -63,7 +59,6 @@ def test_erase(dev, blob):
     assert nak(dev.command, m.ModelRead(offset=0, length=8)).code == Result.NO_MODEL
 
 
-@two_slot
 def test_begin_keeps_the_running_model(dev, blob, blob3):
     old = dev.write_model(blob)
     begin(dev, blob3)
@@ -73,7 +68,6 @@ def test_begin_keeps_the_running_model(dev, blob, blob3):
     assert not dev.status().has(StatusFlag.ESTIMATOR_OFF)
 
 
-@two_slot
 def test_disconnect_during_a_write_keeps_the_running_model(dev, backend, blob, blob3):
     """The host vanishes mid-write (no commit); a new connection finds the old model running."""
     from porosense.device import Device
@@ -107,7 +101,6 @@ def test_too_large(dev, blob):
     assert err.code == Result.TOO_LARGE and 0 < err.detail < 4000
 
 
-@two_slot
 def test_incomplete_commit_is_refused_and_the_old_model_runs(dev, blob, blob3):
     old = dev.write_model(blob3)
     begin(dev, blob)
@@ -117,7 +110,6 @@ def test_incomplete_commit_is_refused_and_the_old_model_runs(dev, blob, blob3):
     assert info.valid and info.crc == old.crc
 
 
-@two_slot
 def test_wrong_crc_is_refused_and_the_old_model_runs(dev, blob, blob3):
     old = dev.write_model(blob)
     begin(dev, blob3, crc=blob_crc(blob3) ^ 0x5555)
@@ -137,7 +129,6 @@ def _broken(blob: bytes) -> bytes:
     return bytes(broken)
 
 
-@two_slot
 def test_broken_structure_is_refused_and_the_old_model_runs(dev, blob, blob3):
     old = dev.write_model(blob)
     broken = _broken(blob3)
@@ -174,7 +165,6 @@ def test_writes_are_refused_while_streaming(dev, blob):
     dev.stop_stream()
 
 
-@two_slot
 def test_a_model_that_does_not_fit_beside_the_running_one_is_refused(dev, blob, blob3):
     """Two models share the 944-byte area: BEGIN names the excess, the running model stays."""
     old = dev.write_model(blob3)
@@ -185,7 +175,6 @@ def test_a_model_that_does_not_fit_beside_the_running_one_is_refused(dev, blob, 
     assert info.valid and info.crc == old.crc
 
 
-@two_slot
 def test_reset_during_a_write_leaves_the_old_model(dev, blob, blob3):
     old = dev.write_model(blob)
     begin(dev, blob3)
@@ -197,7 +186,6 @@ def test_reset_during_a_write_leaves_the_old_model(dev, blob, blob3):
     assert dev.write_model(blob3).valid  # and a new write works
 
 
-@two_slot
 def test_write_model_replaces_only_when_asked_or_with_a_warning(dev, blob3):
     """A second large model does not fit beside the first: replace=False refuses and keeps the
     running model; the default erases first and warns; the CLI needs --replace."""

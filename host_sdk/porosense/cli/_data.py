@@ -71,6 +71,19 @@ def sample_period(tables, args) -> float:
     return resolve_ts(tables, getattr(args, "ts", None), getattr(args, "ts_override", False))
 
 
+def model_period(tables, model, args) -> float:
+    """The Ts (s) to run ``model`` on ``tables``: the data's own (checked against --ts) when they state
+    one, else the model's; a data period more than 1 % off the model's is an InputError unless
+    --ts-override (a model runs per sample: on data at another rate it simulates the wrong dynamics)."""
+    if not (getattr(args, "ts", None) or any(t.ts for t in tables)):
+        return model.ts
+    ts = sample_period(tables, args)
+    if abs(ts - model.ts) > 0.01 * model.ts and not getattr(args, "ts_override", False):
+        raise InputError(f"the data's sample period {ts:g} s differs from the model's {model.ts:g} s: "
+                         "resample the data, or add --ts-override")
+    return ts
+
+
 def require_columns(table, names) -> None:
     missing = [n for n in names if n not in table.columns]
     if missing:

@@ -9,6 +9,7 @@ from porosense.cli._data import (
     add_json_options,
     emit_json,
     load_model_checked,
+    model_period,
     normalise_json_args,
     output_file,
     read_tables,
@@ -39,8 +40,6 @@ def register(sub) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     from porosense.cli.predict import model_label
-    from porosense.data import resolve_ts
-    from porosense.errors import InputError
     from porosense.report.analysis import compare
 
     normalise_json_args(args)
@@ -48,11 +47,7 @@ def run(args) -> int:
         output_file(args.plot, "--plot")
     model = load_model_checked(args.model)
     tables = read_tables(args.data, args)
-    if any(t.ts for t in tables) or args.ts:
-        ts = resolve_ts(tables, args.ts, args.ts_override)
-        if abs(ts - model.ts) > 0.01 * model.ts and not args.ts_override:
-            raise InputError(f"the data's sample period {ts:g} s differs from the model's {model.ts:g} s: "
-                             "resample the data, or add --ts-override")
+    model_period(tables, model, args)
     result = compare(model, tables, name=model_label(model))
     if args.plot:
         import numpy as np

@@ -9,6 +9,7 @@ from porosense.cli._data import (
     add_json_options,
     emit_json,
     load_model_checked,
+    model_period,
     normalise_json_args,
     output_file,
     read_tables,
@@ -46,7 +47,7 @@ def register(sub) -> argparse.ArgumentParser:
 def run(args) -> int:
     import numpy as np
 
-    from porosense.data import resolve_ts, time_column
+    from porosense.data import time_column
     from porosense.ident import fit_percent, rms_percent
 
     normalise_json_args(args)
@@ -59,7 +60,7 @@ def run(args) -> int:
     if len(table) == 0:
         raise InputError(f"{args.data}: no samples (only a header?)")
     table.require_finite(list(model.inputs))
-    ts = resolve_ts([table], args.ts, args.ts_override) if (args.ts or table.ts) else model.ts
+    ts = model_period([table], model, args)
     u = np.column_stack([table.columns[c] for c in model.inputs])
     with np.errstate(all="ignore"):
         yhat = model.predict(u=u)

@@ -21,6 +21,7 @@ def test_every_subcommand_has_help_example_and_json(name):
     text = _help(name)
     assert "example" in text.lower(), f"{name} --help has no example"
     assert "--json" in text, f"{name} has no --json"
+    assert "%%" not in text, f"{name} --help shows a doubled percent sign"  # descriptions are not %-formatted
 
 
 def test_user_mistakes_exit_with_one_line_and_no_traceback(tmp_path):

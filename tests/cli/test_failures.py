@@ -109,3 +109,16 @@ def test_process_exit_code_and_no_traceback(work, args, code):
 def test_no_command_exits_1():
     proc = subprocess.run([sys.executable, "-m", "porosense"], capture_output=True, text=True)
     assert proc.returncode == 1
+
+
+def test_closed_pipe_stops_quietly():
+    """`porosense bench protocol --json | head -0`, unbuffered so that the first print meets the
+    closed pipe (the reader closes before the interpreter has imported porosense). The command
+    stops with the shell's SIGPIPE status (141) and no traceback or 'Exception ignored' message."""
+    proc = subprocess.Popen([sys.executable, "-u", "-m", "porosense", "bench", "protocol", "--size", "small",
+                             "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()
+    _, err = proc.communicate(timeout=120)
+    err = err.decode()
+    assert "Traceback" not in err and "Exception ignored" not in err, err
+    assert proc.returncode == 141

@@ -23,7 +23,7 @@ def register(sub) -> argparse.ArgumentParser:
         help="score a saved model on recordings: fit and RMS per file, mean and standard error",
         description=(
             "Simulate a saved model from rest on every recording (CSV or .mat) and print, per output, the "
-            "NRMSE fit (%%) and the RMS error (%% of the largest |output|) of each file, then their mean and "
+            "NRMSE fit (%) and the RMS error (% of the largest |output|) of each file, then their mean and "
             "standard error (sample standard deviation / sqrt(n)). --plot draws measured against predicted "
             "for the first file. The files' sample period must agree with the model's."
         ),

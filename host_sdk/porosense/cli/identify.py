@@ -27,7 +27,7 @@ def register(sub) -> argparse.ArgumentParser:
             "recordings: CSV of any common dialect or MATLAB .mat (v5, v7.3). Without --poles the paper's "
             "order search runs (poles 1..10, zeros < poles). Models are selected on data not used to "
             "estimate them: --validation (a range of every file), --validation-data (other files), or by "
-            "default a hold-out (the last file when there are at least 3 files, else the last 25 %% of every "
+            "default a hold-out (the last file when there are at least 3 files, else the last 25 % of every "
             "file); --criterion fit selects by the validation fit (candidates within one standard error are "
             "tied and the smallest is taken), aic/bic by the information criteria. A:B ranges (Python slices, applied to every file) choose the samples "
             "that are scored; each file is still simulated from its first sample. Fit and RMS are in %; "

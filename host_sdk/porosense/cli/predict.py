@@ -27,8 +27,8 @@ def register(sub) -> argparse.ArgumentParser:
         help="simulate a saved model on a recording from rest; fit and RMS when the output is measured",
         description=(
             "Simulate an identified model (porosense identify --save) on the whole recording (CSV or "
-            ".mat) from rest. When the file holds the model's output column, print the NRMSE fit (%%) and "
-            "the RMS error (%% of the largest output) per output, as MATLAB's compare does. --out writes one "
+            ".mat) from rest. When the file holds the model's output column, print the NRMSE fit (%) and "
+            "the RMS error (% of the largest output) per output, as MATLAB's compare does. --out writes one "
             "column per output named <output>_pred in the output's unit, plus the time column (t, s) when "
             "the file has one; --plot draws measured against predicted."
         ),

@@ -24,7 +24,7 @@ def register(sub) -> argparse.ArgumentParser:
             "and take the ground truth from video: live from a camera (--camera N, saved beside the recording) "
             "or a video file filmed at the same time (--video FILE); --board-recording reprocesses an earlier "
             "board recording instead of running one. The tracker fits a circle to the bending actuator's "
-            "stripes (curvature, 1/m) and follows the contractor's marker (dz, mm; strain %% with "
+            "stripes (curvature, 1/m) and follows the contractor's marker (dz, mm; strain % with "
             "marker_length_mm in the layout), in pixels scaled by a reference length or a checkerboard "
             "calibration. The board's sync indicator (D11) places the frames on its clock (offset and "
             "drift); without it the host clocks are used, with a warning. Writes one recording (CSV + JSON) "

@@ -511,8 +511,8 @@ struct ModelInfo {
 
 struct ModelInfoReply {
   static constexpr uint8_t kType = 0x83;
-  static constexpr uint8_t kMinLen = 24;
-  static constexpr uint8_t kMaxLen = 24;
+  static constexpr uint8_t kMinLen = 26;
+  static constexpr uint8_t kMaxLen = 26;
   uint8_t status;
   uint8_t format_version;
   uint16_t length;  // bytes
@@ -521,6 +521,8 @@ struct ModelInfoReply {
   uint8_t n_outputs;
   uint32_t model_id;
   float out_scale[3];
+  uint8_t slot;
+  uint8_t seq;
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, status); n += 1;
@@ -531,6 +533,8 @@ struct ModelInfoReply {
     put_u8(buf + n, n_outputs); n += 1;
     put_u32(buf + n, model_id); n += 4;
     for (uint8_t i = 0; i < 3; ++i) { put_f32(buf + n, out_scale[i]); n += 4; }
+    put_u8(buf + n, slot); n += 1;
+    put_u8(buf + n, seq); n += 1;
     return n;
   }
   bool decode(const uint8_t* buf, uint8_t len) {
@@ -544,6 +548,8 @@ struct ModelInfoReply {
     n_outputs = get_u8(buf + n); n += 1;
     model_id = get_u32(buf + n); n += 4;
     for (uint8_t i = 0; i < 3; ++i) { out_scale[i] = get_f32(buf + n); n += 4; }
+    slot = get_u8(buf + n); n += 1;
+    seq = get_u8(buf + n); n += 1;
     return true;
   }
 };

@@ -596,10 +596,10 @@ class ModelInfoReply(Message):
     TYPE: ClassVar[int] = 0x83
     DIRECTION: ClassVar[str] = 'd2h'
     REPLY: ClassVar[str | None] = None
-    MIN_LEN: ClassVar[int] = 24
-    MAX_LEN: ClassVar[int] = 24
+    MIN_LEN: ClassVar[int] = 26
+    MAX_LEN: ClassVar[int] = 26
     DEADLINE_MS: ClassVar[int] = 0
-    _FMT: ClassVar[struct.Struct] = struct.Struct('<BBHHBBI3f')
+    _FMT: ClassVar[struct.Struct] = struct.Struct('<BBHHBBI3fBB')
     status: int = 0
     format_version: int = 0
     length: int = 0  # bytes
@@ -608,19 +608,21 @@ class ModelInfoReply(Message):
     n_outputs: int = 0
     model_id: int = 0
     out_scale: tuple[float, ...] = field(default_factory=lambda: (0.0, 0.0, 0.0,))
+    slot: int = 0
+    seq: int = 0
 
     def pack(self) -> bytes:
         if len(self.out_scale) != 3:
             raise ValueError('MODEL_INFO_REPLY.out_scale needs 3 values')
-        head = self._FMT.pack(self.status, self.format_version, self.length, self.crc, self.n_inputs, self.n_outputs, self.model_id, *self.out_scale)
+        head = self._FMT.pack(self.status, self.format_version, self.length, self.crc, self.n_inputs, self.n_outputs, self.model_id, *self.out_scale, self.slot, self.seq)
         return head
 
     @classmethod
     def unpack(cls, payload: bytes) -> ModelInfoReply:
         if len(payload) != cls.MIN_LEN:
-            raise ValueError(f'MODEL_INFO_REPLY payload of {len(payload)} bytes (expected 24)')
+            raise ValueError(f'MODEL_INFO_REPLY payload of {len(payload)} bytes (expected 26)')
         vals = cls._FMT.unpack_from(payload, 0)
-        return cls(status=vals[0], format_version=vals[1], length=vals[2], crc=vals[3], n_inputs=vals[4], n_outputs=vals[5], model_id=vals[6], out_scale=tuple(vals[7:10]))
+        return cls(status=vals[0], format_version=vals[1], length=vals[2], crc=vals[3], n_inputs=vals[4], n_outputs=vals[5], model_id=vals[6], out_scale=tuple(vals[7:10]), slot=vals[10], seq=vals[11])
 
 
 @dataclass

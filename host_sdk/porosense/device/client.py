@@ -331,8 +331,9 @@ class Device:
         SAMPLE_RATE_HZ to the model's rate (which must be a whole number of Hz)."""
         from porosense.errors import ModelError
         from porosense.quant.blob import ModelBlob
+        from porosense.quant.layout import FLASH_BLOB_MAX
 
-        model = ModelBlob.from_bytes(bytes(blob))
+        model = ModelBlob.from_bytes(bytes(blob), max_length=FLASH_BLOB_MAX)  # either store's
         board = self.sample_rate_hz()
         if round(1e6 / board) == model.ts_us:
             return board

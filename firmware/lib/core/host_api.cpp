@@ -12,7 +12,7 @@
 #include "rate_divider.h"
 
 static_assert(PS_FLASH_STORE_BASE == est::layout::kFlashBase &&
-                  PS_FLASH_STORE_BYTES == host::HostHal::kFlashStoreBytes,
+                  PS_FLASH_STORE_BYTES == host::HostFlash::kBytes,
               "host_api.h's flash store constants follow model_layout.h");
 
 namespace host {
@@ -36,7 +36,6 @@ HostHal::HostHal()
       tx_room_(255), fail_after_(-1), fail_from_(0), power_lost_(false), reset_requested_(false),
       outputs_(), analog_pin_(0), analog_duty_(0), eeprom_writes_(0) {
   memset(eeprom_, 0xFF, sizeof eeprom_);
-  memset(flash_, 0xFF, sizeof flash_);
   for (int i = 0; i < 3; ++i) volts_[i] = euler_deg_[i] = 0.0;
 }
 
@@ -141,7 +140,7 @@ uint32_t HostHal::take(uint8_t* dst, uint32_t max) {
 // One powered board: the firmware objects are rebuilt at each boot (RAM lost), the
 // HostHal (EEPROM, presence, callbacks) outlives them.
 struct Board {
-  explicit Board(HostHal& hal) : model(hal, &hal), device(hal, model), clock_rate(0), last_ms(0) {}
+  explicit Board(HostHal& hal) : model(hal, hal.flash()), device(hal, model), clock_rate(0), last_ms(0) {}
   dev::ModelLink model;
   dev::Device device;
   dev::RateDivider divider;

@@ -220,7 +220,7 @@ class Device:
         self._exchange(m.SetWatchdog(timeout_ms=int(timeout_ms)))
 
     def start_stream(self, rate_hz: int = 50, channels: int | Sequence[str] = ALL_CHANNELS) -> None:
-        """Start SAMPLE telemetry at ``rate_hz`` (10..125, SAMPLE_RATE_HZ limits) for ``channels`` (mask or names)."""
+        """Start SAMPLE telemetry at ``rate_hz`` (Hz, within the SAMPLE_RATE_HZ limits of CONFIG_SPECS) for ``channels`` (mask or names)."""
         if self._streaming:
             self.stop_stream()
         mask = _channel_mask(channels)

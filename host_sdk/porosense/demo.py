@@ -177,8 +177,6 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
     """Run the whole pipeline for one actuator; see the module docstring. ``max_poles`` bounds
     the order search (the paper's grid is 10; 3 keeps the demo within minutes)."""
     from porosense.ident import fit_percent
-    from porosense.quant import quantize
-    from porosense.structure import EstimatorStructure
 
     if actuator not in ACTUATORS:
         raise InputError(f"unknown actuator {actuator!r}; choose one of {', '.join(ACTUATORS)}")
@@ -213,15 +211,7 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
         log("")
         log(table)
 
-        # One MISO chain per output in a single on-device structure.
-        chains = [c.model.to_structure() for c in chosen]
-        structure = EstimatorStructure(tuple(inputs), tuple(o for c in chains for o in c.outputs), 1.0 / rate_hz,
-                                       meta={"actuator": actuator}, input_units=("dR/100",) * len(inputs))
-        qrecs = [(n, np.column_stack([recs[n][c] / 100.0 for c in inputs]),
-                  np.column_stack([recs[n][o] for o in outputs])) for n in val_names]
-        from porosense.quant.layout import FLASH_BLOB_MAX, MAX_BLOB_LEN
-
-        q = quantize(structure, recordings=qrecs, capacity=FLASH_BLOB_MAX if actuator in PAPER_ORDERS else MAX_BLOB_LEN)
+        structure, q = quantize_model(chosen, recs, actuator, val_names, rate_hz)
         blob = q.blob
         loss = q.report.worst_loss_points
         log(f"  quantized: {blob.length} bytes, worst fixed-point fit loss "
@@ -312,12 +302,30 @@ def identify_outputs(recs: dict, actuator: str, est_names: list[str], val_names:
     return searches, chosen
 
 
+def quantize_model(chosen: list, recs: dict, actuator: str, val_names: list[str], rate_hz: int):
+    """One MISO chain per output in a single on-device structure, quantized against the
+    validation recordings; returns (structure, QuantResult). Paper-order sets are quantized for
+    a flash store slot (full tables when they fit 1,144 bytes), the others for the EEPROM."""
+    from porosense.quant import quantize
+    from porosense.quant.layout import FLASH_BLOB_MAX, MAX_BLOB_LEN
+    from porosense.structure import EstimatorStructure
+
+    inputs, outputs, _ = SIGNALS[actuator]
+    chains = [c.model.to_structure() for c in chosen]
+    structure = EstimatorStructure(tuple(inputs), tuple(o for c in chains for o in c.outputs), 1.0 / rate_hz,
+                                   meta={"actuator": actuator}, input_units=("dR/100",) * len(inputs))
+    qrecs = [(n, np.column_stack([recs[n][c] / 100.0 for c in inputs]),
+              np.column_stack([recs[n][o] for o in outputs])) for n in val_names]
+    capacity = FLASH_BLOB_MAX if actuator in PAPER_ORDERS else MAX_BLOB_LEN
+    return structure, quantize(structure, recordings=qrecs, capacity=capacity)
+
+
 def store_model(dev, blob: bytes, upload=None, *, log=print):
     """Store ``blob`` on the board: over the protocol into the EEPROM when it fits there beside
     the running model, else into the flash model store with ``upload(pages)`` (the slot that is
     not running, next commit counter). Returns the board's MODEL_INFO afterwards."""
     from porosense.errors import ModelError
-    from porosense.firmware.flash_store import plan_upload
+    from porosense.firmware.flash_store import upload as flash_upload
     from porosense.quant.layout import AREA_LEN
 
     running = dev.model_info()
@@ -329,9 +337,7 @@ def store_model(dev, blob: bytes, upload=None, *, log=print):
     if upload is None:
         raise ModelError(f"the {len(blob)}-byte model needs the flash store (room in the EEPROM: {room} bytes): "
                          "upload it with porosense flash --store flash")
-    plan = plan_upload(blob, running)
-    upload(plan.pages())
-    info = dev.model_info()
+    plan, info = flash_upload(dev, blob, upload)
     if not info.valid or info.store != "flash" or info.length != len(blob):
         raise DeviceError(f"uploaded flash slot {plan.slot} but the board runs: {info}")
     log(f"  uploaded into flash slot {plan.slot} ({len(blob)} bytes, more than the EEPROM's {room}-byte room): {info}")

@@ -285,7 +285,7 @@ void test_output_limits() {
   cs.key = 99;
   rig.send_msg(cs, 9);
   CHECK(nak_code(rig.one()) == r::BAD_KEY);
-  // Stream rate limits 10..125 Hz: the highest rate sustained with every channel, the IMU
+  // Stream rate limits 10 Hz .. SAMPLE_RATE_HZ max: the highest rate sustained with every channel, the IMU
   // and the largest model (issue 19); anything faster is refused.
   proto::StartStream ss;
   ss.channel_mask = 0x1F;

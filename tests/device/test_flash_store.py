@@ -63,6 +63,7 @@ def simboard():
 def _upload(board, dev, blob: bytes, n_pages: int | None = None):
     plan = plan_upload(blob, dev.model_info())
     board.program_flash(pages_from_hex(plan.to_hex()), n_pages)  # through the HEX, as avrdude gets it
+    dev.after_reset()
     return plan
 
 
@@ -114,6 +115,7 @@ def test_corrupt_upload_and_eeprom_in_between(simboard, sets):
         addr, data = pages[3]
         pages[3] = (addr, data[:50] + bytes([data[50] ^ 0x20]) + data[51:])  # one bit flipped in transit
         simboard.program_flash(pages)
+        dev.after_reset()
         info = dev.model_info()
         assert info.slot == FLASH_SLOT0 and info.length == len(old), info
         # EEPROM newer than flash: a protocol write beside the flash model runs (counter + 1) ...
@@ -121,6 +123,7 @@ def test_corrupt_upload_and_eeprom_in_between(simboard, sets):
         info = dev.write_model(small)
         assert info.store == "eeprom" and info.seq == 1
         simboard.reset()
+        dev.after_reset()
         assert dev.model_info().crc == info.crc
         # ... and back: an upload after it runs again.
         _upload(simboard, dev, new)

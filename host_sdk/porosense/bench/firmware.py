@@ -177,10 +177,9 @@ def heaviest_storable_blob(seed: int = 1) -> bytes:
 def store_in_flash(board, dev, blob: bytes) -> None:
     """Upload ``blob`` into the simboard's flash model store (the slot not running) and check
     that it runs."""
-    from porosense.firmware.flash_store import plan_upload
+    from porosense.firmware.flash_store import upload
 
-    board.program_flash(plan_upload(blob, dev.model_info()).pages())
-    info = dev.model_info()
+    _, info = upload(dev, blob, board.program_flash)
     if not (info.valid and info.store == "flash" and info.length == len(blob)):
         raise RuntimeError(f"the uploaded model does not run: {info}")
 

@@ -447,11 +447,17 @@ class Device:
     def reset(self, wait_s: float = 3.0) -> HelloInfo:
         """Reset the board, wait for it to boot and handshake again."""
         self._exchange(m.Reset())
+        time.sleep(0.05 * self.timeout_scale)
+        return self.after_reset(wait_s=wait_s)
+
+    def after_reset(self, wait_s: float = 3.0) -> HelloInfo:
+        """The board was reset (RESET, an upload through the bootloader, the reset button):
+        forget the stream and output state, wait for it to boot and handshake again (a new
+        output session)."""
         self._next_tseq = self._next_eseq = None  # the counters restart with the firmware
         self._streaming = False
         self._outputs_active = False
         self._samples.clear()
-        time.sleep(0.05 * self.timeout_scale)
         return self.hello(wait_s=wait_s)
 
     # ------------------------------------------------------------------ raw access

@@ -106,3 +106,13 @@ def pages_from_hex(text: str) -> list[tuple[int, bytes]]:
             raise ModelError(f"HEX writes page 0x{p:04X}, inside the bootloader (from 0x{L.BOOTLOADER_BASE:04X})")
         out.append((p, bytes(ih[a] for a in range(p, p + L.FLASH_PAGE))))
     return out
+
+
+def upload(dev, blob: bytes, program) -> tuple[FlashUpload, object]:
+    """Store ``blob`` in the flash store of the board ``dev`` talks to: plan the slot from its
+    MODEL_INFO, ``program(pages)`` (SimBoard.program_flash, Emulator.program_flash: an upload
+    that resets the board), handshake again. Returns the plan and the board's MODEL_INFO."""
+    plan = plan_upload(blob, dev.model_info())
+    program(plan.pages())
+    dev.after_reset()
+    return plan, dev.model_info()

@@ -110,8 +110,9 @@ def _simboard_truth(sb):
     def truth(t_us: np.ndarray) -> dict:
         cols = sb.truth_columns()
         t = cols.pop("t")
-        # The firmware's microsecond clock counts AVR time since reset.
-        return {k: np.interp(t_us * 1e-6, t, v) for k, v in cols.items() if v.dtype.kind == "f"}
+        # The firmware's microsecond clock counts AVR time since the latest reset (an upload
+        # resets the board); the truth log counts it since power-on.
+        return {k: np.interp(t_us * 1e-6 + sb.last_reset_s, t, v) for k, v in cols.items() if v.dtype.kind == "f"}
 
     return truth
 
@@ -338,6 +339,7 @@ def store_model(dev, blob: bytes, upload=None, *, log=print):
         raise ModelError(f"the {len(blob)}-byte model needs the flash store (room in the EEPROM: {room} bytes): "
                          "upload it with porosense flash --store flash")
     plan, info = flash_upload(dev, blob, upload)
+    dev.calibrate_r0(n_samples=32, channels=(1 << info.n_inputs) - 1)  # the upload reset the board: R0 again
     if not info.valid or info.store != "flash" or info.length != len(blob):
         raise DeviceError(f"uploaded flash slot {plan.slot} but the board runs: {info}")
     log(f"  uploaded into flash slot {plan.slot} ({len(blob)} bytes, more than the EEPROM's {room}-byte room): {info}")

@@ -115,6 +115,7 @@ class SimBoard:
         self._error = None
         self._closed = False
         self.truth: list[dict] = []
+        self.last_reset_s = 0.0         # AVR time (since power-on) of the latest reset
         self.port = None
         self.halted = False
 
@@ -198,6 +199,8 @@ class SimBoard:
                 # published before the reply: the harness forwards UART bytes only after it
                 with self._cond:
                     self._tick = tick
+                    if tick.events & link.EV_RESET:  # the firmware's clocks restart here
+                        self.last_reset_s = tick.time_s
                     self._saves += bool(tick.events & link.EV_EEPROM_SAVED)
                     self.halted = bool(tick.events & link.EV_HALTED)
                     self._cond.notify_all()

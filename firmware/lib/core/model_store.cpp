@@ -15,8 +15,8 @@ void ModelStore::Reader::read(uint16_t offset, void* dst, uint8_t n) const {
 }
 
 ModelStore::ModelStore(Eeprom& ee, Estimator& estimator, FlashRom* flash)
-    : ee_(ee), est_(estimator), flash_(flash), run_(0), status_(kNone), active_(kNoSlot), seq_(0), writing_(false), length_(0),
-      crc_(0), target_(0), expect_len_(0), expect_crc_(0), next_offset_(0) {
+    : ee_(ee), est_(estimator), flash_(flash), run_(0), status_(kNone), active_(kNoSlot), seq_(0),
+      writing_(false), length_(0), crc_(0), target_(0), expect_len_(0), expect_crc_(0), next_offset_(0) {
   for (uint8_t r = 0; r < 2; ++r) readers_[r].bind(&ee_, 0, kAreaBase);
 }
 
@@ -51,9 +51,8 @@ bool ModelStore::load(uint8_t slot, uint16_t length, uint16_t crc) {
   Reader& r = readers_[spare];
   const bool flash = slot >= kFlashSlot0;
   r.bind(&ee_, flash ? flash_ : 0, flash ? flash_addr(slot) : blob_addr(slot, length));
-  if (blob::stored_crc(r, length) != crc || !est_.load(r, length, flash ? L::kFlashBlobMax : blob::kMaxLength)) {
-    return false;
-  }
+  const uint16_t max_len = flash ? L::kFlashBlobMax : blob::kMaxLength;
+  if (blob::stored_crc(r, length) != crc || !est_.load(r, length, max_len)) return false;
   active_ = slot;
   run_ = spare;
   length_ = length;
@@ -78,8 +77,8 @@ void ModelStore::boot() {
     present[s] = read_slot(s, &h[s]);
   }
   // Latest first: seq counts commits modulo 256, so a later one is ahead by less than 128. A
-  // slot that fails its checks is dropped and the next latest tried. (On equal seqs the
-  // EEPROM slot wins: it was written over the protocol after the upload.)
+  // slot that fails its checks is dropped and the next latest tried. (On equal seqs the lower
+  // slot number wins: the EEPROM's before the flash store's.)
   for (;;) {
     uint8_t best = kNoSlot;
     for (uint8_t s = 0; s < n_slots; ++s) {

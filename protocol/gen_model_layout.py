@@ -71,6 +71,11 @@ def load() -> dict:
     lay["area"] = s["region"] - s["slots"] * lay["slot_len"]
     if s["base"] + s["region"] > s["eeprom_size"]:
         raise SystemExit("model_layout.toml: the store region runs past the EEPROM")
+    f = d["flash_store"]
+    if f["base"] % f["page_size"] or f["slot_size"] % f["page_size"] or \
+            f["base"] + f["slots"] * f["slot_size"] > f["bootloader"]:
+        raise SystemExit("model_layout.toml: flash slots must be whole pages below the bootloader")
+    lay["flash_blob_max"] = f["slot_size"] - lay["slot_len"]
     return lay
 
 
@@ -111,6 +116,13 @@ def gen_cpp(lay: dict) -> str:
         L.append(f"constexpr uint8_t kOffSlot{camel(name)} = {off};  // {t}")
     L.append(f"constexpr uint16_t kAreaBase = {lay['area_base']}, kAreaLen = {lay['area']};")
     L.append(f"constexpr uint16_t kMaxBlobLength = {lay['area']};  // one model in an empty store")
+    f = d["flash_store"]
+    L.append("// Flash model store: slots at the top of the application flash, blob first, slot header last.")
+    L.append(f"constexpr uint16_t kFlashBase = {f['base']}, kFlashSlotSize = {f['slot_size']}, "
+             f"kFlashPage = {f['page_size']};")
+    L.append(f"constexpr uint8_t kFlashSlots = {f['slots']};")
+    L.append(f"constexpr uint16_t kFlashBlobMax = {lay['flash_blob_max']};  // slot size minus its header")
+    L.append(f"constexpr uint16_t kBootloaderBase = {f['bootloader']};")
     L += ["", "}  // namespace layout", "}  // namespace est", ""]
     return "\n".join(L)
 
@@ -144,6 +156,13 @@ def gen_py(lay: dict) -> str:
     L.append(f"AREA_BASE = {lay['area_base']}")
     L.append(f"AREA_LEN = {lay['area']}")
     L.append(f"MAX_BLOB_LEN = {lay['area']}  # one model in an empty store")
+    f = d["flash_store"]
+    L.append(f"FLASH_BASE = {f['base']}  # flash model store: slots of blob + slot header (last bytes)")
+    L.append(f"FLASH_SLOT_SIZE = {f['slot_size']}")
+    L.append(f"FLASH_PAGE = {f['page_size']}")
+    L.append(f"FLASH_SLOTS = {f['slots']}")
+    L.append(f"FLASH_BLOB_MAX = {lay['flash_blob_max']}  # slot size minus its header")
+    L.append(f"BOOTLOADER_BASE = {f['bootloader']}")
     L.append("")
     return "\n".join(L)
 

@@ -92,9 +92,26 @@ class Message:
         return self.min_len + (v.max * v.size if v else 0)
 
 
+def _resolve_limits(node, configs: dict):
+    """Docs name a configuration limit as {config.NAME.max} (or .min, .default), so that a
+    limit is written once, in its [[config]] entry, and every doc that quotes it follows."""
+    if isinstance(node, str):
+        def sub(m):
+            if m.group(1) not in configs:
+                raise SystemExit(f"messages.toml: {m.group(0)} names no [[config]] entry")
+            return str(configs[m.group(1)][m.group(2)])
+        return re.sub(r"\{config\.(\w+)\.(min|max|default)\}", sub, node)
+    if isinstance(node, list):
+        return [_resolve_limits(v, configs) for v in node]
+    if isinstance(node, dict):
+        return {k: _resolve_limits(v, configs) for k, v in node.items()}
+    return node
+
+
 def load(path: Path = CATALOGUE) -> dict:
     """Parse and validate the catalogue; raise SystemExit with a clear message on error."""
     cat = tomllib.loads(path.read_text())
+    cat = _resolve_limits(cat, {c["name"]: c for c in cat.get("config", [])})
     max_payload = cat["protocol"]["max_payload"]
     msgs = []
     seen_types: dict[int, str] = {}

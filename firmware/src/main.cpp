@@ -9,6 +9,7 @@
 #include <avr/wdt.h>
 
 #include "avr_eeprom.h"
+#include "avr_flash.h"
 #include "board.h"
 #include "idle.h"
 #include "sample_clock.h"
@@ -20,7 +21,8 @@ extern "C" void loop();
 namespace {
 Board g_board;
 AvrEeprom g_eeprom;
-dev::ModelLink g_model(g_eeprom);
+AvrFlash g_flash;
+dev::ModelLink g_model(g_eeprom, &g_flash);
 dev::Device g_device(g_board, g_model);
 uint16_t g_clock_rate = 0;
 

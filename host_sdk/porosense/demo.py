@@ -5,9 +5,13 @@ For one actuator, on a board (the emulator by default, the simboard, or a real b
 1. run the paper's identification protocol on the board (vacuum steps at -10, -20, -40 and
    -60 kPa in duplicate and the staircase; the 3-DoF patterns for the segment) and record;
 2. identify all four structures with the order search and the paper's split (estimation:
-   staircase, -10, -60 kPa; validation: -20, -40 kPa), selected by mean fit;
+   staircase, -10, -60 kPa; validation: -20, -40 kPa), selected by mean fit; the 3-DoF
+   segment at the paper's orders instead (PAPER_ORDERS: WH, 2 poles and 1 zero, 10
+   breakpoints, the model of the paper's 3-DoF table), WH kept;
 3. print the paper-style table (fit % and RMS % per structure and recording, best marked);
-4. quantize the selected model, flash it, verify it by replay against the bit-exact reference;
+4. quantize the selected model, store it (the EEPROM beside the running model when it fits
+   there, else the flash model store by upload), verify it by replay against the bit-exact
+   reference;
 5. stream a fresh validation experiment with on-device estimates and report their fit live;
 6. write a report folder (figures, summary.md, summary.html).
 """
@@ -40,6 +44,10 @@ PROTOCOL = {
 }
 #: Experiments the paper ran once (the rest in duplicate).
 SINGLE = {"staircase", "two_level"}
+
+#: Actuators identified at the paper's orders instead of an order search: (poles, zeros, breakpoints)
+#: of every structure in the table; the WH model is the one flashed (the paper's 3-DoF table).
+PAPER_ORDERS = {"3dof": (2, 1, 10)}
 
 #: Device time runs this many times faster than wall time on the emulator.
 EMULATOR_SPEED = 10.0
@@ -74,7 +82,9 @@ class DemoResult:
 
 @contextlib.contextmanager
 def open_board(board: str, actuator: str, *, seed: int = 0):
-    """Yield (Device, truth function or None) for ``board``: emulator, simboard or a URL."""
+    """Yield (Device, truth function or None, upload or None) for ``board``: emulator, simboard
+    or a URL. ``upload(pages)`` programs flash pages and resets the board, as avrdude -D does
+    (None for a real board: `porosense flash --store flash` uploads there)."""
     from porosense.device import Device
 
     if board == "emulator":
@@ -84,24 +94,25 @@ def open_board(board: str, actuator: str, *, seed: int = 0):
         with Emulator(actuator, realtime=True, speed=EMULATOR_SPEED, seed=seed, truth_log=True,
                       max_catch_up_s=3600.0) as emu:
             with Device.open(emu.url) as dev:
-                yield dev, emu.truth
+                yield dev, emu.truth, emu.program_flash
     elif board == "simboard":
         from porosense.simboard import DEFAULT_ELF, SimBoard
 
         with SimBoard(DEFAULT_ELF, actuator=actuator, seed=seed) as sb:
             with Device.open(sb.url, timeout_scale=4.0) as dev:
-                yield dev, _simboard_truth(sb)
+                yield dev, _simboard_truth(sb), sb.program_flash
     else:
         with Device.open(board) as dev:
-            yield dev, None
+            yield dev, None, None
 
 
 def _simboard_truth(sb):
     def truth(t_us: np.ndarray) -> dict:
         cols = sb.truth_columns()
         t = cols.pop("t")
-        # The firmware's microsecond clock counts AVR time since reset.
-        return {k: np.interp(t_us * 1e-6, t, v) for k, v in cols.items() if v.dtype.kind == "f"}
+        # The firmware's microsecond clock counts AVR time since the latest reset (an upload
+        # resets the board); the truth log counts it since power-on.
+        return {k: np.interp(t_us * 1e-6 + sb.last_reset_s, t, v) for k, v in cols.items() if v.dtype.kind == "f"}
 
     return truth
 
@@ -134,13 +145,15 @@ def _io(recs: dict, actuator: str, names: list[str], j: int):
     return u, y
 
 
-def paper_table(searches: list, est_names: list[str], val_names: list[str], output_names: list[str]) -> str:
-    """Fit % / RMS % per structure (best of its order search) and recording; '*' marks the best."""
+def paper_table(searches: list, est_names: list[str], val_names: list[str], output_names: list[str],
+                chosen: list | None = None) -> str:
+    """Fit % / RMS % per structure (best of its order search) and recording; '*' marks the one
+    kept (``chosen``: one candidate per output; default each search's best)."""
     lines = []
     names = est_names + val_names
-    for out, res in zip(output_names, searches):
+    for k, (out, res) in enumerate(zip(output_names, searches)):
         per = res.best_per_structure()
-        best = res.best.structure
+        best = (chosen[k] if chosen else res.best).structure
         head = f"{out:<14}" + "".join(f"{n[:11]:>12}" for n in names) + f"{'mean':>12}"
         lines += [head, "-" * len(head)]
         for s in ("linear", "hammerstein", "wiener", "wh"):
@@ -153,8 +166,9 @@ def paper_table(searches: list, est_names: list[str], val_names: list[str], outp
             label = f"{mark}{s} ({c.n_poles}p{c.n_zeros}z)"
             lines.append(f"{label:<14}" + "".join(f"{f:>6.1f}/{r:<5.1f}" for f, r in zip(fits, rms))
                          + f"{c.mean_fit:>6.1f}/{c.mean_rms:<5.1f}")
+        rule = "the paper's structure and orders" if chosen else "selected by mean fit"
         lines.append(f"  columns: fit % / RMS %; estimation: {', '.join(est_names)}; "
-                     f"validation: {', '.join(val_names)}; * selected by mean fit")
+                     f"validation: {', '.join(val_names)}; * {rule}")
         lines.append("")
     return "\n".join(lines)
 
@@ -163,9 +177,7 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
              max_poles: int = 3, seed: int = 0, progress: bool = True, log=print) -> DemoResult:
     """Run the whole pipeline for one actuator; see the module docstring. ``max_poles`` bounds
     the order search (the paper's grid is 10; 3 keeps the demo within minutes)."""
-    from porosense.ident import fit_percent, search
-    from porosense.quant import FixedPointEstimator, quantize
-    from porosense.structure import EstimatorStructure
+    from porosense.ident import fit_percent
 
     if actuator not in ACTUATORS:
         raise InputError(f"unknown actuator {actuator!r}; choose one of {', '.join(ACTUATORS)}")
@@ -176,7 +188,7 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
     clock = {}
     t0 = time.perf_counter()
     log(f"[{actuator}] board: {board}")
-    with open_board(board, actuator, seed=seed) as (dev, truth):
+    with open_board(board, actuator, seed=seed) as (dev, truth, upload):
         hello = dev.hello()
         log(f"  {hello}")
         dev.calibrate_r0(n_samples=32, channels=(1 << len(inputs)) - 1)
@@ -192,60 +204,27 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
 
         est_names = [n for n in recs if n.rsplit("_", 1)[0] in est_exps or n in est_exps]
         val_names = [n for n in recs if n not in est_names]
-        searches = []
         t1 = time.perf_counter()
-        # The outputs share the EEPROM's model region: each output's chain gets an equal share,
-        # counted with wide (20-byte) sections so the quantized blob always fits.
-        from functools import partial
-
-        from porosense.quant.blob import MAX_BLOB_LEN
-        from porosense.quant.design import blob_size
-
-        share = (MAX_BLOB_LEN - 26) // len(outputs) + 26
-        size_fn = partial(blob_size, section_bytes=20.0, compact=len(outputs) > 1)
-        for j, name in enumerate(outputs):
-            u, y = _io(recs, actuator, est_names, j)
-            vu, vy = _io(recs, actuator, val_names, j)
-            log(f"  identifying {name}: 4 structures, poles 1..{max_poles}, zeros < poles, 2 starts")
-            searches.append(search(u=u, y=y, ts=1.0 / rate_hz, validation=(vu, vy), poles=range(1, max_poles + 1),
-                                   inputs=inputs, output=name, progress=progress, size_fn=size_fn,
-                                   max_bytes=share))
+        searches, chosen = identify_outputs(recs, actuator, est_names, val_names, rate_hz=rate_hz,
+                                            max_poles=max_poles, progress=progress, log=log)
         clock["identify"] = time.perf_counter() - t1
-        table = paper_table(searches, est_names, val_names, outputs)
+        table = paper_table(searches, est_names, val_names, outputs, chosen if actuator in PAPER_ORDERS else None)
         log("")
         log(table)
 
-        # One MISO chain per output in a single on-device structure.
-        chains = [s.model.to_structure() for s in searches]
-        structure = EstimatorStructure(tuple(inputs), tuple(o for c in chains for o in c.outputs), 1.0 / rate_hz,
-                                       meta={"actuator": actuator}, input_units=("dR/100",) * len(inputs))
-        qrecs = [(n, np.column_stack([recs[n][c] / 100.0 for c in inputs]),
-                  np.column_stack([recs[n][o] for o in outputs])) for n in val_names]
-        q = quantize(structure, recordings=qrecs)
+        structure, q = quantize_model(chosen, recs, actuator, val_names, rate_hz)
         blob = q.blob
         loss = q.report.worst_loss_points
         log(f"  quantized: {blob.length} bytes, worst fixed-point fit loss "
             f"{loss if loss is not None else float('nan'):.3f} points, {q.report.saturated_samples} saturated samples")
         from porosense.ident import save_models
 
-        save_models([r.model for r in searches], out / "model.json")
+        save_models([c.model for c in chosen], out / "model.json")
         (out / "model.bin").write_bytes(blob.to_bytes())
-        info = dev.write_model(blob.to_bytes())
-        log(f"  flashed: {info}")
+        info = store_model(dev, blob.to_bytes(), upload, log=log)
 
-        # Verify: replay a validation recording through the device and the bit-exact reference.
-        vrec = recs[val_names[0]]
-        dr_centi = np.zeros((len(vrec), 3), dtype=np.int16)
-        for i, c in enumerate(inputs):
-            dr_centi[:, i] = np.round(vrec[c] * 100).astype(np.int16)
-        n_replay = min(len(vrec), 1000)
-        on_dev = dev.replay(dr_centi[:n_replay])
-        ref, _ = FixedPointEstimator(blob).run(dr_centi[:n_replay])
-        mismatches = int(np.count_nonzero(np.asarray(on_dev) != ref))
-        verify = {"samples": n_replay, "mismatches": mismatches, "bit_exact": mismatches == 0}
-        log(f"  verified by replay: {n_replay} samples, {mismatches} mismatches")
-        if mismatches:
-            raise DeviceError(f"device estimates differ from the reference in {mismatches} of {n_replay} samples")
+        verify = verify_by_replay(dev, blob, recs[val_names[0]], inputs, log=log)
+        verify["store"], verify["slot"] = info.store, info.slot
 
         # Stream a fresh validation experiment with on-device estimates; fit shown live.
         t2 = time.perf_counter()
@@ -267,8 +246,10 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
             f"(difference {a - b:+.2f} points)")
 
     ranking = {o: {s: c.mean_fit for s, c in res.best_per_structure().items()} for o, res in zip(outputs, searches)}
-    selected = {o: {"structure": r.best.structure, "poles": r.best.n_poles, "zeros": r.best.n_zeros,
-                    "mean_fit": r.best.mean_fit, "mean_rms": r.best.mean_rms} for o, r in zip(outputs, searches)}
+    selected = {o: {"structure": c.structure, "poles": c.n_poles, "zeros": c.n_zeros,
+                    "mean_fit": c.mean_fit, "mean_rms": c.mean_rms,
+                    "rule": "paper orders" if actuator in PAPER_ORDERS else "order search, best mean fit"}
+                for o, c in zip(outputs, chosen)}
     result = DemoResult(actuator, board, recs, table, selected, ranking,
                         {"bytes": blob.length, "report": q.report.to_dict()}, verify, on_device, float_fit,
                         None, clock)
@@ -280,6 +261,107 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
     clock["total"] = time.perf_counter() - t0
     log(f"  report: {result.report_dir / 'summary.html'} ({clock['total']:.0f} s in all)")
     return result
+
+
+def identify_outputs(recs: dict, actuator: str, est_names: list[str], val_names: list[str], *, rate_hz: int,
+                     max_poles: int, progress: bool = False, log=print):
+    """One search per output; returns (searches, chosen candidates). The 3-DoF segment is
+    fitted at the paper's orders (PAPER_ORDERS: every structure at 2 poles / 1 zero / 10
+    breakpoints for the table, WH kept); the others by the order search up to ``max_poles``,
+    best mean fit kept, each output's chain sized to share the EEPROM's model area."""
+    from functools import partial
+
+    from porosense.ident import search
+    from porosense.quant.blob import MAX_BLOB_LEN
+    from porosense.quant.design import blob_size
+    from porosense.quant.layout import FLASH_BLOB_MAX
+
+    inputs, outputs, _ = SIGNALS[actuator]
+    paper = PAPER_ORDERS.get(actuator)
+    if paper:
+        poles, zeros, bps = paper
+        log(f"  {actuator}: WH at the paper's orders ({poles} poles, {zeros} zero, {bps} breakpoints; the other "
+            "structures at the same orders for the table), stored with full tables in the flash store if the "
+            "EEPROM cannot hold it beside the running model")
+        grid = [(st, poles, zeros) for st in ("linear", "hammerstein", "wiener", "wh")]
+        capacity, compact = FLASH_BLOB_MAX, False
+    else:
+        grid, bps = None, 10
+        capacity, compact = MAX_BLOB_LEN, len(outputs) > 1
+    share = (capacity - 26) // len(outputs) + 26
+    size_fn = partial(blob_size, section_bytes=20.0, compact=compact)
+    searches = []
+    for j, name in enumerate(outputs):
+        u, y = _io(recs, actuator, est_names, j)
+        vu, vy = _io(recs, actuator, val_names, j)
+        what = "4 structures at the paper's orders" if paper else f"4 structures, poles 1..{max_poles}, zeros < poles"
+        log(f"  identifying {name}: {what}, 2 starts")
+        searches.append(search(u=u, y=y, ts=1.0 / rate_hz, validation=(vu, vy), poles=range(1, max_poles + 1),
+                               grid=grid, n_breakpoints=bps, inputs=inputs, output=name, progress=progress,
+                               size_fn=size_fn, max_bytes=share))
+    chosen = [r.best_per_structure()["wh"] if paper else r.best for r in searches]
+    return searches, chosen
+
+
+def quantize_model(chosen: list, recs: dict, actuator: str, val_names: list[str], rate_hz: int):
+    """One MISO chain per output in a single on-device structure, quantized against the
+    validation recordings; returns (structure, QuantResult). Paper-order sets are quantized for
+    a flash store slot (full tables when they fit 1,144 bytes), the others for the EEPROM."""
+    from porosense.quant import quantize
+    from porosense.quant.layout import FLASH_BLOB_MAX, MAX_BLOB_LEN
+    from porosense.structure import EstimatorStructure
+
+    inputs, outputs, _ = SIGNALS[actuator]
+    chains = [c.model.to_structure() for c in chosen]
+    structure = EstimatorStructure(tuple(inputs), tuple(o for c in chains for o in c.outputs), 1.0 / rate_hz,
+                                   meta={"actuator": actuator}, input_units=("dR/100",) * len(inputs))
+    qrecs = [(n, np.column_stack([recs[n][c] / 100.0 for c in inputs]),
+              np.column_stack([recs[n][o] for o in outputs])) for n in val_names]
+    capacity = FLASH_BLOB_MAX if actuator in PAPER_ORDERS else MAX_BLOB_LEN
+    return structure, quantize(structure, recordings=qrecs, capacity=capacity)
+
+
+def store_model(dev, blob: bytes, upload=None, *, log=print):
+    """Store ``blob`` on the board: over the protocol into the EEPROM when it fits there beside
+    the running model, else into the flash model store with ``upload(pages)`` (the slot that is
+    not running, next commit counter). Returns the board's MODEL_INFO afterwards."""
+    from porosense.errors import ModelError
+    from porosense.firmware.flash_store import upload as flash_upload
+    from porosense.quant.layout import AREA_LEN
+
+    running = dev.model_info()
+    room = AREA_LEN - running.length if running.valid and running.store == "eeprom" else AREA_LEN
+    if len(blob) <= room:
+        info = dev.write_model(blob, replace=False)
+        log(f"  flashed into the EEPROM: {info}")
+        return info
+    if upload is None:
+        raise ModelError(f"the {len(blob)}-byte model needs the flash store (room in the EEPROM: {room} bytes): "
+                         "upload it with porosense flash --store flash")
+    plan, info = flash_upload(dev, blob, upload)
+    dev.calibrate_r0(n_samples=32, channels=(1 << info.n_inputs) - 1)  # the upload reset the board: R0 again
+    if not info.valid or info.store != "flash" or info.length != len(blob):
+        raise DeviceError(f"uploaded flash slot {plan.slot} but the board runs: {info}")
+    log(f"  uploaded into flash slot {plan.slot} ({len(blob)} bytes, more than the EEPROM's {room}-byte room): {info}")
+    return info
+
+
+def verify_by_replay(dev, blob, rec, inputs, *, n_max: int = 1000, log=print) -> dict:
+    """Replay up to ``n_max`` samples of ``rec``'s inputs through the board's estimator and the
+    bit-exact reference; DeviceError on any difference."""
+    from porosense.quant import FixedPointEstimator
+
+    dr_centi = np.zeros((len(rec), 3), dtype=np.int16)
+    for i, c in enumerate(inputs):
+        dr_centi[:, i] = np.round(rec[c] * 100).astype(np.int16)
+    n_replay = min(len(rec), n_max)
+    on_dev = dev.replay(dr_centi[:n_replay])
+    ref, _ = FixedPointEstimator(blob).run(dr_centi[:n_replay])
+    mismatches = int(np.count_nonzero(np.asarray(on_dev) != ref))
+    log(f"  verified by replay: {n_replay} samples, {mismatches} mismatches")
+    if mismatches:
+        raise DeviceError(f"device estimates differ from the reference in {mismatches} of {n_replay} samples")
+    return {"samples": n_replay, "mismatches": mismatches, "bit_exact": True}
 
 
 def _live_fit(outputs):

@@ -285,19 +285,23 @@ void test_output_limits() {
   cs.key = 99;
   rig.send_msg(cs, 9);
   CHECK(nak_code(rig.one()) == r::BAD_KEY);
-  // Stream rate limits 10..125 Hz: the highest rate sustained with every channel, the IMU
+  // Stream rate limits 10 Hz .. SAMPLE_RATE_HZ max: the highest rate sustained with every channel, the IMU
   // and the largest model (issue 19); anything faster is refused.
   proto::StartStream ss;
   ss.channel_mask = 0x1F;
   ss.rate_hz = 9;
   rig.send_msg(ss, 10);
   CHECK(nak_code(rig.one()) == r::OUT_OF_RANGE);
-  ss.rate_hz = 126;
+  // The highest rate is SAMPLE_RATE_HZ's max of the catalogue (messages.toml), the one source.
+  proto::config::KeyInfo rate_info;
+  proto::config::key_info(proto::config::SAMPLE_RATE_HZ, &rate_info);
+  const uint16_t max_hz = uint16_t(rate_info.max);
+  ss.rate_hz = uint16_t(max_hz + 1);
   rig.send_msg(ss, 11);
   CHECK(nak_code(rig.one()) == r::OUT_OF_RANGE);
-  ss.rate_hz = 125;
+  ss.rate_hz = max_hz;
   rig.send_msg(ss, 12);
-  CHECK(rig.one().type == proto::msg::ACK && rig.dev.rate_hz() == 125);
+  CHECK(rig.one().type == proto::msg::ACK && rig.dev.rate_hz() == max_hz);
   // Watchdog timeout limits 100..10000 ms.
   proto::SetWatchdog wd;
   wd.timeout_ms = 99;
@@ -585,7 +589,7 @@ void test_config_store() {
   dev::Config c;
   CHECK(!store.load(&c));  // blank EEPROM -> defaults
   CHECK(c.sample_rate_hz == 50 && c.watchdog_ms == 1000 && c.min_setpoint_dkpa == -600);
-  c.set(proto::config::SAMPLE_RATE_HZ, 120);
+  c.set(proto::config::SAMPLE_RATE_HZ, 100);  // any legal rate but the default
   c.set(proto::config::R0_CH1_MOHM, 2345678);
   c.set(proto::config::PWM_SCALE_MILLI, -123456);
   c.set(proto::config::AUTOSTART, 1);
@@ -594,7 +598,7 @@ void test_config_store() {
   dev::ConfigStore store2(hal);
   CHECK(store2.load(&d));
   int32_t v = 0;
-  CHECK(d.get(proto::config::SAMPLE_RATE_HZ, &v) && v == 120);
+  CHECK(d.get(proto::config::SAMPLE_RATE_HZ, &v) && v == 100);
   CHECK(d.get(proto::config::R0_CH1_MOHM, &v) && v == 2345678);
   CHECK(d.get(proto::config::PWM_SCALE_MILLI, &v) && v == -123456);
   CHECK(d.get(proto::config::AUTOSTART, &v) && v == 1);
@@ -612,13 +616,13 @@ void test_config_store() {
     dev::ConfigStore s4(h2);
     dev::Config got;
     ++torn_total;
-    if (s4.load(&got) && (got.sample_rate_hz == 120 || got.sample_rate_hz == 77)) ++torn_ok;
+    if (s4.load(&got) && (got.sample_rate_hz == 100 || got.sample_rate_hz == 77)) ++torn_ok;
   }
   CHECK(torn_ok == torn_total);
   // A corrupt newest slot falls back to the older one; both corrupt -> defaults.
   dev::Config e2 = d;
   e2.set(proto::config::SAMPLE_RATE_HZ, 99);
-  store2.save(e2);  // now slots hold 120 (old) and 99 (new)
+  store2.save(e2);  // now slots hold 100 (old) and 99 (new)
   FakeHal h3;
   memcpy(h3.eeprom, hal.eeprom, sizeof h3.eeprom);
   dev::ConfigStore s5(h3);
@@ -629,7 +633,7 @@ void test_config_store() {
     if (*rate == 99) *rate ^= 0x40;  // flip a bit of the newest slot's rate byte
   }
   dev::ConfigStore s6(h3);
-  CHECK(s6.load(&got) && got.sample_rate_hz == 120);
+  CHECK(s6.load(&got) && got.sample_rate_hz == 100);
   for (int i = 0; i < 64; ++i) h3.eeprom[i] ^= 0x5A;
   dev::ConfigStore s7(h3);
   CHECK(!s7.load(&got) && got.sample_rate_hz == 50);

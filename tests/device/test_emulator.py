@@ -13,6 +13,7 @@ from porosense.device import Device, NakError
 from porosense.emulator import Emulator, Faults
 from porosense.errors import DeviceError
 from porosense.protocol import Result, StatusFlag
+from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
 from porosense.protocol._messages import VERSION_MAJOR
 from porosense.quant import ModelBlob
 
@@ -170,12 +171,16 @@ def test_realtime_link_runs_at_115200_baud():
         for _ in range(4):
             assert dev.read_model() == blob  # 575 bytes: 5 replies each
         wall = time.monotonic() - t0
-        dev.start_stream(125)  # 39-byte SAMPLEs at the highest rate fit in 115200 baud: nothing dropped
+        rate = CONFIG_SPECS[ConfigKey.SAMPLE_RATE_HZ].max
+        dev.start_stream(rate)  # 39-byte SAMPLEs at the highest rate fit in 115200 baud: nothing dropped
         samples = list(dev.samples(100))
         dev.stop_stream()
         assert dev.status().dropped_telemetry == 0
     assert wall >= 20 * 124 * 10 / 115200
-    assert np.all(np.diff([s.t_us for s in samples]) == 8_000)
+    # Whole 1 kHz ticks: periods of floor or ceil(1000 / rate) ms, the exact rate on average.
+    period = np.diff([s.t_us for s in samples])
+    assert set(np.unique(period)) <= {1000 * (1000 // rate), 1000 * -(-1000 // rate)}
+    assert abs(period.mean() - 1e6 / rate) <= 1e6 / rate / len(period) * 2
 
 
 _STREAM_IN_A_FRESH_PROCESS = r"""

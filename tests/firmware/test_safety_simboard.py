@@ -116,7 +116,7 @@ def test_host_lost_during_a_flash(elf) -> None:
 def test_host_lost_while_streaming_at_the_highest_rate(elf) -> None:
     board, dev = _open(elf, truth_every_ms=1.0)
     try:
-        dev.write_model(fw.heavy_model_blob())
+        fw.store_in_flash(board, dev, fw.heaviest_storable_blob())  # the heaviest model any store holds
         rate = fw.advertised_max_rate_hz()
         dev.start_stream(rate, 0x1F)
         list(dev.samples(rate // 2, timeout_s=15))

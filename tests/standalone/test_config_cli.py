@@ -9,6 +9,10 @@ import json
 
 import pytest
 
+from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
+
+MAX_HZ = CONFIG_SPECS[ConfigKey.SAMPLE_RATE_HZ].max  # the one source: protocol/messages.toml
+
 
 @pytest.fixture()
 def emu():
@@ -42,19 +46,19 @@ def test_show_lists_every_key_with_default_and_range(emu, capsys) -> None:
             assert r["value"] == spec.default
     code, text, _ = _run(capsys, "--port", emu.url)  # show is the default action
     assert code == 0 and len(text.splitlines()) >= len(CONFIG_SPECS) + 1
-    assert "SAMPLE_RATE_HZ" in text and "Hz" in text and "10..125" in text
+    assert "SAMPLE_RATE_HZ" in text and "Hz" in text and f"10..{MAX_HZ}" in text
 
 
 def test_set_saves_and_reset_restores(emu, capsys) -> None:
     from porosense.device import Device
 
-    code, out, _ = _run(capsys, "--port", emu.url, "set", "sample_rate_hz", "125", "--json")
+    code, out, _ = _run(capsys, "--port", emu.url, "set", "sample_rate_hz", str(MAX_HZ), "--json")
     assert code == 0
     rows = {r["key"]: r for r in json.loads(out)["keys"]}
-    assert rows["SAMPLE_RATE_HZ"]["value"] == 125
+    assert rows["SAMPLE_RATE_HZ"]["value"] == MAX_HZ
     with Device.open(emu.url) as dev:
         dev.reset()  # the value was saved: it comes back from EEPROM
-        assert dev.config_get("SAMPLE_RATE_HZ") == 125
+        assert dev.config_get("SAMPLE_RATE_HZ") == MAX_HZ
     code, out, _ = _run(capsys, "--port", emu.url, "reset", "--json")
     assert code == 0
     assert {r["key"]: r for r in json.loads(out)["keys"]}["SAMPLE_RATE_HZ"]["value"] == 50
@@ -67,7 +71,7 @@ def test_set_saves_and_reset_restores(emu, capsys) -> None:
     "args, words",
     [
         (("set", "BOGUS", "1"), "unknown configuration key"),
-        (("set", "SAMPLE_RATE_HZ", "500"), "outside 10..125"),
+        (("set", "SAMPLE_RATE_HZ", "500"), f"outside 10..{MAX_HZ}"),
         (("set", "SAMPLE_RATE_HZ", "fast"), "takes an integer"),
         (("set", "SAMPLE_RATE_HZ"), "needs KEY and VALUE"),
         (("set", "SCHEDULE_ENABLE", "1"), "stored schedules are not available"),

@@ -11,6 +11,10 @@
 #include "model_link.h"
 #include "rate_divider.h"
 
+static_assert(PS_FLASH_STORE_BASE == est::layout::kFlashBase &&
+                  PS_FLASH_STORE_BYTES == host::HostFlash::kBytes,
+              "host_api.h's flash store constants follow model_layout.h");
+
 namespace host {
 
 namespace {
@@ -136,7 +140,7 @@ uint32_t HostHal::take(uint8_t* dst, uint32_t max) {
 // One powered board: the firmware objects are rebuilt at each boot (RAM lost), the
 // HostHal (EEPROM, presence, callbacks) outlives them.
 struct Board {
-  explicit Board(HostHal& hal) : model(hal), device(hal, model), clock_rate(0), last_ms(0) {}
+  explicit Board(HostHal& hal) : model(hal, hal.flash()), device(hal, model), clock_rate(0), last_ms(0) {}
   dev::ModelLink model;
   dev::Device device;
   dev::RateDivider divider;
@@ -194,6 +198,7 @@ void ps_boot(ps_core* c, uint8_t reset_cause, uint64_t clock_offset_us) {
 }
 
 uint8_t* ps_eeprom(ps_core* c) { return c->hal.eeprom(); }
+uint8_t* ps_flash_store(ps_core* c) { return c->hal.flash_store(); }
 void ps_set_refresh(ps_core* c, ps_refresh_fn fn, void* ctx) { c->hal.set_refresh(fn, ctx); }
 void ps_set_present(ps_core* c, int adc, int imu) { c->hal.set_present(adc != 0, imu != 0); }
 void ps_set_inputs(ps_core* c, const double volts[3], const double euler_deg[3]) {

@@ -15,6 +15,18 @@ namespace host {
 
 typedef void (*RefreshFn)(void* ctx, uint32_t conversion_us);
 
+// The flash model store of the host board: a plain array the host programs as an upload would.
+// (Not a base of HostHal: est::Eeprom has a read_block of the same signature.)
+class HostFlash : public est::FlashRom {
+ public:
+  static constexpr uint16_t kBytes = est::layout::kFlashSlots * est::layout::kFlashSlotSize;
+  HostFlash() { for (uint16_t i = 0; i < kBytes; ++i) mem[i] = 0xFF; }
+  void read_block(uint16_t addr, uint8_t* dst, uint8_t n) override {
+    for (uint8_t i = 0; i < n; ++i) dst[i] = uint16_t(addr + i) < kBytes ? mem[addr + i] : 0xFF;
+  }
+  uint8_t mem[kBytes];
+};
+
 class HostHal : public dev::Hal, public est::Eeprom {
  public:
   static constexpr uint16_t kEepromBytes = 1024;
@@ -63,6 +75,8 @@ class HostHal : public dev::Hal, public est::Eeprom {
   uint32_t take(uint8_t* dst, uint32_t max);
 
   uint8_t* eeprom() { return eeprom_; }
+  uint8_t* flash_store() { return flash_.mem; }
+  HostFlash* flash() { return &flash_; }
   const dev::Outputs& outputs() const { return outputs_; }
   bool power_lost() const { return power_lost_; }
   bool reset_requested() const { return reset_requested_; }
@@ -75,6 +89,7 @@ class HostHal : public dev::Hal, public est::Eeprom {
   static constexpr uint16_t kReportedFreeStack = 512;
 
   uint8_t eeprom_[kEepromBytes];
+  HostFlash flash_;  // survives power cycles like the EEPROM
   uint64_t now_us_;
   uint8_t reset_cause_;
   bool adc_present_, imu_present_;

@@ -67,6 +67,11 @@ constexpr uint8_t kOffSlotCrc = 4;  // u16
 constexpr uint8_t kOffSlotHeaderCrc = 6;  // u16
 constexpr uint16_t kAreaBase = 80, kAreaLen = 944;
 constexpr uint16_t kMaxBlobLength = 944;  // one model in an empty store
+// Flash model store: slots at the top of the application flash, blob first, slot header last.
+constexpr uint16_t kFlashBase = 29952, kFlashSlotSize = 1152, kFlashPage = 128;
+constexpr uint8_t kFlashSlots = 2;
+constexpr uint16_t kFlashBlobMax = 1144;  // slot size minus its header
+constexpr uint16_t kBootloaderBase = 32256;
 
 }  // namespace layout
 }  // namespace est

@@ -1,4 +1,5 @@
-// dev::ModelPort backed by the EEPROM model store (est::ModelStore) and the fixed-point
+// dev::ModelPort backed by the model store (est::ModelStore: EEPROM slots, and flash slots when
+// a FlashRom is given) and the fixed-point
 // estimator (est::Estimator): the command handler's model commands are delegated here.
 #pragma once
 #include <stdint.h>
@@ -11,7 +12,7 @@ namespace dev {
 
 class ModelLink : public ModelPort {
  public:
-  explicit ModelLink(est::Eeprom& eeprom) : store_(eeprom, estimator_) {}
+  explicit ModelLink(est::Eeprom& eeprom, est::FlashRom* flash = 0) : store_(eeprom, estimator_, flash) {}
   void boot() { store_.boot(); }  // load and check the stored model; a bad one stays off
 
   uint8_t begin(uint16_t length, uint16_t crc, uint8_t format_version, int16_t* detail) override {

@@ -11,8 +11,12 @@
 // blob there while the running model keeps estimating. COMMIT checks length, CRC and structure
 // and only then writes the slot header (magic last) with the next seq and switches the
 // estimator over. A reset at any moment leaves the old model (or, after the magic byte, the new
-// one) running; a refused blob leaves the old one running. At boot the valid slot with the later
-// seq runs; if it fails its checks the other one does.
+// one) running; a refused blob leaves the old one running.
+//
+// The flash store adds two read-only slots (2 and 3) at the top of the application flash,
+// written at upload time (avrdude -D): blob from the slot's first byte, the same slot header in
+// its last 8 bytes (layout::kFlash*). At boot the valid slot with the latest seq across both
+// stores runs; one that fails its checks is skipped for the next latest.
 #pragma once
 #include <stdint.h>
 
@@ -33,15 +37,24 @@ class Eeprom {
   }
 };
 
+// The store's only view of the flash model slots: read-only, addresses from layout::kFlashBase
+// (memcpy_P on the AVR, a plain array on the host).
+class FlashRom {
+ public:
+  virtual void read_block(uint16_t addr, uint8_t* dst, uint8_t n) = 0;
+};
+
 class ModelStore {
  public:
   static constexpr uint16_t kBase = layout::kStoreBase, kRegion = layout::kStoreRegion;
   static constexpr uint16_t kHeaderLen = layout::kSlotHeaderLen;
   static constexpr uint16_t kAreaBase = layout::kAreaBase, kAreaLen = layout::kAreaLen;
   static constexpr uint8_t kNoSlot = 0xFF;
+  // Slots 0, 1: EEPROM; kFlashSlot0.. : flash.
+  static constexpr uint8_t kFlashSlot0 = layout::kSlots, kAllSlots = layout::kSlots + layout::kFlashSlots;
   enum Status : uint8_t { kNone = 0, kValid = 1, kInvalid = 2 };
 
-  ModelStore(Eeprom& ee, Estimator& estimator);
+  ModelStore(Eeprom& ee, Estimator& estimator, FlashRom* flash = 0);
   // At power-up: check both slots and load the estimator from the newest valid one.
   void boot();
   // Commands; each returns a proto::result code and sets *detail as NAK.detail expects
@@ -57,20 +70,25 @@ class ModelStore {
   uint16_t crc() const { return status_ == kValid ? crc_ : 0; }
   uint16_t length() const { return status_ == kValid ? length_ : 0; }
   uint8_t active_slot() const { return active_; }
+  uint8_t seq() const { return seq_; }
   bool writing() const { return writing_; }
-  // Bytes a new blob may have beside the running model.
-  uint16_t room() const { return status_ == kValid ? uint16_t(kAreaLen - length_) : kAreaLen; }
-  const BlobReader& reader() const { return readers_[active_ == kNoSlot ? 0 : active_]; }
+  // Bytes a new blob may have in the EEPROM beside the running model (all of it when the
+  // running model is in flash).
+  uint16_t room() const {
+    return status_ == kValid && active_ < kFlashSlot0 ? uint16_t(kAreaLen - length_) : kAreaLen;
+  }
+  const BlobReader& reader() const { return readers_[run_]; }
 
  private:
   class Reader : public BlobReader {
    public:
-    Reader() : ee_(0), base_(kAreaBase) {}
-    void bind(Eeprom* ee, uint16_t base) { ee_ = ee, base_ = base; }
+    Reader() : ee_(0), flash_(0), base_(kAreaBase) {}
+    void bind(Eeprom* ee, FlashRom* flash, uint16_t base) { ee_ = ee, flash_ = flash, base_ = base; }
     void read(uint16_t offset, void* dst, uint8_t n) const override;
 
    private:
     Eeprom* ee_;
+    FlashRom* flash_;  // set: read from the flash store instead
     uint16_t base_;
   };
   struct SlotHeader {
@@ -82,6 +100,8 @@ class ModelStore {
   static uint16_t blob_addr(uint8_t slot, uint16_t length) {
     return slot == 0 ? kAreaBase : uint16_t(kAreaBase + kAreaLen - length);
   }
+  static uint16_t flash_addr(uint8_t slot) { return uint16_t((slot - kFlashSlot0) * layout::kFlashSlotSize); }
+  void read_header(uint8_t slot, uint8_t* b);
   bool read_slot(uint8_t slot, SlotHeader* h);  // header magic and CRC only
   // Checks the blob of `slot` and, when whole and valid, runs it; false leaves all as it was.
   bool load(uint8_t slot, uint16_t length, uint16_t crc);
@@ -89,7 +109,11 @@ class ModelStore {
 
   Eeprom& ee_;
   Estimator& est_;
-  Reader readers_[layout::kSlots];
+  FlashRom* flash_;  // 0: no flash store
+  // Two readers: the running model's (run_) and one for the slot being checked, so that a
+  // refused blob never disturbs the running one.
+  Reader readers_[2];
+  uint8_t run_;
   uint8_t status_, active_, seq_;   // seq_: of the running model
   bool writing_;
   uint16_t length_, crc_;           // of the running model

@@ -101,7 +101,7 @@ constexpr uint8_t ESTIMATES = 1u << 4;
 }  // namespace chan
 
 namespace config {
-constexpr uint8_t SAMPLE_RATE_HZ = 1;  // Sample rate in Hz. 125 Hz (8 ms, a whole number of 1 kHz timer ticks) is sustained without a skipped tick with every channel, the IMU and the largest storable model (`porosense bench firmware`).
+constexpr uint8_t SAMPLE_RATE_HZ = 1;  // Sample rate in Hz, 10..110: the highest rate sustained without a skipped tick with every channel, the IMU and the heaviest storable model (`porosense bench firmware`); a faster one is refused with OUT_OF_RANGE.
 constexpr uint8_t CHANNEL_MASK = 2;  // Stream channel mask (see START_STREAM).
 constexpr uint8_t R0_MODE = 3;  // At boot: 0 calibrate R0 from the first samples, 1 restore the stored R0.
 constexpr uint8_t R0_CH0_MOHM = 4;  // Stored R0 of channel 0 in milliohm.
@@ -122,7 +122,7 @@ struct KeyInfo { int32_t def; int32_t min; int32_t max; };
 // A switch instead of a table keeps the limits in flash, not in the Uno's RAM.
 inline bool key_info(uint8_t key, KeyInfo* out) {
   switch (key) {
-    case SAMPLE_RATE_HZ: out->def = 50L; out->min = 10L; out->max = 125L; return true;
+    case SAMPLE_RATE_HZ: out->def = 50L; out->min = 10L; out->max = 110L; return true;
     case CHANNEL_MASK: out->def = 31L; out->min = 0L; out->max = 31L; return true;
     case R0_MODE: out->def = 0L; out->min = 0L; out->max = 1L; return true;
     case R0_CH0_MOHM: out->def = 1000000L; out->min = 1000L; out->max = 100000000L; return true;
@@ -511,8 +511,8 @@ struct ModelInfo {
 
 struct ModelInfoReply {
   static constexpr uint8_t kType = 0x83;
-  static constexpr uint8_t kMinLen = 24;
-  static constexpr uint8_t kMaxLen = 24;
+  static constexpr uint8_t kMinLen = 26;
+  static constexpr uint8_t kMaxLen = 26;
   uint8_t status;
   uint8_t format_version;
   uint16_t length;  // bytes
@@ -521,6 +521,8 @@ struct ModelInfoReply {
   uint8_t n_outputs;
   uint32_t model_id;
   float out_scale[3];
+  uint8_t slot;
+  uint8_t seq;
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, status); n += 1;
@@ -531,6 +533,8 @@ struct ModelInfoReply {
     put_u8(buf + n, n_outputs); n += 1;
     put_u32(buf + n, model_id); n += 4;
     for (uint8_t i = 0; i < 3; ++i) { put_f32(buf + n, out_scale[i]); n += 4; }
+    put_u8(buf + n, slot); n += 1;
+    put_u8(buf + n, seq); n += 1;
     return n;
   }
   bool decode(const uint8_t* buf, uint8_t len) {
@@ -544,6 +548,8 @@ struct ModelInfoReply {
     n_outputs = get_u8(buf + n); n += 1;
     model_id = get_u32(buf + n); n += 4;
     for (uint8_t i = 0; i < 3; ++i) { out_scale[i] = get_f32(buf + n); n += 4; }
+    slot = get_u8(buf + n); n += 1;
+    seq = get_u8(buf + n); n += 1;
     return true;
   }
 };

@@ -1,4 +1,4 @@
-// Turns a fixed 1 kHz timer tick into sample ticks at rate_hz (10..125 Hz) without drift:
+// Turns a fixed 1 kHz timer tick into sample ticks at rate_hz (10 Hz .. the SAMPLE_RATE_HZ max) without drift:
 // a Bresenham accumulator, so rates that do not divide 1000 alternate between the two
 // nearest whole periods and keep the exact mean rate. Called from the timer interrupt (change the rate with interrupts off).
 #pragma once

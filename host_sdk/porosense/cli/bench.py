@@ -46,4 +46,11 @@ def run(args) -> int:
     else:
         for line in result.get("summary", []):
             print(line)
+    if args.area == "firmware" and args.size == "full" and result.get("advertised_equals_measured") is False:
+        from porosense.errors import DeviceError
+
+        rates = result["max_clean_rates"]
+        raise DeviceError(f"the firmware advertises {rates['advertised_max_hz']} Hz but sustains "
+                          f"{rates['measured_max_hz']} Hz with every channel, the IMU and the heaviest storable "
+                          "model: set SAMPLE_RATE_HZ max in protocol/messages.toml and run protocol/generate.py")
     return 0

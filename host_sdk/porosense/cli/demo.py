@@ -13,7 +13,8 @@ def register(sub) -> argparse.ArgumentParser:
         description=(
             "Run the paper's identification protocol on a board (vacuum steps at -10, -20, -40 and -60 kPa "
             "in duplicate and the staircase; the 3-DoF patterns for the segment), identify linear, Hammerstein, "
-            "Wiener and Wiener-Hammerstein models with an order search, print the paper-style table (fit % and "
+            "Wiener and Wiener-Hammerstein models with an order search (the 3-DoF segment at the paper's orders: WH, "
+            "2 poles, 10 breakpoints, stored in the flash model store when the EEPROM cannot hold it), print the paper-style table (fit % and "
             "RMS % per structure and recording), quantize the best model, flash it, verify it by replay, then "
             "stream a validation experiment and report the on-device estimate's fit live. Writes figures and a "
             "summary page (Markdown and self-contained HTML) to OUT/ACTUATOR/."
@@ -32,7 +33,9 @@ def register(sub) -> argparse.ArgumentParser:
                    help="the emulator (default; the firmware core on this computer), the firmware in simavr, or a serial URL of a real board "
                         "(a real board gives no ground truth: the demo records and stops)")
     p.add_argument("--out", default="out/demo", help="report folder (default: out/demo)")
-    p.add_argument("--rate", type=int, default=50, help="sample rate in Hz, 10..200 (default 50)")
+    p.add_argument("--rate", type=int, default=50,
+                   help=f"sample rate in Hz, {_rate_limits()[0]}..{_rate_limits()[1]} (the board's SAMPLE_RATE_HZ "
+                        "limits; default 50)")
     p.add_argument("--max-poles", type=int, default=3,
                    help="largest number of poles in the order search, 1..10 (default 3; the paper's grid is 10)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated actuator (default 0)")
@@ -42,12 +45,21 @@ def register(sub) -> argparse.ArgumentParser:
     return p
 
 
+def _rate_limits() -> tuple[int, int]:
+    """SAMPLE_RATE_HZ limits of the protocol catalogue: what the firmware accepts (Hz)."""
+    from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
+
+    spec = CONFIG_SPECS[ConfigKey.SAMPLE_RATE_HZ]
+    return int(spec.min), int(spec.max)
+
+
 def run(args) -> int:
     from porosense.demo import ACTUATORS, run_demo
     from porosense.errors import InputError
 
-    if not 10 <= args.rate <= 200:
-        raise InputError(f"--rate {args.rate} Hz outside 10..200")
+    lo, hi = _rate_limits()
+    if not lo <= args.rate <= hi:
+        raise InputError(f"--rate {args.rate} Hz outside {lo}..{hi} (the board's SAMPLE_RATE_HZ limits)")
     if not 1 <= args.max_poles <= 10:
         raise InputError(f"--max-poles {args.max_poles} outside 1..10")
     actuators = ACTUATORS if args.actuator == "all" else (args.actuator,)

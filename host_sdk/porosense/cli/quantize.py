@@ -34,6 +34,9 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--input-unit", choices=["%", "dR/100"],
                    help="unit of the model's inputs when its file does not say (dR in %% or dR/100)")
     p.add_argument("--model-id", type=lambda v: int(v, 0), help="32-bit tag stored in the blob")
+    p.add_argument("--store", choices=("eeprom", "flash"), default="eeprom",
+                   help="model store the blob is for: eeprom (944 B, shared by two models) or flash "
+                        "(1,144 B per slot; flash --store flash)")
     p.add_argument("--json", action="store_true", help="print the quantization report as JSON")
     p.set_defaults(func=run)
     return p
@@ -75,7 +78,10 @@ def run(args) -> int:
     per_percent = structure.input_lsb() / 0.01
     input_range = None if args.input_range is None else [v * per_percent for v in args.input_range]
     recs = [_scaled(t, structure, per_percent) for t in tables]
-    result = quantize(structure, recordings=recs, input_range=input_range, model_id=args.model_id)
+    from porosense.quant.layout import FLASH_BLOB_MAX, MAX_BLOB_LEN
+
+    result = quantize(structure, recordings=recs, input_range=input_range, model_id=args.model_id,
+                      capacity=FLASH_BLOB_MAX if args.store == "flash" else MAX_BLOB_LEN)
     Path(args.out).write_bytes(result.to_bytes())
     if args.report:
         result.report.to_json(args.report)

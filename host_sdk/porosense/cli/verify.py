@@ -38,12 +38,13 @@ def run(args) -> int:
     from porosense.data import read_table
     from porosense.device import Device
     from porosense.quant import FixedPointEstimator, ModelBlob
+    from porosense.quant.layout import FLASH_BLOB_MAX
 
     path = Path(args.blob)
     if not path.is_file():
         raise InputError(f"model blob {path} not found")
     data = path.read_bytes()
-    blob = ModelBlob.from_bytes(data)
+    blob = ModelBlob.from_bytes(data, max_length=FLASH_BLOB_MAX)  # a model of either store
     table = read_table(args.data)
     cols = args.inputs or [f"dR_{i}" for i in range(blob.n_inputs)]
     missing = [c for c in cols if c not in table.columns]
@@ -67,17 +68,19 @@ def run(args) -> int:
         _check_stored_header(dev, blob)
         dev.check_model_rate(data)
         got = dev.replay(counts)
+    store = f"{info.store} slot {info.slot % 2}"
     n_out = blob.n_outputs
     diff = np.asarray(got[:, :n_out], dtype=np.int64) != ref[:, :n_out].astype(np.int64)
     mismatches = int(np.count_nonzero(diff))
     first = int(np.argmax(np.any(diff, axis=1))) if mismatches else None
     result = {"samples": len(counts), "outputs": n_out, "mismatched_values": mismatches,
-              "first_mismatch_sample": first, "identical": mismatches == 0}
+              "first_mismatch_sample": first, "identical": mismatches == 0, "store": info.store,
+              "slot": info.slot, "seq": info.seq}
     if args.json:
         print(json.dumps(result, indent=2))
     else:
         verdict = "identical" if mismatches == 0 else f"{mismatches} values differ (first at sample {first})"
-        print(f"replayed {len(counts)} samples x {n_out} outputs through {args.port}: {verdict}")
+        print(f"replayed {len(counts)} samples x {n_out} outputs through {args.port} (model in {store}): {verdict}")
     return 0 if mismatches == 0 else 1
 
 

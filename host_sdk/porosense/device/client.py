@@ -220,7 +220,7 @@ class Device:
         self._exchange(m.SetWatchdog(timeout_ms=int(timeout_ms)))
 
     def start_stream(self, rate_hz: int = 50, channels: int | Sequence[str] = ALL_CHANNELS) -> None:
-        """Start SAMPLE telemetry at ``rate_hz`` (10..125, SAMPLE_RATE_HZ limits) for ``channels`` (mask or names)."""
+        """Start SAMPLE telemetry at ``rate_hz`` (Hz, within the SAMPLE_RATE_HZ limits of CONFIG_SPECS) for ``channels`` (mask or names)."""
         if self._streaming:
             self.stop_stream()
         mask = _channel_mask(channels)
@@ -331,8 +331,9 @@ class Device:
         SAMPLE_RATE_HZ to the model's rate (which must be a whole number of Hz)."""
         from porosense.errors import ModelError
         from porosense.quant.blob import ModelBlob
+        from porosense.quant.layout import FLASH_BLOB_MAX
 
-        model = ModelBlob.from_bytes(bytes(blob))
+        model = ModelBlob.from_bytes(bytes(blob), max_length=FLASH_BLOB_MAX)  # either store's
         board = self.sample_rate_hz()
         if round(1e6 / board) == model.ts_us:
             return board
@@ -446,11 +447,17 @@ class Device:
     def reset(self, wait_s: float = 3.0) -> HelloInfo:
         """Reset the board, wait for it to boot and handshake again."""
         self._exchange(m.Reset())
+        time.sleep(0.05 * self.timeout_scale)
+        return self.after_reset(wait_s=wait_s)
+
+    def after_reset(self, wait_s: float = 3.0) -> HelloInfo:
+        """The board was reset (RESET, an upload through the bootloader, the reset button):
+        forget the stream and output state, wait for it to boot and handshake again (a new
+        output session)."""
         self._next_tseq = self._next_eseq = None  # the counters restart with the firmware
         self._streaming = False
         self._outputs_active = False
         self._samples.clear()
-        time.sleep(0.05 * self.timeout_scale)
         return self.hello(wait_s=wait_s)
 
     # ------------------------------------------------------------------ raw access

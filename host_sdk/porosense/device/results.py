@@ -135,10 +135,17 @@ class ModelInfo(_Dictable):
     n_outputs: int
     model_id: int
     out_scale: tuple[float, ...]
+    slot: int = 0xFF      # running slot: 0, 1 EEPROM; 2, 3 flash store; 255 none
+    seq: int = 0          # its commit counter (modulo 256)
 
     @property
     def valid(self) -> bool:
         return self.status == "valid"
+
+    @property
+    def store(self) -> str:
+        """Where the running model is stored: "eeprom", "flash" or "none"."""
+        return "none" if self.slot == 0xFF or not self.valid else ("eeprom" if self.slot < 2 else "flash")
 
     @classmethod
     def from_message(cls, m) -> ModelInfo:
@@ -151,6 +158,8 @@ class ModelInfo(_Dictable):
             n_outputs=m.n_outputs,
             model_id=m.model_id,
             out_scale=tuple(float(s) for s in m.out_scale[: max(m.n_outputs, 0)]),
+            slot=m.slot,
+            seq=m.seq,
         )
 
     def __str__(self) -> str:
@@ -158,7 +167,8 @@ class ModelInfo(_Dictable):
             return f"model {self.status}"
         return (
             f"model valid: id 0x{self.model_id:08X}, format {self.format_version}, {self.length} bytes, "
-            f"crc 0x{self.crc:04X}, {self.n_inputs} in / {self.n_outputs} out, scale {self.out_scale}"
+            f"crc 0x{self.crc:04X}, {self.n_inputs} in / {self.n_outputs} out, scale {self.out_scale}, "
+            f"{self.store} slot {self.slot % 2}, counter {self.seq}"
         )
 
 

@@ -66,6 +66,8 @@ class BoardCore:
         """Power-on or reset: RAM state lost, EEPROM kept, the plant keeps running."""
         self.stats.boots += 1
         self.boot_T_us = self.T_us - int(clock_offset_us)
+        if self.truth_log:  # the device clock restarts: truth is logged on the new one
+            self.truth_log = {}
         self._advance_plant()
         self.fw.set_inputs(self._reading.voltage_V, self._reading.euler_deg)
         self.fw.boot(cause, clock_offset_us)

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from porosense.emulator.board import BoardCore
+from porosense.firmware.corelib import RESET_EXTERNAL
 from porosense.emulator.endpoints import make_endpoint
 from porosense.emulator.faults import Faults, FaultyLink
 from porosense.emulator.version_claim import HelloRewrite
@@ -190,6 +191,14 @@ class Emulator:
         """Cut the power of the board now (it reboots; nothing pending is answered)."""
         with self._lock:
             self.core.power_cycle()
+
+    def program_flash(self, pages, n_pages: int | None = None) -> int:
+        """Upload (flash address, 128 bytes) pages into the flash model store and reset the
+        board, as avrdude -D and the bootloader do; ``n_pages`` stops early (a torn upload)."""
+        with self._lock:
+            done = self.core.fw.program_flash(pages, n_pages)
+            self.core.boot(RESET_EXTERNAL)
+        return done
 
     def set_faults(self, **rates) -> None:
         """Change fault rates while running (rx_corrupt=..., tx_drop=..., ...)."""

@@ -43,7 +43,7 @@ def load_library() -> C.PyDLL:
             P, D3, B = C.c_void_p, C.POINTER(C.c_double), C.c_char_p
             for name, res, args in (
                 ("ps_create", P, []), ("ps_destroy", None, [P]), ("ps_boot", None, [P, _u8, C.c_uint64]),
-                ("ps_eeprom", C.POINTER(_u8), [P]), ("ps_set_refresh", None, [P, REFRESH_FN, P]),
+                ("ps_eeprom", C.POINTER(_u8), [P]), ("ps_flash_store", C.POINTER(_u8), [P]), ("ps_set_refresh", None, [P, REFRESH_FN, P]),
                 ("ps_set_present", None, [P, C.c_int, C.c_int]), ("ps_set_inputs", None, [P, D3, D3]),
                 ("ps_set_tx_room", None, [P, _u32]), ("ps_fail_after_writes", None, [P, C.c_int32, _u16]),
                 ("ps_set_time", None, [P, C.c_uint64]), ("ps_feed", _u32, [P, B, _u32]), ("ps_poll", None, [P]),
@@ -118,6 +118,28 @@ class FirmwareCore:
 
     def eeprom(self) -> bytes:
         return bytes(C.cast(self._lib.ps_eeprom(self._h), C.POINTER(_u8 * EEPROM_BYTES)).contents)
+
+    def program_flash(self, pages, n_pages: int | None = None) -> int:
+        """Write (flash address, bytes) pages into the flash model store as an upload would,
+        stopping after ``n_pages`` (a torn upload); the caller reboots. Returns pages written."""
+        from porosense.quant.layout import FLASH_BASE, FLASH_SLOT_SIZE, FLASH_SLOTS
+
+        size = FLASH_SLOTS * FLASH_SLOT_SIZE
+        mem = C.cast(self._lib.ps_flash_store(self._h), C.POINTER(_u8 * size)).contents
+        done = 0
+        for addr, data in list(pages)[:n_pages]:
+            off = addr - FLASH_BASE
+            if off < 0 or off + len(data) > size:
+                raise ValueError(f"page 0x{addr:04X} is outside the flash model store")
+            mem[off:off + len(data)] = data
+            done += 1
+        return done
+
+    def flash_store(self) -> bytes:
+        """The flash model store's bytes (from layout.FLASH_BASE)."""
+        from porosense.quant.layout import FLASH_SLOT_SIZE, FLASH_SLOTS
+
+        return bytes(C.cast(self._lib.ps_flash_store(self._h), C.POINTER(_u8 * (FLASH_SLOTS * FLASH_SLOT_SIZE))).contents)
 
     def set_time(self, t_us: int) -> None:
         """Device time (us since power-on); runs no firmware code."""

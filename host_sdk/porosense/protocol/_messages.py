@@ -114,7 +114,7 @@ class Channel(enum.IntFlag):
 class ConfigKey(enum.IntEnum):
     """Configuration keys."""
 
-    SAMPLE_RATE_HZ = 1  # Sample rate in Hz. 125 Hz (8 ms, a whole number of 1 kHz timer ticks) is sustained without a skipped tick with every channel, the IMU and the largest storable model (`porosense bench firmware`).
+    SAMPLE_RATE_HZ = 1  # Sample rate in Hz, 10..110: the highest rate sustained without a skipped tick with every channel, the IMU and the heaviest storable model (`porosense bench firmware`); a faster one is refused with OUT_OF_RANGE.
     CHANNEL_MASK = 2  # Stream channel mask (see START_STREAM).
     R0_MODE = 3  # At boot: 0 calibrate R0 from the first samples, 1 restore the stored R0.
     R0_CH0_MOHM = 4  # Stored R0 of channel 0 in milliohm.
@@ -144,7 +144,7 @@ class ConfigSpec:
 
 
 CONFIG_SPECS: dict[ConfigKey, ConfigSpec] = {
-    ConfigKey.SAMPLE_RATE_HZ: ConfigSpec(ConfigKey.SAMPLE_RATE_HZ, 50, 10, 125, 'Sample rate in Hz. 125 Hz (8 ms, a whole number of 1 kHz timer ticks) is sustained without a skipped tick with every channel, the IMU and the largest storable model (`porosense bench firmware`).'),
+    ConfigKey.SAMPLE_RATE_HZ: ConfigSpec(ConfigKey.SAMPLE_RATE_HZ, 50, 10, 110, 'Sample rate in Hz, 10..110: the highest rate sustained without a skipped tick with every channel, the IMU and the heaviest storable model (`porosense bench firmware`); a faster one is refused with OUT_OF_RANGE.'),
     ConfigKey.CHANNEL_MASK: ConfigSpec(ConfigKey.CHANNEL_MASK, 31, 0, 31, 'Stream channel mask (see START_STREAM).'),
     ConfigKey.R0_MODE: ConfigSpec(ConfigKey.R0_MODE, 0, 0, 1, 'At boot: 0 calibrate R0 from the first samples, 1 restore the stored R0.'),
     ConfigKey.R0_CH0_MOHM: ConfigSpec(ConfigKey.R0_CH0_MOHM, 1000000, 1000, 100000000, 'Stored R0 of channel 0 in milliohm.'),
@@ -596,10 +596,10 @@ class ModelInfoReply(Message):
     TYPE: ClassVar[int] = 0x83
     DIRECTION: ClassVar[str] = 'd2h'
     REPLY: ClassVar[str | None] = None
-    MIN_LEN: ClassVar[int] = 24
-    MAX_LEN: ClassVar[int] = 24
+    MIN_LEN: ClassVar[int] = 26
+    MAX_LEN: ClassVar[int] = 26
     DEADLINE_MS: ClassVar[int] = 0
-    _FMT: ClassVar[struct.Struct] = struct.Struct('<BBHHBBI3f')
+    _FMT: ClassVar[struct.Struct] = struct.Struct('<BBHHBBI3fBB')
     status: int = 0
     format_version: int = 0
     length: int = 0  # bytes
@@ -608,19 +608,21 @@ class ModelInfoReply(Message):
     n_outputs: int = 0
     model_id: int = 0
     out_scale: tuple[float, ...] = field(default_factory=lambda: (0.0, 0.0, 0.0,))
+    slot: int = 0
+    seq: int = 0
 
     def pack(self) -> bytes:
         if len(self.out_scale) != 3:
             raise ValueError('MODEL_INFO_REPLY.out_scale needs 3 values')
-        head = self._FMT.pack(self.status, self.format_version, self.length, self.crc, self.n_inputs, self.n_outputs, self.model_id, *self.out_scale)
+        head = self._FMT.pack(self.status, self.format_version, self.length, self.crc, self.n_inputs, self.n_outputs, self.model_id, *self.out_scale, self.slot, self.seq)
         return head
 
     @classmethod
     def unpack(cls, payload: bytes) -> ModelInfoReply:
         if len(payload) != cls.MIN_LEN:
-            raise ValueError(f'MODEL_INFO_REPLY payload of {len(payload)} bytes (expected 24)')
+            raise ValueError(f'MODEL_INFO_REPLY payload of {len(payload)} bytes (expected 26)')
         vals = cls._FMT.unpack_from(payload, 0)
-        return cls(status=vals[0], format_version=vals[1], length=vals[2], crc=vals[3], n_inputs=vals[4], n_outputs=vals[5], model_id=vals[6], out_scale=tuple(vals[7:10]))
+        return cls(status=vals[0], format_version=vals[1], length=vals[2], crc=vals[3], n_inputs=vals[4], n_outputs=vals[5], model_id=vals[6], out_scale=tuple(vals[7:10]), slot=vals[10], seq=vals[11])
 
 
 @dataclass

@@ -387,7 +387,8 @@ def compact_tables(blob: ModelBlob) -> ModelBlob:
     return dataclasses.replace(blob, outputs=outs)
 
 
-def orders_that_fit(structure: EstimatorStructure, section_bytes: float = 14.0, limit: int = 4) -> list[str]:
+def orders_that_fit(structure: EstimatorStructure, section_bytes: float = 14.0, limit: int = 4,
+                    capacity: int = MAX_BLOB_LEN) -> list[str]:
     """The largest uniform caps (poles in H1, poles in H2, breakpoints) whose blob fits."""
     has_h2 = any(o.h2 is not None for o in structure.outputs)
     has_pwl = any(o.g is not None or any(b.f is not None for b in o.branches) for o in structure.outputs)
@@ -396,7 +397,7 @@ def orders_that_fit(structure: EstimatorStructure, section_bytes: float = 14.0, 
         for s2 in (range(5, 0, -1) if has_h2 else [None]):
             for bp in ((16, 12, 10, 8, 6, 5, 4, 3, 2) if has_pwl else [None]):
                 if blob_size(structure, h1_sections=s1, h2_sections=s2, breakpoints=bp,
-                             section_bytes=section_bytes) <= MAX_BLOB_LEN:
+                             section_bytes=section_bytes) <= capacity:
                     fits.append((s1, s2 or 0, bp or 0))
     # For each table size, the largest pole budget (balanced between H1 and H2 on ties).
     out = []
@@ -416,16 +417,18 @@ def orders_that_fit(structure: EstimatorStructure, section_bytes: float = 14.0, 
     return text
 
 
-def check_size(blob: ModelBlob, structure: EstimatorStructure) -> None:
-    """Raise ModelError (how many bytes too large, which orders fit) if the blob is too big."""
+def check_size(blob: ModelBlob, structure: EstimatorStructure, capacity: int = MAX_BLOB_LEN) -> None:
+    """Raise ModelError (how many bytes too large, which orders fit) if the blob is larger than
+    ``capacity`` bytes (the EEPROM model area by default)."""
     length = blob.length
-    if length <= MAX_BLOB_LEN:
+    if length <= capacity:
         return
     per_section = np.mean([s.nbytes for o in blob.outputs for b in o.branches for s in b.sections]
                           + [s.nbytes for o in blob.outputs for s in o.h2])
-    fits = orders_that_fit(structure, float(per_section))
+    fits = orders_that_fit(structure, float(per_section), capacity=capacity)
     hint = "; ".join(fits) if fits else "none: reduce the number of outputs or inputs"
+    where = "EEPROM model region" if capacity == MAX_BLOB_LEN else "model slot"
     raise ModelError(
-        f"model blob is {length} bytes, {length - MAX_BLOB_LEN} bytes too large for the "
-        f"{MAX_BLOB_LEN}-byte EEPROM model region; orders that fit: {hint}")
+        f"model blob is {length} bytes, {length - capacity} bytes too large for the "
+        f"{capacity}-byte {where}; orders that fit: {hint}")
 

@@ -38,7 +38,8 @@ FRACTION_SUSPECT_PEAK = 1.5
 
 
 def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None,
-             model_id: int | None = None, noise_lsb: float | None = None) -> QuantResult:
+             model_id: int | None = None, noise_lsb: float | None = None,
+             capacity: int = MAX_BLOB_LEN) -> QuantResult:
     """Quantize ``structure`` for the firmware.
 
     recordings: recordings (porosense.data.Recording or mappings name -> column) holding the
@@ -56,6 +57,9 @@ def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None
     coefficients, sample period and scaling always give the same blob).
     noise_lsb: RMS of the white noise (device input LSB) of the report's noise probe
         (default NOISE_PROBE_LSB; 0 skips it).
+    capacity: bytes the blob may have (default the EEPROM model area, MAX_BLOB_LEN;
+        layout.FLASH_BLOB_MAX for a flash store slot). Compact tables are used only when the
+        full encoding does not fit it.
 
     The report's fits are what the device computes: the bit-exact fixed-point estimator on
     the recordings' inputs converted exactly as the device converts them (:func:`evaluate`).
@@ -69,7 +73,7 @@ def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None
     notes: list[str] = []
     blob, nodes = design_blob(structure, ranges, lsb, 0, notes)
     blob = dataclasses.replace(blob, ts_us=ts_us)
-    if blob.length > MAX_BLOB_LEN:  # too large with full tables: try compact ones
+    if blob.length > capacity:  # too large with full tables: try compact ones
         small = compact_tables(blob)
         if small.length < blob.length:
             notes.append(f"compact tables: {blob.length} bytes with full tables, {small.length} compact (the board "
@@ -77,12 +81,12 @@ def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None
             blob = small
     mid = model_id if model_id is not None else zlib.crc32(blob.to_bytes()) & 0xFFFFFFFF
     blob = dataclasses.replace(blob, model_id=mid & 0xFFFFFFFF)
-    check_size(blob, structure)
+    check_size(blob, structure, capacity)
     secs = [s for o in blob.outputs for b in o.branches for s in b.sections] + [s for o in blob.outputs for s in o.h2]
     scaling = ("l1 interval bound: each node's range is the input interval through the positive and "
                "negative parts of the impulse response (tables: their image), mapped to "
                f"+-{FULL_SCALE:.0f} LSB; input ranges " + ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in ranges))
-    report = QuantReport(blob_bytes=blob.length, capacity_bytes=MAX_BLOB_LEN, n_sections=len(secs),
+    report = QuantReport(blob_bytes=blob.length, capacity_bytes=capacity, n_sections=len(secs),
                          wide_numerators=sum(s.wide for s in secs), delta_sections=sum(s.delta for s in secs),
                          out_scale=list(blob.out_scale), scaling=scaling, nodes=nodes, notes=notes)
     guessed = [name for name, u, _ in recs if off_grid(u, lsb)]

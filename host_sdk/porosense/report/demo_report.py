@@ -18,11 +18,12 @@ from porosense.report.page import DataTable, Section, write_report
 PAPER_POROSITIES = (68.0, 76.0, 82.0, 86.0)
 
 
-def search_tables(searches, names, outputs) -> list:
-    """Per output: fit % and RMS % of each structure's best model per recording, and the mean."""
+def search_tables(searches, names, outputs, kept=None) -> list:
+    """Per output: fit % and RMS % of each structure's best model per recording, and the mean;
+    ``kept``: the structure kept per output (default each search's best)."""
     tables = []
-    for o, res in zip(outputs, searches):
-        best = res.best.structure
+    for k, (o, res) in enumerate(zip(outputs, searches)):
+        best = kept[k] if kept else res.best.structure
         rows = []
         for s, c in sorted(res.best_per_structure().items(),
                            key=lambda kv: ("linear", "hammerstein", "wiener", "wh").index(kv[0])):
@@ -30,7 +31,8 @@ def search_tables(searches, names, outputs) -> list:
                                                           c.rms_estimation + c.rms_validation)]
             rows.append([("* " if s == best else "") + s, c.n_poles, c.n_zeros, *cells,
                          f"{c.mean_fit:.1f} / {c.mean_rms:.1f}"])
-        tables.append(DataTable(f"{o}: fit % / RMS % per recording (* selected by mean fit)",
+        rule = "the paper's structure and orders" if kept else "selected by mean fit"
+        tables.append(DataTable(f"{o}: fit % / RMS % per recording (* {rule})",
                                 ["structure", "poles", "zeros", *names, "mean"], rows))
     return tables
 
@@ -58,7 +60,7 @@ def write_demo_report(result, searches, live, structure, out: Path, inputs, outp
         recon.append(path)
     sections.append(Section("Measured versus estimated", "Each structure's best model of the order search, "
                             "simulated from rest on a validation recording.", figures=recon,
-                            tables=search_tables(searches, list(recs), outputs)))
+                            tables=search_tables(searches, list(recs), outputs, [v["structure"] for v in result.selected.values()] if any(v.get("rule") == "paper orders" for v in result.selected.values()) else None)))
 
     # Hysteresis loops: a step and the staircase.
     loops = []
@@ -115,7 +117,12 @@ def write_demo_report(result, searches, live, structure, out: Path, inputs, outp
 
     sel = "; ".join(f"{o}: {v['structure']} with {v['poles']} poles and {v['zeros']} zeros, mean fit "
                     f"{v['mean_fit']:.1f} %" for o, v in result.selected.items())
-    intro = (f"Actuator: {result.actuator}; board: {result.board}. Selected by mean fit over estimation and "
-             f"validation recordings: {sel}.")
+    paper = any(v.get("rule") == "paper orders" for v in result.selected.values())
+    how = ("Fitted at the paper's orders (WH, 2 poles and 1 zero, 10 breakpoints; the other structures at the "
+           "same orders for comparison)" if paper else "Selected by mean fit over estimation and validation recordings")
+    store = result.verify.get("store")
+    where = f" Stored in the board's {store} store, verified by replay ({result.verify.get('samples')} samples, " \
+            f"bit-exact)." if store else ""
+    intro = f"Actuator: {result.actuator}; board: {result.board}. {how}: {sel}.{where}"
     write_report(out, f"porosense demo: {result.actuator}", sections, intro=intro)
     return Path(out)

@@ -115,6 +115,7 @@ class SimBoard:
         self._error = None
         self._closed = False
         self.truth: list[dict] = []
+        self.last_reset_s = 0.0         # AVR time (since power-on) of the latest reset
         self.port = None
         self.halted = False
 
@@ -132,7 +133,9 @@ class SimBoard:
             self._tmpdir = tempfile.mkdtemp(prefix="simboard-")
             self.eeprom_path = Path(self._tmpdir) / "eeprom.bin"
         self._stderr = tempfile.TemporaryFile()
-        self._proc = subprocess.Popen(self._args + ["--eeprom", str(self.eeprom_path)], stdin=subprocess.PIPE,
+        self._pages_path = Path(tempfile.mkdtemp(prefix="simboard-flash-")) / "pages.bin"
+        self._proc = subprocess.Popen(self._args + ["--eeprom", str(self.eeprom_path),
+                                                    "--flash-pages", str(self._pages_path)], stdin=subprocess.PIPE,
                                       stdout=subprocess.PIPE, stderr=self._stderr)
         ready, _, _ = select.select([self._proc.stdout], [], [], _START_TIMEOUT_S)
         line = self._proc.stdout.readline() if ready else b""
@@ -168,6 +171,7 @@ class SimBoard:
         self._stderr.close()
         if self._tmpdir:
             shutil.rmtree(self._tmpdir, ignore_errors=True)
+        shutil.rmtree(self._pages_path.parent, ignore_errors=True)
         if self._error is not None:
             raise DeviceError(f"simboard plant loop failed: {self._error!r}") from self._error
 
@@ -195,6 +199,8 @@ class SimBoard:
                 # published before the reply: the harness forwards UART bytes only after it
                 with self._cond:
                     self._tick = tick
+                    if tick.events & link.EV_RESET:  # the firmware's clocks restart here
+                        self.last_reset_s = tick.time_s
                     self._saves += bool(tick.events & link.EV_EEPROM_SAVED)
                     self.halted = bool(tick.events & link.EV_HALTED)
                     self._cond.notify_all()
@@ -312,6 +318,24 @@ class SimBoard:
         if wait:
             self.wait_for(lambda t: t.resets != before, timeout=_START_TIMEOUT_S + (
                 max(0.0, (at_s or 0) - self.sim_time_s) * 50))
+
+    def program_flash(self, pages, n_pages: int | None = None) -> None:
+        """An upload through the bootloader: writes (flash address, 128 bytes) pages into the
+        AVR's flash in order and resets it, as avrdude -D and Optiboot do. ``n_pages`` stops
+        after that many pages (a torn upload). Returns once the AVR has restarted."""
+        self._check()
+        pages = list(pages)
+        with open(self._pages_path, "wb") as f:
+            for addr, data in pages:
+                if len(data) != link.FLASH_PAGE or addr % link.FLASH_PAGE:
+                    raise ValueError(f"page 0x{addr:04X}: whole {link.FLASH_PAGE}-byte pages only")
+                f.write(int(addr).to_bytes(4, "little") + bytes(data))
+        n = len(pages) if n_pages is None else max(0, min(int(n_pages), len(pages)))
+        before = self._latest().resets
+        self._command(link.CMD_PROGRAM_FLASH, 0, n)
+        tick = self.wait_for(lambda t: t.resets != before or t.events & link.EV_FAULT, timeout=_START_TIMEOUT_S)
+        if tick.resets == before:
+            raise DeviceError("simboard: the flash pages could not be programmed (outside the application flash?)")
 
     def power_cycle(self) -> None:
         """Resets the AVR and both sensors (the BNO055 boots again)."""

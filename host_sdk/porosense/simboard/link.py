@@ -20,6 +20,7 @@ EV_RESET = 1 << 0
 EV_EEPROM_SAVED = 1 << 1
 EV_HALTED = 1 << 2
 EV_FAULT = 1 << 3
+EV_FLASHED = 1 << 4
 
 # reply commands
 CMD_NONE = 0
@@ -29,6 +30,7 @@ CMD_SET_ABSENT = 3
 CMD_QUIT = 4
 CMD_RESET_AFTER_EE = 5
 CMD_POWER_CYCLE = 6
+CMD_PROGRAM_FLASH = 7
 
 # Uno pins of the porosense board (firmware/src/pins.h)
 PUMP_PINS = (2, 4, 7)
@@ -36,6 +38,7 @@ VALVE_PINS = (8, 12, 13)
 REGULATOR_PINS = (5, 6, 9)
 PWM_PINS = (3, 5, 6, 9, 10, 11)  # order of Tick.duty
 FULL_SCALE_KPA = -80.0  # setpoint at 100 % regulator duty
+FLASH_PAGE = 128  # bytes per ATmega328P flash page (CMD_PROGRAM_FLASH records)
 
 
 @dataclass(frozen=True)

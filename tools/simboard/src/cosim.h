@@ -15,6 +15,7 @@ enum { /* tick_record_t.events */
 	EV_EEPROM_SAVED = 1 << 1,  /* the EEPROM image file was written */
 	EV_HALTED = 1 << 2,        /* the AVR stopped (crash, or sleep with interrupts off) */
 	EV_FAULT = 1 << 3,         /* a command failed (for example the EEPROM file) */
+	EV_FLASHED = 1 << 4,       /* flash pages were programmed (CMD_PROGRAM_FLASH) */
 };
 
 enum { /* reply_record_t.cmd */
@@ -25,6 +26,8 @@ enum { /* reply_record_t.cmd */
 	CMD_QUIT = 4,
 	CMD_RESET_AFTER_EE = 5,    /* reset the AVR right after arg16 more EEPROM byte writes */
 	CMD_POWER_CYCLE = 6,       /* reset the AVR and both sensors */
+	CMD_PROGRAM_FLASH = 7,     /* an upload: program the first arg16 pages of the --flash-pages
+	                            * file (records: u32 address, 128 bytes) into flash, then reset */
 };
 
 #pragma pack(push, 1)

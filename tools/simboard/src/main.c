@@ -33,6 +33,7 @@
 typedef struct options_t {
 	const char *elf;
 	const char *eeprom;
+	const char *flash_pages;
 	int port;
 	int cosim;
 	double period_us;
@@ -149,6 +150,31 @@ static int eeprom_save(const char *path)
 	return rename(tmp, path);  /* readers never see a half-written image */
 }
 
+/* An upload through the bootloader (avrdude -D): each page of the file, in order, erased and
+ * written, the first `limit` of them only (a torn upload), never the bootloader's. */
+#define FLASH_PAGE 128
+#define BOOTLOADER_BASE 32256
+static int program_flash(const char *path, unsigned limit)
+{
+	FILE *f = path ? fopen(path, "rb") : NULL;
+	if (!f)
+		return -1;
+	uint8_t rec[4 + FLASH_PAGE];
+	unsigned done = 0;
+	int rc = 0;
+	while (done < limit && fread(rec, 1, sizeof rec, f) == sizeof rec) {
+		uint32_t addr = rec[0] | rec[1] << 8 | (uint32_t)rec[2] << 16 | (uint32_t)rec[3] << 24;
+		if (addr % FLASH_PAGE || addr + FLASH_PAGE > BOOTLOADER_BASE || addr + FLASH_PAGE > avr->flashend + 1u) {
+			rc = -1;
+			break;
+		}
+		memcpy(avr->flash + addr, rec + 4, FLASH_PAGE);
+		done++;
+	}
+	fclose(f);
+	return rc;
+}
+
 static void avr_board_reset(int power_cycle)
 {
 	/* the EEPROM keeps its contents through a reset whatever simavr does with it */
@@ -244,6 +270,14 @@ static int cosim_tick(uint32_t seq, int halted)
 		break;
 	case CMD_SET_ABSENT: set_absent(r.arg8); break;
 	case CMD_RESET_AFTER_EE: reset_after_ee = r.arg16; break;
+	case CMD_PROGRAM_FLASH:
+		if (program_flash(opt.flash_pages, r.arg16) == 0) {
+			pending_events |= EV_FLASHED;
+			reset_pending = 1;  /* the bootloader starts the sketch after an upload */
+		} else {
+			pending_events |= EV_FAULT;
+		}
+		break;
 	case CMD_QUIT: return 1;
 	default: break;
 	}
@@ -258,6 +292,7 @@ static void usage(FILE *f)
 		"  --cosim           lock-step plant on stdin/stdout (binary records, see cosim.h)\n"
 		"  --period-us US    plant exchange period in AVR time (default 1000 us)\n"
 		"  --eeprom FILE     EEPROM image: loaded if present, saved on exit and on request\n"
+		"  --flash-pages FILE  pages CMD_PROGRAM_FLASH uploads (u32 address + 128 bytes each)\n"
 		"  --vin A,B,C,D     constant ADS1115 inputs in volts without --cosim\n"
 		"  --euler H,R,P     constant BNO055 angles in degrees without --cosim\n"
 		"  --seconds S       stop after S seconds of AVR time (default: run until stopped)\n"
@@ -283,7 +318,7 @@ static int parse_options(int argc, char **argv)
 	static const struct option longopts[] = {
 		{"elf", required_argument, 0, 'e'}, {"port", required_argument, 0, 'p'},
 		{"cosim", no_argument, 0, 'c'}, {"period-us", required_argument, 0, 'P'},
-		{"eeprom", required_argument, 0, 'E'}, {"vin", required_argument, 0, 'v'},
+		{"eeprom", required_argument, 0, 'E'}, {"flash-pages", required_argument, 0, 'F'}, {"vin", required_argument, 0, 'v'},
 		{"euler", required_argument, 0, 'u'}, {"seconds", required_argument, 0, 's'},
 		{"max-speed", required_argument, 0, 'm'}, {"absent", required_argument, 0, 'a'},
 		{"bno-boot-ms", required_argument, 0, 'b'}, {"baud", required_argument, 0, 'B'},
@@ -299,6 +334,7 @@ static int parse_options(int argc, char **argv)
 		case 'c': opt.cosim = 1; break;
 		case 'P': opt.period_us = atof(optarg); break;
 		case 'E': opt.eeprom = optarg; break;
+		case 'F': opt.flash_pages = optarg; break;
 		case 'v': parse_floats(optarg, opt.inputs.ain_V, 4); break;
 		case 'u': parse_floats(optarg, opt.inputs.euler_deg, 3); break;
 		case 's': opt.seconds = atof(optarg); break;

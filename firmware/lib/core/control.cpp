@@ -25,17 +25,17 @@ uint8_t Controller::step(const Gains& g, const int16_t estimate[kChannels], int1
   for (uint8_t i = 0; i < kChannels; ++i) {
     const uint8_t bit = (uint8_t)(1u << i);
     if (!(mask_ & bit)) continue;
-    if (fresh_ & bit) slewed_q8_[i] = (int32_t)estimate[i] << 8;
+    if (fresh_ & bit) slewed_q8_[i] = (int32_t)estimate[i] * 256;
     fresh_ &= (uint8_t)~bit;
     // Slew: the target moves toward its goal by at most slew_q4 / 16 LSB per sample.
     const int32_t lim = (int32_t)g.slew_q4[i] << 4;
-    int32_t d = ((int32_t)target_[i] << 8) - slewed_q8_[i];
+    int32_t d = (int32_t)target_[i] * 256 - slewed_q8_[i];
     slewed_q8_[i] += d > lim ? lim : d < -lim ? -lim : d;
     int32_t e = ((slewed_q8_[i] + 128) >> 8) - estimate[i];
     if (e > 32767) e = 32767;
     if (e < -32767) e = -32767;
     // PI on the vacuum magnitude: more vacuum contracts more.
-    int32_t integ = integ_q16_[i] + (((int32_t)g.ki_q24[i] * e + 128) >> 8);
+    int32_t integ = integ_q16_[i] + (((int32_t)g.ki_q22[i] * e + 32) >> 6);  // Q22 -> Q16
     int32_t u = ((int32_t)g.kp_q16[i] * e + integ + 32768) >> 16;
     const bool pinned = (u >= vac_max && e > 0) || (u <= 0 && e < 0);
     if (u > vac_max) u = vac_max;

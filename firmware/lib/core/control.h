@@ -6,7 +6,7 @@
 // 0.1 kPa (dkPa) of gauge vacuum (<= 0). The gains are per LSB and per sample, made by the
 // host for one model and one rate (porosense.device.control):
 //   kp_q16  Q16 dkPa per LSB of error            (<= 32767)
-//   ki_q24  Q24 dkPa per LSB per sample
+//   ki_q22  Q22 dkPa per LSB per sample
 //   slew_q4 Q4 LSB per sample                    (>= 1)
 // With |error| clamped to 32767 every product of the step fits an int32.
 #pragma once
@@ -23,7 +23,7 @@ constexpr uint16_t kMaxKp = 32767;
 // the host builds are), so the wire and EEPROM bytes copy straight in and out.
 struct Gains {
   uint16_t kp_q16[kChannels];
-  uint16_t ki_q24[kChannels];
+  uint16_t ki_q22[kChannels];
   uint16_t slew_q4[kChannels];
   uint16_t model_crc;  // of the model they were made for
   uint16_t rate_hz;    // 0: never set (all gains zero)

@@ -499,7 +499,7 @@ class Device:
         if r.rate_hz and r.model_crc != crc:
             raise DeviceError(f"the board's control gains were made for another model (crc 0x{r.model_crc:04X}, "
                               f"running 0x{crc:04X}): set them again")
-        return control.from_fixed(r.kp_q16, r.ki_q24, r.slew_q4, scale, r.rate_hz)
+        return control.from_fixed(r.kp_q16, r.ki_q22, r.slew_q4, scale, r.rate_hz)
 
     def _refresh_gains(self) -> tuple[float, ...]:
         """Resend the host's gains when the model or the rate changed since they were sent."""

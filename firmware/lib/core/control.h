@@ -39,7 +39,7 @@ class Controller {
   void stop() { mask_ = 0; }
   uint8_t mask() const { return mask_; }
   bool active() const { return mask_ != 0; }
-  void set_target(uint8_t ch, int16_t target) { target_[ch] = target; }
+  void set_target(uint8_t ch, int16_t target) { ch_[ch].target = target; }
   // The slewed target now (LSB), kNoTarget for a channel not controlled.
   int16_t slewed(uint8_t ch) const;
   // One sample: estimates (LSB) -> vacuum commands (dkPa, min_dkpa..0) of the masked
@@ -50,9 +50,12 @@ class Controller {
  private:
   uint8_t mask_;
   uint8_t fresh_;  // channels whose slewed target takes the next estimate
-  int32_t slewed_q8_[kChannels];
-  int32_t integ_q16_[kChannels];  // vacuum magnitude, Q16 dkPa, within [0, -min_dkpa]
-  int16_t target_[kChannels];
+  struct Channel {
+    int32_t slewed_q8;
+    int32_t integ_q16;  // vacuum magnitude, Q16 dkPa, within [0, -min_dkpa]
+    int16_t target;
+  };
+  Channel ch_[kChannels];
 };
 
 }  // namespace ctl

@@ -288,7 +288,7 @@ class Device:
         The blob is checked first exactly as the firmware checks it (porosense.quant.ModelBlob:
         format, CRC, structure, size): a bad blob raises ModelError before anything is sent.
         The device writes it beside the running model, which keeps running until the new one is
-        whole and checked. Two models share the EEPROM's 944-byte model area; when the new one
+        whole and checked. Two models share the EEPROM's 776-byte model area; when the new one
         does not fit beside the running one, ``replace`` decides: False raises ModelError, True
         erases the running model first (the board has none until the write completes), None (the
         default) does the same with a warning. ``validate=False`` sends the blob as it is (to test

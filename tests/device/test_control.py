@@ -117,3 +117,27 @@ def test_host_loss_vents_within_the_watchdog(dev, blob):
     assert all(s.status & StatusFlag.WATCHDOG_TRIPPED for s in after)
     assert not any(s.status & StatusFlag.OUTPUTS_ACTIVE for s in after)
     assert all(math.isnan(s.target[0]) for s in after)
+
+
+def test_autostart_controls_after_reset_and_a_new_host_reads_its_targets(dev, blob):
+    dev.write_model(blob)
+    scale = dev.model_info().out_scale[0]
+    rate = dev.sample_rate_hz()
+    dev.write_trajectory([0.0, 1.0], [500 * scale, 500 * scale])
+    dev.set_control_gains(GAINS, save=True)  # at SAMPLE_RATE_HZ: the rate autostart streams at
+    dev.config_set("AUTOSTART", 2)
+    dev.config_save()
+    try:
+        dev.reset()
+        samples = list(dev.samples(2 * rate, timeout_s=20))
+        st = dev.status()
+    finally:
+        dev.stop_control()
+        dev.stop_stream()
+        dev.config_set("AUTOSTART", 0)
+        dev.config_save()
+    on = [s for s in samples if s.status & StatusFlag.CONTROL_ACTIVE]
+    assert on and all(s.status & StatusFlag.STANDALONE for s in on)
+    # The host learnt the model's scale by itself: targets in output units.
+    assert abs(on[-1].target[0] - 500 * scale) <= scale
+    assert not st.flags & StatusFlag.WATCHDOG_TRIPPED  # no host is needed, so none is missed

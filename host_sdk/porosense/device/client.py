@@ -265,7 +265,14 @@ class Device:
                     if left <= 0:
                         raise DeviceError(f"no SAMPLE from {self.url} for {timeout_s:.1f} s")
                     self._pump(left)
-            yield self._samples.popleft()
+            s = self._samples.popleft()
+            if s.target_lsb is not None and self._out_scale is None:
+                # A board found controlling (AUTOSTART 2): its model's scale gives the targets' units.
+                self._control_model()
+                for q in (s, *self._samples):
+                    if q.target_lsb is not None:
+                        q.target = self._target_units(q.target_lsb)
+            yield s
             count += 1
 
     def drain_samples(self) -> list[Sample]:
@@ -699,11 +706,13 @@ class Device:
             )
         )
 
-    def _control_fields(self, target_lsb, command_dkpa) -> tuple[tuple[float, ...], tuple[float, ...]]:
-        scale = self._out_scale or (math.nan,) * 3
-        target = tuple(math.nan if v == _NO_TARGET else v * (scale[i] if i < len(scale) else math.nan)
-                       for i, v in enumerate(target_lsb))
-        return target, tuple(v / 10.0 for v in command_dkpa)
+    def _control_fields(self, target_lsb, command_dkpa) -> tuple:
+        return self._target_units(target_lsb), tuple(v / 10.0 for v in command_dkpa), tuple(target_lsb)
+
+    def _target_units(self, target_lsb) -> tuple[float, ...]:
+        scale = self._out_scale or ()
+        return tuple(math.nan if v == _NO_TARGET or i >= len(scale) else v * scale[i]
+                     for i, v in enumerate(target_lsb))
 
     @property
     def decoder_counters(self) -> dict[str, int]:

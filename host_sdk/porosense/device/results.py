@@ -179,6 +179,7 @@ class Sample:
     # channel not controlled) and the regulator setpoint it sent (kPa, <= 0).
     target: tuple[float, ...] = (math.nan,) * 3
     command_kpa: tuple[float, ...] = (0.0,) * 3
+    target_lsb: tuple[int, ...] | None = None  # the raw slewed targets (estimate LSB) of CONTROL_SAMPLE
 
     @property
     def t_s(self) -> float:
@@ -253,6 +254,13 @@ class SampleBlock(_Dictable):
             units |= {"theta_x": "deg", "theta_y": "deg"}
         for j, (name, scale) in enumerate(zip(outputs, out_scale)):
             cols[f"est_{name}"] = self.estimate[:, j] * float(scale)
+        # While the strain controller ran: its slewed target (output units) and command (kPa).
+        if self.target is not None and np.isfinite(self.target).any():
+            for j, name in enumerate(outputs):
+                cols[f"target_{name}"] = self.target[:, j]
+            for i in range(n_channels):
+                cols[f"command_kpa_{i}"] = self.command_kpa[:, i]
+                units[f"command_kpa_{i}"] = "kPa"
         t = (t_us - t_us[0]) * 1e-6 if len(t_us) else np.zeros(0)
         info = {"source": "device", "samples_lost": int(self.lost)} | dict(meta or {})
         return Recording(t, cols, info, units)

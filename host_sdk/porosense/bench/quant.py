@@ -138,6 +138,8 @@ def run(size: str = "small") -> dict:
             "eeprom_model_cycles": e.max_cycles, "eeprom_model_bit_exact": e.bit_exact,
             "eeprom_most_sections": most.n_sections, "eeprom_most_sections_bytes": most.length,
             "eeprom_most_sections_cycles": m.max_cycles, "eeprom_most_sections_bit_exact": m.bit_exact,
+            "control_cycles": m.control_cycles,
+            "eeprom_most_sections_with_control_cycles": m.sample_cycles,
             "estimator_ram_bytes": w.estimator_ram, "budget_cycles": CYCLE_BUDGET,
         }
     out["summary"] = _summary(out)
@@ -173,4 +175,7 @@ def _summary(r: dict) -> list[str]:
         lines.append(f"AVR step, most sections in the EEPROM ({avr['eeprom_most_sections']} sections, "
                      f"{avr['eeprom_most_sections_bytes']} bytes): {avr['eeprom_most_sections_cycles']} cycles, "
                      f"bit-exact {avr['eeprom_most_sections_bit_exact']}")
+        lines.append(f"AVR strain controller step, 3 channels: {avr['control_cycles']} cycles; with the most "
+                     f"sections: {avr['eeprom_most_sections_with_control_cycles']} cycles (budget "
+                     f"{avr['budget_cycles']})")
     return lines

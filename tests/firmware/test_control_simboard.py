@@ -130,6 +130,9 @@ def test_control_keeps_the_cycle_budget_and_stack_margin(elf) -> None:
         blob = fw.heavy_model_blob()
         dev.write_model(blob, replace=True)
         dev.calibrate_r0(16, 0x07)
+        # The deepest command paths too: a full REPLAY and a full MODEL_READ.
+        dev.replay(np.full((16, 3), -2000))
+        assert dev.read_model() == blob
         dev.set_watchdog(5000)
         dev.start_stream(100, 0x1F)
         scale = dev.model_info().out_scale
@@ -141,8 +144,9 @@ def test_control_keeps_the_cycle_budget_and_stack_margin(elf) -> None:
         dev.stop_stream()
         st = dev.status()
         print(st, dev.errors[-3:])
-        print(f"control at 100 Hz on 3 channels, {len(blob)}-byte model: {st.overruns} overruns, "
-              f"free stack {st.free_ram} B (high-water since boot)")
+        print(f"control at 100 Hz on 3 channels, {len(blob)}-byte model (after a model write, R0 "
+              f"calibration, REPLAY, MODEL_READ): {st.overruns} overruns, free stack {st.free_ram} B "
+              f"(high-water since boot)")
         assert len(s) == 300
         assert st.overruns == 0
         assert st.free_ram >= STACK_MARGIN_B

@@ -23,18 +23,20 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from porosense.firmware.files import elf_path, source_tree
+from porosense.quant.layout import MAX_BLOB_LEN
 
 _TREE = source_tree()
 FIRMWARE_DIR = _TREE / "firmware" if _TREE else None  # None: installed, nothing to rebuild
 ELF = elf_path()
 
-FLASH_BUDGET = 29_952             # bytes: the flash model store begins there (layout.FLASH_BASE)
-RAM_BUDGET = 1400                 # bytes, .data + .bss
+
+FLASH_BUDGET = 29952             # bytes: below the flash model store (29,952..32,255)
+RAM_BUDGET = 1440                 # bytes, .data + .bss (firmware/Makefile: measured stack margin)
 RAM_TOTAL = 2048                  # ATmega328P SRAM
 CYCLE_BUDGET = 48_000             # estimator step, cycles at 16 MHz
 OVERRUN_RATE_HZ = 100
 ESTIMATOR_OFF = 1 << 3            # status flag: no model loaded
-MODEL_REGION_BYTES = 944          # EEPROM model area (layout.AREA_LEN)
+MODEL_REGION_BYTES = MAX_BLOB_LEN  # the EEPROM model area (one model alone)
 FLASH_SLOT_BYTES = 1144           # blob bytes of one flash store slot (layout.FLASH_BLOB_MAX)
 # Candidates for the heaviest model a flash slot holds, most expensive first (3 x 3 WH; poles in
 # H1, poles in H2, breakpoints); measured from flash (porosense.quant.avr_cycles, seed 1):
@@ -187,7 +189,7 @@ def store_in_flash(board, dev, blob: bytes) -> None:
 def heavy_model_blob(seed: int = 1) -> bytes:
     """The most expensive model that fits the EEPROM model area (944 bytes): 3 inputs x
     3 outputs, Wiener-Hammerstein with 4 poles in every H1 and H2 and 6 breakpoints in every
-    f and g (about 910 bytes), or the next smaller candidate if that does not fit."""
+    f and g, or the next smaller candidate that fits (2 + 2 poles: 733 bytes)."""
     import numpy as np
 
     from porosense.quant.quantize import quantize

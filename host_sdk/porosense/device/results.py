@@ -5,6 +5,7 @@ Each is a small dataclass that prints well and converts to a dict (``to_dict``) 
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -184,6 +185,11 @@ class Sample:
     dr_centi: tuple[int, ...]
     euler_16: tuple[int, ...]
     estimate: tuple[int, ...]
+    # While the strain controller runs (CONTROL_SAMPLE): slewed target (output units, nan on a
+    # channel not controlled) and the regulator setpoint it sent (kPa, <= 0).
+    target: tuple[float, ...] = (math.nan,) * 3
+    command_kpa: tuple[float, ...] = (0.0,) * 3
+    target_lsb: tuple[int, ...] | None = None  # the raw slewed targets (estimate LSB) of CONTROL_SAMPLE
 
     @property
     def t_s(self) -> float:
@@ -212,6 +218,8 @@ class SampleBlock(_Dictable):
     euler_16: np.ndarray
     estimate: np.ndarray
     lost: int = 0
+    target: np.ndarray | None = None  # (N, 3) output units, nan where not controlled
+    command_kpa: np.ndarray | None = None  # (N, 3) kPa
 
     @classmethod
     def from_samples(cls, samples: list[Sample], lost: int = 0) -> SampleBlock:
@@ -226,6 +234,8 @@ class SampleBlock(_Dictable):
             euler_16=col("euler_16"),
             estimate=col("estimate"),
             lost=lost,
+            target=col("target", float),
+            command_kpa=col("command_kpa", float),
         )
 
     def __len__(self) -> int:
@@ -254,6 +264,13 @@ class SampleBlock(_Dictable):
             units |= {"theta_x": "deg", "theta_y": "deg"}
         for j, (name, scale) in enumerate(zip(outputs, out_scale)):
             cols[f"est_{name}"] = self.estimate[:, j] * float(scale)
+        # While the strain controller ran: its slewed target (output units) and command (kPa).
+        if self.target is not None and np.isfinite(self.target).any():
+            for j, name in enumerate(outputs):
+                cols[f"target_{name}"] = self.target[:, j]
+            for i in range(n_channels):
+                cols[f"command_kpa_{i}"] = self.command_kpa[:, i]
+                units[f"command_kpa_{i}"] = "kPa"
         t = (t_us - t_us[0]) * 1e-6 if len(t_us) else np.zeros(0)
         info = {"source": "device", "samples_lost": int(self.lost)} | dict(meta or {})
         return Recording(t, cols, info, units)

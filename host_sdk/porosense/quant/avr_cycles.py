@@ -23,7 +23,7 @@ from porosense.firmware.files import core_dir, programs_dir  # noqa: E402
 CORE = core_dir()
 PROGRAM = programs_dir() / "cycles.cpp"
 VECTORS_PROGRAM = programs_dir() / "vectors.cpp"
-CORE_SOURCES = ("estimator.cpp", "model_blob.cpp", "frame_codec.cpp")
+CORE_SOURCES = ("estimator.cpp", "model_blob.cpp", "frame_codec.cpp", "control.cpp")
 
 
 @dataclass
@@ -35,6 +35,12 @@ class CycleResult:
     text: int  # flash bytes of the test program
     in_eeprom: bool
     bit_exact: bool  # the AVR's estimates hash equals the Python reference's
+    control_cycles: int = 0  # worst ctl::Controller::step on 3 channels (firmware/lib/core/control.h)
+
+    @property
+    def sample_cycles(self) -> int:
+        """Estimator and controller together: what one controlled sample adds to the budget."""
+        return self.max_cycles + self.control_cycles
 
 
 def program_inputs(steps: int) -> np.ndarray:
@@ -81,11 +87,11 @@ def measure(blob: ModelBlob | bytes, *, in_eeprom: bool = False, steps: int = 64
         run = subprocess.run(["simavr", "-m", "atmega328p", "-f", "16000000", str(elf)], capture_output=True,
                              text=True, timeout=timeout)
         out = run.stdout + run.stderr
-        m = re.search(r"cycles max=(\d+) mean=(\d+) steps=(\d+) ram=(\d+) check=(\d+)", out)
+        m = re.search(r"cycles max=(\d+) mean=(\d+) steps=(\d+) ram=(\d+) check=(\d+) ctl=(\d+)", out)
         if not m:
             raise RuntimeError(f"simavr gave no cycle count:\n{out[-2000:]}")
         exact = int(m[5]) == reference_check(blob, steps)
-        return CycleResult(int(m[1]), int(m[2]), int(m[3]), int(m[4]), int(size[0]), in_eeprom, exact)
+        return CycleResult(int(m[1]), int(m[2]), int(m[3]), int(m[4]), int(size[0]), in_eeprom, exact, int(m[6]))
 
 
 def _build(program: Path, include: Path, elf: Path, mcu: str) -> Path:

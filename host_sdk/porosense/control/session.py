@@ -1,0 +1,156 @@
+"""Run targets on a board and record what happened.
+
+:func:`run_closed_loop` streams while the board's controller follows constant targets (one
+per segment, switched on device time) or a stored trajectory; :func:`run_open_loop` streams
+while the host commands vacuum levels (the baseline). Both ping the board between commands so
+that its link watchdog stays fed, and always vent at the end (stop_control / outputs off),
+also when the run fails.
+
+The result is a :class:`porosense.data.Recording` with ``t`` (s from the first sample),
+``target_0`` (the board's own target, output units, NaN when not controlling), ``est_<output>``
+(the on-device estimate), ``cmd_kpa_0`` (the regulator setpoint commanded, kPa), ``status``,
+``dR_0`` and, where the back-end knows it, the truth (``<output>`` e.g. ``strain_0``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from porosense.data import Recording
+from porosense.errors import DeviceError
+
+#: Device time (s) after which a silent host pings, well inside the host-link watchdog.
+KEEPALIVE_S = 0.25
+
+
+def _stream(dev, duration_s: float, rate_hz: int, events, keepalive_s: float = KEEPALIVE_S) -> list:
+    """Stream ``duration_s`` of device time; ``events`` is a sorted list of (t_s, callable)
+    run as the device clock passes t_s. Returns the samples."""
+    n_total = int(round(duration_s * rate_hz))
+    rows = []
+    t0 = None
+    k = 0
+    last = 0.0
+    for s in dev.samples(n_total):
+        if t0 is None:
+            t0 = s.t_us
+        t = (s.t_us - t0) * 1e-6
+        while k < len(events) and events[k][0] <= t + 1e-9:
+            events[k][1]()
+            k += 1
+            last = t
+        if t - last >= keepalive_s:
+            dev.ping()
+            last = t
+        rows.append(s)
+    return rows
+
+
+def _recording(rows, *, out_scale, output, truth, host_target=None, host_cmd=None, meta=None) -> Recording:
+    if not rows:
+        raise DeviceError("no samples recorded")
+    t_us = np.array([s.t_us for s in rows], dtype=np.int64)
+    t = (t_us - t_us[0]) * 1e-6
+    cols = {}
+    units = {}
+    board_target = np.array([_first(getattr(s, "target", None)) for s in rows], dtype=float)
+    cols["target_0"] = board_target if host_target is None else np.asarray(host_target, dtype=float)
+    est = np.array([s.estimate[0] for s in rows], dtype=float) * float(out_scale)
+    cols[f"est_{output}"] = est
+    cmd = np.array([_first(getattr(s, "command_kpa", None)) for s in rows], dtype=float)
+    cols["cmd_kpa_0"] = cmd if host_cmd is None else np.asarray(host_cmd, dtype=float)
+    cols["dR_0"] = np.array([s.dr_centi[0] for s in rows], dtype=float) / 100.0
+    cols["status"] = np.array([s.status for s in rows], dtype=float)
+    cols["t_dev_us"] = t_us.astype(float)
+    units.update({"cmd_kpa_0": "kPa", "dR_0": "%", "status": "flags", "t_dev_us": "us"})
+    if truth is not None:
+        values = truth(t_us)
+        if output in values:
+            cols[output] = np.asarray(values[output], dtype=float)
+        if "p_0" in values:
+            cols["p_0"] = np.asarray(values["p_0"], dtype=float)
+            units["p_0"] = "kPa"
+    return Recording(t, cols, meta=meta or {}, units=units)
+
+
+def _first(v):
+    if v is None:
+        return math.nan
+    try:
+        return float(v[0])
+    except TypeError:
+        return float(v)
+
+
+def run_closed_loop(dev, segments, *, rate_hz: int, out_scale: float, output: str = "strain_0", truth=None,
+                    channels: int = 0b001, duration_s: float | None = None, trajectory=None,
+                    meta: dict | None = None) -> Recording:
+    """Closed loop on the board: ``segments`` [(t_s, target), ...] constant targets (output
+    units) switched at device times t_s (s from the first sample), until ``duration_s`` (s,
+    default: the last segment + 10 s); or, with ``trajectory`` = (t_s, targets), the board's
+    stored trajectory started at t = 0 for ``duration_s``. Vents at the end."""
+    if trajectory is not None:
+        if duration_s is None:
+            duration_s = float(np.asarray(trajectory[0])[-1])
+        dev.write_trajectory(*trajectory)
+        events = [(0.0, lambda: dev.start_trajectory(channels=channels))]
+    else:
+        if duration_s is None:
+            duration_s = float(segments[-1][0]) + 10.0
+        events = [(float(t0), (lambda v=float(v): dev.start_control(v, channels=channels))) for t0, v in segments]
+    dev.set_outputs(setpoint_kpa=[0.0, 0.0, 0.0], pumps=0, valves=0)
+    dev.start_stream(rate_hz=rate_hz)
+    try:
+        rows = _stream(dev, duration_s, rate_hz, events)
+    finally:
+        _vent(dev, control=True)
+    info = {"mode": "closed_loop", "rate_hz": rate_hz, "device": getattr(dev, "url", ""),
+            "segments": [list(map(float, s)) for s in segments] if segments else []}
+    info.update(meta or {})
+    return _recording(rows, out_scale=out_scale, output=output, truth=truth, meta=info)
+
+
+def run_open_loop(dev, segments, *, rate_hz: int, out_scale: float = 1.0, output: str = "strain_0", truth=None,
+                  duration_s: float | None = None, targets=None, meta: dict | None = None) -> Recording:
+    """Open loop: ``segments`` [(t_s, vacuum_kpa >= 0), ...] held from device time t_s (0 vents).
+    ``targets`` (one per segment, output units) are recorded in ``target_0`` for the metrics."""
+    if duration_s is None:
+        duration_s = float(segments[-1][0]) + 10.0
+
+    def command(v):
+        on = v > 0
+        dev.set_outputs(setpoint_kpa=[-v, 0.0, 0.0], pumps=int(on), valves=int(on))
+
+    events = [(float(t0), (lambda v=float(v): command(v))) for t0, v in segments]
+    dev.set_outputs(setpoint_kpa=[0.0, 0.0, 0.0], pumps=0, valves=0)
+    dev.start_stream(rate_hz=rate_hz)
+    try:
+        rows = _stream(dev, duration_s, rate_hz, events)
+    finally:
+        _vent(dev, control=False)
+    t = (np.array([s.t_us for s in rows], dtype=float) - rows[0].t_us) * 1e-6
+    starts = np.array([s[0] for s in segments], dtype=float)
+    idx = np.searchsorted(starts, t, side="right") - 1
+    vac = np.where(idx >= 0, np.array([s[1] for s in segments])[np.clip(idx, 0, None)], 0.0)
+    tgt = None
+    if targets is not None:
+        tg = np.asarray(targets, dtype=float)
+        tgt = np.where(idx >= 0, tg[np.clip(idx, 0, None)], np.nan)
+    info = {"mode": "open_loop", "rate_hz": rate_hz, "device": getattr(dev, "url", ""),
+            "segments": [list(map(float, s)) for s in segments]}
+    info.update(meta or {})
+    return _recording(rows, out_scale=out_scale, output=output, truth=truth, host_target=tgt, host_cmd=-vac,
+                      meta=info)
+
+
+def _vent(dev, *, control: bool) -> None:
+    """Outputs to vent and streaming off, whatever happened before (errors here are moot)."""
+    try:
+        if control:
+            dev.stop_control()
+        dev.set_outputs(setpoint_kpa=[0.0, 0.0, 0.0], pumps=0, valves=0)
+        dev.stop_stream()
+    except DeviceError:
+        pass

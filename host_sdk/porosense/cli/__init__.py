@@ -31,6 +31,7 @@ SUBCOMMANDS = (
     "quantize",
     "flash",
     "verify",
+    "control",
     "firmware",
     "config",
     "ports",

@@ -2,7 +2,8 @@
 strain) or any pyserial URL (a real board: no truth).
 
 Port forms: ``emulator`` or ``emulator:ACTUATOR`` (the firmware core on this computer over the
-simulator, in lockstep: as fast as the host reads), ``simboard`` or ``simboard:ACTUATOR`` (the
+simulator, in real time sped up ``EMULATOR_SPEED`` times: the board's clock, not the host's
+reading, paces the run, so commands land when the host sends them), ``simboard`` or ``simboard:ACTUATOR`` (the
 real firmware in simavr), anything else is a pyserial URL (``/dev/ttyACM0``,
 ``socket://127.0.0.1:5000``).
 """
@@ -20,6 +21,8 @@ from porosense.errors import InputError
 TruthSource = Callable[[np.ndarray], dict]
 
 SIM_BACKENDS = ("emulator", "simboard")
+#: Device time runs this many times faster than wall time on the emulator (as in the demo).
+EMULATOR_SPEED = 10.0
 
 
 def parse_port(port: str, default_actuator: str = "contractor") -> tuple[str, str | None]:
@@ -47,7 +50,9 @@ def open_control_board(port: str, *, load_g: float = 0.0, seed: int = 0, porosit
     if kind == "emulator":
         from porosense.emulator import Emulator
 
-        with Emulator(actuator, load_g=load_g, seed=seed, porosity=porosity, truth_log=True) as emu:
+        # A busy host computer delays samples but never skips them: the run stays regular.
+        with Emulator(actuator, load_g=load_g, seed=seed, porosity=porosity, truth_log=True, realtime=True,
+                      speed=EMULATOR_SPEED, max_catch_up_s=3600.0) as emu:
             with Device.open(emu.url) as dev:
                 yield dev, emu.truth
     elif kind == "simboard":

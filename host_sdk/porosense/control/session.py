@@ -84,22 +84,55 @@ def _first(v):
         return float(v)
 
 
+#: Duration (s) of the jump between two held targets of a step sequence's trajectory (the
+#: trajectory's time step is 10 ms; the board's slew limit shapes the rest).
+JUMP_S = 0.01
+
+
+def step_trajectory(segments, end_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Piecewise-linear points holding each target of ``segments`` [(t_s, target), ...] until the
+    next (times relative to the first segment), up to ``end_s`` (same clock as the segments)."""
+    t0 = float(segments[0][0])
+    ts, ys = [], []
+    for i, (t, v) in enumerate(segments):
+        start = float(t) - t0
+        if i:
+            ts.append(start - JUMP_S)
+            ys.append(ys[-1])
+        ts.append(start)
+        ys.append(float(v))
+    ts.append(float(end_s) - t0)
+    ys.append(ys[-1])
+    return np.round(np.array(ts), 2), np.array(ys)
+
+
 def run_closed_loop(dev, segments, *, rate_hz: int, out_scale: float, output: str = "strain_0", truth=None,
                     channels: int = 0b001, duration_s: float | None = None, trajectory=None,
                     meta: dict | None = None) -> Recording:
-    """Closed loop on the board: ``segments`` [(t_s, target), ...] constant targets (output
-    units) switched at device times t_s (s from the first sample), until ``duration_s`` (s,
-    default: the last segment + 10 s); or, with ``trajectory`` = (t_s, targets), the board's
-    stored trajectory started at t = 0 for ``duration_s``. Vents at the end."""
+    """Closed loop on the board, on device time (s from the first streamed sample):
+
+    - one segment [(t_s, target)]: a constant target (output units) from t_s;
+    - several: held targets switched at each t_s, sent as a stored trajectory (the board times
+      the switches; restarting control per target would vent in between);
+    - ``trajectory`` = (t_s, targets): that stored trajectory, started at t = 0.
+
+    Runs until ``duration_s`` (default: the last segment + 10 s, or the trajectory's end) and
+    vents at the end."""
+    start_at = 0.0
+    if trajectory is None and len(segments) > 1:
+        if duration_s is None:
+            duration_s = float(segments[-1][0]) + 10.0
+        start_at = float(segments[0][0])
+        trajectory = step_trajectory(segments, duration_s)
     if trajectory is not None:
         if duration_s is None:
             duration_s = float(np.asarray(trajectory[0])[-1])
-        dev.write_trajectory(*trajectory)
-        events = [(0.0, lambda: dev.start_trajectory(channels=channels))]
+        dev.write_trajectory(*trajectory)  # before streaming: the board stores it only when idle
+        events = [(start_at, lambda: dev.start_trajectory(channels=channels))]
     else:
         if duration_s is None:
             duration_s = float(segments[-1][0]) + 10.0
-        events = [(float(t0), (lambda v=float(v): dev.start_control(v, channels=channels))) for t0, v in segments]
+        events = [(float(segments[0][0]), lambda v=float(segments[0][1]): dev.start_control(v, channels=channels))]
     dev.set_outputs(setpoint_kpa=[0.0, 0.0, 0.0], pumps=0, valves=0)
     dev.start_stream(rate_hz=rate_hz)
     try:

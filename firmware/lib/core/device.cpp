@@ -1,5 +1,7 @@
 #include "device.h"
 
+#include <string.h>
+
 #include "sensing.h"
 #include "standalone_out.h"
 
@@ -42,8 +44,13 @@ Device::Device(Hal& hal, ModelPort& model)
       pending_overrun_(0),
       trip_unreported_(0),
       line_state_(0),
-      analog_pin_(0) {
+      analog_pin_(0),
+      cstore_(hal),
+      traj_start_us_(0),
+      traj_seg_(0),
+      control_mode_(0) {
   config_.set_defaults();
+  memset(&gains_, 0, sizeof(gains_));
 }
 
 void Device::begin() {
@@ -64,9 +71,19 @@ void Device::begin() {
     sticky_flags_ |= f::R0_UNCALIBRATED;  // cleared when a channel gives a usable R0
     calibrate_r0(kR0BootSamples, 0x07);
   }
+  cstore_.boot(&gains_);
   if (config_.autostart && model_.estimator_loaded()) {
-    start_stream(config_.sample_rate_hz, config_.channel_mask);
+    start_stream(config_.sample_rate_hz, (uint8_t)(config_.channel_mask | (config_.autostart == 2 ? proto::chan::ESTIMATES : 0)));
     sticky_flags_ |= f::STANDALONE;
+    if (config_.autostart == 2) {
+      // The stored trajectory with the stored gains: a 1-column one drives channel 0, a
+      // 3-column one channels 0..2. Anything missing or unusable: flagged, outputs stay off.
+      const uint8_t mask = cstore_.columns() == 3 ? 0x07 : 0x01;
+      if (cstore_.has_trajectory() && gains_fit(gains_) && control_mask_ok(mask))
+        control_begin(kCtlTrajectory | kCtlStandalone, mask);
+      else
+        sticky_flags_ |= f::CONTROL_ABORTED;
+    }
   }
   set_line_mode(config_.line_mode);
   link_.feed(hal_.millis());
@@ -88,6 +105,7 @@ uint16_t Device::flags() const {
   uint16_t fl = (uint16_t)(sticky_flags_ | sample_flags_);
   if (!model_.estimator_loaded()) fl |= f::ESTIMATOR_OFF;
   if (outputs_active()) fl |= f::OUTPUTS_ACTIVE;
+  if (control_.active()) fl |= f::CONTROL_ACTIVE;
   if (pending_overrun_) fl |= f::OVERRUN;
   return fl;
 }
@@ -122,7 +140,11 @@ void Device::poll() {
 }
 
 void Device::guard_link() {
-  if (!link_.expired(hal_.millis(), outputs_active())) return;
+  // Standalone control has no host to lose; everything else needs a live link.
+  const bool guarded = outputs_active() && !(control_mode_ & kCtlStandalone);
+  if (!link_.expired(hal_.millis(), guarded)) return;
+  if (control_.active()) sticky_flags_ |= f::CONTROL_ABORTED;
+  control_stop();
   outputs_off();
   sticky_flags_ |= f::WATCHDOG_TRIPPED;
   counters_.watchdog_trips = sat_add16(counters_.watchdog_trips, 1);
@@ -174,7 +196,7 @@ void Device::nak(uint8_t code, int16_t detail) {
 void Device::send_unsolicited(uint8_t type, const uint8_t* payload, uint8_t len) {
   // SAMPLE and ERROR number themselves with separate counters; a dropped frame still takes
   // its number, so the host sees the gap.
-  uint8_t* seq = type == proto::msg::SAMPLE ? &telemetry_seq_ : &error_seq_;
+  uint8_t* seq = type == proto::msg::ERROR ? &error_seq_ : &telemetry_seq_;
   uint8_t frame[proto::kMaxFrameLen];
   const uint8_t n = proto::encode_frame(type, (*seq)++, payload, len, frame);
   if (n == 0) return;
@@ -256,6 +278,7 @@ void Device::dispatch(uint8_t type, const uint8_t* p, uint8_t len) {
     }
     case m::START_STREAM: cmd_start_stream(p); return;
     case m::STOP_STREAM:
+      control_stop();  // control needs the stream
       stop_stream();
       sticky_flags_ &= (uint16_t)~f::STANDALONE;
       return ack();
@@ -300,6 +323,19 @@ void Device::dispatch(uint8_t type, const uint8_t* p, uint8_t len) {
     case m::MODEL_INFO:
     case m::MODEL_ERASE:
     case m::MODEL_READ: cmd_model(type, p, len); return;
+    case m::CONTROL_GAINS: cmd_control_gains(p); return;
+    case m::CONTROL_GAINS_GET: cmd_control_gains_get(); return;
+    case m::CONTROL_START: cmd_control_start(p); return;
+    case m::CONTROL_STOP:
+      control_stop();
+      return ack();
+    case m::TRAJECTORY_CHUNK: {
+      // EEPROM writes would hold the outputs past the link watchdog.
+      if (streaming_ || outputs_active()) return nak(r::BUSY, 0);
+      int16_t detail = 0;
+      const uint8_t code = cstore_.chunk(p[0], p[1], p + 2, (uint8_t)(len - 2), &detail);
+      return code == r::OK ? ack() : nak(code, detail);
+    }
     default: nak(r::UNKNOWN_TYPE, 0); return;
   }
 }
@@ -335,11 +371,8 @@ void Device::cmd_set_outputs(const uint8_t* p) {
   if (s.valve_mask & ~0x07) return nak(r::OUT_OF_RANGE, kFieldValveMask);
   // All off is safe whatever its age; anything else must be fresh in this session.
   const bool any_on = s.pump_mask | s.valve_mask | s.setpoint_dkpa[0] | s.setpoint_dkpa[1] | s.setpoint_dkpa[2];
-  if (any_on) {
-    if (s.session != session_ || (uint16_t)(s.counter - out_counter_ - 1) >= 0x7FFF)
-      return nak(r::BAD_STATE, kFieldSession);
-    out_counter_ = s.counter;
-  }
+  if (any_on && !fresh(s.session, s.counter)) return nak(r::BAD_STATE, kFieldSession);
+  control_stop();  // the host drives the outputs itself from now on
   for (uint8_t i = 0; i < kChannels; ++i) outputs_.setpoint_dkpa[i] = s.setpoint_dkpa[i];
   outputs_.pump_mask = s.pump_mask;
   outputs_.valve_mask = s.valve_mask;
@@ -347,6 +380,12 @@ void Device::cmd_set_outputs(const uint8_t* p) {
   sticky_flags_ &= (uint16_t)~f::WATCHDOG_TRIPPED;
   link_.feed(hal_.millis());
   ack();
+}
+
+bool Device::fresh(uint16_t session, uint16_t counter) {
+  if (session != session_ || (uint16_t)(counter - out_counter_ - 1) >= 0x7FFF) return false;
+  out_counter_ = counter;
+  return true;
 }
 
 void Device::cmd_start_stream(const uint8_t* p) {
@@ -360,6 +399,7 @@ void Device::cmd_start_stream(const uint8_t* p) {
   if (s.rate_hz < rate.min || s.rate_hz > rate.max) return nak(r::OUT_OF_RANGE, 0);
   if (s.channel_mask & ~0x1F) return nak(r::OUT_OF_RANGE, 1);
   sticky_flags_ &= (uint16_t)~f::STANDALONE;
+  control_stop();  // a restarted estimator would give the controller a jump
   start_stream(s.rate_hz, s.channel_mask);
   ack();
 }
@@ -605,6 +645,9 @@ void Device::on_sample_ticks(uint8_t n, uint32_t tick_us) {
     if (model_.estimator_step(dr, s.estimate) & 1) fl |= f::ESTIMATOR_SATURATED;
     analog_out(s.estimate[0]);
   }
+  bool aborted = false;
+  const bool controlling = control_.active();
+  if (controlling) fl = control_step(fl, estimating, s.estimate, tick_us, &aborted);
   // A sensor that stops answering is reported once, as it happens.
   const uint16_t faults = f::ADC_FAULT | f::IMU_FAULT;
   const uint16_t new_faults = (uint16_t)(fl & faults & ~(sample_flags_ & faults));
@@ -615,10 +658,20 @@ void Device::on_sample_ticks(uint8_t n, uint32_t tick_us) {
   if (line_state_ & kLineOn) {
     send_line(s, estimating);
   } else {
-    uint8_t buf[proto::Sample::kMaxLen];
-    send_unsolicited(proto::Sample::kType, buf, s.encode(buf));
+    // While controlling, CONTROL_SAMPLE: SAMPLE's bytes, then targets and commands.
+    uint8_t buf[proto::ControlSample::kMaxLen];
+    uint8_t n = s.encode(buf);
+    if (controlling) {
+      for (uint8_t i = 0; i < kChannels; ++i) {
+        proto::put_i16(buf + n + 2 * i, control_.slewed(i));
+        proto::put_i16(buf + n + 6 + 2 * i, outputs_.setpoint_dkpa[i]);
+      }
+      n = (uint8_t)(n + 12);
+    }
+    send_unsolicited(controlling ? proto::ControlSample::kType : proto::Sample::kType, buf, n);
   }
   if (new_faults) send_error(r::SENSOR_FAULT, (int16_t)new_faults, tick_us);
+  if (aborted) send_error(r::BAD_STATE, (int16_t)f::CONTROL_ABORTED, tick_us);
   poll_rx();
 }
 
@@ -664,6 +717,130 @@ __attribute__((noinline)) void Device::send_line(const proto::Sample& s, bool es
     return;
   }
   hal_.serial_write((const uint8_t*)text, n);
+}
+
+// ---------------------------------------------------------------- strain control
+
+void Device::cmd_control_gains(const uint8_t* p) {
+  ctl::Gains g;
+  memcpy(&g, p, ctl::kGainsBytes);  // wire layout = struct layout (control.h)
+  const uint8_t save = p[ctl::kGainsBytes];
+  for (uint8_t i = 0; i < kChannels; ++i) {
+    if (g.kp_q16[i] > ctl::kMaxKp) return nak(r::OUT_OF_RANGE, 0);
+    if (g.slew_q4[i] == 0) return nak(r::OUT_OF_RANGE, 2);
+  }
+  if (save > 1) return nak(r::OUT_OF_RANGE, 5);
+  // EEPROM writes would stall sampling and the link watchdog.
+  if (save && (streaming_ || outputs_active())) return nak(r::BUSY, 0);
+  if (control_.active() && !gains_fit(g)) return nak(r::BAD_STATE, 2);
+  gains_ = g;
+  if (save) cstore_.save_gains(g);
+  ack();
+}
+
+void Device::cmd_control_gains_get() {
+  uint8_t buf[ctl::kGainsBytes + 1];
+  memcpy(buf, &gains_, ctl::kGainsBytes);
+  buf[ctl::kGainsBytes] = cstore_.gains_stored() ? 1 : 0;
+  reply(proto::ControlGainsReply::kType, buf, sizeof(buf));
+}
+
+void Device::cmd_control_start(const uint8_t* p) {
+  const uint8_t mode = p[0], mask = p[1];
+  if (!model_.estimator_loaded()) return nak(r::NO_MODEL, 0);
+  if (!streaming_ || !(stream_mask_ & proto::chan::ESTIMATES)) return nak(r::BAD_STATE, 0);
+  if (mode > 1) return nak(r::OUT_OF_RANGE, 0);
+  proto::ModelInfoReply info;
+  model_.info(&info);
+  if (mask == 0 || (mask >> info.n_outputs)) return nak(r::OUT_OF_RANGE, 1);
+  int16_t target[kChannels];
+  for (uint8_t i = 0; i < kChannels; ++i) {
+    target[i] = proto::get_i16(p + 2 + 2 * i);
+    if (mode == 0 && (mask >> i & 1) && (target[i] > ctl::kTargetLimit || target[i] < -ctl::kTargetLimit))
+      return nak(r::OUT_OF_RANGE, 2);
+  }
+  if (mode == 1 && !cstore_.has_trajectory()) return nak(r::BAD_STATE, 1);
+  if (!gains_fit(gains_)) return nak(r::BAD_STATE, 2);
+  if (!fresh(proto::get_u16(p + 8), proto::get_u16(p + 10))) return nak(r::BAD_STATE, kFieldSession);
+  control_stop();
+  for (uint8_t i = 0; i < kChannels; ++i) control_.set_target(i, target[i]);
+  control_begin(mode ? kCtlTrajectory : kCtlConstant, mask);
+  link_.feed(hal_.millis());
+  ack();
+}
+
+bool Device::gains_fit(const ctl::Gains& g) {
+  return g.rate_hz == rate_hz_ && g.model_crc == model_.crc();
+}
+
+void Device::control_begin(uint8_t mode, uint8_t mask) {
+  sticky_flags_ &= (uint16_t)~(f::CONTROL_ABORTED | f::WATCHDOG_TRIPPED);
+  control_mode_ = mode;
+  traj_seg_ = 0;
+  traj_start_us_ = hal_.micros();
+  control_.start(mask);
+  // The controller owns every output: the controlled chambers connect to the regulators,
+  // the others vent. Commands start at 0 (ambient) until the first sample.
+  for (uint8_t i = 0; i < kChannels; ++i) outputs_.setpoint_dkpa[i] = 0;
+  outputs_.pump_mask = 0;
+  outputs_.valve_mask = mask;
+  hal_.apply_outputs(outputs_);
+}
+
+void Device::control_stop() {
+  if (!control_.active()) return;
+  control_.stop();
+  control_mode_ = 0;
+  outputs_off();
+}
+
+void Device::trajectory_targets(uint32_t tick_us) {
+  // Time in 10 ms from the start; the record keeps segments within 32767 ticks and targets
+  // within +-30000, so (y1 - y0) * (t - t0) fits an int32.
+  const uint8_t n = cstore_.n_points();
+  const uint16_t t_end = cstore_.point_t((uint8_t)(n - 1));
+  uint32_t el = (tick_us - traj_start_us_) / 10000UL;
+  if (el >= t_end && cstore_.repeat()) {
+    traj_start_us_ += (el / t_end) * t_end * 10000UL;
+    el %= t_end;
+    traj_seg_ = 0;
+  }
+  while (traj_seg_ + 2 < n && el >= cstore_.point_t((uint8_t)(traj_seg_ + 1))) ++traj_seg_;
+  const uint16_t t0 = cstore_.point_t(traj_seg_), t1 = cstore_.point_t((uint8_t)(traj_seg_ + 1));
+  const int32_t dt = el >= t1 ? (int32_t)(t1 - t0) : (int32_t)(el - t0);
+  const uint8_t cols = cstore_.columns();
+  for (uint8_t i = 0; i < kChannels; ++i) {
+    if (!(control_.mask() >> i & 1)) continue;
+    const uint8_t c = cols == 1 ? 0 : i;
+    const int16_t y0 = cstore_.point_y(traj_seg_, c);
+    const int32_t dy = (int32_t)cstore_.point_y((uint8_t)(traj_seg_ + 1), c) - y0;
+    control_.set_target(i, (int16_t)(y0 + dy * dt / (int32_t)(t1 - t0)));
+  }
+}
+
+bool Device::control_mask_ok(uint8_t mask) {
+  proto::ModelInfoReply info;
+  model_.info(&info);
+  return !(mask >> info.n_outputs);
+}
+
+uint16_t Device::control_step(uint16_t fl, bool estimating, const int16_t est[kChannels], uint32_t tick_us,
+                              bool* aborted) {
+  // Never hold a command on an estimate that cannot be trusted: vent and stop.
+  if (!estimating || (fl & (f::ADC_FAULT | f::ESTIMATOR_SATURATED))) {
+    control_stop();
+    sticky_flags_ |= f::CONTROL_ABORTED;
+    *aborted = true;
+    return (uint16_t)(fl | f::CONTROL_SATURATED);
+  }
+  if (control_mode_ & kCtlTrajectory) trajectory_targets(tick_us);
+  const uint8_t sat = control_.step(gains_, est, config_.min_setpoint_dkpa, outputs_.setpoint_dkpa);
+  uint8_t pumps = 0;
+  for (uint8_t i = 0; i < kChannels; ++i)
+    if (outputs_.setpoint_dkpa[i] < 0) pumps = (uint8_t)(pumps | (1u << i));  // vacuum asked: pump on
+  outputs_.pump_mask = pumps;
+  hal_.apply_outputs(outputs_);
+  return sat ? (uint16_t)(fl | f::CONTROL_SATURATED) : fl;
 }
 
 }  // namespace dev

@@ -4,6 +4,8 @@
 #pragma once
 #include <stdint.h>
 
+#include "control.h"
+#include "control_store.h"
 #include "device_config.h"
 #include "frame_codec.h"
 #include "hal.h"
@@ -73,6 +75,23 @@ class Device {
   void cmd_status();
   void cmd_config_set(const uint8_t* p);
   void cmd_model(uint8_t type, const uint8_t* p, uint8_t len);
+  void cmd_control_gains(const uint8_t* p);
+  void cmd_control_gains_get();
+  void cmd_control_start(const uint8_t* p);
+
+  // A command that turns outputs on must carry this session and a counter ahead of the last.
+  bool fresh(uint16_t session, uint16_t counter);
+  // Gains made for the running model and the stream's rate.
+  bool gains_fit(const ctl::Gains& g);
+  bool control_mask_ok(uint8_t mask);  // every masked channel has a model output
+  // Starts control of `mask` (mode kCtlConstant or kCtlTrajectory, | kCtlStandalone).
+  void control_begin(uint8_t mode, uint8_t mask);
+  void control_stop();  // outputs vent
+  // One sample of control after the estimator; returns the sample flags with CONTROL_SATURATED,
+  // or stops control and vents (returns with *aborted set) on a sensor fault, a saturated
+  // estimator or no estimate.
+  uint16_t control_step(uint16_t fl, bool estimating, const int16_t est[kChannels], uint32_t tick_us, bool* aborted);
+  void trajectory_targets(uint32_t tick_us);
 
   void apply_config();
   // Switches this session's line mode; switching on prints the CSV header at once (blocking
@@ -127,6 +146,16 @@ class Device {
   uint8_t line_state_;
   uint8_t analog_pin_;  // pin of the analogue estimate output now driven, 0 when off
   SyncBlink sync_;      // camera sync indicator (sync_blink.h)
+
+  // Strain control (control.h): the controller, its stored gains and trajectory, the gains in
+  // use, and the trajectory's clock (start tick, current segment).
+  static constexpr uint8_t kCtlConstant = 1, kCtlTrajectory = 2, kCtlStandalone = 0x80;
+  ctl::Controller control_;
+  ControlStore cstore_;
+  ctl::Gains gains_;
+  uint32_t traj_start_us_;
+  uint8_t traj_seg_;
+  uint8_t control_mode_;
 };
 
 }  // namespace dev

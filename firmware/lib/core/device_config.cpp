@@ -12,7 +12,8 @@ uint16_t crc_step(uint16_t crc, uint8_t byte) {  // CRC-16/MCRF4XX, as on the wi
   return crc;
 }
 
-// Slot layout (32 bytes): format, seq, rate, mask, pga|rate<<4, pin|flags<<4,
+// Slot layout (32 bytes): format, seq, rate, mask, pga|rate<<4,
+// pin|r0_mode<<4|autostart bit 0<<5|line_mode<<6|autostart bit 1<<7,
 // min_setpoint(2), pwm_offset(2), watchdog(2), boots(2), r0 x3 (4 each), pwm_scale(4), crc(2).
 constexpr uint8_t kPayload = kConfigSlotSize - 2;
 
@@ -22,8 +23,9 @@ void pack(const Config& c, uint8_t seq, uint8_t* b) {
   b[2] = c.sample_rate_hz;
   b[3] = c.channel_mask;
   b[4] = (uint8_t)(c.adc_pga | (c.adc_rate << 4));
-  b[5] = (uint8_t)(c.pwm_pin | (c.r0_mode << 4) | (c.autostart << 5) | (c.line_mode << 6) |
-                   (c.schedule_enable << 7));
+  // AUTOSTART takes bits 5 and 7 (bit 7 held SCHEDULE_ENABLE, which this build keeps at 0).
+  b[5] = (uint8_t)(c.pwm_pin | (c.r0_mode << 4) | ((c.autostart & 1) << 5) | (c.line_mode << 6) |
+                   ((c.autostart >> 1) << 7));
   proto::put_i16(b + 6, c.min_setpoint_dkpa);
   proto::put_i16(b + 8, c.pwm_offset);
   proto::put_u16(b + 10, c.watchdog_ms);
@@ -39,9 +41,9 @@ void unpack(const uint8_t* b, Config* c) {
   c->adc_rate = b[4] >> 4;
   c->pwm_pin = b[5] & 0x0F;
   c->r0_mode = (b[5] >> 4) & 1;
-  c->autostart = (b[5] >> 5) & 1;
+  c->autostart = (uint8_t)(((b[5] >> 5) & 1) | ((b[5] >> 7) << 1));
   c->line_mode = (b[5] >> 6) & 1;
-  c->schedule_enable = (b[5] >> 7) & 1;
+  c->schedule_enable = 0;
   c->min_setpoint_dkpa = proto::get_i16(b + 6);
   c->pwm_offset = proto::get_i16(b + 8);
   c->watchdog_ms = proto::get_u16(b + 10);

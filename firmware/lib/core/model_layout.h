@@ -57,7 +57,7 @@ constexpr uint8_t kMaxSections = 5;
 constexpr uint8_t kMaxDelay = 15;
 constexpr uint32_t kMaxTsUs = 65535000UL;
 // EEPROM model store: slot headers at base, then the blob area shared by the slots.
-constexpr uint16_t kStoreBase = 64, kStoreRegion = 960;
+constexpr uint16_t kStoreBase = 64, kStoreRegion = 792;
 constexpr uint8_t kSlots = 2, kSlotMagic = 0x4D;
 constexpr uint8_t kSlotHeaderLen = 8;
 constexpr uint8_t kOffSlotMagic = 0;  // u8
@@ -65,8 +65,8 @@ constexpr uint8_t kOffSlotSeq = 1;  // u8
 constexpr uint8_t kOffSlotLength = 2;  // u16
 constexpr uint8_t kOffSlotCrc = 4;  // u16
 constexpr uint8_t kOffSlotHeaderCrc = 6;  // u16
-constexpr uint16_t kAreaBase = 80, kAreaLen = 944;
-constexpr uint16_t kMaxBlobLength = 944;  // one model in an empty store
+constexpr uint16_t kAreaBase = 80, kAreaLen = 776;
+constexpr uint16_t kMaxBlobLength = 776;  // one model in an empty store
 
 }  // namespace layout
 }  // namespace est

@@ -13,8 +13,8 @@
 namespace proto {
 
 constexpr uint8_t kVersionMajor = 2;
-constexpr uint8_t kVersionMinor = 0;
-constexpr uint8_t kVersionByte = 32;
+constexpr uint8_t kVersionMinor = 1;
+constexpr uint8_t kVersionByte = 33;
 constexpr uint8_t kMaxPayload = 120;
 
 namespace msg {
@@ -51,6 +51,13 @@ constexpr uint8_t CONFIG_SET = 0x31;  // Set one configuration value in RAM (CON
 constexpr uint8_t CONFIG_SAVE = 0x32;  // Write the configuration to EEPROM atomically
 constexpr uint8_t CONFIG_RESET = 0x33;  // Restore the documented defaults in RAM and EEPROM
 constexpr uint8_t RESET = 0x3F;  // Acknowledge, then reset the board through the AVR watchdog
+constexpr uint8_t CONTROL_GAINS = 0x40;  // PI gains and target slew limit of the strain controller per channel, in the controller's fixed point for one model (its CRC) and one sample rate: the host converts them from output units (porosense
+constexpr uint8_t CONTROL_GAINS_GET = 0x41;  // The controller gains in use
+constexpr uint8_t CONTROL_GAINS_REPLY = 0x8B;  // The controller gains in use (all zero with rate 0 when none were set), and whether a valid copy is stored
+constexpr uint8_t CONTROL_START = 0x42;  // Start closed-loop strain control of the masked channels on the streamed estimate: mode 0 holds the constant targets, mode 1 runs the stored trajectory
+constexpr uint8_t CONTROL_STOP = 0x43;  // Stop control: regulators to 0, pumps off, valves vent
+constexpr uint8_t TRAJECTORY_CHUNK = 0x44;  // Bytes of a trajectory record at an offset; offset 0 starts a write into the slot not holding the stored trajectory, offsets must be contiguous (BAD_STATE, detail = expected offset)
+constexpr uint8_t CONTROL_SAMPLE = 0xA1;  // SAMPLE while the strain controller runs (it replaces SAMPLE and shares its sequence counter): SAMPLE's fields, then the slewed target and the regulator command per channel
 }  // namespace msg
 
 namespace result {
@@ -81,6 +88,9 @@ constexpr uint16_t CONFIG_DEFAULTS = 1u << 8;  // Stored configuration was missi
 constexpr uint16_t ADC_CLIPPED = 1u << 9;  // A channel's counts are at the ADC's full-scale limit.
 constexpr uint16_t R0_UNCALIBRATED = 1u << 10;  // No R0 calibration yet: dR is reported against the nominal R0.
 constexpr uint16_t STANDALONE = 1u << 11;  // Streaming started by autostart, without a host.
+constexpr uint16_t CONTROL_ACTIVE = 1u << 12;  // The strain controller drives at least one channel (CONTROL_START or autostart).
+constexpr uint16_t CONTROL_SATURATED = 1u << 13;  // A controlled channel's command sits at MIN_SETPOINT_DKPA or at 0 with error left, or the estimator saturated, in this sample.
+constexpr uint16_t CONTROL_ABORTED = 1u << 14;  // Control was stopped and the outputs vented by the link watchdog, a sensor fault or a saturated estimator (cleared by the next CONTROL_START).
 }  // namespace flag
 
 namespace cap {
@@ -111,7 +121,7 @@ constexpr uint8_t ADC_PGA = 7;  // ADS1115 PGA code (0 = +-6.144 V, 1 = +-4.096 
 constexpr uint8_t ADC_RATE = 8;  // ADS1115 data-rate code (0 = 8 SPS ... 4 = 128 SPS ... 7 = 860 SPS).
 constexpr uint8_t MIN_SETPOINT_DKPA = 9;  // Most negative vacuum setpoint accepted, in 0.1 kPa.
 constexpr uint8_t WATCHDOG_MS = 10;  // Host-link watchdog timeout in ms while outputs are active.
-constexpr uint8_t AUTOSTART = 11;  // 1: stream and estimate at power-up when a valid model is stored.
+constexpr uint8_t AUTOSTART = 11;  // At power-up when a valid model is stored: 1 stream and estimate; 2 also run the stored trajectory with the stored gains, without a host (a constant target is a flat trajectory; a 1-column trajectory drives channel 0, a 3-column one channels 0..2).
 constexpr uint8_t PWM_PIN = 12;  // Arduino pin of the analogue estimate output: 0 = off, 10 = D10 (the only PWM pin whose timer the firmware leaves free; others are refused with UNSUPPORTED).
 constexpr uint8_t PWM_SCALE_MILLI = 13;  // Duty counts per estimate LSB, times 1000.
 constexpr uint8_t PWM_OFFSET = 14;  // Duty counts added after scaling.
@@ -132,7 +142,7 @@ inline bool key_info(uint8_t key, KeyInfo* out) {
     case ADC_RATE: out->def = 7L; out->min = 0L; out->max = 7L; return true;
     case MIN_SETPOINT_DKPA: out->def = -600L; out->min = -800L; out->max = 0L; return true;
     case WATCHDOG_MS: out->def = 1000L; out->min = 100L; out->max = 10000L; return true;
-    case AUTOSTART: out->def = 0L; out->min = 0L; out->max = 1L; return true;
+    case AUTOSTART: out->def = 0L; out->min = 0L; out->max = 2L; return true;
     case PWM_PIN: out->def = 0L; out->min = 0L; out->max = 13L; return true;
     case PWM_SCALE_MILLI: out->def = 1000L; out->min = -1000000L; out->max = 1000000L; return true;
     case PWM_OFFSET: out->def = 0L; out->min = -255L; out->max = 255L; return true;
@@ -922,6 +932,202 @@ struct Reset {
   }
 };
 
+struct ControlGains {
+  static constexpr uint8_t kType = 0x40;
+  static constexpr uint8_t kMinLen = 23;
+  static constexpr uint8_t kMaxLen = 23;
+  uint16_t kp_q16[3];  // 2^-16 x 0.1 kPa per estimate LSB
+  uint16_t ki_q24[3];  // 2^-24 x 0.1 kPa per LSB per sample
+  uint16_t slew_q4[3];  // 1/16 LSB per sample
+  uint16_t model_crc;
+  uint16_t rate_hz;  // Hz
+  uint8_t save;
+  uint8_t encode(uint8_t* buf) const {
+    uint8_t n = 0;
+    for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, kp_q16[i]); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, ki_q24[i]); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, slew_q4[i]); n += 2; }
+    put_u16(buf + n, model_crc); n += 2;
+    put_u16(buf + n, rate_hz); n += 2;
+    put_u8(buf + n, save); n += 1;
+    return n;
+  }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    uint8_t n = 0;
+    for (uint8_t i = 0; i < 3; ++i) { kp_q16[i] = get_u16(buf + n); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { ki_q24[i] = get_u16(buf + n); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { slew_q4[i] = get_u16(buf + n); n += 2; }
+    model_crc = get_u16(buf + n); n += 2;
+    rate_hz = get_u16(buf + n); n += 2;
+    save = get_u8(buf + n); n += 1;
+    return true;
+  }
+};
+
+struct ControlGainsGet {
+  static constexpr uint8_t kType = 0x41;
+  static constexpr uint8_t kMinLen = 0;
+  static constexpr uint8_t kMaxLen = 0;
+  uint8_t encode(uint8_t* buf) const {
+    uint8_t n = 0;
+    (void)buf;
+    return n;
+  }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    (void)buf;
+    return true;
+  }
+};
+
+struct ControlGainsReply {
+  static constexpr uint8_t kType = 0x8B;
+  static constexpr uint8_t kMinLen = 23;
+  static constexpr uint8_t kMaxLen = 23;
+  uint16_t kp_q16[3];  // 2^-16 x 0.1 kPa per estimate LSB
+  uint16_t ki_q24[3];  // 2^-24 x 0.1 kPa per LSB per sample
+  uint16_t slew_q4[3];  // 1/16 LSB per sample
+  uint16_t model_crc;
+  uint16_t rate_hz;  // Hz
+  uint8_t stored;
+  uint8_t encode(uint8_t* buf) const {
+    uint8_t n = 0;
+    for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, kp_q16[i]); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, ki_q24[i]); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, slew_q4[i]); n += 2; }
+    put_u16(buf + n, model_crc); n += 2;
+    put_u16(buf + n, rate_hz); n += 2;
+    put_u8(buf + n, stored); n += 1;
+    return n;
+  }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    uint8_t n = 0;
+    for (uint8_t i = 0; i < 3; ++i) { kp_q16[i] = get_u16(buf + n); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { ki_q24[i] = get_u16(buf + n); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { slew_q4[i] = get_u16(buf + n); n += 2; }
+    model_crc = get_u16(buf + n); n += 2;
+    rate_hz = get_u16(buf + n); n += 2;
+    stored = get_u8(buf + n); n += 1;
+    return true;
+  }
+};
+
+struct ControlStart {
+  static constexpr uint8_t kType = 0x42;
+  static constexpr uint8_t kMinLen = 12;
+  static constexpr uint8_t kMaxLen = 12;
+  uint8_t mode;
+  uint8_t channel_mask;
+  int16_t target[3];  // model LSB
+  uint16_t session;
+  uint16_t counter;
+  uint8_t encode(uint8_t* buf) const {
+    uint8_t n = 0;
+    put_u8(buf + n, mode); n += 1;
+    put_u8(buf + n, channel_mask); n += 1;
+    for (uint8_t i = 0; i < 3; ++i) { put_i16(buf + n, target[i]); n += 2; }
+    put_u16(buf + n, session); n += 2;
+    put_u16(buf + n, counter); n += 2;
+    return n;
+  }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    uint8_t n = 0;
+    mode = get_u8(buf + n); n += 1;
+    channel_mask = get_u8(buf + n); n += 1;
+    for (uint8_t i = 0; i < 3; ++i) { target[i] = get_i16(buf + n); n += 2; }
+    session = get_u16(buf + n); n += 2;
+    counter = get_u16(buf + n); n += 2;
+    return true;
+  }
+};
+
+struct ControlStop {
+  static constexpr uint8_t kType = 0x43;
+  static constexpr uint8_t kMinLen = 0;
+  static constexpr uint8_t kMaxLen = 0;
+  uint8_t encode(uint8_t* buf) const {
+    uint8_t n = 0;
+    (void)buf;
+    return n;
+  }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    (void)buf;
+    return true;
+  }
+};
+
+struct TrajectoryChunk {
+  static constexpr uint8_t kType = 0x44;
+  static constexpr uint8_t kMinLen = 2;
+  static constexpr uint8_t kMaxLen = 66;
+  uint8_t total;  // bytes
+  uint8_t offset;  // bytes
+  uint8_t data[64];
+  uint8_t data_count;
+  uint8_t encode(uint8_t* buf) const {
+    uint8_t n = 0;
+    put_u8(buf + n, total); n += 1;
+    put_u8(buf + n, offset); n += 1;
+    for (uint8_t i = 0; i < data_count; ++i) { put_u8(buf + n, data[i]); n += 1; }
+    return n;
+  }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len < kMinLen || len > kMaxLen || (len - kMinLen) % 1 != 0) return false;
+    uint8_t n = 0;
+    total = get_u8(buf + n); n += 1;
+    offset = get_u8(buf + n); n += 1;
+    data_count = (uint8_t)((len - kMinLen) / 1);
+    for (uint8_t i = 0; i < data_count; ++i) { data[i] = get_u8(buf + n); n += 1; }
+    return true;
+  }
+};
+
+struct ControlSample {
+  static constexpr uint8_t kType = 0xA1;
+  static constexpr uint8_t kMinLen = 43;
+  static constexpr uint8_t kMaxLen = 43;
+  uint32_t t_us;  // us
+  uint8_t channel_mask;
+  uint16_t status;
+  int16_t adc[3];  // counts
+  int16_t dr_centi[3];  // 0.01 %
+  int16_t euler_16[3];  // 1/16 deg
+  int16_t estimate[3];  // model LSB
+  int16_t target[3];  // model LSB
+  int16_t command_dkpa[3];  // 0.1 kPa
+  uint8_t encode(uint8_t* buf) const {
+    uint8_t n = 0;
+    put_u32(buf + n, t_us); n += 4;
+    put_u8(buf + n, channel_mask); n += 1;
+    put_u16(buf + n, status); n += 2;
+    for (uint8_t i = 0; i < 3; ++i) { put_i16(buf + n, adc[i]); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { put_i16(buf + n, dr_centi[i]); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { put_i16(buf + n, euler_16[i]); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { put_i16(buf + n, estimate[i]); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { put_i16(buf + n, target[i]); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { put_i16(buf + n, command_dkpa[i]); n += 2; }
+    return n;
+  }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    uint8_t n = 0;
+    t_us = get_u32(buf + n); n += 4;
+    channel_mask = get_u8(buf + n); n += 1;
+    status = get_u16(buf + n); n += 2;
+    for (uint8_t i = 0; i < 3; ++i) { adc[i] = get_i16(buf + n); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { dr_centi[i] = get_i16(buf + n); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { euler_16[i] = get_i16(buf + n); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { estimate[i] = get_i16(buf + n); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { target[i] = get_i16(buf + n); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { command_dkpa[i] = get_i16(buf + n); n += 2; }
+    return true;
+  }
+};
+
 // Expected payload length bounds of a message type; false for an unknown type.
 inline bool payload_bounds(uint8_t type, uint8_t* min_len, uint8_t* max_len) {
   switch (type) {
@@ -958,6 +1164,13 @@ inline bool payload_bounds(uint8_t type, uint8_t* min_len, uint8_t* max_len) {
     case ConfigSave::kType: *min_len = ConfigSave::kMinLen; *max_len = ConfigSave::kMaxLen; return true;
     case ConfigReset::kType: *min_len = ConfigReset::kMinLen; *max_len = ConfigReset::kMaxLen; return true;
     case Reset::kType: *min_len = Reset::kMinLen; *max_len = Reset::kMaxLen; return true;
+    case ControlGains::kType: *min_len = ControlGains::kMinLen; *max_len = ControlGains::kMaxLen; return true;
+    case ControlGainsGet::kType: *min_len = ControlGainsGet::kMinLen; *max_len = ControlGainsGet::kMaxLen; return true;
+    case ControlGainsReply::kType: *min_len = ControlGainsReply::kMinLen; *max_len = ControlGainsReply::kMaxLen; return true;
+    case ControlStart::kType: *min_len = ControlStart::kMinLen; *max_len = ControlStart::kMaxLen; return true;
+    case ControlStop::kType: *min_len = ControlStop::kMinLen; *max_len = ControlStop::kMaxLen; return true;
+    case TrajectoryChunk::kType: *min_len = TrajectoryChunk::kMinLen; *max_len = TrajectoryChunk::kMaxLen; return true;
+    case ControlSample::kType: *min_len = ControlSample::kMinLen; *max_len = ControlSample::kMaxLen; return true;
     default: return false;
   }
 }

@@ -6,6 +6,7 @@
 """
 
 from porosense.device.client import ALL_CHANNELS, Device, NakError, blob_crc
+from porosense.device.control import ControlGains
 from porosense.device.ports import PortInfo, list_ports
 from porosense.device.results import (
     DeviceStatus,
@@ -19,6 +20,7 @@ from porosense.device.results import (
 
 __all__ = [
     "ALL_CHANNELS",
+    "ControlGains",
     "Device",
     "NakError",
     "blob_crc",

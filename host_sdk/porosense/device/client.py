@@ -11,6 +11,7 @@ are queued for :meth:`Device.samples`; gaps in their sequence numbers count lost
 from __future__ import annotations
 
 import collections
+import math
 import random
 import struct
 import time
@@ -45,6 +46,7 @@ from porosense.protocol._messages import VERSION_BYTE, ConfigKey
 DEFAULT_BAUD = 115200
 MODEL_CHUNK_BYTES = 112
 REPLAY_SAMPLES = 16
+TRAJECTORY_CHUNK_BYTES = 48
 ALL_CHANNELS = 0x1F
 
 # Host reply timeout = the command's deadline (DEADLINE_MS of the catalogue: 50 ms, 1000 ms
@@ -121,6 +123,11 @@ class Device:
         self._session = 0
         self._out_counter = 0
         self._replay_flags: list[int] = []
+        # Strain control: the model's out_scale for CONTROL_SAMPLE targets, the gains the host
+        # set in output units and the (model CRC, rate) they were last sent to the board for.
+        self._out_scale: tuple[float, ...] | None = None
+        self._gains = None
+        self._gains_for: tuple[int, int] | None = None
 
     # ------------------------------------------------------------------ opening
 
@@ -453,6 +460,101 @@ class Device:
         time.sleep(0.05 * self.timeout_scale)
         return self.hello(wait_s=wait_s)
 
+    # ------------------------------------------------------------------ strain control
+
+    def _control_model(self) -> tuple[tuple[float, ...], int]:
+        """out_scale of the running model (zeros without one) and its CRC."""
+        info = self.model_info()
+        scale = tuple(info.out_scale) if info.valid else ()
+        self._out_scale = scale or None
+        return scale, info.crc if info.valid else 0
+
+    def _control_rate_hz(self) -> int:
+        return self._rate_hz if self._streaming else self.sample_rate_hz()
+
+    def set_control_gains(self, gains, *, save: bool = False) -> None:
+        """PI gains of the strain controller: one porosense.device.ControlGains for all channels
+        or one per channel, in the model's output units (kPa per unit, kPa per unit-second,
+        units per second). Quantised to the board's fixed point for the running model and the
+        sample rate (the stream's, else SAMPLE_RATE_HZ); ``save`` stores them on the board
+        (versioned, CRC) for AUTOSTART 2. Needs a valid model (DeviceError otherwise)."""
+        from porosense.device import control
+
+        gains = control.per_channel(gains)
+        scale, crc = self._control_model()
+        if not scale:
+            raise DeviceError("no valid model on the board: control gains are set per model (flash one first)")
+        rate = self._control_rate_hz()
+        fixed = control.to_fixed(gains, scale, rate)
+        self._exchange(m.ControlGains(**fixed, model_crc=crc, rate_hz=rate, save=int(bool(save))))
+        self._gains, self._gains_for = gains, (crc, rate)
+
+    def control_gains(self):
+        """The gains on the board, per channel, as quantised there (porosense.device.ControlGains,
+        in the model's output units)."""
+        from porosense.device import control
+
+        r = self._exchange(m.ControlGainsGet())
+        scale, crc = self._control_model()
+        if r.rate_hz and r.model_crc != crc:
+            raise DeviceError(f"the board's control gains were made for another model (crc 0x{r.model_crc:04X}, "
+                              f"running 0x{crc:04X}): set them again")
+        return control.from_fixed(r.kp_q16, r.ki_q24, r.slew_q4, scale, r.rate_hz)
+
+    def _refresh_gains(self) -> tuple[float, ...]:
+        """Resend the host's gains when the model or the rate changed since they were sent."""
+        from porosense.device import control
+
+        scale, crc = self._control_model()
+        rate = self._control_rate_hz()
+        if self._gains is not None and scale and self._gains_for != (crc, rate):
+            fixed = control.to_fixed(self._gains, scale, rate)
+            self._exchange(m.ControlGains(**fixed, model_crc=crc, rate_hz=rate, save=0))
+            self._gains_for = (crc, rate)
+        return scale
+
+    def _control_start(self, mode: int, targets_lsb, channels: int) -> None:
+        self._out_counter = (self._out_counter + 1) & 0xFFFF
+        self._exchange(m.ControlStart(mode=mode, channel_mask=int(channels), target=tuple(targets_lsb),
+                                      session=self._session, counter=self._out_counter))
+        self._outputs_active = True
+
+    def start_control(self, targets, *, channels: int = 0b001) -> None:
+        """Hold constant ``targets`` (output units; one for all or one per channel) on the
+        channels in ``channels`` with the on-board PI on the streamed estimate.
+
+        Needs a valid model and streaming with estimates (NakError NO_MODEL / BAD_STATE); a
+        target outside the model's output range is refused (NakError OUT_OF_RANGE). Arms the
+        host-link watchdog like set_outputs: keep sending commands (e.g. ping)."""
+        from porosense.device import control
+
+        scale = self._refresh_gains() or (1.0,) * 3
+        self._control_start(0, control.to_lsb(targets, scale, int(channels)), channels)
+
+    def write_trajectory(self, t_s, targets, *, repeat: bool = False) -> None:
+        """Store piecewise-linear targets on the board: ``t_s`` (n,) increasing from 0 (s),
+        ``targets`` (n,) or (n, 3) in output units; chunked and CRC-checked, kept over resets
+        (a torn write keeps the previous one). ``repeat`` loops it. Not while streaming."""
+        from porosense.device import control
+
+        scale, _ = self._control_model()
+        if not scale:
+            raise DeviceError("no valid model on the board: trajectory targets are in its output units")
+        rec = control.trajectory_record(t_s, targets, scale, repeat=repeat)
+        for off in range(0, len(rec), TRAJECTORY_CHUNK_BYTES):
+            self._exchange(m.TrajectoryChunk(total=len(rec), offset=off, data=rec[off:off + TRAJECTORY_CHUNK_BYTES]))
+
+    def start_trajectory(self, *, channels: int = 0b001) -> None:
+        """Run the stored trajectory on ``channels`` (a 1-column trajectory drives each of them,
+        a 3-column one channel i with column i)."""
+        self._refresh_gains()
+        self._control_start(1, (0, 0, 0), channels)
+
+    def stop_control(self) -> None:
+        """Stop control: regulators to 0, pumps off, valves vent."""
+        self._exchange(m.ControlStop())
+        self._outputs_active = False
+
     # ------------------------------------------------------------------ raw access
 
     def send_raw(self, data: bytes) -> None:
@@ -555,7 +657,7 @@ class Device:
             return []
         others = []
         for frame in self._decoder.feed(data):
-            if frame.type == MsgType.SAMPLE:
+            if frame.type in (MsgType.SAMPLE, MsgType.CONTROL_SAMPLE):
                 self._on_sample(frame)
             elif frame.type == MsgType.ERROR:
                 if self._next_eseq is not None:  # ERROR frames have their own counter
@@ -571,8 +673,9 @@ class Device:
         return others
 
     def _on_sample(self, frame) -> None:
+        control = frame.type == MsgType.CONTROL_SAMPLE
         try:
-            t_us, mask, status, *vals = _SAMPLE.unpack(frame.payload)
+            t_us, mask, status, *vals = (_CONTROL_SAMPLE if control else _SAMPLE).unpack(frame.payload)
         except struct.error:
             return
         if self._next_tseq is not None:
@@ -592,8 +695,15 @@ class Device:
                 tuple(vals[3:6]),
                 tuple(vals[6:9]),
                 tuple(vals[9:12]),
+                *(self._control_fields(vals[12:15], vals[15:18]) if control else ()),
             )
         )
+
+    def _control_fields(self, target_lsb, command_dkpa) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        scale = self._out_scale or (math.nan,) * 3
+        target = tuple(math.nan if v == _NO_TARGET else v * (scale[i] if i < len(scale) else math.nan)
+                       for i, v in enumerate(target_lsb))
+        return target, tuple(v / 10.0 for v in command_dkpa)
 
     @property
     def decoder_counters(self) -> dict[str, int]:
@@ -602,6 +712,8 @@ class Device:
 
 
 _SAMPLE = m.Sample._FMT
+_CONTROL_SAMPLE = m.ControlSample._FMT
+_NO_TARGET = -32768
 
 
 def _mask(bits) -> int:

@@ -5,6 +5,7 @@ Each is a small dataclass that prints well and converts to a dict (``to_dict``) 
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -174,6 +175,10 @@ class Sample:
     dr_centi: tuple[int, ...]
     euler_16: tuple[int, ...]
     estimate: tuple[int, ...]
+    # While the strain controller runs (CONTROL_SAMPLE): slewed target (output units, nan on a
+    # channel not controlled) and the regulator setpoint it sent (kPa, <= 0).
+    target: tuple[float, ...] = (math.nan,) * 3
+    command_kpa: tuple[float, ...] = (0.0,) * 3
 
     @property
     def t_s(self) -> float:
@@ -202,6 +207,8 @@ class SampleBlock(_Dictable):
     euler_16: np.ndarray
     estimate: np.ndarray
     lost: int = 0
+    target: np.ndarray | None = None  # (N, 3) output units, nan where not controlled
+    command_kpa: np.ndarray | None = None  # (N, 3) kPa
 
     @classmethod
     def from_samples(cls, samples: list[Sample], lost: int = 0) -> SampleBlock:
@@ -216,6 +223,8 @@ class SampleBlock(_Dictable):
             euler_16=col("euler_16"),
             estimate=col("estimate"),
             lost=lost,
+            target=col("target", float),
+            command_kpa=col("command_kpa", float),
         )
 
     def __len__(self) -> int:

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 VERSION_MAJOR = 2
-VERSION_MINOR = 0
-VERSION_BYTE = 32
+VERSION_MINOR = 1
+VERSION_BYTE = 33
 MAX_PAYLOAD = 120
 
 
@@ -54,6 +54,13 @@ class MsgType(enum.IntEnum):
     CONFIG_SAVE = 0x32
     CONFIG_RESET = 0x33
     RESET = 0x3F
+    CONTROL_GAINS = 0x40
+    CONTROL_GAINS_GET = 0x41
+    CONTROL_GAINS_REPLY = 0x8B
+    CONTROL_START = 0x42
+    CONTROL_STOP = 0x43
+    TRAJECTORY_CHUNK = 0x44
+    CONTROL_SAMPLE = 0xA1
 
 
 class Result(enum.IntEnum):
@@ -88,6 +95,9 @@ class StatusFlag(enum.IntFlag):
     ADC_CLIPPED = 1 << 9  # A channel's counts are at the ADC's full-scale limit.
     R0_UNCALIBRATED = 1 << 10  # No R0 calibration yet: dR is reported against the nominal R0.
     STANDALONE = 1 << 11  # Streaming started by autostart, without a host.
+    CONTROL_ACTIVE = 1 << 12  # The strain controller drives at least one channel (CONTROL_START or autostart).
+    CONTROL_SATURATED = 1 << 13  # A controlled channel's command sits at MIN_SETPOINT_DKPA or at 0 with error left, or the estimator saturated, in this sample.
+    CONTROL_ABORTED = 1 << 14  # Control was stopped and the outputs vented by the link watchdog, a sensor fault or a saturated estimator (cleared by the next CONTROL_START).
 
 
 class Capability(enum.IntFlag):
@@ -124,7 +134,7 @@ class ConfigKey(enum.IntEnum):
     ADC_RATE = 8  # ADS1115 data-rate code (0 = 8 SPS ... 4 = 128 SPS ... 7 = 860 SPS).
     MIN_SETPOINT_DKPA = 9  # Most negative vacuum setpoint accepted, in 0.1 kPa.
     WATCHDOG_MS = 10  # Host-link watchdog timeout in ms while outputs are active.
-    AUTOSTART = 11  # 1: stream and estimate at power-up when a valid model is stored.
+    AUTOSTART = 11  # At power-up when a valid model is stored: 1 stream and estimate; 2 also run the stored trajectory with the stored gains, without a host (a constant target is a flat trajectory; a 1-column trajectory drives channel 0, a 3-column one channels 0..2).
     PWM_PIN = 12  # Arduino pin of the analogue estimate output: 0 = off, 10 = D10 (the only PWM pin whose timer the firmware leaves free; others are refused with UNSUPPORTED).
     PWM_SCALE_MILLI = 13  # Duty counts per estimate LSB, times 1000.
     PWM_OFFSET = 14  # Duty counts added after scaling.
@@ -154,7 +164,7 @@ CONFIG_SPECS: dict[ConfigKey, ConfigSpec] = {
     ConfigKey.ADC_RATE: ConfigSpec(ConfigKey.ADC_RATE, 7, 0, 7, 'ADS1115 data-rate code (0 = 8 SPS ... 4 = 128 SPS ... 7 = 860 SPS).'),
     ConfigKey.MIN_SETPOINT_DKPA: ConfigSpec(ConfigKey.MIN_SETPOINT_DKPA, -600, -800, 0, 'Most negative vacuum setpoint accepted, in 0.1 kPa.'),
     ConfigKey.WATCHDOG_MS: ConfigSpec(ConfigKey.WATCHDOG_MS, 1000, 100, 10000, 'Host-link watchdog timeout in ms while outputs are active.'),
-    ConfigKey.AUTOSTART: ConfigSpec(ConfigKey.AUTOSTART, 0, 0, 1, '1: stream and estimate at power-up when a valid model is stored.'),
+    ConfigKey.AUTOSTART: ConfigSpec(ConfigKey.AUTOSTART, 0, 0, 2, 'At power-up when a valid model is stored: 1 stream and estimate; 2 also run the stored trajectory with the stored gains, without a host (a constant target is a flat trajectory; a 1-column trajectory drives channel 0, a 3-column one channels 0..2).'),
     ConfigKey.PWM_PIN: ConfigSpec(ConfigKey.PWM_PIN, 0, 0, 13, 'Arduino pin of the analogue estimate output: 0 = off, 10 = D10 (the only PWM pin whose timer the firmware leaves free; others are refused with UNSUPPORTED).'),
     ConfigKey.PWM_SCALE_MILLI: ConfigSpec(ConfigKey.PWM_SCALE_MILLI, 1000, -1000000, 1000000, 'Duty counts per estimate LSB, times 1000.'),
     ConfigKey.PWM_OFFSET: ConfigSpec(ConfigKey.PWM_OFFSET, 0, -255, 255, 'Duty counts added after scaling.'),
@@ -1075,6 +1085,230 @@ class Reset(Message):
         return cls()
 
 
+@dataclass
+class ControlGains(Message):
+    """PI gains and target slew limit of the strain controller per channel, in the controller's fixed point for one model (its CRC) and one sample rate: the host converts them from output units (porosense.device.control). CONTROL_START refuses gains made for another model or rate (BAD_STATE, detail 2). save = 1 also stores them in EEPROM (two slots, CRC; not while streaming or with outputs on: BUSY). A running controller takes them at once."""
+
+    TYPE: ClassVar[int] = 0x40
+    DIRECTION: ClassVar[str] = 'h2d'
+    REPLY: ClassVar[str | None] = 'ACK'
+    MIN_LEN: ClassVar[int] = 23
+    MAX_LEN: ClassVar[int] = 23
+    DEADLINE_MS: ClassVar[int] = 1000
+    _FMT: ClassVar[struct.Struct] = struct.Struct('<3H3H3HHHB')
+    kp_q16: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 2^-16 x 0.1 kPa per estimate LSB
+    ki_q24: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 2^-24 x 0.1 kPa per LSB per sample
+    slew_q4: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 1/16 LSB per sample
+    model_crc: int = 0
+    rate_hz: int = 0  # Hz
+    save: int = 0
+
+    def pack(self) -> bytes:
+        if len(self.kp_q16) != 3:
+            raise ValueError('CONTROL_GAINS.kp_q16 needs 3 values')
+        if len(self.ki_q24) != 3:
+            raise ValueError('CONTROL_GAINS.ki_q24 needs 3 values')
+        if len(self.slew_q4) != 3:
+            raise ValueError('CONTROL_GAINS.slew_q4 needs 3 values')
+        head = self._FMT.pack(*self.kp_q16, *self.ki_q24, *self.slew_q4, self.model_crc, self.rate_hz, self.save)
+        return head
+
+    @classmethod
+    def unpack(cls, payload: bytes) -> ControlGains:
+        if len(payload) != cls.MIN_LEN:
+            raise ValueError(f'CONTROL_GAINS payload of {len(payload)} bytes (expected 23)')
+        vals = cls._FMT.unpack_from(payload, 0)
+        return cls(kp_q16=tuple(vals[0:3]), ki_q24=tuple(vals[3:6]), slew_q4=tuple(vals[6:9]), model_crc=vals[9], rate_hz=vals[10], save=vals[11])
+
+
+@dataclass
+class ControlGainsGet(Message):
+    """The controller gains in use."""
+
+    TYPE: ClassVar[int] = 0x41
+    DIRECTION: ClassVar[str] = 'h2d'
+    REPLY: ClassVar[str | None] = 'CONTROL_GAINS_REPLY'
+    MIN_LEN: ClassVar[int] = 0
+    MAX_LEN: ClassVar[int] = 0
+    DEADLINE_MS: ClassVar[int] = 50
+    _FMT: ClassVar[struct.Struct] = struct.Struct('<')
+
+    def pack(self) -> bytes:
+        head = self._FMT.pack()
+        return head
+
+    @classmethod
+    def unpack(cls, payload: bytes) -> ControlGainsGet:
+        if len(payload) != cls.MIN_LEN:
+            raise ValueError(f'CONTROL_GAINS_GET payload of {len(payload)} bytes (expected 0)')
+        return cls()
+
+
+@dataclass
+class ControlGainsReply(Message):
+    """The controller gains in use (all zero with rate 0 when none were set), and whether a valid copy is stored."""
+
+    TYPE: ClassVar[int] = 0x8B
+    DIRECTION: ClassVar[str] = 'd2h'
+    REPLY: ClassVar[str | None] = None
+    MIN_LEN: ClassVar[int] = 23
+    MAX_LEN: ClassVar[int] = 23
+    DEADLINE_MS: ClassVar[int] = 0
+    _FMT: ClassVar[struct.Struct] = struct.Struct('<3H3H3HHHB')
+    kp_q16: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 2^-16 x 0.1 kPa per estimate LSB
+    ki_q24: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 2^-24 x 0.1 kPa per LSB per sample
+    slew_q4: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 1/16 LSB per sample
+    model_crc: int = 0
+    rate_hz: int = 0  # Hz
+    stored: int = 0
+
+    def pack(self) -> bytes:
+        if len(self.kp_q16) != 3:
+            raise ValueError('CONTROL_GAINS_REPLY.kp_q16 needs 3 values')
+        if len(self.ki_q24) != 3:
+            raise ValueError('CONTROL_GAINS_REPLY.ki_q24 needs 3 values')
+        if len(self.slew_q4) != 3:
+            raise ValueError('CONTROL_GAINS_REPLY.slew_q4 needs 3 values')
+        head = self._FMT.pack(*self.kp_q16, *self.ki_q24, *self.slew_q4, self.model_crc, self.rate_hz, self.stored)
+        return head
+
+    @classmethod
+    def unpack(cls, payload: bytes) -> ControlGainsReply:
+        if len(payload) != cls.MIN_LEN:
+            raise ValueError(f'CONTROL_GAINS_REPLY payload of {len(payload)} bytes (expected 23)')
+        vals = cls._FMT.unpack_from(payload, 0)
+        return cls(kp_q16=tuple(vals[0:3]), ki_q24=tuple(vals[3:6]), slew_q4=tuple(vals[6:9]), model_crc=vals[9], rate_hz=vals[10], stored=vals[11])
+
+
+@dataclass
+class ControlStart(Message):
+    """Start closed-loop strain control of the masked channels on the streamed estimate: mode 0 holds the constant targets, mode 1 runs the stored trajectory. Needs a valid model (NO_MODEL) and streaming with estimates (BAD_STATE, detail 0); a target beyond +-30000 LSB (the estimator's design range) is OUT_OF_RANGE (detail: field index); no stored trajectory for mode 1 is BAD_STATE (detail 1), gains made for another model or rate BAD_STATE (detail 2). Carries the session and counter like SET_OUTPUTS (BAD_STATE, detail 3) and arms the host-link watchdog."""
+
+    TYPE: ClassVar[int] = 0x42
+    DIRECTION: ClassVar[str] = 'h2d'
+    REPLY: ClassVar[str | None] = 'ACK'
+    MIN_LEN: ClassVar[int] = 12
+    MAX_LEN: ClassVar[int] = 12
+    DEADLINE_MS: ClassVar[int] = 50
+    _FMT: ClassVar[struct.Struct] = struct.Struct('<BB3hHH')
+    mode: int = 0
+    channel_mask: int = 0
+    target: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # model LSB
+    session: int = 0
+    counter: int = 0
+
+    def pack(self) -> bytes:
+        if len(self.target) != 3:
+            raise ValueError('CONTROL_START.target needs 3 values')
+        head = self._FMT.pack(self.mode, self.channel_mask, *self.target, self.session, self.counter)
+        return head
+
+    @classmethod
+    def unpack(cls, payload: bytes) -> ControlStart:
+        if len(payload) != cls.MIN_LEN:
+            raise ValueError(f'CONTROL_START payload of {len(payload)} bytes (expected 12)')
+        vals = cls._FMT.unpack_from(payload, 0)
+        return cls(mode=vals[0], channel_mask=vals[1], target=tuple(vals[2:5]), session=vals[5], counter=vals[6])
+
+
+@dataclass
+class ControlStop(Message):
+    """Stop control: regulators to 0, pumps off, valves vent."""
+
+    TYPE: ClassVar[int] = 0x43
+    DIRECTION: ClassVar[str] = 'h2d'
+    REPLY: ClassVar[str | None] = 'ACK'
+    MIN_LEN: ClassVar[int] = 0
+    MAX_LEN: ClassVar[int] = 0
+    DEADLINE_MS: ClassVar[int] = 50
+    _FMT: ClassVar[struct.Struct] = struct.Struct('<')
+
+    def pack(self) -> bytes:
+        head = self._FMT.pack()
+        return head
+
+    @classmethod
+    def unpack(cls, payload: bytes) -> ControlStop:
+        if len(payload) != cls.MIN_LEN:
+            raise ValueError(f'CONTROL_STOP payload of {len(payload)} bytes (expected 0)')
+        return cls()
+
+
+@dataclass
+class TrajectoryChunk(Message):
+    """Bytes of a trajectory record at an offset; offset 0 starts a write into the slot not holding the stored trajectory, offsets must be contiguous (BAD_STATE, detail = expected offset). The chunk that completes `total` bytes checks the record (CRC, times, size: BAD_MODEL, detail 0 CRC, 1 structure) and only then makes it the stored one; a torn write keeps the old one. Not while streaming or with outputs on (BUSY). Record: n_points u8 (2..), flags u8 (bits 0-1 columns 1 or 3, bit 7 repeat), then per point t u16 (10 ms, from 0, increasing, at most 32767 between points) and target i16 per column (model LSB), then CRC-16/MCRF4XX of the bytes before it."""
+
+    TYPE: ClassVar[int] = 0x44
+    DIRECTION: ClassVar[str] = 'h2d'
+    REPLY: ClassVar[str | None] = 'ACK'
+    MIN_LEN: ClassVar[int] = 2
+    MAX_LEN: ClassVar[int] = 66
+    DEADLINE_MS: ClassVar[int] = 1000
+    _FMT: ClassVar[struct.Struct] = struct.Struct('<BB')
+    total: int = 0  # bytes
+    offset: int = 0  # bytes
+    data: bytes = b''
+
+    def pack(self) -> bytes:
+        head = self._FMT.pack(self.total, self.offset)
+        if len(self.data) > 64:
+            raise ValueError('TRAJECTORY_CHUNK.data holds at most 64 values')
+        return head + bytes(self.data)
+
+    @classmethod
+    def unpack(cls, payload: bytes) -> TrajectoryChunk:
+        if not (cls.MIN_LEN <= len(payload) <= cls.MAX_LEN) or (len(payload) - cls.MIN_LEN) % 1:
+            raise ValueError(f'TRAJECTORY_CHUNK payload of {len(payload)} bytes (expected 2..66)')
+        vals = cls._FMT.unpack_from(payload, 0)
+        tail = bytes(payload[2:])
+        return cls(total=vals[0], offset=vals[1], data=tail)
+
+
+@dataclass
+class ControlSample(Message):
+    """SAMPLE while the strain controller runs (it replaces SAMPLE and shares its sequence counter): SAMPLE's fields, then the slewed target and the regulator command per channel."""
+
+    TYPE: ClassVar[int] = 0xA1
+    DIRECTION: ClassVar[str] = 'd2h'
+    REPLY: ClassVar[str | None] = None
+    MIN_LEN: ClassVar[int] = 43
+    MAX_LEN: ClassVar[int] = 43
+    DEADLINE_MS: ClassVar[int] = 0
+    _FMT: ClassVar[struct.Struct] = struct.Struct('<IBH3h3h3h3h3h3h')
+    t_us: int = 0  # us
+    channel_mask: int = 0
+    status: int = 0
+    adc: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # counts
+    dr_centi: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 0.01 %
+    euler_16: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 1/16 deg
+    estimate: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # model LSB
+    target: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # model LSB
+    command_dkpa: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 0.1 kPa
+
+    def pack(self) -> bytes:
+        if len(self.adc) != 3:
+            raise ValueError('CONTROL_SAMPLE.adc needs 3 values')
+        if len(self.dr_centi) != 3:
+            raise ValueError('CONTROL_SAMPLE.dr_centi needs 3 values')
+        if len(self.euler_16) != 3:
+            raise ValueError('CONTROL_SAMPLE.euler_16 needs 3 values')
+        if len(self.estimate) != 3:
+            raise ValueError('CONTROL_SAMPLE.estimate needs 3 values')
+        if len(self.target) != 3:
+            raise ValueError('CONTROL_SAMPLE.target needs 3 values')
+        if len(self.command_dkpa) != 3:
+            raise ValueError('CONTROL_SAMPLE.command_dkpa needs 3 values')
+        head = self._FMT.pack(self.t_us, self.channel_mask, self.status, *self.adc, *self.dr_centi, *self.euler_16, *self.estimate, *self.target, *self.command_dkpa)
+        return head
+
+    @classmethod
+    def unpack(cls, payload: bytes) -> ControlSample:
+        if len(payload) != cls.MIN_LEN:
+            raise ValueError(f'CONTROL_SAMPLE payload of {len(payload)} bytes (expected 43)')
+        vals = cls._FMT.unpack_from(payload, 0)
+        return cls(t_us=vals[0], channel_mask=vals[1], status=vals[2], adc=tuple(vals[3:6]), dr_centi=tuple(vals[6:9]), euler_16=tuple(vals[9:12]), estimate=tuple(vals[12:15]), target=tuple(vals[15:18]), command_dkpa=tuple(vals[18:21]))
+
+
 MESSAGES: dict[int, type[Message]] = {
     0x01: Hello,
     0x81: HelloReply,
@@ -1109,4 +1343,11 @@ MESSAGES: dict[int, type[Message]] = {
     0x32: ConfigSave,
     0x33: ConfigReset,
     0x3F: Reset,
+    0x40: ControlGains,
+    0x41: ControlGainsGet,
+    0x8B: ControlGainsReply,
+    0x42: ControlStart,
+    0x43: ControlStop,
+    0x44: TrajectoryChunk,
+    0xA1: ControlSample,
 }

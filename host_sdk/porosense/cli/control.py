@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 from porosense.cli._data import add_data_options, add_json_options, emit_json, output_file, say
+from porosense.control.tuning import DEFAULT_TAU_CL_S
 from porosense.errors import InputError
 
 TUNE_RULE_HELP = (
@@ -70,8 +71,9 @@ def _register_tune(csub) -> None:
                    help="commanded regulator pressure column, kPa gauge (vacuum negative; default p_cmd_0)")
     t.add_argument("--output", default=None,
                    help="output column (default: strain_0, else the on-device estimate est_strain_0)")
-    t.add_argument("--tau-cl", type=float, default=None, metavar="SECONDS",
-                   help="desired closed-loop time constant, s (default: the plant's time constant T)")
+    t.add_argument("--tau-cl", type=float, default=DEFAULT_TAU_CL_S, metavar="SECONDS",
+                   help=f"desired closed-loop time constant, s (default {DEFAULT_TAU_CL_S:g}: about the contractor's "
+                        "open-loop time constant, and within the board's fixed-point integral gain range)")
     t.add_argument("--slew", type=float, default=20.0, metavar="UNITS_PER_S",
                    help="target slew limit, output units per s (default 20)")
     t.add_argument("--step", type=float, default=None, metavar="UNITS",
@@ -109,7 +111,7 @@ def run_tune(args) -> int:
     from porosense.control import fit_fopdt, lambda_pi, predict_step, save_gains
     from porosense.control.tuning import RULE
 
-    if args.tau_cl is not None and not (math.isfinite(args.tau_cl) and args.tau_cl > 0):
+    if not (math.isfinite(args.tau_cl) and args.tau_cl > 0):
         raise InputError(f"--tau-cl {args.tau_cl} must be a positive number of seconds")
     if not (math.isfinite(args.slew) and args.slew > 0):
         raise InputError(f"--slew {args.slew} must be a positive number of output units per second")
@@ -128,7 +130,7 @@ def run_tune(args) -> int:
     if any(np.any(v < -1e-9) for v in vac):
         raise InputError(f"column {cmd} holds positive pressures: the command is gauge vacuum, negative kPa")
     plant = fit_fopdt(vac, ys, ts, output_unit="%" if "strain" in output else "")
-    tau_cl = float(args.tau_cl) if args.tau_cl is not None else plant.T
+    tau_cl = float(args.tau_cl)
     gains = lambda_pi(plant, tau_cl, args.slew)
     span = max(float(np.ptp(np.concatenate(ys))), 1e-9)
     step = float(args.step) if args.step is not None else round(span / 2.0, 1) or span / 2.0

@@ -23,7 +23,7 @@ import numpy as np
 from porosense.control.metrics import step_metrics
 from porosense.control.plant import Fopdt, fit_fopdt
 from porosense.control.staticmap import StaticMap, static_map
-from porosense.control.tuning import PiGains, lambda_pi
+from porosense.control.tuning import DEFAULT_TAU_CL_S, PiGains, lambda_pi
 
 OUTPUT = "strain_0"
 LOADS_G = (0.0, 200.0, 500.0)
@@ -67,7 +67,7 @@ def identify_unloaded(rate_hz: int = 50, seed: int = 100, tau_cl_s: float | None
     q = quantize(model.to_structure(), recordings=[(f"v{i}", r["dR_0"][:, None] / 100, r[OUTPUT][:, None])
                                                    for i, r in enumerate(val)])
     plant = fit_fopdt([-r["p_cmd_0"] for r in recs], [r[OUTPUT] for r in recs], ts, output_unit="%")
-    gains = lambda_pi(plant, plant.T if tau_cl_s is None else tau_cl_s, slew_per_s)
+    gains = lambda_pi(plant, DEFAULT_TAU_CL_S if tau_cl_s is None else tau_cl_s, slew_per_s)
     smap = measure_static_map(rate_hz, seed=seed + 10)
     return Setup(q.blob.to_bytes(), plant, gains, smap, rate_hz, fit, time.perf_counter() - t0)
 
@@ -94,12 +94,20 @@ def _segments(targets, hold_s, lead_s=1.0):
     return [(lead_s + i * hold_s, float(v)) for i, v in enumerate(targets)]
 
 
-def steady_errors(rec, segments, hold_s, lead_s=1.0) -> list[dict]:
-    """Per held target: step metrics against the truth (the simulator's strain)."""
+def steady_errors(rec, segments, hold_s, lead_s=1.0, *, board_timed: bool = False) -> list[dict]:
+    """Per held target: step metrics against the truth (the simulator's strain). Open-loop
+    recordings are time-aligned by construction (t = planned time: the holds are streamed
+    back to back, each from its command); closed-loop switches are timed by the board from
+    its start, read from its target column (``board_timed``)."""
+    t = rec.t
+    shift = 0.0
+    if board_timed:
+        on = np.isfinite(rec["target_0"])
+        shift = float(t[np.argmax(on)]) - float(segments[0][0]) if on.any() else 0.0
     out = []
-    prev = float(np.mean(rec[OUTPUT][rec.t < lead_s])) if np.any(rec.t < lead_s) else 0.0
+    prev = float(np.mean(rec[OUTPUT][t < lead_s + shift])) if np.any(t < lead_s + shift) else 0.0
     for t0, v in segments:
-        m = step_metrics(rec.t, v, rec[OUTPUT], t0, hold_s, prev)
+        m = step_metrics(t, v, rec[OUTPUT], t0 + shift, hold_s, prev)
         out.append(m.to_dict())
         prev = v
     return out
@@ -122,10 +130,11 @@ def measure_load(setup: Setup, load_g: float, targets, hold_s: float, *, seed: i
                                  duration_s=duration, meta={"load_g": load_g})
         # back to rest before the baseline (the foam's creep and the network relaxation)
         run_open_loop(dev, [(0.0, 0.0)], rate_hz=rate, out_scale=scale, truth=truth, duration_s=5.0)
-        opened = run_open_loop(dev, [(t, p) for (t, _), p in zip(segs, vac)], rate_hz=rate, out_scale=scale,
-                               truth=truth, duration_s=duration, targets=list(targets), meta={"load_g": load_g})
-    cl = steady_errors(closed, segs, hold_s)
-    ol = steady_errors(opened, segs, hold_s)
+        opened = run_open_loop(dev, [(0.0, 0.0)] + [(t, p) for (t, _), p in zip(segs, vac)], rate_hz=rate,
+                               out_scale=scale, truth=truth, duration_s=duration, targets=[np.nan, *targets],
+                               meta={"load_g": load_g})
+    cl = steady_errors(closed, segs, hold_s, board_timed=True)
+    ol = steady_errors(opened, [(0.0, 0.0)] + segs, hold_s)[1:]
     cl_err = float(np.mean([abs(m["steady_error"]) for m in cl]))
     ol_err = float(np.mean([abs(m["steady_error"]) for m in ol]))
     est_bias = float(np.nanmean(closed[f"est_{OUTPUT}"] - closed[OUTPUT]))

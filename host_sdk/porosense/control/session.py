@@ -48,11 +48,12 @@ def _stream(dev, duration_s: float, rate_hz: int, events, keepalive_s: float = K
     return rows
 
 
-def _recording(rows, *, out_scale, output, truth, host_target=None, host_cmd=None, meta=None) -> Recording:
+def _recording(rows, *, out_scale, output, truth, host_target=None, host_cmd=None, meta=None,
+               t=None) -> Recording:
     if not rows:
         raise DeviceError("no samples recorded")
     t_us = np.array([s.t_us for s in rows], dtype=np.int64)
-    t = (t_us - t_us[0]) * 1e-6
+    t = (t_us - t_us[0]) * 1e-6 if t is None else np.asarray(t, dtype=float)
     cols = {}
     units = {}
     board_target = np.array([_first(getattr(s, "target", None)) for s in rows], dtype=float)
@@ -147,35 +148,37 @@ def run_closed_loop(dev, segments, *, rate_hz: int, out_scale: float, output: st
 
 def run_open_loop(dev, segments, *, rate_hz: int, out_scale: float = 1.0, output: str = "strain_0", truth=None,
                   duration_s: float | None = None, targets=None, meta: dict | None = None) -> Recording:
-    """Open loop: ``segments`` [(t_s, vacuum_kpa >= 0), ...] held from device time t_s (0 vents).
-    ``targets`` (one per segment, output units) are recorded in ``target_0`` for the metrics."""
+    """Open loop: ``segments`` [(t_s, vacuum_kpa >= 0), ...] each held until the next (the last
+    until ``duration_s``, default + 10 s); 0 vents. ``targets`` (one per segment, output units)
+    are recorded in ``target_0`` for the metrics.
+
+    Each hold is commanded with streaming off and then streamed for its length, so the samples
+    of a hold start exactly at its command whatever the host's delay (the board has no
+    pressure schedule of its own; a late host only lengthens the previous hold unrecorded)."""
     if duration_s is None:
         duration_s = float(segments[-1][0]) + 10.0
-
-    def command(v):
-        on = v > 0
-        dev.set_outputs(setpoint_kpa=[-v, 0.0, 0.0], pumps=int(on), valves=int(on))
-
-    events = [(float(t0), (lambda v=float(v): command(v))) for t0, v in segments]
-    dev.set_outputs(setpoint_kpa=[0.0, 0.0, 0.0], pumps=0, valves=0)
-    dev.start_stream(rate_hz=rate_hz)
+    ends = [float(t) for t, _ in segments[1:]] + [float(duration_s)]
+    rows, vac, tgt, times = [], [], [], []
     try:
-        rows = _stream(dev, duration_s, rate_hz, events)
+        for i, ((t0, v), t1) in enumerate(zip(segments, ends)):
+            on = v > 0
+            dev.set_outputs(setpoint_kpa=[-float(v), 0.0, 0.0], pumps=int(on), valves=int(on))
+            dev.start_stream(rate_hz=rate_hz)
+            part = _stream(dev, t1 - float(t0), rate_hz, [])
+            dev.stop_stream()
+            dev.drain_samples()
+            rows += part
+            times += (float(t0) + np.arange(len(part)) / float(rate_hz)).tolist()
+            vac += [float(v)] * len(part)
+            tgt += [float(targets[i]) if targets is not None else np.nan] * len(part)
     finally:
         _vent(dev, control=False)
-    t = (np.array([s.t_us for s in rows], dtype=float) - rows[0].t_us) * 1e-6
-    starts = np.array([s[0] for s in segments], dtype=float)
-    idx = np.searchsorted(starts, t, side="right") - 1
-    vac = np.where(idx >= 0, np.array([s[1] for s in segments])[np.clip(idx, 0, None)], 0.0)
-    tgt = None
-    if targets is not None:
-        tg = np.asarray(targets, dtype=float)
-        tgt = np.where(idx >= 0, tg[np.clip(idx, 0, None)], np.nan)
     info = {"mode": "open_loop", "rate_hz": rate_hz, "device": getattr(dev, "url", ""),
             "segments": [list(map(float, s)) for s in segments]}
     info.update(meta or {})
-    return _recording(rows, out_scale=out_scale, output=output, truth=truth, host_target=tgt, host_cmd=-vac,
-                      meta=info)
+    return _recording(rows, out_scale=out_scale, output=output, truth=truth,
+                      host_target=tgt if targets is not None else None, host_cmd=-np.asarray(vac), meta=info,
+                      t=times)
 
 
 def _vent(dev, *, control: bool) -> None:

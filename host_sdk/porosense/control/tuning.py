@@ -27,6 +27,11 @@ from porosense.errors import InputError
 RULE = ("lambda (IMC) tuning of a PI on the FOPDT: kp = T / (K (tau_cl + theta + Ts/2)), "
         "ki = kp / T; kp in kPa per output unit, ki in kPa per (output unit s)")
 
+#: Default closed-loop time constant (s). The contractor's open-loop time constant is about
+#: 0.3 s; 0.5 s keeps the integral gain inside the board's fixed-point range (CONTROL_GAINS'
+#: ki_q24 is 16 bits: about 5 kPa/(% s) at 50 Hz for the contractor's model) with margin.
+DEFAULT_TAU_CL_S = 0.5
+
 #: Settling band: a fraction of the step.
 SETTLE_BAND = 0.02
 

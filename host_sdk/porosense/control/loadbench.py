@@ -118,7 +118,7 @@ def measure_load(setup: Setup, load_g: float, targets, hold_s: float, *, seed: i
     """Closed and open loop for one load on a fresh simulated board; errors against the truth."""
     from porosense.control.boards import open_control_board
     from porosense.control.runner import prepare_board
-    from porosense.control.session import run_closed_loop, run_open_loop
+    from porosense.control.session import check_not_vented, run_closed_loop, run_open_loop
 
     segs = _segments(targets, hold_s)
     vac = [float(setup.smap.vacuum_for(v)) for v in targets]
@@ -133,6 +133,8 @@ def measure_load(setup: Setup, load_g: float, targets, hold_s: float, *, seed: i
         opened = run_open_loop(dev, [(0.0, 0.0)] + [(t, p) for (t, _), p in zip(segs, vac)], rate_hz=rate,
                                out_scale=scale, truth=truth, duration_s=duration, targets=[np.nan, *targets],
                                meta={"load_g": load_g})
+    for rec in (closed, opened):
+        check_not_vented(rec)
     cl = steady_errors(closed, segs, hold_s, board_timed=True)
     ol = steady_errors(opened, [(0.0, 0.0)] + segs, hold_s)[1:]
     cl_err = float(np.mean([abs(m["steady_error"]) for m in cl]))

@@ -18,6 +18,8 @@ from porosense.errors import DeviceError
 
 #: Rest streamed before a constant target (s): the start of the step is measured there.
 LEAD_S = 1.0
+#: Host-link watchdog of a simulated board (ms of board time).
+SIM_WATCHDOG_MS = 10000
 
 
 @dataclass
@@ -53,11 +55,17 @@ class RunResult:
     def to_dict(self) -> dict:
         return {"tracking": self.tracking.to_dict(), "step": self.step.to_dict() if self.step else None,
                 "against": self.against, "output": self.output, "gains_on_board": self.gains_on_board,
-                "rate_hz": self.rate_hz, "samples": len(self.recording)}
+                "rate_hz": self.rate_hz, "samples": len(self.recording),
+                "vented_samples": self.recording.meta.get("vented_samples", 0)}
 
     def summary_lines(self) -> list[str]:
         tr = self.tracking
-        lines = [f"tracking error against the {self.against} ({tr.n} samples): RMS {tr.rms:.3f}, peak {tr.peak:.3f} "
+        lines = []
+        vented = self.recording.meta.get("vented_samples", 0)
+        if vented:
+            lines.append(f"warning: the board vented during the run ({vented} samples flagged WATCHDOG_TRIPPED or "
+                         "CONTROL_ABORTED)")
+        lines += [f"tracking error against the {self.against} ({tr.n} samples): RMS {tr.rms:.3f}, peak {tr.peak:.3f} "
                  f"({tr.rms_pct_of_target:.1f} % / {tr.peak_pct_of_target:.1f} % of the target)"]
         if self.step is not None:
             s = self.step
@@ -107,6 +115,9 @@ def prepare_board(dev, *, simulated: bool, model: bytes | None, gains: PiGains |
         raise DeviceError("the board has no model: flash one (porosense flash, or --model MODEL.bin)")
     if simulated:
         dev.calibrate_r0(n_samples=32, channels=0b001)
+        # The simulated board runs up to 10x faster than the wall clock: a 0.1 s pause of this
+        # computer would be a second of board time, past the 1 s default. RAM only.
+        dev.set_watchdog(SIM_WATCHDOG_MS)
     if gains is not None:
         dev.set_control_gains(ControlGains(gains.kp_kpa, gains.ki_kpa_per_s, gains.slew_per_s))
     return dev.sample_rate_hz(), float(info.out_scale[0])

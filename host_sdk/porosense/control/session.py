@@ -20,6 +20,10 @@ import numpy as np
 
 from porosense.data import Recording
 from porosense.errors import DeviceError
+from porosense.protocol import StatusFlag
+
+#: Status flags that say the board cut the outputs.
+VENT_FLAGS = int(StatusFlag.WATCHDOG_TRIPPED | StatusFlag.CONTROL_ABORTED)
 
 #: Device time (s) after which a silent host pings, well inside the host-link watchdog.
 KEEPALIVE_S = 0.25
@@ -73,7 +77,19 @@ def _recording(rows, *, out_scale, output, truth, host_target=None, host_cmd=Non
         if "p_0" in values:
             cols["p_0"] = np.asarray(values["p_0"], dtype=float)
             units["p_0"] = "kPa"
-    return Recording(t, cols, meta=meta or {}, units=units)
+    meta = dict(meta or {})
+    status = cols["status"].astype(int)
+    meta["vented_samples"] = int(np.count_nonzero(status & VENT_FLAGS))
+    return Recording(t, cols, meta=meta, units=units)
+
+
+def check_not_vented(rec) -> None:
+    """DeviceError when the board cut the outputs during ``rec`` (link watchdog, sensor fault or
+    a saturated estimator): the run did not measure what it was meant to."""
+    n = rec.meta.get("vented_samples", 0)
+    if n:
+        raise DeviceError(f"the board vented during the run ({n} samples flagged WATCHDOG_TRIPPED or "
+                          "CONTROL_ABORTED: host link lost, sensor fault or estimator saturated)")
 
 
 def _first(v):

@@ -29,7 +29,8 @@ def register(sub) -> argparse.ArgumentParser:
         ),
         epilog=(
             "examples:\n"
-            "  porosense control tune step_10.csv step_20.csv step_40.csv step_60.csv --out gains.json --json\n"
+            "  porosense control tune step_10.csv step_20.csv step_40.csv step_60.csv --model model.bin --out gains.json "
+            "--json\n"
             "  porosense control run --port emulator --model model.bin --gains gains.json --target 15 --hold 10 "
             "--out run.csv --plot run.png"
         ),
@@ -63,8 +64,8 @@ def _register_tune(csub) -> None:
             "model's output unit, %% strain for the contractor): the output used here must be in the unit of "
             "the estimate the board controls."
         ),
-        epilog="example: porosense control tune step_10.csv step_20.csv step_40.csv step_60.csv --out gains.json "
-               "--tau-cl 0.5 --plot step.png",
+        epilog="example: porosense control tune step_10.csv step_20.csv step_40.csv step_60.csv --model model.bin "
+               "--out gains.json --tau-cl 0.5 --plot step.png",
     )
     t.add_argument("data", nargs="+", metavar="DATA", help="recordings (CSV or .mat) with the command and the output")
     t.add_argument("--command", default="p_cmd_0",
@@ -78,6 +79,9 @@ def _register_tune(csub) -> None:
                    help="target slew limit, output units per s (default 20)")
     t.add_argument("--step", type=float, default=None, metavar="UNITS",
                    help="size of the predicted step, output units (default: half the recordings' output span)")
+    t.add_argument("--model", metavar="MODEL.bin",
+                   help="the model blob the board will run: tau_cl is raised, if needed, to the smallest whose gains "
+                        "the board's fixed point holds for this model and rate (the integral gain is 16-bit)")
     t.add_argument("--out", default="gains.json", metavar="FILE.json", help="gains file (default gains.json)")
     t.add_argument("--plot", metavar="FILE.png", help="figure of the predicted closed-loop step")
     add_data_options(t)
@@ -131,6 +135,18 @@ def run_tune(args) -> int:
         raise InputError(f"column {cmd} holds positive pressures: the command is gauge vacuum, negative kPa")
     plant = fit_fopdt(vac, ys, ts, output_unit="%" if "strain" in output else "")
     tau_cl = float(args.tau_cl)
+    if args.model:
+        from porosense.control.tuning import board_tau_cl
+        from porosense.quant import ModelBlob
+
+        if not Path(args.model).is_file():
+            raise InputError(f"model blob {args.model} not found")
+        blob = ModelBlob.from_bytes(Path(args.model).read_bytes())
+        fitted = board_tau_cl(plant, tau_cl, args.slew, float(blob.out_scale[0]), blob.rate_hz)
+        if fitted > tau_cl:
+            say(args, f"tau_cl raised from {tau_cl:g} to {fitted:.3g} s: the board's fixed point holds no larger "
+                      f"integral gain for {args.model} at {blob.rate_hz:g} Hz")
+        tau_cl = fitted
     gains = lambda_pi(plant, tau_cl, args.slew)
     span = max(float(np.ptp(np.concatenate(ys))), 1e-9)
     step = float(args.step) if args.step is not None else round(span / 2.0, 1) or span / 2.0

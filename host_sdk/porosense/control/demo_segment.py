@@ -13,7 +13,7 @@ import numpy as np
 
 from porosense.control.metrics import step_metrics, tracking_metrics
 from porosense.control.plant import fit_fopdt
-from porosense.control.tuning import DEFAULT_TAU_CL_S, lambda_pi, predict_step
+from porosense.control.tuning import DEFAULT_TAU_CL_S, board_tau_cl, lambda_pi, predict_step
 
 #: Targets as fractions of the largest output recorded, each held HOLD_S.
 FRACTIONS = (0.35, 0.7, 0.5)
@@ -52,11 +52,12 @@ def run_segment(dev, truth, recs: dict, output: str, out_scale: float, rate_hz: 
     plant = fit_fopdt([-recs[n]["p_cmd_0"] for n in names], [recs[n][output] for n in names], 1.0 / rate_hz)
     top = float(max(np.max(recs[n][output]) for n in names))
     slew = top / 1.0  # the whole stroke in a second at most
-    gains = lambda_pi(plant, DEFAULT_TAU_CL_S, slew)
+    tau = board_tau_cl(plant, DEFAULT_TAU_CL_S, slew, out_scale, rate_hz)
+    gains = lambda_pi(plant, tau, slew)
     targets = [round(f * top, 2) for f in FRACTIONS]
     pred = predict_step(plant, gains, targets[0])
     log(f"  control: {plant}; kp {gains.kp_kpa:.3g} kPa/unit, ki {gains.ki_kpa_per_s:.3g} kPa/(unit s) "
-        f"(lambda rule, tau_cl {DEFAULT_TAU_CL_S:g} s); predicted step settles in {pred.settling_s:.2f} s")
+        f"(lambda rule, tau_cl {tau:.3g} s); predicted step settles in {pred.settling_s:.2f} s")
     dev.set_control_gains(ControlGains(gains.kp_kpa, gains.ki_kpa_per_s, gains.slew_per_s))
     segs = [(LEAD_S + i * HOLD_S, v) for i, v in enumerate(targets)]
     rec = run_closed_loop(dev, segs, rate_hz=rate_hz, out_scale=out_scale, output=output, truth=truth,

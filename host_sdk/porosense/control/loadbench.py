@@ -23,7 +23,7 @@ import numpy as np
 from porosense.control.metrics import step_metrics
 from porosense.control.plant import Fopdt, fit_fopdt
 from porosense.control.staticmap import StaticMap, static_map
-from porosense.control.tuning import DEFAULT_TAU_CL_S, PiGains, lambda_pi
+from porosense.control.tuning import DEFAULT_TAU_CL_S, board_tau_cl, PiGains, lambda_pi
 
 OUTPUT = "strain_0"
 LOADS_G = (0.0, 200.0, 500.0)
@@ -67,7 +67,10 @@ def identify_unloaded(rate_hz: int = 50, seed: int = 100, tau_cl_s: float | None
     q = quantize(model.to_structure(), recordings=[(f"v{i}", r["dR_0"][:, None] / 100, r[OUTPUT][:, None])
                                                    for i, r in enumerate(val)])
     plant = fit_fopdt([-r["p_cmd_0"] for r in recs], [r[OUTPUT] for r in recs], ts, output_unit="%")
-    gains = lambda_pi(plant, DEFAULT_TAU_CL_S if tau_cl_s is None else tau_cl_s, slew_per_s)
+    blob = q.blob
+    tau = board_tau_cl(plant, DEFAULT_TAU_CL_S if tau_cl_s is None else tau_cl_s, slew_per_s,
+                       float(blob.out_scale[0]), rate_hz)
+    gains = lambda_pi(plant, tau, slew_per_s)
     smap = measure_static_map(rate_hz, seed=seed + 10)
     return Setup(q.blob.to_bytes(), plant, gains, smap, rate_hz, fit, time.perf_counter() - t0)
 

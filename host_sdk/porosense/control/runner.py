@@ -119,7 +119,13 @@ def prepare_board(dev, *, simulated: bool, model: bytes | None, gains: PiGains |
         # computer would be a second of board time, past the 1 s default. RAM only.
         dev.set_watchdog(SIM_WATCHDOG_MS)
     if gains is not None:
-        dev.set_control_gains(ControlGains(gains.kp_kpa, gains.ki_kpa_per_s, gains.slew_per_s))
+        from porosense.errors import InputError
+
+        try:
+            dev.set_control_gains(ControlGains(gains.kp_kpa, gains.ki_kpa_per_s, gains.slew_per_s))
+        except InputError as exc:
+            raise InputError(f"{exc}: re-tune with 'porosense control tune ... --model MODEL.bin' (it picks the "
+                             "smallest tau_cl the board holds) or a larger --tau-cl") from None
     return dev.sample_rate_hz(), float(info.out_scale[0])
 
 

@@ -172,3 +172,31 @@ def _simulate_saturated(plant: Fopdt, gains: PiGains, r, max_vacuum_kpa):
         v = u[k - d] if k - d >= 0 else 0.0
         x = a * x + plant.K * (1 - a) * v
     return y, u
+
+
+def board_tau_cl(plant: Fopdt, tau_cl_s: float, slew_per_s: float, out_scale: float, rate_hz: float) -> float:
+    """The smallest closed-loop time constant (s), at least ``tau_cl_s``, whose gains the board's
+    fixed point holds for a model with ``out_scale`` (output units per LSB) at ``rate_hz``: kp
+    and ki both fall as tau_cl grows, so a bisection against the board's own conversion
+    (porosense.device.control.to_fixed) finds it."""
+    from porosense.device.control import ControlGains, to_fixed
+
+    def holds(tau: float) -> bool:
+        g = lambda_pi(plant, tau, slew_per_s)
+        try:
+            to_fixed(ControlGains(g.kp_kpa, g.ki_kpa_per_s, g.slew_per_s), (out_scale,), rate_hz)
+        except InputError:
+            return False
+        return True
+
+    if holds(tau_cl_s):
+        return float(tau_cl_s)
+    lo, hi = float(tau_cl_s), max(2.0 * tau_cl_s, 1.0)
+    while not holds(hi):
+        lo, hi = hi, 2.0 * hi
+        if hi > 1e4:
+            raise InputError("no closed-loop time constant gives gains the board can hold for this model")
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if holds(mid) else (mid, hi)
+    return hi

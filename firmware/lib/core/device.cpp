@@ -71,7 +71,10 @@ void Device::begin() {
     sticky_flags_ |= f::R0_UNCALIBRATED;  // cleared when a channel gives a usable R0
     calibrate_r0(kR0BootSamples, 0x07);
   }
-  cstore_.boot(&gains_);
+  cstore_.boot();
+  if (cstore_.has(ControlStore::kGains))
+    for (uint8_t i = 0; i < ctl::kGainsBytes; ++i)
+      ((uint8_t*)&gains_)[i] = hal_.eeprom_read((uint16_t)(cstore_.record(ControlStore::kGains) + i));
   if (config_.autostart && model_.estimator_loaded()) {
     start_stream(config_.sample_rate_hz, (uint8_t)(config_.channel_mask | (config_.autostart == 2 ? proto::chan::ESTIMATES : 0)));
     sticky_flags_ |= f::STANDALONE;
@@ -79,7 +82,8 @@ void Device::begin() {
       // The stored trajectory with the stored gains: a 1-column one drives channel 0, a
       // 3-column one channels 0..2. Anything missing or unusable: flagged, outputs stay off.
       const uint8_t mask = cstore_.columns() == 3 ? 0x07 : 0x01;
-      if (cstore_.has_trajectory() && gains_fit(gains_) && control_mask_ok(mask))
+      if (cstore_.has(ControlStore::kTraj) && cstore_.has(ControlStore::kGains) && gains_fit(gains_) &&
+          control_mask_ok(mask))
         control_begin(kCtlTrajectory | kCtlStandalone, mask);
       else
         sticky_flags_ |= f::CONTROL_ABORTED;
@@ -333,7 +337,7 @@ void Device::dispatch(uint8_t type, const uint8_t* p, uint8_t len) {
       // EEPROM writes would hold the outputs past the link watchdog.
       if (streaming_ || outputs_active()) return nak(r::BUSY, 0);
       int16_t detail = 0;
-      const uint8_t code = cstore_.chunk(p[0], p[1], p + 2, (uint8_t)(len - 2), &detail);
+      const uint8_t code = cstore_.write(ControlStore::kTraj, p[0], p[1], p + 2, (uint8_t)(len - 2), &detail);
       return code == r::OK ? ack() : nak(code, detail);
     }
     default: nak(r::UNKNOWN_TYPE, 0); return;
@@ -734,14 +738,20 @@ void Device::cmd_control_gains(const uint8_t* p) {
   if (save && (streaming_ || outputs_active())) return nak(r::BUSY, 0);
   if (control_.active() && !gains_fit(g)) return nak(r::BAD_STATE, 2);
   gains_ = g;
-  if (save) cstore_.save_gains(g);
+  if (save) {
+    uint8_t rec[ctl::kGainsBytes + 2];
+    memcpy(rec, &g, ctl::kGainsBytes);
+    proto::put_u16(rec + ctl::kGainsBytes, proto::crc16(rec, ctl::kGainsBytes));
+    int16_t detail;
+    cstore_.write(ControlStore::kGains, sizeof(rec), 0, rec, sizeof(rec), &detail);
+  }
   ack();
 }
 
 void Device::cmd_control_gains_get() {
   uint8_t buf[ctl::kGainsBytes + 1];
   memcpy(buf, &gains_, ctl::kGainsBytes);
-  buf[ctl::kGainsBytes] = cstore_.gains_stored() ? 1 : 0;
+  buf[ctl::kGainsBytes] = cstore_.has(ControlStore::kGains) ? 1 : 0;
   reply(proto::ControlGainsReply::kType, buf, sizeof(buf));
 }
 
@@ -750,16 +760,14 @@ void Device::cmd_control_start(const uint8_t* p) {
   if (!model_.estimator_loaded()) return nak(r::NO_MODEL, 0);
   if (!streaming_ || !(stream_mask_ & proto::chan::ESTIMATES)) return nak(r::BAD_STATE, 0);
   if (mode > 1) return nak(r::OUT_OF_RANGE, 0);
-  proto::ModelInfoReply info;
-  model_.info(&info);
-  if (mask == 0 || (mask >> info.n_outputs)) return nak(r::OUT_OF_RANGE, 1);
+  if (!control_mask_ok(mask)) return nak(r::OUT_OF_RANGE, 1);
   int16_t target[kChannels];
   for (uint8_t i = 0; i < kChannels; ++i) {
     target[i] = proto::get_i16(p + 2 + 2 * i);
     if (mode == 0 && (mask >> i & 1) && (target[i] > ctl::kTargetLimit || target[i] < -ctl::kTargetLimit))
       return nak(r::OUT_OF_RANGE, 2);
   }
-  if (mode == 1 && !cstore_.has_trajectory()) return nak(r::BAD_STATE, 1);
+  if (mode == 1 && !cstore_.has(ControlStore::kTraj)) return nak(r::BAD_STATE, 1);
   if (!gains_fit(gains_)) return nak(r::BAD_STATE, 2);
   if (!fresh(proto::get_u16(p + 8), proto::get_u16(p + 10))) return nak(r::BAD_STATE, kFieldSession);
   control_stop();
@@ -795,33 +803,33 @@ void Device::control_stop() {
 }
 
 void Device::trajectory_targets(uint32_t tick_us) {
-  // Time in 10 ms from the start; the record keeps segments within 32767 ticks and targets
-  // within +-30000, so (y1 - y0) * (t - t0) fits an int32.
-  const uint8_t n = cstore_.n_points();
-  const uint16_t t_end = cstore_.point_t((uint8_t)(n - 1));
+  // Time in 10 ms ticks from the start. Segments span 1..32767 ticks and targets stay within
+  // +-30000 (checked when stored), so (y1 - y0) * (t - t0) fits an int32.
+  const uint8_t last = (uint8_t)(cstore_.n_points() - 1);
   uint32_t el = (tick_us - traj_start_us_) / 10000UL;
-  if (el >= t_end && cstore_.repeat()) {
-    traj_start_us_ += (el / t_end) * t_end * 10000UL;
-    el %= t_end;
+  const uint16_t t_end = cstore_.point_t(last);
+  if (el >= t_end && cstore_.repeat()) {  // next lap
+    traj_start_us_ += (uint32_t)t_end * 10000UL;
+    el -= t_end;
     traj_seg_ = 0;
   }
-  while (traj_seg_ + 2 < n && el >= cstore_.point_t((uint8_t)(traj_seg_ + 1))) ++traj_seg_;
-  const uint16_t t0 = cstore_.point_t(traj_seg_), t1 = cstore_.point_t((uint8_t)(traj_seg_ + 1));
-  const int32_t dt = el >= t1 ? (int32_t)(t1 - t0) : (int32_t)(el - t0);
+  if (el > t_end) el = t_end;  // the last target holds
+  while (traj_seg_ + 1 < last && el >= cstore_.point_t((uint8_t)(traj_seg_ + 1))) ++traj_seg_;
+  const uint16_t t0 = cstore_.point_t(traj_seg_);
+  const int32_t span = (int32_t)(cstore_.point_t((uint8_t)(traj_seg_ + 1)) - t0);
+  const int32_t dt = (int32_t)(el - t0);
   const uint8_t cols = cstore_.columns();
   for (uint8_t i = 0; i < kChannels; ++i) {
-    if (!(control_.mask() >> i & 1)) continue;
     const uint8_t c = cols == 1 ? 0 : i;
     const int16_t y0 = cstore_.point_y(traj_seg_, c);
-    const int32_t dy = (int32_t)cstore_.point_y((uint8_t)(traj_seg_ + 1), c) - y0;
-    control_.set_target(i, (int16_t)(y0 + dy * dt / (int32_t)(t1 - t0)));
+    control_.set_target(i, (int16_t)(y0 + ((int32_t)cstore_.point_y((uint8_t)(traj_seg_ + 1), c) - y0) * dt / span));
   }
 }
 
 bool Device::control_mask_ok(uint8_t mask) {
   proto::ModelInfoReply info;
   model_.info(&info);
-  return !(mask >> info.n_outputs);
+  return mask && !(mask >> info.n_outputs);
 }
 
 uint16_t Device::control_step(uint16_t fl, bool estimating, const int16_t est[kChannels], uint32_t tick_us,

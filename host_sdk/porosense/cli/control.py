@@ -32,7 +32,7 @@ def register(sub) -> argparse.ArgumentParser:
             "  porosense control tune step_10.csv step_20.csv step_40.csv step_60.csv --model model.bin --out gains.json "
             "--json\n"
             "  porosense control run --port emulator --model model.bin --gains gains.json --target 15 --hold 10 "
-            "--out run.csv --plot run.png"
+            "--out ctl_run.csv --plot ctl_run.png"
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -185,7 +185,7 @@ def _register_run(csub) -> None:
             "strain; --load sets its hanging load); any other value is a serial URL."
         ),
         epilog="example: porosense control run --port emulator --model model.bin --gains gains.json --target 15 "
-               "--hold 10 --out run.csv --plot run.png",
+               "--hold 10 --out ctl_run.csv --plot ctl_run.png",
     )
     r.add_argument("--port", required=True, metavar="URL|emulator|simboard",
                    help="serial port or pyserial URL, or emulator[:ACTUATOR] / simboard[:ACTUATOR]")

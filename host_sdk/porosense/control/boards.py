@@ -21,8 +21,10 @@ from porosense.errors import InputError
 TruthSource = Callable[[np.ndarray], dict]
 
 SIM_BACKENDS = ("emulator", "simboard")
-#: Device time runs this many times faster than wall time on the emulator (as in the demo).
-EMULATOR_SPEED = 10.0
+#: Device time runs this many times faster than wall time on the emulator. 5 keeps the board's
+#: longest link watchdog (10 s) at 2 s of wall time: a busy computer pausing this process for
+#: a second must not vent a run.
+EMULATOR_SPEED = 5.0
 
 
 def parse_port(port: str, default_actuator: str = "contractor") -> tuple[str, str | None]:
@@ -53,7 +55,7 @@ def open_control_board(port: str, *, load_g: float = 0.0, seed: int = 0, porosit
         # A busy host computer delays samples but never skips them: the run stays regular.
         with Emulator(actuator, load_g=load_g, seed=seed, porosity=porosity, truth_log=True, realtime=True,
                       speed=EMULATOR_SPEED, max_catch_up_s=3600.0) as emu:
-            with Device.open(emu.url) as dev:
+            with Device.open(emu.url, timeout_scale=4.0) as dev:
                 yield dev, emu.truth
     elif kind == "simboard":
         from porosense.demo import _simboard_truth

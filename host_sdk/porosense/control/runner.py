@@ -115,8 +115,8 @@ def prepare_board(dev, *, simulated: bool, model: bytes | None, gains: PiGains |
         raise DeviceError("the board has no model: flash one (porosense flash, or --model MODEL.bin)")
     if simulated:
         dev.calibrate_r0(n_samples=32, channels=0b001)
-        # The simulated board runs up to 10x faster than the wall clock: a 0.1 s pause of this
-        # computer would be a second of board time, past the 1 s default. RAM only.
+        # The simulated board may run faster than the wall clock (boards.EMULATOR_SPEED): a short
+        # pause of this computer would be seconds of board time, past the 1 s default. RAM only.
         dev.set_watchdog(SIM_WATCHDOG_MS)
     if gains is not None:
         from porosense.errors import InputError

@@ -123,6 +123,7 @@ uint8_t reply_type_of(uint8_t type) {
     case m::CALIBRATE_R0: return m::R0_REPLY;
     case m::STATUS: return m::STATUS_REPLY;
     case m::CONFIG_GET: return m::CONFIG_VALUE;
+    case m::CONTROL_GAINS_GET: return m::CONTROL_GAINS_REPLY;
     default: return m::ACK;
   }
 }
@@ -280,7 +281,7 @@ int main(int argc, char** argv) {
     std::vector<Reply> replies = take_replies(hal);
     int answers = 0;
     for (const Reply& r : replies) {
-      if (r.type == proto::msg::SAMPLE || r.type == proto::msg::ERROR) {
+      if (r.type == proto::msg::SAMPLE || r.type == proto::msg::CONTROL_SAMPLE || r.type == proto::msg::ERROR) {
         if (r.type == proto::msg::ERROR && r.payload.size() >= 3 &&
             proto::get_i16(r.payload.data() + 1) == (int16_t)proto::flag::WATCHDOG_TRIPPED)
           ++trips;

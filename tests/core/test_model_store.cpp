@@ -200,7 +200,7 @@ int main() {
     }
     const uint16_t hdr1 = uint16_t(hdr + est::layout::kSlotHeaderLen);
     const uint16_t b0 = uint16_t(est::ModelStore::kAreaBase + est::ModelStore::kAreaLen - B.len);
-    for (uint16_t a = hdr1; a < 1024; ++a) {
+    for (uint16_t a = hdr1; a < est::ModelStore::kAreaBase + est::ModelStore::kAreaLen; ++a) {
       if (a >= hdr1 + est::layout::kSlotHeaderLen && a < b0) continue;
       FakeEeprom ee = both;
       ee.mem[a] ^= 0x10;

@@ -38,7 +38,7 @@ def test_gains_round_trip_within_one_quantisation_step(dev, blob):
     rate = dev.sample_rate_hz()
     # One LSB of each fixed-point format, in output units.
     assert abs(got[0].kp_kpa - GAINS.kp_kpa) <= 0.5 / (10 * scale * 65536)
-    assert abs(got[0].ki_kpa_per_s - GAINS.ki_kpa_per_s) <= 0.5 / (10 * scale / rate * 2**24)
+    assert abs(got[0].ki_kpa_per_s - GAINS.ki_kpa_per_s) <= 0.5 / (10 * scale / rate * 2**22)
     assert abs(got[0].slew_per_s - GAINS.slew_per_s) <= 0.5 * scale * rate / 16
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import pytest
 
+from porosense.quant.layout import AREA_LEN
 from porosense.device import NakError
 from porosense.device.client import MODEL_CHUNK_BYTES, blob_crc
 from porosense.protocol import Result, StatusFlag
@@ -166,11 +167,11 @@ def test_writes_are_refused_while_streaming(dev, blob):
 
 
 def test_a_model_that_does_not_fit_beside_the_running_one_is_refused(dev, blob, blob3):
-    """Two models share the 944-byte area: BEGIN names the excess, the running model stays."""
+    """Two models share the model area: BEGIN names the excess, the running model stays."""
     old = dev.write_model(blob3)
     big = len(blob3) + 400
     err = nak(dev.command, m.ModelBegin(length=big, crc=0, format_version=blob[2]))
-    assert err.code == Result.TOO_LARGE and err.detail == big - (944 - len(blob3))
+    assert err.code == Result.TOO_LARGE and err.detail == big - (AREA_LEN - len(blob3))
     info = dev.model_info()
     assert info.valid and info.crc == old.crc
 
@@ -194,7 +195,7 @@ def test_write_model_replaces_only_when_asked_or_with_a_warning(dev, blob3):
     from porosense.errors import ModelError
 
     other = make_blob(3, model_id=0x5EED0033, poles=0.85)
-    assert len(other) + len(blob3) > 944
+    assert len(other) + len(blob3) > AREA_LEN
     old = dev.write_model(blob3)
     with pytest.raises(ModelError, match="does not fit beside the running one"):
         dev.write_model(other, replace=False)

@@ -129,15 +129,17 @@ def test_reset_command_and_stack_headroom_while_estimating(elf) -> None:
     board, dev = _open(elf)
     try:
         resets = board.counters["resets"]
-        dev.write_model(fw.heavy_model_blob())
+        blob = fw.heavy_model_blob()
+        dev.write_model(blob)
         dev.start_stream(100, 0x1F)
         samples = list(dev.samples(200, timeout_s=15))
         dev.stop_stream()
         assert not any(s.status & ESTIMATOR_OFF for s in samples)
         st = dev.status()
-        print(f"free stack after 2 s at 100 Hz with a 917-byte model: {st.free_ram} B")
+        print(f"free stack after 2 s at 100 Hz with a {len(blob)}-byte model: {st.free_ram} B")
         assert st.overruns == 0
-        assert st.free_ram >= 200
+        # The RAM budget's stated margin (firmware/Makefile): at least 150 B never touched.
+        assert st.free_ram >= 150
         t_reset_cmd = board.sim_time_s
         dev.reset()
         assert board.counters["resets"] == resets + 1

@@ -6,7 +6,7 @@
 // 0.1 kPa (dkPa) of gauge vacuum (<= 0). The gains are per LSB and per sample, made by the
 // host for one model and one rate (porosense.device.control):
 //   kp_q16  Q16 dkPa per LSB of error            (<= 32767)
-//   ki_q24  Q24 dkPa per LSB per sample
+//   ki_q22  Q22 dkPa per LSB per sample
 //   slew_q4 Q4 LSB per sample                    (>= 1)
 // With |error| clamped to 32767 every product of the step fits an int32.
 #pragma once
@@ -23,7 +23,7 @@ constexpr uint16_t kMaxKp = 32767;
 // the host builds are), so the wire and EEPROM bytes copy straight in and out.
 struct Gains {
   uint16_t kp_q16[kChannels];
-  uint16_t ki_q24[kChannels];
+  uint16_t ki_q22[kChannels];
   uint16_t slew_q4[kChannels];
   uint16_t model_crc;  // of the model they were made for
   uint16_t rate_hz;    // 0: never set (all gains zero)
@@ -39,7 +39,7 @@ class Controller {
   void stop() { mask_ = 0; }
   uint8_t mask() const { return mask_; }
   bool active() const { return mask_ != 0; }
-  void set_target(uint8_t ch, int16_t target) { target_[ch] = target; }
+  void set_target(uint8_t ch, int16_t target) { ch_[ch].target = target; }
   // The slewed target now (LSB), kNoTarget for a channel not controlled.
   int16_t slewed(uint8_t ch) const;
   // One sample: estimates (LSB) -> vacuum commands (dkPa, min_dkpa..0) of the masked
@@ -50,9 +50,12 @@ class Controller {
  private:
   uint8_t mask_;
   uint8_t fresh_;  // channels whose slewed target takes the next estimate
-  int32_t slewed_q8_[kChannels];
-  int32_t integ_q16_[kChannels];  // vacuum magnitude, Q16 dkPa, within [0, -min_dkpa]
-  int16_t target_[kChannels];
+  struct Channel {
+    int32_t slewed_q8;
+    int32_t integ_q16;  // vacuum magnitude, Q16 dkPa, within [0, -min_dkpa]
+    int16_t target;
+  };
+  Channel ch_[kChannels];
 };
 
 }  // namespace ctl

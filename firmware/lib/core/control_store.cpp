@@ -11,6 +11,33 @@ namespace {
 inline uint8_t magic(uint8_t kind) { return kind ? 'T' : 'G'; }
 }
 
+uint8_t ControlStore::rd(uint16_t a) const { return hal_.eeprom_read(a); }
+void ControlStore::wr(uint16_t a, uint8_t v) { hal_.eeprom_write(a, v); }
+
+uint16_t ControlStore::duration() const {
+  const uint16_t rec = record(kTraj);
+  return read16((uint16_t)(rec + 2 + (rd(rec) - 1) * (2 + 2 * (rd((uint16_t)(rec + 1)) & 3))));
+}
+
+void ControlStore::targets(uint16_t t, uint8_t* seg, int16_t out[ctl::kChannels]) const {
+  const uint16_t rec = record(kTraj);
+  const uint8_t n = rd(rec), cols = rd((uint16_t)(rec + 1)) & 3, pb = (uint8_t)(2 + 2 * cols);
+  uint16_t p = (uint16_t)(rec + 2 + *seg * pb);
+  while (*seg + 2 < n && t >= read16((uint16_t)(p + pb))) {
+    ++*seg;
+    p = (uint16_t)(p + pb);
+  }
+  const uint16_t t0 = read16(p);
+  const int32_t span = (int32_t)(read16((uint16_t)(p + pb)) - t0);
+  int32_t dt = (int32_t)(t - t0);
+  if (dt > span) dt = span;
+  for (uint8_t i = 0; i < ctl::kChannels; ++i) {
+    const uint16_t y = (uint16_t)(p + 2 + (cols == 1 ? 0 : 2 * i));
+    const int16_t y0 = (int16_t)read16(y);
+    out[i] = (int16_t)(y0 + ((int32_t)(int16_t)read16((uint16_t)(y + pb)) - y0) * dt / span);
+  }
+}
+
 uint16_t ControlStore::read16(uint16_t a) const { return (uint16_t)(rd(a) | (rd((uint16_t)(a + 1)) << 8)); }
 
 uint8_t ControlStore::length(uint8_t kind, uint16_t rec) const {
@@ -69,8 +96,8 @@ uint8_t ControlStore::write(uint8_t kind, uint8_t total, uint8_t offset, const u
       *detail = (int16_t)(total - kTrajMaxRecord);
       return r::TOO_LARGE;
     }
-    hal_.eeprom_write(a, 0xFF);  // never valid while torn
-    hal_.eeprom_write((uint16_t)(a + 1), (uint8_t)(seq_[kind] + 1));
+    wr(a, 0xFF);  // never valid while torn
+    wr((uint16_t)(a + 1), (uint8_t)(seq_[kind] + 1));
     total_ = total;
     next_ = 0;
   }
@@ -80,7 +107,7 @@ uint8_t ControlStore::write(uint8_t kind, uint8_t total, uint8_t offset, const u
     *detail = (int16_t)(offset + n - total_);
     return r::TOO_LARGE;
   }
-  for (uint8_t i = 0; i < n; ++i) hal_.eeprom_write((uint16_t)(a + 2 + offset + i), data[i]);
+  for (uint8_t i = 0; i < n; ++i) wr((uint16_t)(a + 2 + offset + i), data[i]);
   next_ = (uint8_t)(next_ + n);
   *detail = 0;
   if (next_ < total_) return r::OK;
@@ -90,7 +117,7 @@ uint8_t ControlStore::write(uint8_t kind, uint8_t total, uint8_t offset, const u
   *detail = 1;
   if (kind == kTraj && !structure_ok(rec)) return r::BAD_MODEL;
   *detail = 0;
-  hal_.eeprom_write(a, magic(kind));  // last: the copy counts from here on
+  wr(a, magic(kind));  // last: the copy counts from here on
   seq_[kind] = rd((uint16_t)(a + 1));
   slot_[kind] = slot;
   return r::OK;

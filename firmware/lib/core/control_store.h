@@ -44,18 +44,20 @@ class ControlStore {
   // proto::result code and *detail as TRAJECTORY_CHUNK's NAK.detail.
   uint8_t write(uint8_t kind, uint8_t total, uint8_t offset, const uint8_t* data, uint8_t n, int16_t* detail);
 
-  uint8_t n_points() const { return rd(record(kTraj)); }
   uint8_t columns() const { return (uint8_t)(rd((uint16_t)(record(kTraj) + 1)) & 3); }
   bool repeat() const { return rd((uint16_t)(record(kTraj) + 1)) & kTrajRepeat; }
-  uint16_t point_t(uint8_t i) const { return read16(point(i)); }
-  int16_t point_y(uint8_t i, uint8_t c) const { return (int16_t)read16((uint16_t)(point(i) + 2 + 2 * c)); }
+  uint16_t duration() const;  // time of the last point, 10 ms ticks
+  // Targets of channels 0..2 at `t` ticks (<= duration()) into the stored trajectory,
+  // interpolated linearly; *seg caches the segment (0 from the start; t never goes back).
+  // Segments span 1..32767 ticks and targets +-30000, so (y1 - y0) * (t - t0) fits an int32.
+  void targets(uint16_t t, uint8_t* seg, int16_t out[ctl::kChannels]) const;
 
  private:
   static uint16_t addr(uint8_t kind, uint8_t slot) {
     return kind ? (uint16_t)(kTrajBase + slot * kTrajSlot) : (uint16_t)(kCtlBase + slot * kGainsSlot);
   }
-  uint16_t point(uint8_t i) const { return (uint16_t)(record(kTraj) + 2 + i * (2 + 2 * columns())); }
-  uint8_t rd(uint16_t a) const { return hal_.eeprom_read(a); }
+  uint8_t rd(uint16_t a) const;
+  void wr(uint16_t a, uint8_t v);
   uint16_t read16(uint16_t a) const;
   // Length of the record at `rec` per its kind (trajectory: from its header, 0 if too long).
   uint8_t length(uint8_t kind, uint16_t rec) const;

@@ -803,27 +803,16 @@ void Device::control_stop() {
 }
 
 void Device::trajectory_targets(uint32_t tick_us) {
-  // Time in 10 ms ticks from the start. Segments span 1..32767 ticks and targets stay within
-  // +-30000 (checked when stored), so (y1 - y0) * (t - t0) fits an int32.
-  const uint8_t last = (uint8_t)(cstore_.n_points() - 1);
-  uint32_t el = (tick_us - traj_start_us_) / 10000UL;
-  const uint16_t t_end = cstore_.point_t(last);
+  const uint16_t t_end = cstore_.duration();
+  uint32_t el = (tick_us - traj_start_us_) / 10000UL;  // 10 ms ticks
   if (el >= t_end && cstore_.repeat()) {  // next lap
     traj_start_us_ += (uint32_t)t_end * 10000UL;
     el -= t_end;
     traj_seg_ = 0;
   }
-  if (el > t_end) el = t_end;  // the last target holds
-  while (traj_seg_ + 1 < last && el >= cstore_.point_t((uint8_t)(traj_seg_ + 1))) ++traj_seg_;
-  const uint16_t t0 = cstore_.point_t(traj_seg_);
-  const int32_t span = (int32_t)(cstore_.point_t((uint8_t)(traj_seg_ + 1)) - t0);
-  const int32_t dt = (int32_t)(el - t0);
-  const uint8_t cols = cstore_.columns();
-  for (uint8_t i = 0; i < kChannels; ++i) {
-    const uint8_t c = cols == 1 ? 0 : i;
-    const int16_t y0 = cstore_.point_y(traj_seg_, c);
-    control_.set_target(i, (int16_t)(y0 + ((int32_t)cstore_.point_y((uint8_t)(traj_seg_ + 1), c) - y0) * dt / span));
-  }
+  int16_t y[kChannels];
+  cstore_.targets((uint16_t)(el > t_end ? t_end : el), &traj_seg_, y);
+  for (uint8_t i = 0; i < kChannels; ++i) control_.set_target(i, y[i]);
 }
 
 bool Device::control_mask_ok(uint8_t mask) {

@@ -937,7 +937,7 @@ struct ControlGains {
   static constexpr uint8_t kMinLen = 23;
   static constexpr uint8_t kMaxLen = 23;
   uint16_t kp_q16[3];  // 2^-16 x 0.1 kPa per estimate LSB
-  uint16_t ki_q24[3];  // 2^-24 x 0.1 kPa per LSB per sample
+  uint16_t ki_q22[3];  // 2^-22 x 0.1 kPa per LSB per sample
   uint16_t slew_q4[3];  // 1/16 LSB per sample
   uint16_t model_crc;
   uint16_t rate_hz;  // Hz
@@ -945,7 +945,7 @@ struct ControlGains {
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, kp_q16[i]); n += 2; }
-    for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, ki_q24[i]); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, ki_q22[i]); n += 2; }
     for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, slew_q4[i]); n += 2; }
     put_u16(buf + n, model_crc); n += 2;
     put_u16(buf + n, rate_hz); n += 2;
@@ -956,7 +956,7 @@ struct ControlGains {
     if (len != kMinLen) return false;
     uint8_t n = 0;
     for (uint8_t i = 0; i < 3; ++i) { kp_q16[i] = get_u16(buf + n); n += 2; }
-    for (uint8_t i = 0; i < 3; ++i) { ki_q24[i] = get_u16(buf + n); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { ki_q22[i] = get_u16(buf + n); n += 2; }
     for (uint8_t i = 0; i < 3; ++i) { slew_q4[i] = get_u16(buf + n); n += 2; }
     model_crc = get_u16(buf + n); n += 2;
     rate_hz = get_u16(buf + n); n += 2;
@@ -986,7 +986,7 @@ struct ControlGainsReply {
   static constexpr uint8_t kMinLen = 23;
   static constexpr uint8_t kMaxLen = 23;
   uint16_t kp_q16[3];  // 2^-16 x 0.1 kPa per estimate LSB
-  uint16_t ki_q24[3];  // 2^-24 x 0.1 kPa per LSB per sample
+  uint16_t ki_q22[3];  // 2^-22 x 0.1 kPa per LSB per sample
   uint16_t slew_q4[3];  // 1/16 LSB per sample
   uint16_t model_crc;
   uint16_t rate_hz;  // Hz
@@ -994,7 +994,7 @@ struct ControlGainsReply {
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, kp_q16[i]); n += 2; }
-    for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, ki_q24[i]); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, ki_q22[i]); n += 2; }
     for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, slew_q4[i]); n += 2; }
     put_u16(buf + n, model_crc); n += 2;
     put_u16(buf + n, rate_hz); n += 2;
@@ -1005,7 +1005,7 @@ struct ControlGainsReply {
     if (len != kMinLen) return false;
     uint8_t n = 0;
     for (uint8_t i = 0; i < 3; ++i) { kp_q16[i] = get_u16(buf + n); n += 2; }
-    for (uint8_t i = 0; i < 3; ++i) { ki_q24[i] = get_u16(buf + n); n += 2; }
+    for (uint8_t i = 0; i < 3; ++i) { ki_q22[i] = get_u16(buf + n); n += 2; }
     for (uint8_t i = 0; i < 3; ++i) { slew_q4[i] = get_u16(buf + n); n += 2; }
     model_crc = get_u16(buf + n); n += 2;
     rate_hz = get_u16(buf + n); n += 2;

@@ -70,14 +70,16 @@ def _largest_fitting(structure):
 
 def _most_sections_that_fit():
     """The storable model with the most sections (the device's real cycle worst case): 3x3 with
-    H1 and H2 but no tables, H2 cut until the blob fits."""
+    H1 and H2 but no tables, H2 then H1 cut until the blob fits."""
     from dataclasses import replace
 
     from porosense.quant import quantize
     from porosense.quant.random_models import random_structure
 
-    for h2 in (10, 8, 6):
-        s = random_structure(np.random.default_rng(1), 3, 3, h1_poles=10, h2_poles=h2, kind="wh")
+    # H2 cut first, then H1, until the blob fits the model area (776 B since the controller's
+    # gains and trajectory took the top of the EEPROM).
+    for h1, h2 in ((10, 10), (10, 8), (10, 6), (10, 4), (10, 2), (8, 2), (6, 2)):
+        s = random_structure(np.random.default_rng(1), 3, 3, h1_poles=h1, h2_poles=h2, kind="wh")
         s = replace(s, outputs=tuple(replace(o, g=None, branches=tuple(replace(b, f=None) for b in o.branches))
                                      for o in s.outputs))
         try:

@@ -13,7 +13,7 @@ def register(sub) -> argparse.ArgumentParser:
         description=(
             "Quantize an identified model (porosense identify --save) for the on-device estimator: "
             "second-order sections, Q formats and scaling chosen automatically, written as the "
-            "model blob (at most 944 bytes: the 1 KB EEPROM's model area). The device sends dR in "
+            "model blob (at most 776 bytes: the 1 KB EEPROM's model area). The device sends dR in "
             "0.01 % steps; the model file says whether its inputs are dR in % or dR/100 (--input-unit "
             "for files that do not), and the blob stores that scaling and the model's sample period. "
             "Estimates come back as int16 times out_scale "

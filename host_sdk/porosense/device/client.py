@@ -288,7 +288,7 @@ class Device:
         The blob is checked first exactly as the firmware checks it (porosense.quant.ModelBlob:
         format, CRC, structure, size): a bad blob raises ModelError before anything is sent.
         The device writes it beside the running model, which keeps running until the new one is
-        whole and checked. Two models share the EEPROM's 944-byte model area; when the new one
+        whole and checked. Two models share the EEPROM's 776-byte model area; when the new one
         does not fit beside the running one, ``replace`` decides: False raises ModelError, True
         erases the running model first (the board has none until the write completes), None (the
         default) does the same with a warning. ``validate=False`` sends the blob as it is (to test
@@ -499,7 +499,7 @@ class Device:
         if r.rate_hz and r.model_crc != crc:
             raise DeviceError(f"the board's control gains were made for another model (crc 0x{r.model_crc:04X}, "
                               f"running 0x{crc:04X}): set them again")
-        return control.from_fixed(r.kp_q16, r.ki_q24, r.slew_q4, scale, r.rate_hz)
+        return control.from_fixed(r.kp_q16, r.ki_q22, r.slew_q4, scale, r.rate_hz)
 
     def _refresh_gains(self) -> tuple[float, ...]:
         """Resend the host's gains when the model or the rate changed since they were sent."""

@@ -63,7 +63,7 @@ def per_channel(gains: ControlGains | Sequence[ControlGains]) -> tuple[ControlGa
 
 
 def to_fixed(gains, out_scale: Sequence[float], rate_hz: float) -> dict[str, tuple[int, ...]]:
-    """CONTROL_GAINS fields (kp_q16, ki_q24, slew_q4) for ``out_scale`` (output unit per LSB,
+    """CONTROL_GAINS fields (kp_q16, ki_q22, slew_q4) for ``out_scale`` (output unit per LSB,
     per model output) at ``rate_hz``; channels beyond the model's outputs get zero gains.
     Gains that the fixed point cannot hold raise InputError naming the limit."""
     ts = 1.0 / float(rate_hz)
@@ -74,19 +74,19 @@ def to_fixed(gains, out_scale: Sequence[float], rate_hz: float) -> dict[str, tup
             continue
         s = float(out_scale[ch])
         k = round(g.kp_kpa * 10 * s * 65536)  # kPa/unit -> dkPa/LSB, Q16
-        i = round(g.ki_kpa_per_s * 10 * s * ts * 2**24)  # dkPa/LSB/sample, Q24
+        i = round(g.ki_kpa_per_s * 10 * s * ts * 2**22)  # dkPa/LSB/sample, Q22
         w = max(1, min(U16, round(g.slew_per_s / s * ts * 16)))  # LSB/sample, Q4
         if k > MAX_KP_Q16:
             raise InputError(f"kp {g.kp_kpa:g} kPa/unit on channel {ch} exceeds the board's limit "
                              f"{MAX_KP_Q16 / (10 * s * 65536):.4g} kPa/unit for this model")
         if i > U16:
             raise InputError(f"ki {g.ki_kpa_per_s:g} kPa/(unit s) on channel {ch} exceeds the board's limit "
-                             f"{U16 / (10 * s * ts * 2**24):.4g} at {rate_hz:g} Hz")
+                             f"{U16 / (10 * s * ts * 2**22):.4g} at {rate_hz:g} Hz")
         kp.append(k), ki.append(i), sl.append(w)
-    return {"kp_q16": tuple(kp), "ki_q24": tuple(ki), "slew_q4": tuple(sl)}
+    return {"kp_q16": tuple(kp), "ki_q22": tuple(ki), "slew_q4": tuple(sl)}
 
 
-def from_fixed(kp_q16, ki_q24, slew_q4, out_scale: Sequence[float], rate_hz: float) -> tuple[ControlGains, ...]:
+def from_fixed(kp_q16, ki_q22, slew_q4, out_scale: Sequence[float], rate_hz: float) -> tuple[ControlGains, ...]:
     """The gains in output units that the board's fixed-point values stand for (channels
     without a model output, or gains never set (rate 0), read as zero gains with no slew
     limit: infinity)."""
@@ -97,7 +97,7 @@ def from_fixed(kp_q16, ki_q24, slew_q4, out_scale: Sequence[float], rate_hz: flo
             out.append(ControlGains(0.0, 0.0, float("inf")))
             continue
         ts = 1.0 / float(rate_hz)
-        out.append(ControlGains(kp_q16[ch] / (10 * s * 65536), ki_q24[ch] / (10 * s * ts * 2**24),
+        out.append(ControlGains(kp_q16[ch] / (10 * s * 65536), ki_q22[ch] / (10 * s * ts * 2**22),
                                 slew_q4[ch] * s / (ts * 16)))
     return tuple(out)
 

@@ -1097,7 +1097,7 @@ class ControlGains(Message):
     DEADLINE_MS: ClassVar[int] = 1000
     _FMT: ClassVar[struct.Struct] = struct.Struct('<3H3H3HHHB')
     kp_q16: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 2^-16 x 0.1 kPa per estimate LSB
-    ki_q24: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 2^-24 x 0.1 kPa per LSB per sample
+    ki_q22: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 2^-22 x 0.1 kPa per LSB per sample
     slew_q4: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 1/16 LSB per sample
     model_crc: int = 0
     rate_hz: int = 0  # Hz
@@ -1106,11 +1106,11 @@ class ControlGains(Message):
     def pack(self) -> bytes:
         if len(self.kp_q16) != 3:
             raise ValueError('CONTROL_GAINS.kp_q16 needs 3 values')
-        if len(self.ki_q24) != 3:
-            raise ValueError('CONTROL_GAINS.ki_q24 needs 3 values')
+        if len(self.ki_q22) != 3:
+            raise ValueError('CONTROL_GAINS.ki_q22 needs 3 values')
         if len(self.slew_q4) != 3:
             raise ValueError('CONTROL_GAINS.slew_q4 needs 3 values')
-        head = self._FMT.pack(*self.kp_q16, *self.ki_q24, *self.slew_q4, self.model_crc, self.rate_hz, self.save)
+        head = self._FMT.pack(*self.kp_q16, *self.ki_q22, *self.slew_q4, self.model_crc, self.rate_hz, self.save)
         return head
 
     @classmethod
@@ -1118,7 +1118,7 @@ class ControlGains(Message):
         if len(payload) != cls.MIN_LEN:
             raise ValueError(f'CONTROL_GAINS payload of {len(payload)} bytes (expected 23)')
         vals = cls._FMT.unpack_from(payload, 0)
-        return cls(kp_q16=tuple(vals[0:3]), ki_q24=tuple(vals[3:6]), slew_q4=tuple(vals[6:9]), model_crc=vals[9], rate_hz=vals[10], save=vals[11])
+        return cls(kp_q16=tuple(vals[0:3]), ki_q22=tuple(vals[3:6]), slew_q4=tuple(vals[6:9]), model_crc=vals[9], rate_hz=vals[10], save=vals[11])
 
 
 @dataclass
@@ -1156,7 +1156,7 @@ class ControlGainsReply(Message):
     DEADLINE_MS: ClassVar[int] = 0
     _FMT: ClassVar[struct.Struct] = struct.Struct('<3H3H3HHHB')
     kp_q16: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 2^-16 x 0.1 kPa per estimate LSB
-    ki_q24: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 2^-24 x 0.1 kPa per LSB per sample
+    ki_q22: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 2^-22 x 0.1 kPa per LSB per sample
     slew_q4: tuple[int, ...] = field(default_factory=lambda: (0, 0, 0,))  # 1/16 LSB per sample
     model_crc: int = 0
     rate_hz: int = 0  # Hz
@@ -1165,11 +1165,11 @@ class ControlGainsReply(Message):
     def pack(self) -> bytes:
         if len(self.kp_q16) != 3:
             raise ValueError('CONTROL_GAINS_REPLY.kp_q16 needs 3 values')
-        if len(self.ki_q24) != 3:
-            raise ValueError('CONTROL_GAINS_REPLY.ki_q24 needs 3 values')
+        if len(self.ki_q22) != 3:
+            raise ValueError('CONTROL_GAINS_REPLY.ki_q22 needs 3 values')
         if len(self.slew_q4) != 3:
             raise ValueError('CONTROL_GAINS_REPLY.slew_q4 needs 3 values')
-        head = self._FMT.pack(*self.kp_q16, *self.ki_q24, *self.slew_q4, self.model_crc, self.rate_hz, self.stored)
+        head = self._FMT.pack(*self.kp_q16, *self.ki_q22, *self.slew_q4, self.model_crc, self.rate_hz, self.stored)
         return head
 
     @classmethod
@@ -1177,7 +1177,7 @@ class ControlGainsReply(Message):
         if len(payload) != cls.MIN_LEN:
             raise ValueError(f'CONTROL_GAINS_REPLY payload of {len(payload)} bytes (expected 23)')
         vals = cls._FMT.unpack_from(payload, 0)
-        return cls(kp_q16=tuple(vals[0:3]), ki_q24=tuple(vals[3:6]), slew_q4=tuple(vals[6:9]), model_crc=vals[9], rate_hz=vals[10], stored=vals[11])
+        return cls(kp_q16=tuple(vals[0:3]), ki_q22=tuple(vals[3:6]), slew_q4=tuple(vals[6:9]), model_crc=vals[9], rate_hz=vals[10], stored=vals[11])
 
 
 @dataclass

@@ -13,7 +13,9 @@ For one actuator, on a board (the emulator by default, the simboard, or a real b
    there, else the flash model store by upload), verify it by replay against the bit-exact
    reference;
 5. stream a fresh validation experiment with on-device estimates and report their fit live;
-6. write a report folder (figures, summary.md, summary.html).
+6. close the loop: tune PI gains from the recordings, run a few strain targets on the board's
+   controller (single-channel actuators) and measure them against the truth;
+7. write a report folder (figures, summary.md, summary.html).
 """
 
 from __future__ import annotations
@@ -69,12 +71,14 @@ class DemoResult:
     float_fit: list
     report_dir: Path | None = None
     seconds: dict = field(default_factory=dict)
+    control: dict | None = None
 
     def to_dict(self) -> dict:
         return {"actuator": self.actuator, "board": self.board, "recordings": list(self.recordings),
                 "table": self.table, "selected": self.selected, "ranking": self.ranking, "quant": self.quant,
                 "verify": self.verify, "on_device_fit": self.on_device_fit, "float_fit": self.float_fit,
-                "report_dir": str(self.report_dir) if self.report_dir else None, "seconds": self.seconds}
+                "report_dir": str(self.report_dir) if self.report_dir else None, "seconds": self.seconds,
+                "control": self.control}
 
 
 # ------------------------------------------------------------------------------ boards
@@ -237,6 +241,16 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
                             monitor=_live_fit(outputs), meta={"actuator": actuator, "experiment": live_exp})
         clock["stream"] = time.perf_counter() - t2
         live.to_csv(out / "recordings" / f"live_{live_exp}.csv")
+
+        control_run = control = None
+        if len(inputs) == 1:
+            from porosense.control.demo_segment import run_segment
+
+            t4 = time.perf_counter()
+            control, control_run = run_segment(dev, truth, recs, outputs[0], float(blob.out_scale[0]), rate_hz,
+                                               log=log)
+            control_run.to_csv(out / "recordings" / "closed_loop.csv")
+            clock["control"] = time.perf_counter() - t4
     on_device = [fit_percent(live[o], live[f"est_{o}"]) for o in outputs]
     u_live = np.column_stack([live[c] / 100.0 for c in inputs])
     y_float = structure.simulate(u_live)
@@ -252,11 +266,12 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
                 for o, c in zip(outputs, chosen)}
     result = DemoResult(actuator, board, recs, table, selected, ranking,
                         {"bytes": blob.length, "report": q.report.to_dict()}, verify, on_device, float_fit,
-                        None, clock)
+                        None, clock, control.to_dict() if control else None)
     from porosense.report.demo_report import write_demo_report
 
     t3 = time.perf_counter()
-    result.report_dir = write_demo_report(result, searches, live, structure, out, inputs, outputs, labels)
+    result.report_dir = write_demo_report(result, searches, live, structure, out, inputs, outputs, labels,
+                                          control_run=control_run)
     clock["report"] = time.perf_counter() - t3
     clock["total"] = time.perf_counter() - t0
     log(f"  report: {result.report_dir / 'summary.html'} ({clock['total']:.0f} s in all)")

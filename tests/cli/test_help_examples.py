@@ -26,7 +26,7 @@ COVERED_ELSEWHERE = {
     "record": "needs a camera; tests/record runs `porosense record` on rendered video and the emulator",
 }
 ORDER = ("simulate", "identify", "predict", "compare", "report", "export", "quantize", "diagnose", "emulator",
-         "flash", "verify", "config", "ports", "infoam", "bench")
+         "flash", "verify", "control", "config", "ports", "infoam", "bench")
 EMULATOR_PORT = 5000
 
 

@@ -32,6 +32,7 @@ SUBCOMMANDS = (
     "quantize",
     "flash",
     "verify",
+    "control",
     "firmware",
     "config",
     "ports",

@@ -37,10 +37,12 @@ def search_tables(searches, names, outputs, kept=None) -> list:
     return tables
 
 
-def write_demo_report(result, searches, live, structure, out: Path, inputs, outputs, labels) -> Path:
+def write_demo_report(result, searches, live, structure, out: Path, inputs, outputs, labels,
+                      control_run=None) -> Path:
     """Write figures and summary pages for one actuator's demo; returns the folder.
 
-    ``inputs``/``outputs`` are the column names, ``labels`` the outputs' axis labels (with units).
+    ``inputs``/``outputs`` are the column names, ``labels`` the outputs' axis labels (with units);
+    ``control_run`` the closed-loop segment's recording (target, estimate, truth), if any.
     """
     recs = result.recordings
     figs = Path(out) / "figures"
@@ -100,6 +102,21 @@ def write_demo_report(result, searches, live, structure, out: Path, inputs, outp
     text += (f"\n\nModel blob {result.quant['bytes']} bytes; replay of {verify['samples']} samples through the "
              f"board: {verify['mismatches']} mismatches with the bit-exact reference.")
     sections.append(Section("On the device", text, figures=live_figs))
+
+    if control_run is not None and result.control:
+        from porosense.control.runner import plot_run
+
+        path = figs / "closed_loop.png"
+        plot_run(control_run, path, output=outputs[0],
+                 title=f"closed loop on the board: target, on-device estimate and true {outputs[0]}")
+        c = result.control
+        steps = "; ".join(f"target {s['target']:.3g}: settled in {s['settling_s']:.2f} s, overshoot "
+                          f"{s['overshoot_pct']:.1f} %, steady-state error {s['steady_error']:+.3f}" for s in c["steps"])
+        text = (f"The board's PI controller holds {outputs[0]} on its own estimate, with gains tuned from the "
+                f"recordings above (lambda rule on an FOPDT: K {c['plant']['K']:.3g} per kPa, T "
+                f"{c['plant']['T']:.3f} s; kp {c['gains']['kp_kpa']:.3g} kPa per unit, ki "
+                f"{c['gains']['ki_kpa_per_s']:.3g} kPa per unit s). Errors against the true {outputs[0]}: {steps}.")
+        sections.append(Section("Closed loop", text, figures=[path]))
 
     if result.actuator == "contractor":
         from porosense.sim import steady_state

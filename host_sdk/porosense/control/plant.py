@@ -1,0 +1,146 @@
+"""The plant the controller sees: commanded vacuum (kPa below ambient) -> strain, as an FOPDT.
+
+``y = y0 + K / (T s + 1) e^(-theta s) v`` with ``v = -p_cmd`` the commanded vacuum (kPa, >= 0),
+``K`` in output units per kPa, ``T`` and ``theta`` in s. Fitted in discrete time at the data's
+sample period ``Ts`` (zero-order hold, so ``y[k] = a y[k-1] + K (1 - a) v[k-1-d]``, ``a =
+exp(-Ts/T)``, ``theta = d Ts``): for a fixed (T, d) the model is linear in K and in one offset
+per recording, so each (T, d) is a linear least-squares problem; T is searched on a bounded
+log scale per integer delay d and the pair with the smallest residual is kept (an output-error
+fit: simulation, not one-step prediction, as the paper scores models).
+
+The real plant is nonlinear (pore collapse makes the strain-vs-vacuum slope vary about 2x over
+the stroke); the fitted K is the least-squares average slope over the recordings, and its spread
+per recording is reported so the tuning's margin can be judged.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+from scipy.signal import lfilter
+
+from porosense.errors import InputError
+
+#: Largest dead time searched (s); the regulator and the foam respond within tenths of a second.
+MAX_DEAD_TIME_S = 1.0
+#: Range of time constants searched (s).
+T_RANGE_S = (0.01, 30.0)
+
+
+@dataclass
+class Fopdt:
+    """First-order plus dead time: gain ``K`` (output units per kPa of vacuum), time constant
+    ``T`` (s), dead time ``theta`` (s), sample period ``ts`` (s) of the data it was fitted to,
+    ``fit_percent`` (NRMSE fit of its simulation over all recordings, %) and ``gain_range``
+    (the gain fitted to each recording alone: min, max)."""
+
+    K: float
+    T: float
+    theta: float
+    ts: float
+    fit_percent: float = float("nan")
+    gain_range: tuple = (float("nan"), float("nan"))
+    output_unit: str = ""
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def delay_samples(self) -> int:
+        return int(round(self.theta / self.ts))
+
+    def simulate(self, vacuum_kpa, y0: float = 0.0) -> np.ndarray:
+        """Output (output units) for commanded vacuum ``vacuum_kpa`` (kPa, >= 0) sampled at ts."""
+        return y0 + self.K * _unit_response(np.asarray(vacuum_kpa, dtype=float), self.T, self.delay_samples, self.ts)
+
+    def to_control(self):
+        """The discrete-time transfer function (python-control, dt = ts) from vacuum to output."""
+        import control
+
+        a = math.exp(-self.ts / self.T)
+        den = np.zeros(self.delay_samples + 2)
+        den[0], den[1] = 1.0, -a
+        return control.tf([self.K * (1.0 - a)], den, self.ts)
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["gain_range"] = list(self.gain_range)
+        d["delay_samples"] = self.delay_samples
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Fopdt:
+        try:
+            return cls(float(d["K"]), float(d["T"]), float(d["theta"]), float(d["ts"]),
+                       float(d.get("fit_percent", "nan")), tuple(d.get("gain_range", (math.nan, math.nan))),
+                       str(d.get("output_unit", "")))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"malformed plant model: {exc}") from None
+
+    def __str__(self) -> str:
+        return (f"FOPDT K = {self.K:.4g} {self.output_unit or 'units'}/kPa (per recording "
+                f"{self.gain_range[0]:.3g}..{self.gain_range[1]:.3g}), T = {self.T:.3f} s, "
+                f"dead time {self.theta:.3f} s; fit {self.fit_percent:.1f} %")
+
+
+def _unit_response(v: np.ndarray, T: float, d: int, ts: float) -> np.ndarray:
+    """Response of the unit-gain discrete FOPDT to ``v`` (zero initial state)."""
+    a = math.exp(-ts / T)
+    x = np.concatenate([np.zeros(d + 1), v[: max(len(v) - d - 1, 0)]])
+    return lfilter([1.0 - a], [1.0, -a], x)
+
+
+def _solve(vs, ys, T, d, ts):
+    """Least squares of K and per-recording offsets for fixed (T, d): (K, offsets, sse)."""
+    n = len(vs)
+    rows = [np.column_stack([_unit_response(v, T, d, ts)] + [np.full(len(v), float(i == j)) for j in range(n)])
+            for i, v in enumerate(vs)]
+    A = np.vstack(rows)
+    b = np.concatenate(ys)
+    coef, *_ = np.linalg.lstsq(A, b, rcond=None)
+    r = b - A @ coef
+    return coef[0], coef[1:], float(r @ r)
+
+
+def _fit_one(vs, ys, ts):
+    best = None
+    for d in range(int(MAX_DEAD_TIME_S / ts) + 1):
+        res = minimize_scalar(lambda lt: _solve(vs, ys, math.exp(lt), d, ts)[2],
+                              bounds=tuple(math.log(x) for x in T_RANGE_S), method="bounded",
+                              options={"xatol": 1e-3})
+        T = math.exp(res.x)
+        K, off, sse = _solve(vs, ys, T, d, ts)
+        if best is None or sse < best[3]:
+            best = (K, T, d, sse, off)
+        elif sse > 1.5 * best[3]:
+            break  # past the best delay: the residual only grows with more delay
+    return best
+
+
+def fit_fopdt(vacuum_kpa, outputs, ts: float, *, output_unit: str = "") -> Fopdt:
+    """Fit one FOPDT to recordings: ``vacuum_kpa`` and ``outputs`` are lists of 1-D arrays
+    (commanded vacuum in kPa below ambient, >= 0; output in its unit) sampled every ``ts`` s.
+
+    Each recording gets its own offset (the output at zero vacuum, e.g. a load's stretch).
+    Raises InputError when the command never changes (nothing to identify)."""
+    vs = [np.asarray(v, dtype=float).ravel() for v in vacuum_kpa]
+    ys = [np.asarray(y, dtype=float).ravel() for y in outputs]
+    if not vs or len(vs) != len(ys) or any(len(v) != len(y) for v, y in zip(vs, ys)):
+        raise InputError("each recording needs a command and an output of the same length")
+    if ts <= 0 or not math.isfinite(ts):
+        raise InputError(f"sample period {ts} s must be positive")
+    if not any(np.ptp(v) > 0 for v in vs):
+        raise InputError("the commanded pressure never changes in these recordings: nothing to identify")
+    if not all(np.all(np.isfinite(v)) and np.all(np.isfinite(y)) for v, y in zip(vs, ys)):
+        raise InputError("the command or the output holds NaN or inf")
+    K, T, d, sse, offsets = _fit_one(vs, ys, ts)
+    gains = [_fit_one([v], [y], ts)[0] for v, y in zip(vs, ys) if np.ptp(v) > 0]
+    y_all = np.concatenate(ys)
+    dev = float(np.sum((y_all - y_all.mean()) ** 2))
+    fit = 100.0 * (1.0 - math.sqrt(sse / dev)) if dev > 0 else float("nan")
+    if not K > 0:
+        raise InputError(f"the fitted gain {K:.3g} is not positive: more vacuum must give more output "
+                         "(check the command column and its sign)")
+    return Fopdt(float(K), float(T), d * ts, float(ts), fit, (float(min(gains)), float(max(gains))), output_unit,
+                 {"offsets": [float(o) for o in offsets]})

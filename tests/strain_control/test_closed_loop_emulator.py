@@ -1,0 +1,111 @@
+"""The board's controller on the emulator (the firmware core over the simulated contractor),
+gains and model identified at 0 g from the simulator's recordings: steps under 0 and 500 g
+against the TRUE strain, closed loop versus the 0 g static-map baseline (the bench's core at
+CI size), and a tracking trajectory.
+
+Bounds come from measurements with a margin (figures printed with -s). The physics' floor:
+a hanging load holds pore contacts open (porosense.sim.piezo, load_contact_coupling), so the
+0 g model under-reads the strain under 500 g by about 2.5 % strain at steady state
+(porosense.sim.steady_state, independent of the controller); closed loop cannot beat that.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from porosense.control.loadbench import HOLD_S, TARGETS, identify_unloaded, measure_load
+
+
+@pytest.fixture(scope="module")
+def setup():
+    return identify_unloaded(50, seed=100)
+
+
+@pytest.fixture(scope="module")
+def loads(setup):
+    return {L: measure_load(setup, L, TARGETS["small"], HOLD_S["small"], seed=7 + int(L)) for L in (0.0, 500.0)}
+
+
+def _print(r):
+    cl = ", ".join(f"{m['target']:g}: {m['steady_error']:+.2f}" for m in r["closed_loop"])
+    ol = ", ".join(f"{m['target']:g}: {m['steady_error']:+.2f}" for m in r["open_loop"])
+    print(f"{r['load_g']:g} g: closed {r['closed_steady_error']:.2f} ({cl}); open {r['open_steady_error']:.2f} ({ol}); "
+          f"ratio {r['ratio']:.2f}")
+
+
+def test_steps_reach_the_true_strain_at_0_g(loads):
+    r = loads[0.0]
+    _print(r)
+    for m in r["closed_loop"]:
+        assert abs(m["steady_error"]) < 0.6, m  # the WH model's own error at 0 g
+        assert m["overshoot_pct"] < 15.0, m
+
+
+def test_steps_under_500_g_stay_near_the_target_and_beat_the_open_loop(loads):
+    r = loads[500.0]
+    _print(r)
+    for m in r["closed_loop"]:
+        assert abs(m["steady_error"]) < 3.5, m  # the estimate's load bias (~2.5 %) plus margin
+    assert r["closed_steady_error"] < 0.6 * r["open_steady_error"]
+    # the controller really worked: it asked for more vacuum than the 0 g map gives
+    cmd = -r["recordings"]["closed"]["cmd_kpa_0"]
+    assert np.nanmax(cmd) > max(r["vacuum_open_loop_kpa"])
+
+
+def test_commands_stay_within_the_regulator_limit(loads):
+    for r in loads.values():
+        cmd = r["recordings"]["closed"]["cmd_kpa_0"]
+        assert np.nanmin(cmd) >= -60.0 - 1e-6 and np.nanmax(cmd) <= 1e-6
+
+
+def test_tracking_a_trajectory(setup):
+    from porosense.control.boards import open_control_board
+    from porosense.control.metrics import tracking_metrics
+    from porosense.control.runner import prepare_board
+    from porosense.control.session import run_closed_loop
+
+    t = np.array([0, 2, 6, 8, 12, 14, 18, 20.0])
+    y = np.array([4, 4, 16, 16, 8, 8, 20, 20.0])  # ramps at 3 %/s and holds
+    with open_control_board("emulator", seed=3) as (dev, truth):
+        rate, scale = prepare_board(dev, simulated=True, model=setup.blob, gains=setup.gains)
+        rec = run_closed_loop(dev, [], rate_hz=rate, out_scale=scale, truth=truth, trajectory=(t, y))
+    skip = rec.t < 2.0  # the first target starts from rest
+    tr = tracking_metrics(rec["target_0"], rec["strain_0"], skip=skip)
+    print(f"trajectory: RMS {tr.rms:.3f} % strain, peak {tr.peak:.3f} ({tr.rms_pct_of_target:.1f} % of the target)")
+    assert tr.n > 0.8 * 18 * rate
+    assert tr.rms < 1.5  # measured 1.02: a PI lags a 3 %/s ramp by about its loop time constant
+
+
+def test_closed_loop_error_under_500_g_is_the_load_bias_of_the_estimate(loads):
+    """The cause of what is left: the closed loop's steady-state error per target equals, within
+    0.8 % strain (measured within 0.5), the floor computed from the simulator's steady state
+    alone (a perfect loop on a perfect 0 g estimator), not a controller shortfall."""
+    r = loads[500.0]
+    diffs = [m["steady_error"] - f for m, f in zip(r["closed_loop"], r["floor"])]
+    print("closed-loop error minus the physics floor per target:", [round(d, 2) for d in diffs])
+    assert all(f > 1.5 for f in r["floor"])
+    assert max(abs(d) for d in diffs) < 0.8
+
+
+def test_predicted_closed_loop_step_matches_the_board(setup, loads):
+    """The tuner's prediction (FOPDT loop with the board's slew and command limit) against the
+    first step on the emulator at 0 g: the true strain follows it with a fit of at least 80 %
+    (measured 87 %), and the estimate the board controls settles within 40 % of the predicted
+    time (measured 2.66 s against 2.24 s; the foam's slow creep is what the FOPDT leaves out)."""
+    from porosense.control.tuning import predict_step, settling_and_overshoot
+    from porosense.ident import fit_percent
+
+    rec = loads[0.0]["recordings"]["closed"]
+    on = np.isfinite(rec["target_0"])
+    t0 = float(rec.t[np.argmax(on)])
+    sel = (rec.t >= t0) & (rec.t < t0 + HOLD_S["small"])
+    y0 = float(np.mean(rec["strain_0"][rec.t < t0]))
+    step = TARGETS["small"][0] - y0
+    pred = predict_step(setup.plant, setup.gains, step, duration_s=HOLD_S["small"] - 0.02, max_vacuum_kpa=60.0)
+    n = min(int(sel.sum()), len(pred.y))
+    fit = fit_percent(rec["strain_0"][sel][:n] - y0, pred.y[:n])
+    settle, _ = settling_and_overshoot(rec.t[sel][:n] - t0, rec["est_strain_0"][sel][:n] - y0, step)
+    print(f"predicted vs board step: fit {fit:.1f} %, estimate settles in {settle:.2f} s (predicted {pred.settling_s:.2f} s)")
+    assert fit > 80.0
+    assert abs(settle / pred.settling_s - 1.0) < 0.4

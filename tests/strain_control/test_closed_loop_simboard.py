@@ -1,0 +1,43 @@
+"""The bench's core on the real firmware (simboard: the AVR image in simavr over the simulated
+contractor): under 500 g the board's controller, on the model and gains identified at 0 g,
+leaves less steady-state error against the true strain than the 0 g static map, and what it
+leaves is the load's bias of the estimate (the floor from the simulator's steady state)."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from porosense.bench import firmware as fw
+from porosense.control.loadbench import HOLD_S, TARGETS, identify_unloaded, measure_load
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def built():
+    why = fw.toolchain_missing()
+    if why:
+        pytest.skip(why)
+    if not Path("/usr/include/simavr/sim_avr.h").is_file():
+        pytest.skip("libsimavr-dev not installed")
+    proc = fw.build()
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    if shutil.which("make"):
+        r = subprocess.run(["make", "-s", "-C", str(ROOT / "tools" / "simboard")], capture_output=True, text=True)
+        assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+
+
+@pytest.mark.simboard
+def test_closed_loop_beats_the_open_loop_under_500_g_on_the_firmware(built):
+    setup = identify_unloaded(50, seed=100)
+    r = measure_load(setup, 500.0, TARGETS["small"], HOLD_S["small"], seed=9, port="simboard")
+    cl = [round(m["steady_error"], 2) for m in r["closed_loop"]]
+    ol = [round(m["steady_error"], 2) for m in r["open_loop"]]
+    print(f"simboard 500 g: closed {r['closed_steady_error']:.2f} {cl}, open {r['open_steady_error']:.2f} {ol}, "
+          f"floor {[round(f, 2) for f in r['floor']]}, ratio {r['ratio']:.2f}")
+    assert r["closed_steady_error"] < 0.6 * r["open_steady_error"]
+    assert max(abs(m["steady_error"] - f) for m, f in zip(r["closed_loop"], r["floor"])) < 0.8

@@ -65,7 +65,7 @@ def test_flash_store_refusals_are_one_line(paper_blob, tmp_path, capsys):
     path, _, _ = paper_blob
     with Emulator("3dof") as emu:
         cases = [
-            (["flash", "--port", emu.url, str(path)], 4, "exceeds the 944-byte"),  # EEPROM: too large
+            (["flash", "--port", emu.url, str(path)], 4, f"exceeds the {L.MAX_BLOB_LEN}-byte"),  # EEPROM: too large
             (["flash", "--port", emu.url, str(path), "--store", "flash", "--set-rate"], 2, "no bootloader"),
             (["flash", "--port", emu.url, str(path), "--hex-out", str(tmp_path / "x.hex")], 2, "--store flash"),
             (["flash", "--port", emu.url, str(path), "--store", "flash", "--set-rate",

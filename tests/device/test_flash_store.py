@@ -1,6 +1,6 @@
 """The flash model store on the real firmware in simavr and on the emulator: the paper's 3-DoF
 model set (three 3-input WH models, 2 poles per block, 10 breakpoints, full tables: more than
-the EEPROM's 944-byte area) stored twice, in the two flash slots; the newer runs, bit-exact
+the EEPROM's 776-byte area) stored twice, in the two flash slots; the newer runs, bit-exact
 against the Python reference; an upload torn after any page, or carrying a corrupted byte,
 leaves the previous set running; an EEPROM write after a flash upload runs, and a later upload
 runs again. Model sets come from porosense.quant.random_models (an independent generator, wide

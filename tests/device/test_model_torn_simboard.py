@@ -16,6 +16,7 @@ import pytest
 from models import make_blob, reference_run
 from porosense.device import Device
 from porosense.device.client import blob_crc
+from porosense.quant.layout import MAX_BLOB_LEN
 from porosense.errors import DeviceError
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -106,7 +107,7 @@ def test_paper_wh_set_flashes_and_replays_bit_exact(simboard_cls, tmp_path):
 
     s = random_structure(np.random.default_rng(0), 3, 3, h1_poles=2, h2_poles=2, breakpoints=10, kind="wh")
     paper = quantize(s).blob.to_bytes()
-    assert len(paper) <= 944
+    assert len(paper) <= MAX_BLOB_LEN  # the EEPROM model area
     x = np.clip(np.cumsum(np.random.default_rng(6).normal(0, 300, (200, 3)), axis=0), -9000, 4000).astype(np.int16)
     with simboard_cls(elf=str(ELF), eeprom=tmp_path / "ee.bin") as board:
         with Device.open(board.url, timeout_scale=5.0) as dev:

@@ -187,7 +187,7 @@ def store_in_flash(board, dev, blob: bytes) -> None:
 
 
 def heavy_model_blob(seed: int = 1) -> bytes:
-    """The most expensive model that fits the EEPROM model area (944 bytes): 3 inputs x
+    """The most expensive model that fits the EEPROM model area (776 bytes): 3 inputs x
     3 outputs, Wiener-Hammerstein with 4 poles in every H1 and H2 and 6 breakpoints in every
     f and g, or the next smaller candidate that fits (2 + 2 poles: 733 bytes)."""
     import numpy as np

@@ -209,7 +209,8 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
             log(f"  identifying {name}: 4 structures, poles 1..{max_poles}, zeros < poles, 2 starts")
             searches.append(search(u=u, y=y, ts=1.0 / rate_hz, validation=(vu, vy), poles=range(1, max_poles + 1),
                                    inputs=inputs, output=name, progress=progress, size_fn=size_fn,
-                                   max_bytes=share))
+                                   max_bytes=share, input_unit="dR/100",  # _io divides dR (%) by 100
+                                   output_unit=getattr(recs[est_names[0]], "units", {}).get(name)))
         clock["identify"] = time.perf_counter() - t1
         table = paper_table(searches, est_names, val_names, outputs)
         log("")

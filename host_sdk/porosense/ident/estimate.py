@@ -15,6 +15,7 @@ from scipy.optimize import least_squares
 from porosense.ident import bla_split, blocks
 from porosense.ident.chain import Chain, ChainSpec, _filter
 from porosense.ident.linear_init import arx, iv
+from porosense.ident.lm import levenberg_marquardt
 
 
 
@@ -92,7 +93,7 @@ def _penalty_rows(spec: ChainSpec, theta, n_res: int, opts: Options):
 
 
 def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
-    """Minimise the simulation error over all recordings with least_squares (LM, exact J),
+    """Minimise the simulation error over all recordings (LM with the exact J, :mod:`lm`),
     plus the optional smoothness / monotone penalties of :func:`_penalty_rows`."""
     skip = opts.skip
     n_sim = sum(len(y) - skip for y in ys)
@@ -118,9 +119,14 @@ def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
     n_res = sum(len(y) - skip for y in ys)
     method = "lm" if n_res >= spec.n_params else "trf"
     try:
-        res = least_squares(residuals, theta0, jac=jacobian, method=method, max_nfev=opts.max_nfev,
-                            ftol=opts.tol, xtol=opts.tol, gtol=opts.tol, x_scale=1.0)
-        theta, cost, nfev = res.x, 2.0 * res.cost, res.nfev
+        if method == "lm":  # tall problem: LM on the normal equations (lm.py says why)
+            res = levenberg_marquardt(residuals, jacobian, theta0, max_nfev=opts.max_nfev, ftol=opts.tol,
+                                      xtol=opts.tol, gtol=opts.tol)
+            theta, cost, nfev = res.x, res.cost, res.nfev
+        else:
+            res = least_squares(residuals, theta0, jac=jacobian, method=method, max_nfev=opts.max_nfev,
+                                ftol=opts.tol, xtol=opts.tol, gtol=opts.tol, x_scale=1.0)
+            theta, cost, nfev = res.x, 2.0 * res.cost, res.nfev
     except (np.linalg.LinAlgError, ValueError):
         theta, cost, nfev = theta0, start_sse, 0
     if not cost <= start_sse:

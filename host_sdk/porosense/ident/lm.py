@@ -21,6 +21,10 @@ import numpy as np
 from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
 
+# Nielsen's starting damping, relative to the largest diagonal entry of J^T J.
+MU0 = 1e-3
+
+
 @dataclass
 class LMResult:
     x: np.ndarray
@@ -62,7 +66,7 @@ def levenberg_marquardt(fun, jac, x0, *, max_nfev: int = 200, ftol: float = 1e-7
     if x.size == 0 or f == 0.0 or not np.isfinite(f):
         return LMResult(x, f, nfev, njev, "zero or non-finite cost, or no parameters")
     unit = None
-    mu, nu = 1e-3, 2.0
+    mu, nu = MU0, 2.0
     status = "max_nfev"
     fresh = True
     eye = np.eye(x.size)

@@ -313,7 +313,8 @@ def identify_outputs(recs: dict, actuator: str, est_names: list[str], val_names:
         log(f"  identifying {name}: {what}, 2 starts")
         searches.append(search(u=u, y=y, ts=1.0 / rate_hz, validation=(vu, vy), poles=range(1, max_poles + 1),
                                grid=grid, n_breakpoints=bps, inputs=inputs, output=name, progress=progress,
-                               size_fn=size_fn, max_bytes=share))
+                               size_fn=size_fn, max_bytes=share, input_unit="dR/100",  # _io divides dR (%) by 100
+                               output_unit=getattr(recs[est_names[0]], "units", {}).get(name)))
     chosen = [r.best_per_structure()["wh"] if paper else r.best for r in searches]
     return searches, chosen
 

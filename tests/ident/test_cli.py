@@ -108,3 +108,28 @@ def test_selection_input_errors_are_one_line(csv_files, tmp_path, capsys, extra,
     rc = _identify(csv_files, tmp_path, *extra)
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and words in err[0]
+
+
+def test_identify_process_noise_then_predict_expected(csv_files, tmp_path, capsys):
+    """--process-noise saves a Wiener model with a noise at g's input (its fit on this
+    noise-free truth stays above 99 %); predict gives the noise-free output, --expected the
+    noise-averaged one, and --expected on a model without process noise is one line, exit 2."""
+    model, pred = tmp_path / "model.json", tmp_path / "pred.csv"
+    rc = main(["identify", "--data", *map(str, csv_files), "--input", "dR_0", "--output", "strain_0",
+               "--ts", "0.02", "--structure", "wiener", "--poles", "2", "--zeros", "1", "--breakpoints", "5",
+               "--estimation", "0:500", "--validation", "500:", "--process-noise", "--smoothness", "0",
+               "--save", str(model), "--quiet"])
+    assert rc == 0
+    doc = json.loads(model.read_text())["models"][0]
+    assert doc["options"]["process_noise"] is True and doc["spec"]["g_noise"] is True
+    src = read_table(csv_files[1])
+    for extra in ([], ["--expected"]):
+        assert main(["predict", "--model", str(model), "--data", str(csv_files[1]), "--out", str(pred), *extra]) == 0
+        assert fit_percent(src.columns["strain_0"], read_table(pred).columns["strain_0_pred"]) > 99.0
+    plain = tmp_path / "plain.json"
+    assert main(["identify", "--data", *map(str, csv_files), "--input", "dR_0", "--output", "strain_0", "--ts", "0.02",
+                 "--structure", "linear", "--poles", "1", "--save", str(plain), "--quiet"]) == 0
+    capsys.readouterr()
+    rc = main(["predict", "--model", str(plain), "--data", str(csv_files[1]), "--expected"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "process noise" in err[0]

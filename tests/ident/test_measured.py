@@ -13,7 +13,7 @@ from porosense.data import read_table
 
 SKIP = 200
 N_RECORDS = 5
-RATIO_BOUND = 1.0  # WH/linear test RMSE measured 0.94 (see the test); the bound: WH below linear
+RATIO_BOUND = 1.0  # WH/linear test RMSE measured 0.94 (see the slow test); the bound: WH below linear
 
 
 @pytest.fixture(scope="module")
@@ -31,19 +31,38 @@ def wh_data(shared_data):
     return us, ys, 1.0 / fs, tests
 
 
-def test_wh_beats_linear_on_both_test_signals(wh_data):
+def _wh_against_linear(wh_data, n_records, bounds):
     us, ys, ts, tests = wh_data
-    lin = ident.Linear(n_poles=6, n_zeros=5, skip=SKIP).fit(u=us, y=ys, ts=ts)
-    wh = ident.WienerHammerstein(n_poles=6, n_zeros=3, n_breakpoints=5, skip=SKIP).fit(u=us, y=ys, ts=ts)
+    us, ys = us[:n_records], ys[:n_records]
+    lin = ident.Linear(n_poles=6, n_zeros=5, skip=SKIP, max_nfev=40).fit(u=us, y=ys, ts=ts)
+    wh = ident.WienerHammerstein(n_poles=6, n_zeros=3, n_breakpoints=5, skip=SKIP, max_nfev=40,
+                                 starts=1).fit(u=us, y=ys, ts=ts)
     for name, (u, y) in tests.items():
         e_lin = ident.rmse(y[SKIP:], lin.predict(u=u)[SKIP:]) * 1e3
         e_wh = ident.rmse(y[SKIP:], wh.predict(u=u)[SKIP:]) * 1e3
-        print(f"{name}: test RMSE WH {e_wh:.2f} mV, linear {e_lin:.2f} mV")
-        assert e_wh < e_lin
+        print(f"{name}: test RMSE WH {e_wh:.2f} mV, linear {e_lin:.2f} mV (ratio {e_wh / e_lin:.3f})")
+        assert e_wh < bounds[name] * e_lin
+
+
+def test_wh_beats_linear_on_both_test_signals(wh_data):
+    """CI size: 3 realisations (24k samples), 40 evaluations per refinement, one start (4 s CPU).
+
+    Measured: WH/linear test RMSE 34.61/38.64 mV = 0.896 on the multisine, 15.80/20.93 mV =
+    0.755 on the swept sine (2 realisations are not enough: 1.17 on the swept sine).
+    """
+    _wh_against_linear(wh_data, 3, {"multisine": 0.95, "swept sine": 0.85})
 
 
 @pytest.mark.slow
-def test_selected_wh_validates_and_tests_better_than_linear(wh_data):
+def test_wh_beats_linear_on_both_test_signals_five_records(wh_data):
+    """5 realisations (41k samples), same settings (7 s CPU). Measured: WH/linear 32.47/37.33 mV =
+    0.870 on the multisine, 13.55/22.26 mV = 0.609 on the swept sine."""
+    _wh_against_linear(wh_data, N_RECORDS, {"multisine": 0.95, "swept sine": 0.75})
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("process_noise", [False, True])
+def test_selected_wh_validates_and_tests_better_than_linear(wh_data, process_noise):
     """Search over linear and WH at the order 6 poles / 5 zeros (CI size: 3 realisations to
     estimate, 1 to select), selection by the validation fit. The selected model validates at
     least as well as linear, and the WH model's multisine test RMSE is below linear's.
@@ -54,11 +73,23 @@ def test_selected_wh_validates_and_tests_better_than_linear(wh_data):
     noise-smoothed map: on these records a WH model estimated on the noise-free test period
     fits the estimation data worse than the linear model does (93.0 mV against 87.7 mV), and
     no output-error estimator can reach the 2x ratio that the noise-free test would allow.
+
+    With ``process_noise`` (a Gaussian noise at g's input estimated with g, candidates scored
+    by their expected output on the held-out realisation, which carries the same noise): the
+    WH candidate is the better of the noise-aware and OE fits by validation fit, so it
+    validates at least as well as the OE WH. Measured: the OE member is kept (same 36.26 mV,
+    ratio 1.07; 11.8 s wall against 7.1 s). The 2x goal is not met: from the mean output the
+    noise level is not identifiable (a smoother g with less noise gives the same expected
+    output); with the true blocks (a WH fitted on the test multisine, 0.83 mV) held and g
+    re-solved under a known noise level, a monotone g reaches 20 mV at best, and the
+    estimation cost prefers a noise level at which it is 33 mV (tests/ident/test_process_noise.py).
+    The test data carry no comparable noise: a WH fitted on the multisine reaches 0.83 mV, while
+    the two periods of an estimation realisation (same input to 0.2 mV) differ by 121 mV rms.
     """
     us, ys, ts, tests = wh_data
     res = ident.search(u=us[:3], y=ys[:3], ts=ts, validation=(us[3:4], ys[3:4]), validation_skip=SKIP,
                        skip=SKIP, grid=[("linear", 6, 5), ("wh", 6, 5)], criterion="fit", max_nfev=60,
-                       starts=1, progress=False)
+                       starts=1, progress=False, process_noise=process_noise)
     per = res.best_per_structure("fit")
     u, y = tests["multisine"]
     err = {k: ident.rmse(y[SKIP:], c.model.predict(u=u)[SKIP:]) * 1e3 for k, c in per.items()}

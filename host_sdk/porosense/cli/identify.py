@@ -66,6 +66,11 @@ def register(sub) -> argparse.ArgumentParser:
                         "a number fixes the weight (0: none)")
     p.add_argument("--monotone", action="store_true",
                    help="constrain the static nonlinearities to be monotone (the paper's maps all are)")
+    p.add_argument("--process-noise", action="store_true",
+                   help="Wiener and WH models also estimate a Gaussian noise entering before the static "
+                        "nonlinearity (g learnt noise-free, not noise-smoothed); candidates are scored by their "
+                        "output averaged over that noise, and the saved model predicts and quantizes as the "
+                        "noise-free system (predict --expected gives the averaged output)")
     p.add_argument("--max-iter", type=int, default=200, metavar="N",
                    help="function evaluations per refinement (default 200, as in the paper)")
     p.add_argument("--jobs", type=int, metavar="N", help="worker processes of the order search (default: all cores)")
@@ -138,6 +143,16 @@ def load_with_tail_holdout(tables, inputs, outputs, rng: slice):
     return est_u, est_y, starts[0], (val_u, val_y, val_skips)
 
 
+def data_units(tables, inputs, outputs):
+    """(input units, output units) the first file's sidecar states: an input unit the model can
+    carry ("%" or "dR/100") or None; an output unit as free text or None."""
+    from porosense.structure import INPUT_UNITS
+
+    units = getattr(tables[0], "units", {}) or {}
+    ins = [units.get(c) if units.get(c) in INPUT_UNITS else None for c in inputs]
+    return ins, [units.get(c) for c in outputs]
+
+
 def run(args) -> int:
     import os
     from concurrent.futures import ProcessPoolExecutor
@@ -195,6 +210,7 @@ def run(args) -> int:
         est_u, est_y, est_skip, val = load_with_tail_holdout(tables, inputs, outputs, est_range)
         holdout = "hold-out: the last 25 % of every file left out of estimation"
     say(args, holdout if holdout.startswith("hold-out") else f"validation: {holdout}")
+    input_units, output_units = data_units(tables, inputs, outputs)
     structures = tuple(ident.KINDS) if args.structure == "all" else (args.structure,)
     if args.poles is not None:
         poles = [args.poles]
@@ -217,8 +233,8 @@ def run(args) -> int:
                 grid=grid, n_breakpoints=args.breakpoints, delay=args.delay, starts=args.starts,
                 skip=est_skip, validation_skip=val[2] if val else 0, max_nfev=args.max_iter,
                 criterion=args.criterion, holdout=holdout, staged=args.poles is None and not args.full_grid,
-                smoothness=smooth or 0.0, monotone=args.monotone,
-                inputs=inputs, output=name, executor=executor, progress=not (args.quiet or args.json))
+                smoothness=smooth or 0.0, monotone=args.monotone, process_noise=args.process_noise,
+                input_unit=input_units, output_unit=output_units[j], inputs=inputs, output=name, executor=executor, progress=not (args.quiet or args.json))
             say(args, f"{name}:")
             say(args, str(result))
             model_j, choice = result.model, None

@@ -30,7 +30,10 @@ def register(sub) -> argparse.ArgumentParser:
             ".mat) from rest. When the file holds the model's output column, print the NRMSE fit (%) and "
             "the RMS error (% of the largest output) per output, as MATLAB's compare does. --out writes one "
             "column per output named <output>_pred in the output's unit, plus the time column (t, s) when "
-            "the file has one; --plot draws measured against predicted."
+            "the file has one; --plot draws measured against predicted. A model identified with "
+            "--process-noise predicts the noise-free system (its static map g itself, what the board runs "
+            "after quantize); --expected gives instead its output averaged over the estimated noise, the "
+            "best match to a recording that carries that noise."
         ),
         epilog="example: porosense predict --model model.json --data step_20.csv --out pred.csv --plot pred.png",
     )
@@ -38,6 +41,8 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--data", required=True, metavar="FILE", help="CSV or .mat file with the model's input columns")
     p.add_argument("--out", metavar="PRED.csv", help="write the predictions here (default: not written)")
     p.add_argument("--plot", metavar="FILE.png", help="plot measured and predicted output against time")
+    p.add_argument("--expected", action="store_true",
+                   help="for a model with process noise: the output averaged over the noise (default: noise-free)")
     add_data_options(p, ts_help="sample period in s for the plot's time axis (default: the data's, else the model's)")
     add_json_options(p, "the scores and what was written")
     p.set_defaults(func=run)
@@ -62,8 +67,13 @@ def run(args) -> int:
     table.require_finite(list(model.inputs))
     ts = model_period([table], model, args)
     u = np.column_stack([table.columns[c] for c in model.inputs])
+    from porosense.ident import ModelSet
+
+    if args.expected and not any(getattr(m, "spec", None) is not None and m.spec.g_noise
+                                 for m in (model.models if isinstance(model, ModelSet) else [model])):
+        raise InputError(f"--expected: {args.model} has no process noise (identify --process-noise)")
     with np.errstate(all="ignore"):
-        yhat = model.predict(u=u)
+        yhat = model.predict(u=u, expected=True) if args.expected else model.predict(u=u)
     yhat = yhat[:, None] if yhat.ndim == 1 else yhat
     if not np.all(np.isfinite(yhat)):
         raise ModelError(f"{args.model}: the simulation diverges on {args.data} "

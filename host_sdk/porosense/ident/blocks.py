@@ -220,3 +220,48 @@ def initial_breakpoints(values, n: int) -> np.ndarray:
     for i in range(1, n):
         x[i] = max(x[i], x[i - 1] + min_gap)
     return x
+
+
+def pwl_expected(x, y, u, sigma: float, derivatives: bool = False):
+    """E[g(u + v)] for the map g through (x, y) (linear beyond the ends) and v ~ N(0, sigma^2).
+
+    g = y_0 + s_0 (u - x_0) + sum_k (s_k - s_(k-1)) max(0, u - x_k) over the inner breakpoints,
+    and each hinge's expectation is closed form: E max(0, d + v) = d Phi(d/sigma) + sigma phi(d/sigma).
+    So a map learnt through this expectation is the noise-free g of a system whose noise enters
+    before g. ``sigma`` > 0 in the units of u. With ``derivatives``, also returns dz/du (N,),
+    dz/dx (N, n), dz/dy (N, n) and dz/dsigma (N,).
+    """
+    from scipy.special import ndtr
+
+    u = np.asarray(u, dtype=float)
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    n = len(x)
+    dx = np.diff(x)
+    s = np.diff(y) / dx                      # slopes of the n - 1 segments
+    c = np.diff(s)                           # slope changes at the inner breakpoints x_1..x_(n-2)
+    d = u[:, None] - x[None, 1:-1]           # (N, n - 2)
+    t = d / sigma
+    cdf = ndtr(t)
+    pdf = np.exp(-0.5 * t * t) / np.sqrt(2.0 * np.pi)
+    hinge = d * cdf + sigma * pdf
+    z = y[0] + s[0] * (u - x[0]) + hinge @ c
+    if not derivatives:
+        return z
+    slope = s[0] + cdf @ c
+    dz_dsigma = pdf @ c
+    # dz/ds_j = G_j - G_(j+1) with G_0 = u - x_0, G_j = hinge_j (inner), G_(n-1) = 0.
+    big_g = np.column_stack([u - x[0], hinge, np.zeros(len(u))])
+    dz_ds = big_g[:, :-1] - big_g[:, 1:]     # (N, n - 1)
+    # s_j = (y_(j+1) - y_j) / dx_j.
+    dz_dy = np.zeros((len(u), n))
+    dz_dy[:, 0] = 1.0
+    dz_dy[:, 1:] += dz_ds / dx
+    dz_dy[:, :-1] -= dz_ds / dx
+    dz_dx = np.zeros((len(u), n))
+    dz_dx[:, 0] -= s[0]
+    dz_dx[:, 1:-1] -= cdf * c
+    ds_w = dz_ds * (s / dx)                  # ds_j/dx_j = s_j/dx_j, ds_j/dx_(j+1) = -s_j/dx_j
+    dz_dx[:, :-1] += ds_w
+    dz_dx[:, 1:] -= ds_w
+    return z, slope, dz_dx, dz_dy, dz_dsigma

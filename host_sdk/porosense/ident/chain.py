@@ -10,6 +10,11 @@ w = B/F v, dw/db_k = q^-k v/F and dw/da_k = -q^-k w/F; upstream sensitivities pa
 the downstream blocks (times g'(s), then through H2). Denominators are cascades of stable
 sections (:mod:`porosense.ident.blocks`); for a section F_s, dw/da_(s,j) = -q^-j w/F_s.
 Everything simulates from rest.
+
+Process noise (``g_noise``): a Gaussian v of standard deviation sigma = exp(theta["g.s"]) adds
+to g's input, so the expected output is y = offset + H2(E_v g(s + v)) (closed form for a
+piecewise-linear g, :func:`blocks.pwl_expected`). Estimation fits that expectation; the
+noise-free system (g itself) is what ``simulate(u, expected=False)`` returns.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ class ChainSpec:
     np2: int = 0
     nz2: int = 0
     delay: int = 0
+    g_noise: bool = False
 
     def sizes(self) -> list[tuple[str, int]]:
         """Ordered (name, length) of the parameter groups."""
@@ -45,6 +51,8 @@ class ChainSpec:
             out += [(f"h1{i}.a", self.np1), (f"h1{i}.b", self.nz1 + 1)]
         if self.g_bp:
             out += [("g.p", self.g_bp), ("g.y", self.g_bp)]
+            if self.g_noise:
+                out += [("g.s", 1)]
         if self.h2:
             out += [("h2.a", self.np2), ("h2.b", self.nz2 + 1)]
         out += [("offset", 1)]
@@ -118,6 +126,8 @@ class Chain:
         if spec.g_bp:
             x, dx = blocks.pwl_positions(t[sl["g.p"]])
             self.g = (x, t[sl["g.y"]], dx)
+        # Standard deviation of the process noise at g's input (normalised units), or 0.
+        self.g_sigma = float(np.exp(np.clip(t[sl["g.s"]][0], -30.0, 30.0))) if spec.g_noise else 0.0
         self.h2 = None
         if spec.h2:
             den, dden = blocks.sections(t[sl["h2.a"]])
@@ -132,10 +142,16 @@ class Chain:
             u = u[:, None]
         return [_shift(u[:, i].copy(), self.spec.delay) for i in range(self.spec.n_inputs)]
 
-    def simulate(self, u) -> np.ndarray:
-        """Output from rest for inputs ``u`` (N, n_inputs), normalised units."""
+    def simulate(self, u, expected: bool = True) -> np.ndarray:
+        """Output from rest for inputs ``u`` (N, n_inputs), normalised units.
+
+        With process noise in the spec: its expectation over the noise (``expected``, what the
+        estimation fits), or the noise-free system (``expected=False``)."""
         s = self.linear_sum(u)
-        z = blocks.pwl_eval(self.g[0], self.g[1], s) if self.g else s
+        if self.g and self.g_sigma > 0 and expected:
+            z = blocks.pwl_expected(self.g[0], self.g[1], s, self.g_sigma)
+        else:
+            z = blocks.pwl_eval(self.g[0], self.g[1], s) if self.g else s
         if self.h2:
             b, den, _ = self.h2
             z = _filter(b, den, z)
@@ -180,7 +196,11 @@ class Chain:
         z = s
         if self.g:
             gx, gy, dxdp = self.g
-            z, slope, dz_dx, dz_dy = blocks.pwl_eval(gx, gy, s, derivatives=True)
+            if self.g_sigma > 0:
+                z, slope, dz_dx, dz_dy, dz_ds = blocks.pwl_expected(gx, gy, s, self.g_sigma, derivatives=True)
+                jac[:, sl["g.s"]] = (dz_ds * self.g_sigma)[:, None]  # d/d log(sigma)
+            else:
+                z, slope, dz_dx, dz_dy = blocks.pwl_eval(gx, gy, s, derivatives=True)
             jac[:, upstream] *= slope[:, None]
             jac[:, sl["g.p"]] = dz_dx @ dxdp
             jac[:, sl["g.y"]] = dz_dy

@@ -15,6 +15,7 @@ from scipy.optimize import least_squares
 from porosense.ident import bla_split, blocks
 from porosense.ident.chain import Chain, ChainSpec, _filter
 from porosense.ident.linear_init import arx, iv
+from porosense.ident.lm import levenberg_marquardt
 
 
 
@@ -92,7 +93,7 @@ def _penalty_rows(spec: ChainSpec, theta, n_res: int, opts: Options):
 
 
 def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
-    """Minimise the simulation error over all recordings with least_squares (LM, exact J),
+    """Minimise the simulation error over all recordings (LM with the exact J, :mod:`lm`),
     plus the optional smoothness / monotone penalties of :func:`_penalty_rows`."""
     skip = opts.skip
     n_sim = sum(len(y) - skip for y in ys)
@@ -118,9 +119,14 @@ def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
     n_res = sum(len(y) - skip for y in ys)
     method = "lm" if n_res >= spec.n_params else "trf"
     try:
-        res = least_squares(residuals, theta0, jac=jacobian, method=method, max_nfev=opts.max_nfev,
-                            ftol=opts.tol, xtol=opts.tol, gtol=opts.tol, x_scale=1.0)
-        theta, cost, nfev = res.x, 2.0 * res.cost, res.nfev
+        if method == "lm":  # tall problem: LM on the normal equations (lm.py says why)
+            res = levenberg_marquardt(residuals, jacobian, theta0, max_nfev=opts.max_nfev, ftol=opts.tol,
+                                      xtol=opts.tol, gtol=opts.tol)
+            theta, cost, nfev = res.x, res.cost, res.nfev
+        else:
+            res = least_squares(residuals, theta0, jac=jacobian, method=method, max_nfev=opts.max_nfev,
+                                ftol=opts.tol, xtol=opts.tol, gtol=opts.tol, x_scale=1.0)
+            theta, cost, nfev = res.x, 2.0 * res.cost, res.nfev
     except (np.linalg.LinAlgError, ValueError):
         theta, cost, nfev = theta0, start_sse, 0
     if not cost <= start_sse:
@@ -398,3 +404,73 @@ def multistart(spec: ChainSpec, starts, us, ys, opts: Options) -> Fit:
 
 def _best(fits: list[Fit]) -> Fit:
     return min(fits, key=lambda f: f.sse if np.isfinite(f.sse) else np.inf)
+
+
+# ------------------------------------------------------------------------ process noise
+
+# Starting standard deviations of the process noise, as fractions of the spread (standard
+# deviation) of g's input: from barely noticeable to larger than the signal itself.
+NOISE_STARTS = (0.05, 0.15, 0.3, 0.5, 0.8, 1.2)
+
+
+def _noise_start(spec: ChainSpec, theta, us, ys, skip: int) -> np.ndarray:
+    """``theta`` with g's values and the offset re-solved by least squares for its sigma.
+
+    The expected output is linear in g's values once H1, H2, the breakpoints and sigma are
+    held, so each sigma gets the g that best undoes its smoothing (an OE g is already smoothed).
+    """
+    chain = Chain(spec, theta)
+    sl = spec.slices()
+    gx = chain.g[0]
+    cols, rhs = [], []
+    for u, y in zip(us, ys):
+        basis = blocks.pwl_expected(gx, np.zeros(len(gx)), chain.linear_sum(u), chain.g_sigma, derivatives=True)[3]
+        if chain.h2 is not None:
+            b, den, _ = chain.h2
+            basis = _filter(b, den, basis)
+        cols.append(np.hstack([basis, np.ones((len(u), 1))])[skip:])
+        rhs.append(y[skip:])
+    sol = lstsq(np.vstack(cols), np.concatenate(rhs))
+    out = np.array(theta, dtype=float)
+    if np.all(np.isfinite(sol)):
+        out[sl["g.y"]], out[sl["offset"]] = sol[:-1], sol[-1]
+    return out
+
+
+def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS) -> Fit:
+    """Refine ``fit`` (a model with a map g) with a Gaussian process noise at g's input.
+
+    The parameters gain log(sigma) and the cost becomes the error of the expected output
+    y = H2(E_v g(H1 u + v)), so g is learnt as the noise-free map instead of the noise-smoothed
+    one an output-error fit returns. Each starting sigma (``starts`` x the standard deviation
+    of g's input under ``fit``) gets g by least squares (:func:`_noise_start`); the starts are
+    screened briefly and the best one is refined. The result's error is never above ``fit``'s:
+    when no sigma helps, ``fit`` itself comes back with a vanishing sigma.
+    """
+    if not fit.spec.g_bp or fit.spec.g_noise:
+        raise ValueError("process noise needs a map g and a model without it")
+    spec = replace(fit.spec, g_noise=True)
+    sl, old = spec.slices(), fit.spec.slices()
+    chain = Chain(fit.spec, fit.theta)
+    spread = float(np.std(np.concatenate([chain.linear_sum(u)[opts.skip:] for u in us]))) or 1.0
+    thetas = []
+    with np.errstate(all="ignore"):
+        for frac in starts:
+            theta = np.zeros(spec.n_params)
+            cut = old["g.y"].stop
+            theta[:cut] = fit.theta[:cut]
+            theta[sl["g.s"]] = np.log(frac * spread)
+            theta[sl["g.s"].stop:] = fit.theta[cut:]
+            thetas.append(_noise_start(spec, theta, us, ys, opts.skip))
+        costs = [sse(spec, t, us, ys, opts.skip) for t in thetas]
+        keep = [thetas[i] for i in np.argsort(costs)[: max(opts.starts, 1)]]
+        out = multistart(spec, keep, us, ys, opts)
+        if not out.sse <= fit.sse:
+            # No noise level beats the output-error fit: keep it, as a vanishing noise (exp(-30)).
+            theta = np.zeros(spec.n_params)
+            theta[:cut] = fit.theta[:cut]
+            theta[sl["g.s"]] = -30.0
+            theta[sl["g.s"].stop:] = fit.theta[cut:]
+            out = Fit(spec, theta, sse(spec, theta, us, ys, opts.skip), out.nfev)
+    out.build = (fit.build + " + " if fit.build else "") + "process noise"
+    return out

@@ -59,7 +59,7 @@ class Model:
 
     def __init__(self, *, n_poles: int = 2, n_zeros: int = 1, n_breakpoints: int = 10, delay: int = 0,
                  starts: int = 2, max_nfev: int = 200, skip: int = 0, smoothness: float = 0.0,
-                 monotone: bool = False):
+                 monotone: bool = False, process_noise: bool = False):
         if n_poles < 0 or n_zeros < 0:
             raise InputError("n_poles and n_zeros must be >= 0")
         if not 2 <= n_breakpoints <= MAX_BREAKPOINTS:
@@ -72,6 +72,11 @@ class Model:
             raise InputError("smoothness must be >= 0")
         # Regularisation of the piecewise-linear values (estimate._penalty_rows).
         self.smoothness, self.monotone = float(smoothness), bool(monotone)
+        # Estimate a Gaussian noise at g's input with g (estimate.with_process_noise).
+        self.process_noise = bool(process_noise)
+        if self.process_noise and self.kind not in NOISE_KINDS:
+            raise InputError(f"process noise enters before a map g: only {' and '.join(NOISE_KINDS)} "
+                             f"models take it, not {self.kind}")
         self.spec: ChainSpec | None = None
         self.theta: np.ndarray | None = None
         self.u_scale = None
@@ -145,7 +150,16 @@ class Model:
         nys = [(v - self.y_mean) / self.y_std for v in ys]
         opts = estimate.Options(max_nfev=self.max_nfev, skip=self.skip, starts=self.starts,
                                 smoothness=self.smoothness, monotone=self.monotone)
+        self.alternatives = []
         result = self._estimate(nus, nys, opts)
+        self._oe_fit = None
+        if self.process_noise:
+            # The output-error fit stays a member (the search scores it too) and the start of
+            # a WH model built from this one.
+            self._oe_fit = result
+            noisy = estimate.with_process_noise(result, nus, nys, opts)
+            self.alternatives = [result] + list(self.alternatives)
+            result = noisy
         self._set_result(result, sum(len(v) - self.skip for v in ys))
         return self
 
@@ -164,22 +178,38 @@ class Model:
         if self.theta is None:
             raise ModelError(f"{type(self).__name__} is not fitted yet")
 
-    def predict(self, *, u) -> np.ndarray:
-        """Simulate from rest; ``u`` (N, n_inputs) in the units of the data; returns (N,)."""
+    def predict(self, *, u, expected: bool = False) -> np.ndarray:
+        """Simulate from rest; ``u`` (N, n_inputs) in the units of the data; returns (N,).
+
+        A model with process noise (``process_noise_std`` > 0) predicts the noise-free system
+        by default: g itself, the map the board runs after ``quantize``, and what a recording
+        without that noise shows. ``expected=True`` gives instead the output averaged over the
+        estimated noise, E[H2 g(H1 u + v)], which is what a recording carrying the same noise
+        matches best (the order search scores such models this way). Other models: the same.
+        """
         self._require_fitted()
         x = np.asarray(u, dtype=float)
         x = x[:, None] if x.ndim == 1 else x
         if x.shape[1] != len(self.inputs):
             raise InputError(f"expected {len(self.inputs)} input columns, got {x.shape[1]}")
-        return Chain(self.spec, self.theta).simulate(x / self.u_scale) * self.y_std + self.y_mean
+        return (Chain(self.spec, self.theta).simulate(x / self.u_scale, expected=expected) * self.y_std
+                + self.y_mean)
 
-    def score(self, *, u, y, skip: int = 0) -> dict:
+    @property
+    def process_noise_std(self) -> float:
+        """Standard deviation of the estimated Gaussian noise at g's input, in the units of g's
+        input in :meth:`to_structure` (0 for a model without process noise)."""
+        self._require_fitted()
+        return Chain(self.spec, self.theta).g_sigma if self.spec.g_noise else 0.0
+
+    def score(self, *, u, y, skip: int = 0, expected: bool = False) -> dict:
         """Per recording fit % and RMS % (docs/design.md metrics) of the output simulated from rest.
 
-        The first ``skip`` samples of each recording are simulated but not scored.
+        The first ``skip`` samples of each recording are simulated but not scored;
+        ``expected``: as in :meth:`predict`.
         """
         us, ys = as_recordings(u, y)
-        preds = [self.predict(u=x)[skip:] for x in us]
+        preds = [self.predict(u=x, expected=expected)[skip:] for x in us]
         ys = [v[skip:] for v in ys]
         return {"fit": [fit_percent(v, p) for v, p in zip(ys, preds)],
                 "rms": [rms_percent(v, p) for v, p in zip(ys, preds)]}
@@ -197,13 +227,29 @@ class Model:
     def bic(self) -> float:
         return self.info.get("bic", float("nan"))
 
+    def alternative_models(self) -> list:
+        """The other members of this fit, as models: for WH the other build's refinement and the
+        starting models (WH models with identity blocks, equal to the Wiener / Hammerstein
+        model each came from); with process noise also the output-error fit it was refined
+        from. The order search scores them too and keeps the best by its selection rule."""
+        self._require_fitted()
+        out = []
+        for fit in getattr(self, "alternatives", []):
+            m = copy.copy(self)
+            m.alternatives, m._oe_fit, m.process_noise = [], None, fit.spec.g_noise
+            m._set_result(fit, self.info["n_samples"])
+            out.append(m)
+        return out
+
     # -- conversion -------------------------------------------------------------------
 
     def to_structure(self) -> EstimatorStructure:
         """The float estimator structure (raw data units) that quant and the firmware run."""
         self._require_fitted()
         return EstimatorStructure(inputs=self.inputs, outputs=(self.output_chain(),), ts=self.ts,
-                                  meta={"kind": self.kind, "n_poles": self.n_poles, "n_zeros": self.n_zeros},
+                                  meta={"kind": self.kind, "n_poles": self.n_poles, "n_zeros": self.n_zeros,
+                                        **({"process_noise_std": self.process_noise_std}
+                                           if self.spec.g_noise else {})},
                                   **self._units())
 
     def _units(self) -> dict:
@@ -274,7 +320,8 @@ class Model:
                        "n_breakpoints": self.n_breakpoints, "delay": self.delay},
             "options": {"starts": self.starts, "max_nfev": self.max_nfev, "skip": self.skip,
                         **({"smoothness": self.smoothness} if self.smoothness else {}),
-                        **({"monotone": True} if self.monotone else {})},
+                        **({"monotone": True} if self.monotone else {}),
+                        **({"process_noise": True} if self.process_noise else {})},
             "spec": asdict(self.spec),
             "theta": [float(v) for v in self.theta],
             "scaling": {"u_scale": [float(v) for v in self.u_scale], "y_mean": self.y_mean, "y_std": self.y_std},
@@ -401,6 +448,8 @@ class WienerHammerstein(Model):
         if not same:
             raise InputError(f"the {model.kind} model to start from must be fitted on the same data "
                              "with the same orders")
+        if getattr(model, "_oe_fit", None) is not None:  # a process-noise model: its OE fit
+            return model._oe_fit
         return estimate.Fit(model.spec, model.theta, model.info["sse"] / self.y_std**2)
 
     def _estimate(self, us, ys, opts):
@@ -411,20 +460,7 @@ class WienerHammerstein(Model):
         self.alternatives = fits[1:]
         return fits[0]
 
-    def alternative_models(self) -> list:
-        """The other members of this fit: the other build's refinement and both starting models
-        (each a WH model with identity blocks, equal to the Wiener / Hammerstein model it came
-        from). The order search scores them too and keeps the best by its selection rule."""
-        self._require_fitted()
-        out = []
-        for fit in getattr(self, "alternatives", []):
-            m = copy.copy(self)
-            m.alternatives = []
-            m._set_result(fit, self.info["n_samples"])
-            out.append(m)
-        return out
-
-
+NOISE_KINDS = ("wiener", "wh")
 KINDS = {"linear": Linear, "hammerstein": Hammerstein, "wiener": Wiener, "wh": WienerHammerstein}
 
 
@@ -460,9 +496,9 @@ class ModelSet:
     def ts(self):
         return self.models[0].ts
 
-    def predict(self, *, u) -> np.ndarray:
-        """(N, n_outputs) simulation from rest."""
-        return np.column_stack([m.predict(u=u) for m in self.models])
+    def predict(self, *, u, expected: bool = False) -> np.ndarray:
+        """(N, n_outputs) simulation from rest (``expected``: as in :meth:`Model.predict`)."""
+        return np.column_stack([m.predict(u=u, expected=expected) for m in self.models])
 
     def to_structure(self) -> EstimatorStructure:
         units = [m._units() for m in self.models]

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from porosense.errors import InputError
-from porosense.ident.models import KINDS, Model, as_recordings, make_model
+from porosense.ident.models import KINDS, NOISE_KINDS, Model, as_recordings, make_model
 
 STRUCTURES = tuple(KINDS)
 CRITERIA = ("paper", "fit", "aic", "bic")
@@ -241,10 +241,13 @@ def order_grid(structures=STRUCTURES, poles=range(1, 11), zeros=None) -> list[tu
 
 
 def _score_records(model, us, ys, skips) -> dict:
-    """Fit % and RMS % per recording, each with its own number of unscored leading samples."""
+    """Fit % and RMS % per recording, each with its own number of unscored leading samples.
+
+    A model with process noise is scored by its expected output: the recordings it is
+    selected on carry the noise it models (Model.predict)."""
     out = {"fit": [], "rms": []}
     for u, y, k in zip(us, ys, skips):
-        r = model.score(u=[u], y=[y], skip=int(k))
+        r = model.score(u=[u], y=[y], skip=int(k), expected=True)
         out["fit"] += r["fit"]
         out["rms"] += r["rms"]
     return out
@@ -255,17 +258,33 @@ def _skips(skip, n: int) -> list:
 
 
 def _score(structure, n_poles, n_zeros, model, kwargs, fit_args, val, seconds, cpu_seconds) -> Candidate:
-    est = model.score(u=fit_args["u"], y=fit_args["y"], skip=kwargs["skip"])
+    est = model.score(u=fit_args["u"], y=fit_args["y"], skip=kwargs["skip"], expected=True)
     vs = _score_records(model, *val) if val else {"fit": [], "rms": []}
     n_val = int(sum(len(y) - k for y, k in zip(val[1], val[2]))) if val else 0
     return Candidate(structure, n_poles, n_zeros, est["fit"], vs["fit"], est["rms"], vs["rms"],
                      model.aic, model.bic, model.n_params, seconds, True, model, cpu_seconds, n_val)
 
 
+def _model_kwargs(structure, kwargs) -> dict:
+    """The options of ``structure``: process noise only for the structures with a map g."""
+    if kwargs.get("process_noise") and structure not in NOISE_KINDS:
+        return {k: v for k, v in kwargs.items() if k != "process_noise"}
+    return kwargs
+
+
+def _best_member(structure, n_poles, n_zeros, model, kwargs, fit_args, val, criterion) -> Candidate:
+    """The model or one of its alternative members, whichever scores best by ``criterion``."""
+    members = [_score(structure, n_poles, n_zeros, m, kwargs, fit_args, val, 0.0, 0.0)
+               for m in [model] + model.alternative_models()]
+    best = max(members, key=lambda c: c.score(criterion))
+    best.model.alternatives = []
+    return best
+
+
 def _fit_candidate(structure, n_poles, n_zeros, kwargs, fit_args, val):
     """Worker: estimate one model and score it (top level so process pools can pickle it)."""
     t0, c0 = time.perf_counter(), time.process_time()
-    model = make_model(structure, n_poles=n_poles, n_zeros=n_zeros, **kwargs)
+    model = make_model(structure, n_poles=n_poles, n_zeros=n_zeros, **_model_kwargs(structure, kwargs))
     model.fit(**fit_args)
     return _score(structure, n_poles, n_zeros, model, kwargs, fit_args, val,
                   time.perf_counter() - t0, time.process_time() - c0)
@@ -287,10 +306,15 @@ def _fit_order_group(structures, n_poles, n_zeros, kwargs, fit_args, val, criter
     for s in needed:
         t0, c0 = time.perf_counter(), time.process_time()
         start = {"linear": parts["linear"]} if s != "linear" else {}
-        parts[s] = make_model(s, n_poles=n_poles, n_zeros=n_zeros, **kwargs).fit(**fit_args, **start)
+        parts[s] = make_model(s, n_poles=n_poles, n_zeros=n_zeros, **_model_kwargs(s, kwargs)).fit(**fit_args, **start)
         dt, dc = time.perf_counter() - t0, time.process_time() - c0
         if s in structures:
-            out.append(_score(s, n_poles, n_zeros, parts[s], kwargs, fit_args, val, dt, dc))
+            if parts[s].alternatives:  # a process-noise model: it or its OE fit, by the rule
+                cand = _best_member(s, n_poles, n_zeros, parts[s], kwargs, fit_args, val, criterion)
+                cand.seconds, cand.cpu_seconds = dt, dc
+            else:
+                cand = _score(s, n_poles, n_zeros, parts[s], kwargs, fit_args, val, dt, dc)
+            out.append(cand)
         else:
             extra[0] += dt
             extra[1] += dc
@@ -299,10 +323,7 @@ def _fit_order_group(structures, n_poles, n_zeros, kwargs, fit_args, val, criter
         wh = make_model("wh", n_poles=n_poles, n_zeros=n_zeros, **kwargs).fit(**fit_args, **parts)
         # The refined model and the WH members it was refined from, scored by the selection rule:
         # the WH candidate of this order is never below the linear, Wiener and Hammerstein ones.
-        members = [_score("wh", n_poles, n_zeros, m, kwargs, fit_args, val, 0.0, 0.0)
-                   for m in [wh] + wh.alternative_models()]
-        best = max(members, key=lambda c: c.score(criterion))
-        best.model.alternatives = []
+        best = _best_member("wh", n_poles, n_zeros, wh, kwargs, fit_args, val, criterion)
         best.seconds = time.perf_counter() - t0 + extra[0]
         best.cpu_seconds = time.process_time() - c0 + extra[1]
         out.append(best)
@@ -334,7 +355,8 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
            constraint=None, size_fn=None, max_bytes: int | None = None, grid=None,
            tie_tol: float = 0.01, validation_skip=0, criterion: str = "paper", holdout: str = "",
            staged: bool = False, staged_orders: int = 2, smoothness: float = 0.0,
-           monotone: bool = False) -> SearchResult:
+           monotone: bool = False, process_noise: bool = False, input_unit=None,
+           output_unit: str | None = None) -> SearchResult:
     """Estimate the whole grid and select by ``criterion`` (see :class:`SearchResult`).
 
     u, y: estimation recordings (lists of (N, n_in) and (N,)); validation: (u_list, y_list) or
@@ -347,6 +369,11 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     (structure, n_poles, n_zeros) instead of structures/poles/zeros. ``criterion``: paper
     (default, the paper's mean fit over all recordings), fit (validation fit), aic or bic.
     ``holdout``: how the validation data was made, reported with the rule.
+
+    ``process_noise``: the Wiener and WH candidates also estimate a Gaussian noise at g's input
+    (:meth:`Model.predict`); every candidate is scored by its expected output, and a WH / Wiener
+    candidate is the better of its process-noise and output-error fits by ``criterion``.
+    ``input_unit`` / ``output_unit``: stored in every model (:meth:`Model.fit`).
 
     ``smoothness`` / ``monotone``: regularisation of the piecewise-linear maps of every
     nonlinear candidate (:func:`choose_smoothness` picks the weight on validation data).
@@ -363,7 +390,8 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
                     starts=starts, max_nfev=max_nfev, skip=skip, inputs=inputs, output=output,
                     progress=progress, constraint=constraint, size_fn=size_fn, max_bytes=max_bytes,
                     tie_tol=tie_tol, validation_skip=validation_skip, criterion=criterion, holdout=holdout,
-                    smoothness=smoothness, monotone=monotone)
+                    smoothness=smoothness, monotone=monotone, process_noise=process_noise,
+                    input_unit=input_unit, output_unit=output_unit)
         return _staged_search(list(grid) if grid is not None else order_grid(structures, poles, zeros),
                               executor, staged_orders, args)
     us, ys = as_recordings(u, y)
@@ -381,7 +409,10 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     kwargs = {"n_breakpoints": n_breakpoints, "delay": delay, "starts": starts, "max_nfev": max_nfev, "skip": skip}
     if smoothness or monotone:
         kwargs.update(smoothness=smoothness, monotone=monotone)
-    fit_args = {"u": us, "y": ys, "ts": ts, "inputs": inputs, "output": output}
+    if process_noise:
+        kwargs["process_noise"] = True
+    fit_args = {"u": us, "y": ys, "ts": ts, "inputs": inputs, "output": output, "input_unit": input_unit,
+                "output_unit": output_unit}
     # Most expensive first so that the pool stays busy to the end.
     weight = {"wh": 2, "hammerstein": 2, "wiener": 2, "linear": 1}
     tasks = _tasks(grid)
@@ -506,8 +537,9 @@ def choose_smoothness(result: SearchResult, *, u, y, ts: float, validation, vali
     for w in weights:
         m = make_model(best.structure, n_poles=base.n_poles, n_zeros=base.n_zeros, n_breakpoints=base.n_breakpoints,
                        delay=base.delay, starts=base.starts, max_nfev=base.max_nfev, skip=base.skip,
-                       smoothness=w, monotone=monotone)
-        m.fit(u=u, y=y, ts=ts, inputs=inputs, output=output)
+                       smoothness=w, monotone=monotone, process_noise=base.process_noise)
+        m.fit(u=u, y=y, ts=ts, inputs=inputs, output=output, input_unit=list(base.input_units) or None,
+              output_unit=base.output_unit)
         f = float(np.mean(_score_records(m, vu, vy, skips)["fit"]))
         fits[float(w)] = f
         if f > top:

@@ -1,0 +1,149 @@
+"""Process noise at the static map's input (``process_noise=True``, ``identify --process-noise``).
+
+The data come from an independent generator written here: a WH system with random stable
+H1 and H2 (1-2 poles each, unit DC gain), a random piecewise-linear g with 2-3 kinks at
+random places and slopes over a decade, and a coloured Gaussian noise added at g's input with
+a standard deviation of 0.3-0.7 of g's input (fixed seeds). The identification code never
+generated these records.
+"""
+
+import json
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from porosense import ident
+from porosense.errors import InputError
+from porosense.ident import blocks
+
+SKIP = 50
+N = 4000
+
+
+def _stable(rng, n_poles):
+    poles = []
+    while len(poles) < n_poles:
+        if n_poles - len(poles) >= 2 and rng.random() < 0.5:
+            r, a = rng.uniform(0.5, 0.95), rng.uniform(0.05, 1.2)
+            poles += [r * np.exp(1j * a), r * np.exp(-1j * a)]
+        else:
+            poles.append(rng.uniform(0.3, 0.95))
+    den = np.real(np.poly(poles))
+    num = np.array([1.0, rng.uniform(-0.5, 0.5)])
+    return num * np.sum(den) / np.sum(num), den
+
+
+def _system(seed):
+    """(simulate(u, noise_std, out_noise), noise_std) of one random WH system."""
+    rng = np.random.default_rng(seed)
+    h1, h2 = _stable(rng, int(rng.integers(1, 3))), _stable(rng, int(rng.integers(1, 3)))
+    nk = int(rng.integers(2, 4))
+    kx = np.sort(rng.uniform(-1.2, 1.2, nk))
+    ks = rng.uniform(-1, 1, nk + 1) * rng.choice([0.1, 1.0, 3.0], nk + 1)
+
+    def g(x):
+        return ks[0] * x + sum((ks[i + 1] - ks[i]) * np.maximum(x - kx[i], 0.0) for i in range(nk))
+
+    def simulate(u, noise_std, out_noise=0.0):
+        x = lfilter(*h1, u)
+        v = lfilter([1.0], [1.0, -0.5], rng.standard_normal(len(u)))
+        y = lfilter(*h2, g(x + noise_std * v / np.std(v)))
+        return y + out_noise * rng.standard_normal(len(u))
+
+    gain = 1.0 / np.std(lfilter(*h1, rng.standard_normal(20000)))  # g's input at unit spread
+    return simulate, rng.uniform(0.3, 0.7), gain, rng
+
+
+def test_expected_map_matches_monte_carlo_and_its_derivatives():
+    rng = np.random.default_rng(7)
+    x = np.sort(rng.uniform(-2, 2, 7))
+    y = rng.normal(size=7)
+    u = rng.uniform(-3, 3, 40)
+    sigma = 0.4
+    v = sigma * rng.standard_normal(100_000)
+    mc = np.array([blocks.pwl_eval(x, y, ui + v) for ui in u])
+    z, slope, dz_dx, dz_dy, dz_ds = blocks.pwl_expected(x, y, u, sigma, derivatives=True)
+    # Monte Carlo: within 5 standard errors of the sample mean.
+    assert np.all(np.abs(mc.mean(axis=1) - z) <= 5 * mc.std(axis=1) / np.sqrt(len(v)) + 1e-12)
+    e = 1e-6
+    num = lambda f: (f(e) - f(-e)) / (2 * e)  # noqa: E731
+    assert np.max(np.abs(num(lambda h: blocks.pwl_expected(x, y, u + h, sigma)) - slope)) < 1e-6
+    assert np.max(np.abs(num(lambda h: blocks.pwl_expected(x, y, u, sigma + h)) - dz_ds)) < 1e-6
+    for k in range(len(x)):
+        ek = np.eye(len(x))[k]
+        assert np.max(np.abs(num(lambda h: blocks.pwl_expected(x + h * ek, y, u, sigma)) - dz_dx[:, k])) < 1e-6
+        assert np.max(np.abs(num(lambda h: blocks.pwl_expected(x, y + h * ek, u, sigma)) - dz_dy[:, k])) < 1e-6
+    # sigma -> 0 is the map itself.
+    assert np.max(np.abs(blocks.pwl_expected(x, y, u, 1e-9) - blocks.pwl_eval(x, y, u))) < 1e-9
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_noise_aware_fit_against_output_error_fit(seed):
+    """What holds, asserted: the noise-aware model's expected output fits the estimation data
+    at least as well as the output-error (OE) fit it was refined from (a member of the model).
+
+    What does NOT hold (printed, not asserted): the goal that it recovers the noise-free output
+    clearly better than the OE fit. Measured over seeds 0-5 (N = 2 x 4000, 2 poles, 10
+    breakpoints): the noise-free test RMSE ratio (noise-aware / OE) is 0.99-1.08 in most runs,
+    and on seed 0 it has reached 1100 (a deconvolved g that explodes outside the data); the
+    estimated sigma is 0.5-5 % of the spread of g's input against a true 30-70 %. From the
+    mean output alone the noise is not identifiable: g' = g * N(0, s^2 - s'^2) with noise s'
+    gives the same expected output as g with noise s, and the cost is flat in sigma to 0.5 %
+    (seed 0, sigma from 1 % to 50 % of the spread).
+    """
+    simulate, noise, gain, rng = _system(seed)
+    us = [gain * rng.standard_normal(N) for _ in range(2)]
+    ys = [simulate(u, noise, 0.01) for u in us]
+    ut = gain * rng.standard_normal(N)
+    yt = simulate(ut, 0.0)
+    kw = dict(n_poles=2, n_zeros=1, n_breakpoints=10, skip=SKIP, starts=1, max_nfev=100)
+    pn = ident.WienerHammerstein(**kw, process_noise=True).fit(u=[u[:, None] for u in us], y=ys)
+    oe = pn.alternative_models()[0]  # the OE fit the noise model was refined from
+    assert pn.spec.g_noise and not oe.spec.g_noise and pn.process_noise_std > 0
+    sse = lambda m: sum(np.sum((m.predict(u=u[:, None], expected=True) - y)[SKIP:] ** 2)  # noqa: E731
+                        for u, y in zip(us, ys))
+    assert sse(pn) <= sse(oe) * (1 + 1e-9)
+    e_oe = ident.rmse(yt[SKIP:], oe.predict(u=ut[:, None])[SKIP:])
+    e_pn = ident.rmse(yt[SKIP:], pn.predict(u=ut[:, None])[SKIP:])
+    print(f"seed {seed}: expected-output SSE {sse(pn):.4g} vs OE {sse(oe):.4g}; noise-free test RMSE "
+          f"noise-aware {e_pn:.4g}, OE {e_oe:.4g} (ratio {e_pn / e_oe:.3g}), sigma {pn.process_noise_std:.3g}")
+
+
+def test_process_noise_model_saves_loads_and_quantizes_as_the_noise_free_map(tmp_path):
+    simulate, noise, gain, rng = _system(3)
+    u = gain * rng.standard_normal(1500)
+    y = simulate(u, noise)
+    m = ident.Wiener(n_poles=2, n_zeros=1, n_breakpoints=6, max_nfev=30, starts=1, process_noise=True)
+    m.fit(u=u[:, None], y=y, ts=0.02, input_unit="dR/100", output_unit="%")
+    back = ident.load_model(m.save(tmp_path / "m.json"))
+    assert back.process_noise and back.process_noise_std == m.process_noise_std > 0
+    for expected in (False, True):
+        assert np.array_equal(back.predict(u=u[:, None], expected=expected), m.predict(u=u[:, None], expected=expected))
+    # The structure the board runs is the noise-free model: equal to predict() to rounding.
+    s = m.to_structure()
+    assert s.meta["process_noise_std"] == m.process_noise_std
+    free = m.predict(u=u[:, None])
+    assert np.max(np.abs(s.simulate(u[:, None])[:, 0] - free)) <= 1e-9 * np.max(np.abs(free))
+    assert np.max(np.abs(m.predict(u=u[:, None], expected=True) - free)) > 0
+    assert json.loads((tmp_path / "m.json").read_text())["models"][0]["options"]["process_noise"] is True
+
+
+def test_process_noise_needs_a_map_g():
+    for kind in ("linear", "hammerstein"):
+        with pytest.raises(InputError, match="process noise"):
+            ident.make_model(kind, process_noise=True)
+
+
+def test_search_passes_units_and_process_noise_to_its_models(tmp_path):
+    simulate, noise, gain, rng = _system(4)
+    us = [gain * rng.standard_normal(800)[:, None] for _ in range(2)]
+    ys = [simulate(u[:, 0], noise) for u in us]
+    res = ident.search(u=us[:1], y=ys[:1], ts=0.02, validation=(us[1:], ys[1:]), grid=[("linear", 1, 0), ("wh", 1, 0)],
+                       n_breakpoints=4, max_nfev=15, starts=1, progress=False, criterion="fit", process_noise=True,
+                       input_unit="dR/100", output_unit="%")
+    assert {c.structure for c in res.candidates} == {"linear", "wh"}
+    for c in res.candidates:
+        assert c.model.input_units == ("dR/100",) and c.model.output_unit == "%"
+        doc = json.loads(c.model.save(tmp_path / f"{c.structure}.json").read_text())["models"][0]
+        assert doc["signals"]["inputs"][0]["unit"] == "dR/100" and doc["signals"]["output"]["unit"] == "%"

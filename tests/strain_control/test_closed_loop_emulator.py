@@ -1,7 +1,7 @@
 """The board's controller on the emulator (the firmware core over the simulated contractor),
 gains and model identified at 0 g from the simulator's recordings: steps under 0 and 500 g
 against the TRUE strain, closed loop versus the 0 g static-map baseline (the bench's core at
-CI size), and a tracking trajectory.
+CI size), a tracking trajectory, and an estimator identified under load as well.
 
 Bounds come from measurements with a margin (figures printed with -s). The physics' floor:
 a hanging load holds pore contacts open (porosense.sim.piezo, load_contact_coupling), so the
@@ -109,3 +109,17 @@ def test_predicted_closed_loop_step_matches_the_board(setup, loads):
     print(f"predicted vs board step: fit {fit:.1f} %, estimate settles in {settle:.2f} s (predicted {pred.settling_s:.2f} s)")
     assert fit > 80.0
     assert abs(settle / pred.settling_s - 1.0) < 0.4
+
+
+def test_estimator_identified_under_load_meets_a_third_of_the_open_loop_error():
+    """Issue 17's goal: with an estimator identified on the paper's recordings at 0 g and under
+    its 500 g load (other experiments and seeds than these runs; plant, gains and the baseline's
+    static map still from 0 g), the closed loop's steady-state error against the true strain is
+    at most a third of the 0 g static map's under 500 g, and under 200 g, a load the estimator
+    never saw. Measured (CI size): ratio 0.17 at 500 g, 0.11 at 200 g; the price is paid at 0 g
+    (closed 1.37 % against the open loop's 0.02 %), where that estimator is biased the other way."""
+    setup = identify_unloaded(50, seed=100, model_loads=(0.0, 500.0))
+    for L in (200.0, 500.0):
+        r = measure_load(setup, L, TARGETS["small"], HOLD_S["small"], seed=7 + int(L))
+        _print(r)
+        assert r["ratio"] <= 1.0 / 3.0

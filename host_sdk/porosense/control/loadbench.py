@@ -50,8 +50,12 @@ class Setup:
 
 
 def identify_unloaded(rate_hz: int = 50, seed: int = 100, tau_cl_s: float | None = None,
-                      slew_per_s: float = 20.0) -> Setup:
-    """Everything the controller and the baseline need, from 0 g simulations (see module doc)."""
+                      slew_per_s: float = 20.0, model_loads=(0.0,)) -> Setup:
+    """Everything the controller and the baseline need, from 0 g simulations (see module doc).
+
+    ``model_loads`` (g): the loads of the recordings the on-board estimator is identified on
+    (each the same three estimation experiments, new seeds); the plant, the gains and the open
+    loop's static map stay those of 0 g."""
     from porosense.ident import WienerHammerstein, fit_percent
     from porosense.quant import quantize
     from porosense.sim import run_experiment
@@ -61,6 +65,8 @@ def identify_unloaded(rate_hz: int = 50, seed: int = 100, tau_cl_s: float | None
     names = ("staircase", "step_10", "step_60", "step_20", "step_40")
     recs = [run_experiment("contractor", e, load_g=0.0, rate_hz=rate_hz, seed=seed + i) for i, e in enumerate(names)]
     est, val = recs[:3], recs[3:]
+    est = est + [run_experiment("contractor", e, load_g=float(L), rate_hz=rate_hz, seed=seed + 50 + 10 * j + i)
+                 for j, L in enumerate(model_loads) if L != 0.0 for i, e in enumerate(names[:3])]
     model = WienerHammerstein(n_poles=2, n_zeros=1, n_breakpoints=10)
     model.fit(u=[r["dR_0"][:, None] / 100 for r in est], y=[r[OUTPUT] for r in est], ts=ts, input_unit="dR/100")
     fit = float(np.mean([fit_percent(r[OUTPUT], model.predict(u=r["dR_0"][:, None] / 100)) for r in val]))
@@ -150,9 +156,11 @@ def measure_load(setup: Setup, load_g: float, targets, hold_s: float, *, seed: i
             "seconds": time.perf_counter() - t0, "recordings": {"closed": closed, "open": opened}}
 
 
-def run_loads(size: str = "small", loads=LOADS_G, *, rate_hz: int = 50, seed: int = 100) -> dict:
-    """The whole comparison; figures in % strain (see the module docstring)."""
-    setup = identify_unloaded(rate_hz, seed=seed)
+def run_loads(size: str = "small", loads=LOADS_G, *, rate_hz: int = 50, seed: int = 100,
+              model_loads=(0.0,)) -> dict:
+    """The whole comparison; figures in % strain (see the module docstring). ``model_loads``:
+    the loads (g) of the estimator's identification recordings (see identify_unloaded)."""
+    setup = identify_unloaded(rate_hz, seed=seed, model_loads=model_loads)
     per = [measure_load(setup, L, TARGETS[size], HOLD_S[size], seed=seed + 20 + i) for i, L in enumerate(loads)]
     return {"setup": setup, "loads": per}
 

@@ -1,5 +1,5 @@
 """`porosense flash --store flash` and `verify` on the flash store, against the emulator: the
-HEX the CLI writes holds exactly the 9 pages of the slot that is not running with the next
+HEX the CLI writes holds exactly the 8 pages of the slot that is not running with the next
 counter; uploaded (as avrdude would write it) the board runs the model and `verify` replays it
 bit for bit from the flash store. Bad uses end in one line with their exit code; the bench's
 rate check fails loudly when the advertised rate is not the measured one."""

@@ -33,26 +33,29 @@ uint32_t muldiv_round(uint32_t x, uint32_t m, uint32_t d) {
 
 bool f32_scaled(uint32_t bits, int32_t factor, int32_t limit, int32_t* out) {
   const uint8_t e = (uint8_t)(bits >> 23);
-  *out = 0;
-  if (e == 0xFF && (bits & 0x7FFFFFUL)) return false;  // NaN
+  const bool neg = ((bits >> 31) != 0) != (factor < 0);
   const uint32_t f = (uint32_t)(factor < 0 ? -factor : factor);
-  // |value| = m 2^-k with m < 2^24; zero and subnormals (below 1.2e-38) give 0.
-  const int16_t k = (int16_t)(150 - e);
-  const uint32_t m = (bits & 0x7FFFFFUL) | 0x800000UL;
+  // |value| = m 2^-k, m < 2^24; zero and subnormals (below 1.2e-38) count as 0.
+  uint32_t m = e ? (bits & 0x7FFFFFUL) | 0x800000UL : 0;
+  int16_t k = (int16_t)(150 - e);
   uint32_t mag = 0, rem;
-  if (k <= 0) {  // whole: m |factor| 2^-k, doubled until past the limit
-    mag = muldiv(m, f, 1, &rem);
-    for (int16_t i = k; i < 0 && mag <= (uint32_t)limit; ++i) mag <<= 1;
-  } else if (e != 0 && k < 56) {  // m |factor| < 2^55
-    // Floor in units of 2^-s, s < k, then round half up to 2^-k: the halfway points are
-    // whole in the finer unit, so the floor loses nothing.
-    const uint8_t s = (uint8_t)(k - 1 > 31 ? 31 : k - 1);
-    const uint32_t q = muldiv(m, f, 1UL << s, &rem) >> (k - 1 - s);
-    mag = q == 0xFFFFFFFFUL ? q : (q + 1) >> 1;
+  bool ok = !(e == 0xFF && (bits & 0x7FFFFFUL));  // NaN: 0
+  if (ok) {
+    if (k >= 56) m = 0;  // m |factor| < 2^55: below half a unit
+    if (k <= 0) {  // whole: m |factor| 2^-k, doubled until past the limit
+      mag = muldiv(m, f, 1, &rem);
+      for (; k < 0 && mag <= (uint32_t)limit; ++k) mag <<= 1;
+    } else {
+      // Floor in units of 2^-(k-1) (at most 2^-31 a step, then shifted), then round half up:
+      // the halfway points of 2^-k are whole in the finer unit, so the floor loses nothing.
+      const uint8_t s = (uint8_t)(k > 32 ? 31 : k - 1);
+      mag = muldiv(m, f, 1UL << s, &rem);
+      for (uint8_t i = (uint8_t)(k - 1 - s); i && mag; --i) mag >>= 1;
+      if (mag != 0xFFFFFFFFUL) mag = (mag + 1) >> 1;
+    }
+    if (mag > (uint32_t)limit) mag = (uint32_t)limit, ok = false;
   }
-  const bool ok = mag <= (uint32_t)limit;
-  const int32_t v = ok ? (int32_t)mag : limit;
-  *out = ((bits >> 31) != 0) != (factor < 0) ? -v : v;
+  *out = neg ? -(int32_t)mag : (int32_t)mag;
   return ok;
 }
 

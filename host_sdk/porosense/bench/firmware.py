@@ -39,8 +39,9 @@ ESTIMATOR_OFF = 1 << 3            # status flag: no model loaded
 MODEL_REGION_BYTES = MAX_BLOB_LEN  # the EEPROM model area (one model alone)
 FLASH_SLOT_BYTES = 1016           # blob bytes of one flash store slot (layout.FLASH_BLOB_MAX)
 # Candidates for the heaviest model a flash slot holds, most expensive first (3 x 3 WH; poles in
-# H1, poles in H2, breakpoints); measured from flash (porosense.quant.avr_cycles, seed 1):
-# 10/10/3 (compact tables, 60 sections) 56,392 cycles, 10/8/4 55,207, 10/10/2 48,652.
+# H1, poles in H2, breakpoints); measured from flash (porosense.quant.avr_cycles, seed 1) when
+# the slots held 1,144 B: 10/10/3 (compact tables, 60 sections) 56,392 cycles, 10/8/4 55,207,
+# 10/10/2 48,652. A 1,016-byte slot holds the first that fits there: 927 B, 36,850 cycles.
 FLASH_HEAVY_CANDIDATES = ((10, 10, 3), (10, 8, 4), (10, 10, 2), (8, 8, 6), (4, 4, 10))
 
 

@@ -9,6 +9,7 @@
 #include "pins.h"
 #include "stack_paint.h"
 #include "twi.h"
+#include "uart.h"
 
 Board::Board() : adc_(pins::kAds1115Addr), imu_(pins::kBno055Addr) {}
 
@@ -23,7 +24,7 @@ void Board::outputs_safe() {
 }
 
 void Board::begin() {
-  Serial.begin(pins::kBaud);
+  uart::begin(pins::kBaud);
   twi::begin(pins::kI2cHz);
   adc_.begin();
   imu_.begin();
@@ -51,12 +52,9 @@ bool Board::imu_read(int16_t euler_16[3], uint8_t* sys_cal) { return imu_.read(e
 bool Board::adc_present() { return adc_.present(); }
 bool Board::imu_present() { return imu_.present(); }
 
-int16_t Board::serial_read() { return (int16_t)Serial.read(); }
-void Board::serial_write(const uint8_t* data, uint8_t n) { Serial.write(data, n); }
-uint8_t Board::serial_tx_free() {
-  const int n = Serial.availableForWrite();
-  return (uint8_t)(n > 255 ? 255 : n);
-}
+int16_t Board::serial_read() { return uart::read(); }
+void Board::serial_write(const uint8_t* data, uint8_t n) { uart::write(data, n); }
+uint8_t Board::serial_tx_free() { return uart::tx_free(); }
 
 uint8_t Board::eeprom_read(uint16_t addr) { return eeprom_read_byte((const uint8_t*)addr); }
 void Board::eeprom_write(uint16_t addr, uint8_t value) {
@@ -65,7 +63,7 @@ void Board::eeprom_write(uint16_t addr, uint8_t value) {
 }
 
 void Board::request_reset() {
-  Serial.flush();  // the ACK leaves before the reset
+  uart::flush();  // the ACK leaves before the reset
   outputs_safe();
   wdt_enable(WDTO_15MS);
   for (;;) {

@@ -1,5 +1,5 @@
 // dev::Hal on the Uno: Timer0 clock, pump/valve/regulator pins, ADS1115 and BNO055 over
-// the deadline-guarded TWI driver, HardwareSerial, EEPROM, AVR watchdog reset.
+// the deadline-guarded TWI driver, the UART (uart.h), EEPROM, AVR watchdog reset.
 #pragma once
 #include <stdint.h>
 

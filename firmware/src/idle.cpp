@@ -4,6 +4,8 @@
 #include <avr/sleep.h>
 #include <avr/wdt.h>
 
+#include "uart.h"
+
 namespace idle {
 namespace {
 Hook g_hook = nullptr;
@@ -25,7 +27,7 @@ void sleep(WorkCheck work_pending) {
   cli();
   // Checked with interrupts off: an interrupt after the check stays pending, and the
   // instruction after sei() (the sleep) always runs before it, so it wakes the CPU at once.
-  if (!work_pending() && !Serial.available()) {
+  if (!work_pending() && !uart::available()) {
     sleep_enable();
     sei();
     sleep_cpu();

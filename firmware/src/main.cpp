@@ -17,6 +17,7 @@
 // Declared extern "C" by Arduino.h, which this file does not include.
 extern "C" void setup();
 extern "C" void loop();
+extern "C" void init();  // the Arduino core's timer and ADC set-up (wiring.c)
 
 namespace {
 Board g_board;
@@ -57,4 +58,12 @@ void loop() {
   const uint8_t n = sample_clock::take(&tick_us);
   if (n) g_device.on_sample_ticks(n, tick_us);
   else idle::sleep(work_pending);
+}
+
+// In place of the Arduino core's main(): without serialEventRun() polling HardwareSerial,
+// which the firmware does not use (src/uart.h).
+int main() {
+  init();
+  setup();
+  for (;;) loop();
 }

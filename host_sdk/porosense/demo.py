@@ -322,7 +322,7 @@ def identify_outputs(recs: dict, actuator: str, est_names: list[str], val_names:
 def quantize_model(chosen: list, recs: dict, actuator: str, val_names: list[str], rate_hz: int):
     """One MISO chain per output in a single on-device structure, quantized against the
     validation recordings; returns (structure, QuantResult). Paper-order sets are quantized for
-    a flash store slot (full tables when they fit 1,144 bytes), the others for the EEPROM."""
+    a flash store slot (full tables when they fit 1,016 bytes), the others for the EEPROM."""
     from porosense.quant import quantize
     from porosense.quant.layout import FLASH_BLOB_MAX, MAX_BLOB_LEN
     from porosense.structure import EstimatorStructure

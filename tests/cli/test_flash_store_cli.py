@@ -1,5 +1,5 @@
 """`porosense flash --store flash` and `verify` on the flash store, against the emulator: the
-HEX the CLI writes holds exactly the 9 pages of the slot that is not running with the next
+HEX the CLI writes holds exactly the 8 pages of the slot that is not running with the next
 counter; uploaded (as avrdude would write it) the board runs the model and `verify` replays it
 bit for bit from the flash store. Bad uses end in one line with their exit code; the bench's
 rate check fails loudly when the advertised rate is not the measured one."""
@@ -22,7 +22,8 @@ def paper_blob(tmp_path_factory):
     from porosense.quant.random_models import random_structure
 
     d = tmp_path_factory.mktemp("flashcli")
-    s = random_structure(np.random.default_rng(7), 3, 3, h1_poles=2, h2_poles=2, breakpoints=10, kind="wh")
+    # Full tables with 8 breakpoints: more than the EEPROM's area, within a 1,016-byte slot.
+    s = random_structure(np.random.default_rng(7), 3, 3, h1_poles=2, h2_poles=2, breakpoints=8, kind="wh")
     data = quantize(s, input_range=(-90.0, 10.0), capacity=L.FLASH_BLOB_MAX, noise_lsb=0).blob.to_bytes()
     path = d / "paper3dof.bin"
     path.write_bytes(data)

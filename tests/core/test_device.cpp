@@ -13,6 +13,7 @@
 #include "link_watchdog.h"
 #include "protocol_messages.h"
 #include "rate_divider.h"
+#include "f32_bits.h"
 #include "sensing.h"
 
 
@@ -456,27 +457,88 @@ void test_sensor_faults_do_not_stall() {
 
 void test_dr_math() {
   // Divider: V = 5 R / (R + 1000). 20000 counts at 125 uV = 2.5 V -> 1000 ohm.
-  CHECK(fabsf(dev::counts_to_ohm(20000.0f, 1) - 1000.0f) < 0.01f);
-  CHECK(dev::counts_to_dr_centi(20000, 1, 1000.0f) == 0);
-  float worst = 0;
-  const float r_values[] = {50.0f, 123.4f, 500.0f, 777.7f, 1000.0f, 1111.1f, 1500.0f, 2999.9f};
-  for (float rr : r_values) {
-    const float v = 5.0f * rr / (rr + 1000.0f);
-    const int16_t counts = (int16_t)lrintf(v / 125e-6f);
-    const int16_t got = dev::counts_to_dr_centi(counts, 1, 1000.0f);
-    const float want = (rr - 1000.0f) / 1000.0f * 10000.0f;
-    // One count is 125 uV; its effect on R is largest at high R.
-    const float tol = 1.0f + 10000.0f * (1000.0f * 5.0f * 125e-6f / ((5.0f - v) * (5.0f - v))) / 1000.0f;
-    const float err = fabsf((float)got - want);
-    if (err / tol > worst) worst = err / tol;
-    CHECK(err <= tol);
+  CHECK(dev::counts_to_mohm(20000 * 16, 16, 1) == 1000000);
+  CHECK(dev::counts_to_dr_centi(20000, 1, 1000000) == 0);
+  // Against the divider formula in double, for every PGA code and R0 from 1 ohm to 100 kOhm:
+  // the integer chain (R rounded to the milliohm, then dR rounded) stays within 0.5 step of
+  // the exact dR of the same count plus the rounding of R (0.5 mohm of R0).
+  const double fs[6] = {6.144, 4.096, 2.048, 1.024, 0.512, 0.256};
+  const int32_t r0s[] = {1000, 9999, 150000, 1000000, 1234567, 47000000, 100000000};
+  double worst = 0;
+  uint32_t seed = 12345;
+  for (uint8_t pga = 0; pga < 6; ++pga) {
+    for (int32_t r0 : r0s) {
+      for (int i = 0; i < 400; ++i) {
+        seed = seed * 1103515245u + 12345u;
+        const int16_t counts = (int16_t)((seed >> 8) % 32768);
+        const double v = counts * fs[pga] / 32768.0;
+        if (v <= 0 || v >= 5.0) continue;
+        const double r_mohm = 1e6 * v / (5.0 - v);
+        const double want = (r_mohm - r0) / r0 * 1e4;
+        const int16_t got = dev::counts_to_dr_centi(counts, pga, r0);
+        if (want >= 32767.5) { CHECK(got == 32767); continue; }
+        const double err = fabs(got - want) / (0.5 + 0.5e4 / r0 + 1e-6);
+        if (err > worst) worst = err;
+        CHECK(err <= 1.0);
+      }
+    }
   }
-  CHECK(dev::counts_to_dr_centi(0, 1, 1000.0f) == -10000);    // short: -100 %
-  CHECK(dev::counts_to_dr_centi(32767, 1, 1000.0f) == 32767); // above 5 V: saturated
-  CHECK(dev::counts_to_dr_centi(-5, 1, 1000.0f) == -10000);
-  CHECK(fabsf(dev::adc_volts_per_count(0) * 32768.0f - 6.144f) < 1e-4f);
-  CHECK(fabsf(dev::adc_volts_per_count(5) * 32768.0f - 0.256f) < 1e-5f);
-  printf("dR: worst error %.2f of the one-count tolerance over 50..3000 ohm\n", worst);
+  CHECK(dev::counts_to_dr_centi(0, 1, 1000000) == -10000);    // short: -100 %
+  CHECK(dev::counts_to_dr_centi(32767, 1, 1000000) == 32767); // above 5 V: saturated
+  CHECK(dev::counts_to_dr_centi(-5, 1, 1000000) == -10000);
+  CHECK(dev::counts_to_dr_centi(123, 1, 0) == 0);             // no R0
+  CHECK(dev::divider_b(0) == 80000 && dev::divider_a(0) == 3);  // 6.144 V: 3/16000 V per count
+  CHECK(dev::divider_b(5) == 640000 && dev::divider_b(9) == 640000);
+  CHECK(dev::counts_to_mohm(-3, 1, 1) == 0 && dev::counts_to_mohm(40000, 1, 1) == 0x7FFFFFFF);
+  printf("dR: worst error %.2f of the rounding bound over 6 PGA codes, R0 1 ohm..100 kOhm\n", worst);
+}
+
+// Conversions between float32 bits and scaled integers (no float code on the AVR), against
+// the host's float arithmetic over random values.
+void test_f32_bits() {
+  uint32_t seed = 777;
+  int checked = 0;
+  for (int i = 0; i < 20000; ++i) {
+    seed = seed * 1103515245u + 12345u;
+    const uint32_t hi = seed;
+    seed = seed * 1103515245u + 12345u;
+    // Random float32 between 1e-9 and 1e9 in magnitude, either sign.
+    const float x = (float)((hi & 1 ? -1.0 : 1.0) * pow(10.0, -9.0 + 18.0 * (seed >> 8) / 16777216.0));
+    uint32_t bits;
+    memcpy(&bits, &x, 4);
+    const int32_t factor = (int32_t)((hi >> 8) % 65536) - 32768;
+    const long double exact = (long double)x * factor;
+    int32_t got;
+    const bool ok = dev::f32_scaled(bits, factor, 2000000000, &got);
+    if (fabsl(exact) > 2.0e9L) {
+      CHECK(!ok && got == (exact > 0 ? 2000000000 : -2000000000));
+    } else {
+      const long double r = exact >= 0 ? floorl(exact + 0.5L) : -floorl(-exact + 0.5L);
+      if (!(ok && got == (int32_t)r)) printf("f32_scaled %.9g * %d: got %d want %.1Lf\n", x, factor, got, r);
+      CHECK(ok && got == (int32_t)r);
+      ++checked;
+    }
+  }
+  CHECK(checked > 5000);
+  int32_t v;
+  const float nan = NAN, inf = INFINITY, r0 = 1234.5f;
+  uint32_t b;
+  memcpy(&b, &nan, 4);
+  CHECK(!dev::f32_scaled(b, 1000, 100000000, &v) && v == 0);
+  memcpy(&b, &inf, 4);
+  CHECK(!dev::f32_scaled(b, 1000, 100000000, &v) && v == 100000000);
+  memcpy(&b, &r0, 4);
+  CHECK(dev::f32_scaled(b, 1000, 100000000, &v) && v == 1234500);
+  // mohm -> ohm as float32: the nearest float (ties aside) over the R0 range.
+  for (int i = 0; i < 20000; ++i) {
+    seed = seed * 1103515245u + 12345u;
+    const uint32_t mohm = 1000 + seed % 99999001u;
+    const uint32_t fb = dev::f32_from_ratio(mohm, 1000);
+    float f;
+    memcpy(&f, &fb, 4);
+    const float want = (float)(mohm / 1000.0);
+    CHECK(f == want);
+  }
 }
 
 void test_calibrate_and_set_r0() {
@@ -923,6 +985,7 @@ int main() {
   test_sampling_and_overruns();
   test_sensor_faults_do_not_stall();
   test_dr_math();
+  test_f32_bits();
   test_calibrate_and_set_r0();
   test_other_commands();
   test_sequence_rules();

@@ -64,7 +64,7 @@ int load_blobs(Blob* out, int want) {
   return got;
 }
 
-// The 1,152 bytes of one flash slot holding `b` with commit counter `seq`.
+// The 1,024 bytes of one flash slot holding `b` with commit counter `seq`.
 void slot_image(const Blob& b, uint8_t seq, uint8_t* img) {
   memset(img, 0xFF, L::kFlashSlotSize);
   memcpy(img, b.data, b.len);

@@ -2,11 +2,13 @@
 firmware/lib/core/standalone_out.cpp, which must produce these lines byte for byte.
 
 Columns: t_ms (device ms), dR of each streamed channel in % with 2 decimals (dr_centi exact),
-then each model output in its unit with 3 decimals: est * out_scale * 1000 computed in float32
-as on the AVR, rounded half away from zero. Lines end with CR LF; a header names the columns.
+then each model output in its unit with 3 decimals: est * out_scale * 1000 computed exactly
+(out_scale being the model header's float32), rounded half away from zero, saturated at +-2e9. Lines end with CR LF; a header names the columns.
 """
 
 from __future__ import annotations
+
+from fractions import Fraction
 
 import numpy as np
 
@@ -18,11 +20,11 @@ def format_header(dr_mask: int, n_est: int) -> bytes:
 
 
 def estimate_milli(estimate: int, out_scale: float) -> int:
-    """Estimate in output units times 1000, with the firmware's float32 arithmetic."""
-    v = np.float32(estimate) * np.float32(out_scale) * np.float32(1000.0)
-    v = np.float32(min(max(v, np.float32(-2.0e9)), np.float32(2.0e9)))
-    v = v + np.float32(0.5) if v >= 0 else v - np.float32(0.5)
-    return int(np.trunc(np.float32(v)))
+    """Estimate in output units times 1000, exact, rounded half away from zero, saturated."""
+    v = Fraction(int(estimate)) * Fraction(float(np.float32(out_scale))) * 1000
+    r = int(abs(v) + Fraction(1, 2))  # floor of |v| + 1/2
+    r = min(r, 2_000_000_000)
+    return -r if v < 0 else r
 
 
 def _fixed(v: int, decimals: int) -> str:

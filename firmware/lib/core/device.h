@@ -28,7 +28,48 @@ struct Counters {
   uint32_t tx_frames;
 };
 
-class Device {
+// The device's plain state, all zero at construction: value-initialising it as one block
+// costs one clearing loop instead of a store per field (flash).
+struct DeviceState {
+  Outputs outputs_;
+  Counters counters_;
+
+  // The last command and its encoded reply, resent verbatim for a duplicate.
+  uint8_t cached_[proto::kMaxFrameLen];
+  uint8_t cached_len_;
+  uint8_t last_type_;
+  uint8_t last_seq_;
+  uint8_t cmd_seq_;  // sequence number of the command being handled
+  // SET_OUTPUTS that turns an output on must carry session_ (new at each HELLO) and a
+  // counter ahead of out_counter_, the last one accepted: a replayed old frame is refused.
+  uint16_t session_;
+  uint16_t out_counter_;
+
+  bool frame_ready_;
+  bool streaming_;
+  bool reset_requested_;
+  uint8_t stream_mask_;
+  uint16_t rate_hz_;
+  uint8_t telemetry_seq_;  // SAMPLE frames, from 0 at each START_STREAM
+  uint8_t error_seq_;      // ERROR frames
+  uint16_t sticky_flags_;  // flags that persist until cleared (watchdog, config, R0, ...)
+  uint16_t sample_flags_;  // sensor flags of the latest sample
+  uint8_t pending_overrun_;  // an overrun happened since the previous SAMPLE
+  uint8_t trip_unreported_;  // the watchdog cut the outputs; poll() sends the ERROR
+  // CSV line mode of this session: on at boot when LINE_MODE is stored as 1, off after any
+  // valid frame from a host, switched by CONFIG_SET LINE_MODE.
+  uint8_t line_state_;
+  uint8_t analog_pin_;  // pin of the analogue estimate output now driven, 0 when off
+
+  // Strain control: the gains in use and the trajectory's clock (start tick, current
+  // segment).
+  ctl::Gains gains_;
+  uint32_t traj_start_us_;
+  uint8_t traj_seg_;
+  uint8_t control_mode_;
+};
+
+class Device : private DeviceState {
  public:
   Device(Hal& hal, ModelPort& model);
 
@@ -107,55 +148,19 @@ class Device {
   // Averages n samples per masked channel; channels with a usable R0 take it. False only
   // when the ADC did not answer.
   bool calibrate_r0(uint8_t n_samples, uint8_t mask);
-  float r0_ohm(uint8_t ch) const { return (float)config_.r0_mohm[ch] * 0.001f; }
 
+  static constexpr uint8_t kLineOn = 1;  // line_state_ bit
+  static constexpr uint8_t kCtlConstant = 1, kCtlTrajectory = 2, kCtlStandalone = 0x80;
   Hal& hal_;
   ModelPort& model_;
   proto::FrameDecoder decoder_;
   Config config_;
   ConfigStore store_;
   LinkWatchdog link_;
-  Outputs outputs_;
-  Counters counters_;
-
-  // The last command and its encoded reply, resent verbatim for a duplicate.
-  uint8_t cached_[proto::kMaxFrameLen];
-  uint8_t cached_len_;
-  uint8_t last_type_;
-  uint8_t last_seq_;
-  uint8_t cmd_seq_;  // sequence number of the command being handled
-  // SET_OUTPUTS that turns an output on must carry session_ (new at each HELLO) and a
-  // counter ahead of out_counter_, the last one accepted: a replayed old frame is refused.
-  uint16_t session_;
-  uint16_t out_counter_;
-
-  bool frame_ready_;
-  bool streaming_;
-  bool reset_requested_;
-  uint8_t stream_mask_;
-  uint16_t rate_hz_;
-  uint8_t telemetry_seq_;  // SAMPLE frames, from 0 at each START_STREAM
-  uint8_t error_seq_;      // ERROR frames
-  uint16_t sticky_flags_;  // flags that persist until cleared (watchdog, config, R0, ...)
-  uint16_t sample_flags_;  // sensor flags of the latest sample
-  uint8_t pending_overrun_;  // an overrun happened since the previous SAMPLE
-  uint8_t trip_unreported_;  // the watchdog cut the outputs; poll() sends the ERROR
-  // CSV line mode of this session: on at boot when LINE_MODE is stored as 1, off after any
-  // valid frame from a host, switched by CONFIG_SET LINE_MODE.
-  static constexpr uint8_t kLineOn = 1;
-  uint8_t line_state_;
-  uint8_t analog_pin_;  // pin of the analogue estimate output now driven, 0 when off
-  SyncBlink sync_;      // camera sync indicator (sync_blink.h)
-
-  // Strain control (control.h): the controller, its stored gains and trajectory, the gains in
-  // use, and the trajectory's clock (start tick, current segment).
-  static constexpr uint8_t kCtlConstant = 1, kCtlTrajectory = 2, kCtlStandalone = 0x80;
+  SyncBlink sync_;  // camera sync indicator (sync_blink.h)
+  // Strain control (control.h): the controller and its stored gains and trajectory.
   ctl::Controller control_;
   ControlStore cstore_;
-  ctl::Gains gains_;
-  uint32_t traj_start_us_;
-  uint8_t traj_seg_;
-  uint8_t control_mode_;
 };
 
 }  // namespace dev

@@ -689,11 +689,7 @@ ALWAYS_INLINE int16_t interpolate(int16_t x, int16_t xk, int16_t yk, const uint8
 
 }  // namespace
 
-Estimator::Estimator()
-    : blob_(0), length_(0), n_in_(0), n_out_(0), head_(0), flags_(0), off_(0), xh_(0), ys_(0) {
-  memset(&header_, 0, sizeof(header_));
-  reset();
-}
+Estimator::Estimator() : EstimatorState() {}  // unloaded, states as reset() leaves them
 
 bool Estimator::load(const BlobReader& blob, uint16_t length, uint16_t max_length) {
   if (!blob::validate(blob, length, max_length)) return false;  // the current model stays

@@ -13,7 +13,25 @@ namespace est {
 
 constexpr uint8_t kDelayLen = 16;  // per-input delay line, shared by every output
 
-class Estimator {
+// The estimator's state, all zero when unloaded: value-initialised as one block (one clearing
+// loop in flash instead of a store per field).
+struct EstimatorState {
+  const BlobReader* blob_;
+  uint16_t length_;
+  uint8_t n_in_, n_out_;
+  blob::Header header_;
+  uint8_t head_;
+  uint8_t flags_;
+  // Running positions during a step: blob offset, next cascade's input history and states.
+  uint16_t off_;
+  int16_t* xh_;
+  int32_t* ys_;
+  int16_t delay_[blob::kMaxInputs][kDelayLen];
+  int16_t xhist_[blob::kMaxCascades][2];       // inputs k-1, k-2 of each cascade
+  int32_t ystate_[blob::kMaxTotalSections][2];  // outputs k-1, k-2 of each section (Q13)
+};
+
+class Estimator : private EstimatorState {
  public:
   Estimator();
   // Validates format, CRC and limits; on success keeps `blob` (it must outlive the
@@ -39,20 +57,6 @@ class Estimator {
  private:
   int16_t pwl(uint8_t n, int16_t x);
   int32_t cascade(uint8_t n, int16_t x);
-
-  const BlobReader* blob_;
-  uint16_t length_;
-  uint8_t n_in_, n_out_;
-  blob::Header header_;
-  uint8_t head_;
-  uint8_t flags_;
-  // Running positions during a step: blob offset, next cascade's input history and states.
-  uint16_t off_;
-  int16_t* xh_;
-  int32_t* ys_;
-  int16_t delay_[blob::kMaxInputs][kDelayLen];
-  int16_t xhist_[blob::kMaxCascades][2];       // inputs k-1, k-2 of each cascade
-  int32_t ystate_[blob::kMaxTotalSections][2];  // outputs k-1, k-2 of each section (Q13)
 };
 
 }  // namespace est

@@ -62,8 +62,8 @@ PS_API void ps_boot(ps_core* c, uint8_t reset_cause, uint64_t clock_offset_us);
 PS_API uint8_t* ps_eeprom(ps_core* c);  // PS_EEPROM_BYTES, readable and writable by the host
 // The flash model store (PS_FLASH_STORE_BYTES from flash address PS_FLASH_STORE_BASE), erased
 // (0xFF) at creation: the host programs pages into it as an upload would, then ps_boot().
-#define PS_FLASH_STORE_BASE 29952
-#define PS_FLASH_STORE_BYTES 2304
+#define PS_FLASH_STORE_BASE 30208
+#define PS_FLASH_STORE_BYTES 2048
 PS_API uint8_t* ps_flash_store(ps_core* c);
 
 PS_API void ps_set_refresh(ps_core* c, ps_refresh_fn fn, void* ctx);

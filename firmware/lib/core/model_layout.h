@@ -68,9 +68,9 @@ constexpr uint8_t kOffSlotHeaderCrc = 6;  // u16
 constexpr uint16_t kAreaBase = 80, kAreaLen = 776;
 constexpr uint16_t kMaxBlobLength = 776;  // one model in an empty store
 // Flash model store: slots at the top of the application flash, blob first, slot header last.
-constexpr uint16_t kFlashBase = 29952, kFlashSlotSize = 1152, kFlashPage = 128;
+constexpr uint16_t kFlashBase = 30208, kFlashSlotSize = 1024, kFlashPage = 128;
 constexpr uint8_t kFlashSlots = 2;
-constexpr uint16_t kFlashBlobMax = 1144;  // slot size minus its header
+constexpr uint16_t kFlashBlobMax = 1016;  // slot size minus its header
 constexpr uint16_t kBootloaderBase = 32256;
 
 }  // namespace layout

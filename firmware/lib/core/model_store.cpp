@@ -15,8 +15,9 @@ void ModelStore::Reader::read(uint16_t offset, void* dst, uint8_t n) const {
 }
 
 ModelStore::ModelStore(Eeprom& ee, Estimator& estimator, FlashRom* flash)
-    : ee_(ee), est_(estimator), flash_(flash), run_(0), status_(kNone), active_(kNoSlot), seq_(0),
-      writing_(false), length_(0), crc_(0), target_(0), expect_len_(0), expect_crc_(0), next_offset_(0) {
+    : ModelStoreState(), ee_(ee), est_(estimator), flash_(flash) {
+  static_assert(kNone == 0, "status_ starts zero");
+  active_ = kNoSlot;
   for (uint8_t r = 0; r < 2; ++r) readers_[r].bind(&ee_, 0, kAreaBase);
 }
 

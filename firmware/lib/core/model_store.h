@@ -44,7 +44,17 @@ class FlashRom {
   virtual void read_block(uint16_t addr, uint8_t* dst, uint8_t n) = 0;
 };
 
-class ModelStore {
+// ModelStore's plain state, value-initialised as one block (one clearing loop in flash).
+struct ModelStoreState {
+  uint8_t run_;
+  uint8_t status_, active_, seq_;   // seq_: of the running model
+  bool writing_;
+  uint16_t length_, crc_;           // of the running model
+  uint8_t target_;                  // slot of the write in progress
+  uint16_t expect_len_, expect_crc_, next_offset_;
+};
+
+class ModelStore : private ModelStoreState {
  public:
   static constexpr uint16_t kBase = layout::kStoreBase, kRegion = layout::kStoreRegion;
   static constexpr uint16_t kHeaderLen = layout::kSlotHeaderLen;
@@ -113,12 +123,6 @@ class ModelStore {
   // Two readers: the running model's (run_) and one for the slot being checked, so that a
   // refused blob never disturbs the running one.
   Reader readers_[2];
-  uint8_t run_;
-  uint8_t status_, active_, seq_;   // seq_: of the running model
-  bool writing_;
-  uint16_t length_, crc_;           // of the running model
-  uint8_t target_;                  // slot of the write in progress
-  uint16_t expect_len_, expect_crc_, next_offset_;
 };
 
 }  // namespace est

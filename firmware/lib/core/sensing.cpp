@@ -1,38 +1,51 @@
 #include "sensing.h"
 
+#include "f32_bits.h"
+
 namespace dev {
 
-float adc_volts_per_count(uint8_t pga_code) {
-  // Full scale 6.144 V at code 0, halving per code from 4.096 V at code 1.
-  if (pga_code == 0) return 6.144f / 32768.0f;
-  if (pga_code > 5) pga_code = 5;
-  float fs = 4.096f;
-  for (uint8_t i = 1; i < pga_code; ++i) fs *= 0.5f;
-  return fs / 32768.0f;
+namespace {
+constexpr int32_t kMaxMohm = 0x7FFFFFFFL;
+}  // namespace
+
+uint32_t divider_b(uint8_t pga_code) {
+  // FS = 6.144 V at code 0 (3/16000 V per count, so a is 3 counts), else 4.096 V halving
+  // per code (1/8000 V per count at code 1): b = 5 V over the volts per unit of a.
+  if (pga_code == 0) return 80000UL;
+  uint32_t b = 40000UL;
+  for (uint8_t i = 1; i < pga_code && i < 5; ++i) b <<= 1;
+  return b;
 }
 
-float divider_resistance(float volts) {
-  if (volts <= 0.0f) return 0.0f;
-  const float headroom = kSupplyV - volts;
-  // At or beyond the supply the sensor is open: report a resistance that saturates dR.
-  if (headroom <= 1e-6f) return 1e9f;
-  return kBiasOhm * volts / headroom;
+// R in milliohm, rounded, for the divider terms a (> 0) and b - a (> 0); kMaxMohm from about
+// 4.29 MOhm (then the quotient would not fit 32 bits).
+static int32_t divider_mohm(uint32_t a, uint32_t b_minus_a) {
+  if (b_minus_a * 4295UL <= a) return kMaxMohm;  // 1e6 / 2^32 < 1 / 4294.9
+  const uint32_t r = muldiv_round(a, 1000000UL, b_minus_a);
+  return r > (uint32_t)kMaxMohm ? kMaxMohm : (int32_t)r;
 }
 
-int16_t dr_centi(float r_ohm, float r0_ohm) {
-  if (!(r0_ohm > 0.0f)) return 0;
-  const float d = (r_ohm - r0_ohm) / r0_ohm * 10000.0f;
-  if (d >= 32767.0f) return 32767;
-  if (d <= -32768.0f) return -32768;
-  return (int16_t)(d >= 0.0f ? d + 0.5f : d - 0.5f);
+int16_t counts_to_dr_centi(int16_t counts, uint8_t pga_code, int32_t r0_mohm) {
+  if (r0_mohm <= 0) return 0;
+  const uint32_t b = divider_b(pga_code);
+  const int32_t a = (int32_t)counts * divider_a(pga_code);
+  if (a <= 0) return -10000;           // 0 V or below: R = 0
+  if ((uint32_t)a >= b) return 32767;  // at or above the supply: open
+  const int32_t r = divider_mohm((uint32_t)a, b - (uint32_t)a);
+  // dR = 1e4 (R - R0) / R0; R below 5 R0 keeps the quotient within 4e4 (saturated below).
+  if (r / 5 >= r0_mohm) return 32767;
+  const bool up = r >= r0_mohm;
+  const uint32_t q = muldiv_round((uint32_t)(up ? r - r0_mohm : r0_mohm - r), 10000UL, (uint32_t)r0_mohm);
+  if (up) return q > 32767 ? 32767 : (int16_t)q;
+  return (int16_t)-(int32_t)q;
 }
 
-float counts_to_ohm(float mean_counts, uint8_t pga_code) {
-  return divider_resistance(mean_counts * adc_volts_per_count(pga_code));
-}
-
-int16_t counts_to_dr_centi(int16_t counts, uint8_t pga_code, float r0_ohm) {
-  return dr_centi(counts_to_ohm((float)counts, pga_code), r0_ohm);
+int32_t counts_to_mohm(int32_t sum, uint8_t n, uint8_t pga_code) {
+  const int32_t a = sum * divider_a(pga_code);  // |sum| <= 64 * 32768: within int32 times 3
+  const uint32_t b = divider_b(pga_code) * n;
+  if (a <= 0) return 0;
+  if ((uint32_t)a >= b) return kMaxMohm;
+  return divider_mohm((uint32_t)a, b - (uint32_t)a);  // R of the mean a / n
 }
 
 }  // namespace dev

@@ -20,7 +20,7 @@ def register(sub) -> argparse.ArgumentParser:
             "sample rate than the board's is refused (exit 4) unless --set-rate sets the board's rate. "
             "When the new model does not fit beside the running one, --replace erases it first (the "
             "board then has no model until the write completes). "
-            "--store flash puts the model into the flash model store instead (two 1,152-byte slots at the "
+            "--store flash puts the model into the flash model store instead (two 1,024-byte slots at the "
             "top of the application flash, room for the paper's 3-DoF WH set twice): an Intel HEX holding "
             "only the slot that is not running, with the commit counter after the running model's, uploaded "
             "with avrdude -D through the Uno's bootloader; the board resets and runs it. A torn upload "

@@ -36,7 +36,7 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--model-id", type=lambda v: int(v, 0), help="32-bit tag stored in the blob")
     p.add_argument("--store", choices=("eeprom", "flash"), default="eeprom",
                    help="model store the blob is for: eeprom (776 B, shared by two models) or flash "
-                        "(1,144 B per slot; flash --store flash)")
+                        "(1,016 B per slot; flash --store flash)")
     p.add_argument("--json", action="store_true", help="print the quantization report as JSON")
     p.set_defaults(func=run)
     return p

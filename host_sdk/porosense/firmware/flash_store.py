@@ -1,7 +1,7 @@
 """The flash model store's upload image: one slot's pages as Intel HEX.
 
-The board keeps two model slots of 1,152 bytes (9 pages of 128 B) at the top of the
-application flash, 29,952..32,255, below the 512-byte Optiboot (docs/model-store.md). A slot
+The board keeps two model slots of 1,024 bytes (8 pages of 128 B) at the top of the
+application flash, 30,208..32,255, below the 512-byte Optiboot (docs/model-store.md). A slot
 holds the blob from its first byte, 0xFF fill, and the EEPROM store's 8-byte slot header in its
 last bytes, so an upload (avrdude -D writes pages in address order, each erased by Optiboot
 first) writes the header's page last: a torn upload leaves a slot without a valid header, which
@@ -41,7 +41,7 @@ def slot_header(blob: bytes, seq: int) -> bytes:
 
 
 def slot_image(blob: bytes, seq: int) -> bytes:
-    """The slot's 1,152 bytes: blob, 0xFF fill, slot header in the last 8 bytes."""
+    """The slot's 1,024 bytes: blob, 0xFF fill, slot header in the last 8 bytes."""
     ModelBlob.from_bytes(blob, max_length=L.FLASH_BLOB_MAX)  # refuses a bad or too large blob
     return blob + b"\xff" * (L.FLASH_BLOB_MAX - len(blob)) + slot_header(blob, seq)
 

@@ -296,8 +296,8 @@ def identify_outputs(recs: dict, actuator: str, est_names: list[str], val_names:
     if paper:
         poles, zeros, bps = paper
         log(f"  {actuator}: WH at the paper's orders ({poles} poles, {zeros} zero, {bps} breakpoints; the other "
-            "structures at the same orders for the table), stored with full tables in the flash store if the "
-            "EEPROM cannot hold it beside the running model")
+            "structures at the same orders for the table), stored in the EEPROM when it fits beside the running "
+            "model, else in the flash store")
         grid = [(st, poles, zeros) for st in ("linear", "hammerstein", "wiener", "wh")]
         capacity, compact = FLASH_BLOB_MAX, False
     else:

@@ -111,7 +111,7 @@ constexpr uint8_t ESTIMATES = 1u << 4;
 }  // namespace chan
 
 namespace config {
-constexpr uint8_t SAMPLE_RATE_HZ = 1;  // Sample rate in Hz, 10..110: the highest rate sustained without a skipped tick with every channel, the IMU and the heaviest storable model (`porosense bench firmware`); a faster one is refused with OUT_OF_RANGE.
+constexpr uint8_t SAMPLE_RATE_HZ = 1;  // Sample rate in Hz, 10..135: the highest rate sustained without a skipped tick with every channel, the IMU and the heaviest storable model (`porosense bench firmware`); a faster one is refused with OUT_OF_RANGE.
 constexpr uint8_t CHANNEL_MASK = 2;  // Stream channel mask (see START_STREAM).
 constexpr uint8_t R0_MODE = 3;  // At boot: 0 calibrate R0 from the first samples, 1 restore the stored R0.
 constexpr uint8_t R0_CH0_MOHM = 4;  // Stored R0 of channel 0 in milliohm.
@@ -132,7 +132,7 @@ struct KeyInfo { int32_t def; int32_t min; int32_t max; };
 // A switch instead of a table keeps the limits in flash, not in the Uno's RAM.
 inline bool key_info(uint8_t key, KeyInfo* out) {
   switch (key) {
-    case SAMPLE_RATE_HZ: out->def = 50L; out->min = 10L; out->max = 110L; return true;
+    case SAMPLE_RATE_HZ: out->def = 50L; out->min = 10L; out->max = 135L; return true;
     case CHANNEL_MASK: out->def = 31L; out->min = 0L; out->max = 31L; return true;
     case R0_MODE: out->def = 0L; out->min = 0L; out->max = 1L; return true;
     case R0_CH0_MOHM: out->def = 1000000L; out->min = 1000L; out->max = 100000000L; return true;

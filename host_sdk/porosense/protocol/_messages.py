@@ -124,7 +124,7 @@ class Channel(enum.IntFlag):
 class ConfigKey(enum.IntEnum):
     """Configuration keys."""
 
-    SAMPLE_RATE_HZ = 1  # Sample rate in Hz, 10..110: the highest rate sustained without a skipped tick with every channel, the IMU and the heaviest storable model (`porosense bench firmware`); a faster one is refused with OUT_OF_RANGE.
+    SAMPLE_RATE_HZ = 1  # Sample rate in Hz, 10..135: the highest rate sustained without a skipped tick with every channel, the IMU and the heaviest storable model (`porosense bench firmware`); a faster one is refused with OUT_OF_RANGE.
     CHANNEL_MASK = 2  # Stream channel mask (see START_STREAM).
     R0_MODE = 3  # At boot: 0 calibrate R0 from the first samples, 1 restore the stored R0.
     R0_CH0_MOHM = 4  # Stored R0 of channel 0 in milliohm.
@@ -154,7 +154,7 @@ class ConfigSpec:
 
 
 CONFIG_SPECS: dict[ConfigKey, ConfigSpec] = {
-    ConfigKey.SAMPLE_RATE_HZ: ConfigSpec(ConfigKey.SAMPLE_RATE_HZ, 50, 10, 110, 'Sample rate in Hz, 10..110: the highest rate sustained without a skipped tick with every channel, the IMU and the heaviest storable model (`porosense bench firmware`); a faster one is refused with OUT_OF_RANGE.'),
+    ConfigKey.SAMPLE_RATE_HZ: ConfigSpec(ConfigKey.SAMPLE_RATE_HZ, 50, 10, 135, 'Sample rate in Hz, 10..135: the highest rate sustained without a skipped tick with every channel, the IMU and the heaviest storable model (`porosense bench firmware`); a faster one is refused with OUT_OF_RANGE.'),
     ConfigKey.CHANNEL_MASK: ConfigSpec(ConfigKey.CHANNEL_MASK, 31, 0, 31, 'Stream channel mask (see START_STREAM).'),
     ConfigKey.R0_MODE: ConfigSpec(ConfigKey.R0_MODE, 0, 0, 1, 'At boot: 0 calibrate R0 from the first samples, 1 restore the stored R0.'),
     ConfigKey.R0_CH0_MOHM: ConfigSpec(ConfigKey.R0_CH0_MOHM, 1000000, 1000, 100000000, 'Stored R0 of channel 0 in milliohm.'),

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import shutil
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -31,3 +33,28 @@ def pytest_addoption(parser):
         default=None,
         help="pyserial URL of a real board (e.g. /dev/ttyACM0): adds it to the device conformance suite",
     )
+
+
+@pytest.fixture(scope="session")
+def simboard_elf() -> Path:
+    """The firmware ELF, built, with the simboard harness (tools/simboard) built beside it.
+    Skips with the reason when the AVR toolchain, libsimavr-dev, make or porosense.simboard is
+    missing; a build that fails is a test failure."""
+    from porosense.bench import firmware as fw
+
+    why = fw.toolchain_missing()
+    if why:
+        pytest.skip(why)
+    if not Path("/usr/include/simavr/sim_avr.h").is_file():
+        pytest.skip("libsimavr-dev not installed")
+    if shutil.which("make") is None:
+        pytest.skip("make not found")
+    try:
+        from porosense.simboard import SimBoard  # noqa: F401
+    except ImportError as exc:
+        pytest.skip(f"porosense.simboard not available: {exc}")
+    proc = fw.build()
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    r = subprocess.run(["make", "-s", "-C", str(ROOT / "tools" / "simboard")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    return fw.ELF

@@ -4,8 +4,6 @@ RESET through the AVR watchdog, stack headroom while estimating at 100 Hz."""
 
 from __future__ import annotations
 
-import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +13,6 @@ from porosense.bench import firmware as fw
 
 pytestmark = [pytest.mark.simboard, pytest.mark.xdist_group("firmware-build")]
 
-ROOT = Path(__file__).resolve().parents[2]
 WATCHDOG_TRIPPED = 1 << 6
 ADC_FAULT = 1 << 0
 ESTIMATOR_OFF = 1 << 3
@@ -25,23 +22,8 @@ BAD_STATE = 8
 
 
 @pytest.fixture(scope="module")
-def elf() -> Path:
-    why = fw.toolchain_missing()
-    if why:
-        pytest.skip(why)
-    if not Path("/usr/include/simavr/sim_avr.h").is_file():
-        pytest.skip("libsimavr-dev not installed")
-    try:
-        from porosense.simboard import SimBoard  # noqa: F401
-    except ImportError as exc:
-        pytest.skip(f"porosense.simboard not available: {exc}")
-    proc = fw.build()
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    harness = ROOT / "tools" / "simboard"
-    if shutil.which("make"):
-        r = subprocess.run(["make", "-s", "-C", str(harness)], capture_output=True, text=True)
-        assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
-    return fw.ELF
+def elf(simboard_elf) -> Path:
+    return simboard_elf
 
 
 def _open(elf, **board_args):

@@ -28,6 +28,13 @@ def generator():
 
 
 @cache
+def vector_builder():
+    """protocol/gen_vectors.py (field values, packing, framing), as generate.py loads it."""
+    generator()
+    return sys.modules["gen_vectors"]
+
+
+@cache
 def catalogue() -> dict:
     return generator().load()
 

@@ -2,34 +2,19 @@
 
 from __future__ import annotations
 
-import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from porosense.bench import firmware as fw
 from porosense.record.blinks import PIN, board_edges, indicator_level
 
 pytestmark = [pytest.mark.simboard, pytest.mark.xdist_group("firmware-build")]
 
-ROOT = Path(__file__).resolve().parents[2]
-
 
 @pytest.fixture(scope="module")
-def elf() -> Path:
-    why = fw.toolchain_missing()
-    if why:
-        pytest.skip(why)
-    if not Path("/usr/include/simavr/sim_avr.h").is_file():
-        pytest.skip("libsimavr-dev not installed")
-    proc = fw.build()
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    r = subprocess.run(["make", "-s", "-C", str(ROOT / "tools" / "simboard")], capture_output=True, text=True)
-    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
-    assert shutil.which("make")
-    return fw.ELF
+def elf(simboard_elf) -> Path:
+    return simboard_elf
 
 
 def test_d11_follows_the_pattern_while_streaming(elf):

@@ -14,12 +14,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from porosense.control.loadbench import HOLD_S, TARGETS, identify_unloaded, measure_load
+from porosense.control.loadbench import HOLD_S, TARGETS, identify_setup, measure_load
 
 
 @pytest.fixture(scope="module")
 def setup():
-    return identify_unloaded(50, seed=100)
+    return identify_setup(50, seed=100)
 
 
 @pytest.fixture(scope="module")
@@ -118,7 +118,7 @@ def test_estimator_identified_under_load_meets_a_third_of_the_open_loop_error():
     at most a third of the 0 g static map's under 500 g, and under 200 g, a load the estimator
     never saw. Measured (CI size): ratio 0.17 at 500 g, 0.11 at 200 g; the price is paid at 0 g
     (closed 1.37 % against the open loop's 0.02 %), where that estimator is biased the other way."""
-    setup = identify_unloaded(50, seed=100, model_loads=(0.0, 500.0))
+    setup = identify_setup(50, seed=100, model_loads=(0.0, 500.0))
     for L in (200.0, 500.0):
         r = measure_load(setup, L, TARGETS["small"], HOLD_S["small"], seed=7 + int(L))
         _print(r)

@@ -5,35 +5,23 @@ leaves is the load's bias of the estimate (the floor from the simulator's steady
 
 from __future__ import annotations
 
-import shutil
-import subprocess
 from pathlib import Path
 
 import pytest
 
-from porosense.bench import firmware as fw
-from porosense.control.loadbench import HOLD_S, TARGETS, identify_unloaded, measure_load
+from porosense.control.loadbench import HOLD_S, TARGETS, identify_setup, measure_load
 
-ROOT = Path(__file__).resolve().parents[2]
+# One worker builds the firmware and the harness: the others would race it in the same build tree.
+pytestmark = [pytest.mark.simboard, pytest.mark.xdist_group("firmware-build")]
 
 
 @pytest.fixture(scope="module")
-def built():
-    why = fw.toolchain_missing()
-    if why:
-        pytest.skip(why)
-    if not Path("/usr/include/simavr/sim_avr.h").is_file():
-        pytest.skip("libsimavr-dev not installed")
-    proc = fw.build()
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    if shutil.which("make"):
-        r = subprocess.run(["make", "-s", "-C", str(ROOT / "tools" / "simboard")], capture_output=True, text=True)
-        assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+def built(simboard_elf) -> Path:
+    return simboard_elf
 
 
-@pytest.mark.simboard
 def test_closed_loop_beats_the_open_loop_under_500_g_on_the_firmware(built):
-    setup = identify_unloaded(50, seed=100)
+    setup = identify_setup(50, seed=100)
     r = measure_load(setup, 500.0, TARGETS["small"], HOLD_S["small"], seed=9, port="simboard")
     cl = [round(m["steady_error"], 2) for m in r["closed_loop"]]
     ol = [round(m["steady_error"], 2) for m in r["open_loop"]]

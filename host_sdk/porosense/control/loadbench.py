@@ -3,7 +3,8 @@
 1. At 0 g, the paper's experiments on the simulated contractor (staircase, -10 and -60 kPa
    steps for estimation; -20 and -40 kPa for the quantizer's scaling) give the on-board WH
    model (2 poles, 1 zero, 10 breakpoints), the FOPDT plant and the lambda-tuned PI gains, all
-   from data the controller never saw.
+   from data the controller never saw. Optionally the estimator also learns from the same
+   estimation experiments under other loads (``model_loads``).
 2. The open-loop baseline is what users do today: the steady-state strain-vs-vacuum map
    measured at 0 g (holds every 5 kPa, settled true strain), inverted: the vacuum for a target
    is the map's.
@@ -37,7 +38,7 @@ MAP_HOLD_S = 8.0
 
 @dataclass
 class Setup:
-    """What the 0 g identification produced: ``blob`` (the WH model, bytes), ``plant``,
+    """What the identification produced: ``blob`` (the WH model, bytes), ``plant``,
     ``gains``, ``smap`` (the 0 g static map), ``rate_hz``, ``model_fit`` (validation fit %)."""
 
     blob: bytes
@@ -49,9 +50,9 @@ class Setup:
     seconds: float
 
 
-def identify_unloaded(rate_hz: int = 50, seed: int = 100, tau_cl_s: float | None = None,
-                      slew_per_s: float = 20.0, model_loads=(0.0,)) -> Setup:
-    """Everything the controller and the baseline need, from 0 g simulations (see module doc).
+def identify_setup(rate_hz: int = 50, seed: int = 100, tau_cl_s: float | None = None,
+                   slew_per_s: float = 20.0, model_loads=(0.0,)) -> Setup:
+    """Everything the controller and the baseline need, from simulations (see module doc).
 
     ``model_loads`` (g): the loads of the recordings the on-board estimator is identified on
     (each the same three estimation experiments, new seeds); the plant, the gains and the open
@@ -159,8 +160,8 @@ def measure_load(setup: Setup, load_g: float, targets, hold_s: float, *, seed: i
 def run_loads(size: str = "small", loads=LOADS_G, *, rate_hz: int = 50, seed: int = 100,
               model_loads=(0.0,)) -> dict:
     """The whole comparison; figures in % strain (see the module docstring). ``model_loads``:
-    the loads (g) of the estimator's identification recordings (see identify_unloaded)."""
-    setup = identify_unloaded(rate_hz, seed=seed, model_loads=model_loads)
+    the loads (g) of the estimator's identification recordings (see identify_setup)."""
+    setup = identify_setup(rate_hz, seed=seed, model_loads=model_loads)
     per = [measure_load(setup, L, TARGETS[size], HOLD_S[size], seed=seed + 20 + i) for i, L in enumerate(loads)]
     return {"setup": setup, "loads": per}
 

@@ -499,7 +499,7 @@ class Sample(Message):
 
 @dataclass
 class ModelBegin(Message):
-    """Start writing a model blob. Invalidates the stored model (a torn write leaves no model, never a broken one)."""
+    """Start writing a model blob into the EEPROM slot that is not running; the running model keeps estimating until a good MODEL_COMMIT (a torn or refused write keeps it). TOO_LARGE (detail: the excess in bytes) when the blob does not fit beside it."""
 
     TYPE: ClassVar[int] = 0x20
     DIRECTION: ClassVar[str] = 'h2d'

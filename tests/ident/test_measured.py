@@ -79,11 +79,13 @@ def test_selected_wh_validates_and_tests_better_than_linear(wh_data, process_noi
     fits the estimation data worse than the linear model does (93.0 mV against 87.7 mV), and
     no output-error estimator can reach the 2x ratio that the noise-free test would allow.
 
-    With ``process_noise`` (a Gaussian noise at g's input estimated with g, candidates scored
-    by their expected output on the held-out realisation, which carries the same noise): the
-    WH candidate is the better of the noise-aware and OE fits by validation fit, so it
-    validates at least as well as the OE WH. Measured: the OE member is kept (same 36.26 mV,
-    ratio 1.07; 11.8 s wall against 7.1 s). The 2x goal is not met: from the mean output the
+    With ``process_noise`` (a Gaussian noise at g's input, its level measured from the two
+    periods of each realisation, candidates scored by their expected output on the held-out
+    realisation, which carries the same noise): the WH candidate is the better of the
+    noise-aware and OE fits by validation fit, so it validates at least as well as the OE WH.
+    Measured: the OE member is kept (same 36.26 mV; 50 s wall against 7 s). At this size (3
+    realisations, 6 poles / 5 zeros) the noise-aware member itself tests at 43.0 mV, worse than
+    linear: the measured level helps with 5 realisations (the test below: 1.82x), not with 3. The 2x goal is not met: from the mean output the
     noise level is not identifiable (a smoother g with less noise gives the same expected
     output); with the true blocks (a WH fitted on the test multisine, 0.83 mV) held and g
     re-solved under a known noise level, a monotone g reaches 20 mV at best, and the
@@ -102,3 +104,35 @@ def test_selected_wh_validates_and_tests_better_than_linear(wh_data, process_noi
     print("test RMSE (mV):", {k: round(v, 2) for k, v in err.items()}, "ratio", err["linear"] / err["wh"])
     assert res.best.validation_fit >= per["linear"].validation_fit
     assert err["wh"] < RATIO_BOUND * err["linear"]
+
+
+PERIOD_NOISE_RATIO = 1.6  # linear / noise-aware WH test RMSE must exceed this (measured 1.82)
+
+
+@pytest.mark.slow
+def test_noise_level_from_repeated_periods_on_the_benchmark(wh_data):
+    """Each estimation realisation holds two periods of its multisine, so the process noise's
+    level is identified from the period differences (identify --process-noise does this when
+    the input repeats) and g is learnt noise-free: the test multisine carries no such noise.
+
+    Measured (5 realisations, 6 poles / 3 zeros, 10 breakpoints, 40 evaluations per refinement):
+    noise-aware WH 20.49 mV against linear 37.32 mV (ratio 1.82; the OE WH 36.26 mV); noise level
+    1.16 x the spread of g's input, period power ratio 1.00. With all 10 realisations the build
+    with the lowest expected-output error is another split and the ratio is 1.37. The 2x of
+    issue 22 is not reached: with the blocks of a WH fitted on the noise-free test multisine the
+    same deconvolution reaches 11-15 mV, so what is left is in the blocks the noisy records give.
+    Bound: 1.6.
+    """
+    us, ys, ts, tests = wh_data
+    lin = ident.Linear(n_poles=6, n_zeros=5, skip=SKIP, max_nfev=40).fit(u=us, y=ys, ts=ts)
+    wh = ident.WienerHammerstein(n_poles=6, n_zeros=3, n_breakpoints=10, skip=SKIP, max_nfev=40, starts=1,
+                                 process_noise=True).fit(u=us, y=ys, ts=ts)
+    info = wh.info["process_noise"]
+    u, y = tests["multisine"]
+    e_lin = ident.rmse(y[SKIP:], lin.predict(u=u)[SKIP:]) * 1e3
+    e_wh = ident.rmse(y[SKIP:], wh.predict(u=u)[SKIP:]) * 1e3
+    print(f"multisine: noise-aware WH {e_wh:.2f} mV, linear {e_lin:.2f} mV (ratio {e_lin / e_wh:.2f}); "
+          f"noise level {info['sigma_per_spread']:.2f} x g's input spread, power ratio {info['power_ratio']:.3f}; "
+          f"{info['periods']}")
+    assert info["method"] == "repeated periods"
+    assert e_lin / e_wh > PERIOD_NOISE_RATIO

@@ -70,7 +70,10 @@ def register(sub) -> argparse.ArgumentParser:
                    help="Wiener and WH models also estimate a Gaussian noise entering before the static "
                         "nonlinearity (g learnt noise-free, not noise-smoothed); candidates are scored by their "
                         "output averaged over that noise, and the saved model predicts and quantizes as the "
-                        "noise-free system (predict --expected gives the averaged output)")
+                        "noise-free system (predict --expected gives the averaged output). The noise level is "
+                        "measured from the differences between periods when a file repeats its input (at least "
+                        "2 whole periods of a periodic excitation); without repeats only the averaged output "
+                        "is fitted, which cannot tell the level (the report says which)")
     p.add_argument("--max-iter", type=int, default=200, metavar="N",
                    help="function evaluations per refinement (default 200, as in the paper)")
     p.add_argument("--jobs", type=int, metavar="N", help="worker processes of the order search (default: all cores)")
@@ -246,8 +249,12 @@ def run(args) -> int:
                 model_j = choice.model
                 say(args, str(choice))
             models.append(model_j)
+            noise = _process_noise_line(model_j) if args.process_noise else None
+            if noise:
+                say(args, noise)
             reports.append({"output": name, **result.to_dict(),
-                            "smoothness": {"weight": choice.weight, "validation_fit": choice.fits} if choice else None})
+                            "smoothness": {"weight": choice.weight, "validation_fit": choice.fits} if choice else None,
+                            "process_noise": model_j.info.get("process_noise")})
     finally:
         if executor is not None:
             executor.shutdown()
@@ -260,3 +267,18 @@ def run(args) -> int:
               "model": str(args.save), "results": reports}
     emit_json(report, args)
     return 0
+
+
+def _process_noise_line(model) -> str | None:
+    """One line on how the selected model's process-noise level was decided, or None."""
+    spec = getattr(model, "spec", None)
+    if spec is None or not spec.g_bp:
+        return None  # no map g (a linear or Hammerstein model was selected)
+    if not spec.g_noise:
+        return "process noise: not in the selected model (its output-error fit validated better and was kept)"
+    info = model.info.get("process_noise")
+    if info:
+        return (f"process noise: {info['sigma_per_spread']:.2f} x the spread of g's input, measured from "
+                f"{info['periods']} (simulated/measured period power {info['power_ratio']:.3f})")
+    return (f"process noise: {model.process_noise_std:.3g} at g's input, from the averaged output only "
+            "(no file repeats its input, so the level is not identifiable; see --help)")

@@ -7,12 +7,12 @@ of (N_r,) arrays, one pair per recording (each simulated from rest). They return
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares
 
-from porosense.ident import bla_split, blocks
+from porosense.ident import bla_split, blocks, noise_level
 from porosense.ident.chain import Chain, ChainSpec, _filter
 from porosense.ident.linear_init import arx, iv
 from porosense.ident.lm import levenberg_marquardt
@@ -36,6 +36,7 @@ class Fit:
     sse: float
     nfev: int = 0
     build: str = ""
+    notes: dict = field(default_factory=dict)  # how a part of the fit was decided (process noise)
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,8 @@ class Options:
     starts: int = 2
     smoothness: float = 0.0
     monotone: bool = False
+    frozen: tuple = ()  # indices of parameters held at their starting values
+    constraint: object = None  # theta -> (extra residuals, their Jacobian rows), or None
 
 
 def sse(spec, theta, us, ys, skip=0) -> float:
@@ -105,6 +108,8 @@ def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
         if regular:
             extra, _ = _penalty_rows(spec, theta, n_sim, opts)
             r = np.concatenate([r, extra])
+        if opts.constraint is not None:
+            r = np.concatenate([r, opts.constraint(theta)[0]])
         return np.where(np.isfinite(r), r, 1e6)
 
     def jacobian(theta):
@@ -112,6 +117,10 @@ def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
         j = np.vstack([chain.jacobian(u)[1][skip:] for u in us])
         if regular:
             j = np.vstack([j, _penalty_rows(spec, theta, n_sim, opts)[1]])
+        if opts.constraint is not None:
+            j = np.vstack([j, opts.constraint(theta)[1]])
+        if opts.frozen:  # a zero column: no step ever moves it
+            j[:, list(opts.frozen)] = 0.0
         return np.where(np.isfinite(j), j, 0.0)
 
     theta0 = np.asarray(theta0, dtype=float)
@@ -131,7 +140,7 @@ def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
         theta, cost, nfev = theta0, start_sse, 0
     if not cost <= start_sse:
         theta, cost = theta0, start_sse
-    if regular:  # report the simulation error alone
+    if regular or opts.constraint is not None:  # report the simulation error alone
         cost = sse(spec, theta, us, ys, skip)
     return Fit(spec, theta, float(cost), int(nfev))
 
@@ -437,7 +446,7 @@ def _noise_start(spec: ChainSpec, theta, us, ys, skip: int) -> np.ndarray:
     return out
 
 
-def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS) -> Fit:
+def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS, alternatives=()) -> Fit:
     """Refine ``fit`` (a model with a map g) with a Gaussian process noise at g's input.
 
     The parameters gain log(sigma) and the cost becomes the error of the expected output
@@ -446,9 +455,17 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS) -> 
     of g's input under ``fit``) gets g by least squares (:func:`_noise_start`); the starts are
     screened briefly and the best one is refined. The result's error is never above ``fit``'s:
     when no sigma helps, ``fit`` itself comes back with a vanishing sigma.
+
+    When recordings repeat their input, the noise level comes from the differences between
+    periods instead (:func:`_noise_from_periods`), and every build in ``alternatives`` (other
+    output-error fits of the same orders) is refined too: the lowest expected-output error wins.
     """
     if not fit.spec.g_bp or fit.spec.g_noise:
         raise ValueError("process noise needs a map g and a model without it")
+    periods = noise_level.PeriodData(us, ys, opts.skip)
+    if periods:
+        builds = [fit] + [f for f in alternatives if f.spec.g_bp and not f.spec.g_noise]
+        return _best([_noise_from_periods(f, us, ys, opts, periods) for f in builds])
     spec = replace(fit.spec, g_noise=True)
     sl, old = spec.slices(), fit.spec.slices()
     chain = Chain(fit.spec, fit.theta)
@@ -474,3 +491,155 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS) -> 
             out = Fit(spec, theta, sse(spec, theta, us, ys, opts.skip), out.nfev)
     out.build = (fit.build + " + " if fit.build else "") + "process noise"
     return out
+
+
+# The smallest weight of the smoothness grid (search.choose_smoothness). A noise-aware g is a
+# deconvolution of the noise-smoothed map: without a penalty its values between what the
+# smoothed data pin down are unbounded (they explode by orders of magnitude on the measured
+# WH benchmark).
+NOISE_MIN_SMOOTHNESS = 1e-4
+# Noise levels bracketed first, as fractions of the spread of g's input under the OE fit.
+PERIOD_LEVELS = (0.25, 0.5, 1.0, 2.0, 4.0)
+PERIOD_STEPS = 4           # refined models at most per build
+PERIOD_TOLERANCE = 0.05    # |log power ratio| accepted: 5 %, below the Monte Carlo scatter of the check
+
+
+def _at_noise_level(fit: Fit, spec: ChainSpec, us, ys, sigma: float, opts: Options, refine_blocks: bool) -> Fit:
+    """The model of ``fit`` with its noise held at ``sigma``: g's breakpoints over the quantiles
+    of g's input plus that noise, g's values and the offset by penalised least squares, then
+    (``refine_blocks``) every parameter but sigma refined on the expected output."""
+    chain = Chain(fit.spec, fit.theta)
+    sl, old = spec.slices(), fit.spec.slices()
+    xs = [chain.linear_sum(u) for u in us]
+    rng = np.random.default_rng(0)
+    pooled = np.concatenate([x[opts.skip:] for x in xs])
+    gx = blocks.initial_breakpoints(pooled + sigma * rng.standard_normal(len(pooled)), spec.g_bp)
+    theta = np.zeros(spec.n_params)
+    for name in sl:
+        if name in old and not name.startswith("g."):
+            theta[sl[name]] = fit.theta[old[name]]
+    theta[sl["g.p"]] = blocks.positions_to_p(gx)
+    theta[sl["g.s"]] = np.log(sigma)
+    cols, rhs = [], []
+    for x, y in zip(xs, ys):
+        basis = blocks.pwl_expected(gx, np.zeros(len(gx)), x, sigma, derivatives=True)[3]
+        if chain.h2 is not None:
+            b, den, _ = chain.h2
+            basis = _filter(b, den, basis)
+        cols.append(np.hstack([basis, np.ones((len(x), 1))])[opts.skip:])
+        rhs.append(y[opts.skip:])
+    phi, r = np.vstack(cols), np.concatenate(rhs)
+    d2 = np.diff(np.eye(len(gx)), 2, axis=0) * np.sqrt(opts.smoothness * len(r))
+    phi = np.vstack([phi, np.hstack([d2, np.zeros((len(d2), 1))])])
+    sol = lstsq(phi, np.concatenate([r, np.zeros(len(d2))]))
+    if np.all(np.isfinite(sol)):
+        theta[sl["g.y"]], theta[sl["offset"]] = sol[:-1], sol[-1]
+    if refine_blocks:
+        # sigma is held, and so is the spread of g's input: scaling H1 by k and stretching g by
+        # k leaves the noise-free model as it is but makes a held sigma a noise k times smaller
+        # relative to g's input, and the expected-output cost alone would drift along that path.
+        n_res = sum(len(y) - opts.skip for y in ys)
+        spread = _SpreadConstraint(spec, us, opts.skip, float(np.std(pooled)), n_res)
+        return refine(spec, theta, us, ys, replace(opts, frozen=(sl["g.s"].start,), constraint=spread))
+    return Fit(spec, theta, sse(spec, theta, us, ys, opts.skip))
+
+
+class _SpreadConstraint:
+    """A stiff residual holding the standard deviation of g's input at ``target``: weight 100 x
+    sqrt(samples) on its log, so a 1 % change costs as much as the whole simulation error."""
+
+    def __init__(self, spec: ChainSpec, us, skip: int, target: float, n_res: int):
+        self.spec, self.us, self.skip = spec, us, skip
+        self.log_target = np.log(target)
+        self.weight = 100.0 * np.sqrt(n_res)
+        self.upstream = np.arange(spec.slices()["g.p"].start)  # the parameters before g
+
+    def _log_spread(self, theta) -> float:
+        chain = Chain(self.spec, theta)
+        return float(np.log(np.std(np.concatenate([chain.linear_sum(u)[self.skip:] for u in self.us]))))
+
+    def __call__(self, theta):
+        base = self._log_spread(theta)
+        jac = np.zeros((1, self.spec.n_params))
+        for k in self.upstream:  # central differences: only the linear branches move
+            h = 1e-6 * max(1.0, abs(theta[k]))
+            up, dn = np.array(theta, dtype=float), np.array(theta, dtype=float)
+            up[k] += h
+            dn[k] -= h
+            jac[0, k] = (self._log_spread(up) - self._log_spread(dn)) / (2 * h)
+        return np.array([self.weight * (base - self.log_target)]), self.weight * jac
+
+
+def _noise_from_periods(fit: Fit, us, ys, opts: Options, periods) -> Fit:
+    """Process noise whose level comes from the repeated periods (:mod:`noise_level`).
+
+    The level is bracketed on models whose g alone is re-solved for it (fast), where the
+    simulated period differences cross the measured power; then up to PERIOD_STEPS Newton
+    steps on log(sigma) refine the whole model at a level and check its own ratio, until it is
+    within PERIOD_TOLERANCE. The expected-output cost decides every other parameter.
+    """
+    spec = replace(fit.spec, g_noise=True)
+    opts = replace(opts, smoothness=max(opts.smoothness, NOISE_MIN_SMOOTHNESS))
+    chain = Chain(fit.spec, fit.theta)
+    spread = float(np.std(np.concatenate([chain.linear_sum(u)[opts.skip:] for u in us]))) or 1.0
+    levels, logs = [], []
+    for frac in PERIOD_LEVELS:
+        sigma = frac * spread
+        trial = _at_noise_level(fit, spec, us, ys, sigma, opts, refine_blocks=False)
+        levels.append(sigma)
+        logs.append(np.log(periods.evaluate(spec, trial.theta, us, sigma).power_ratio))
+        if logs[-1] > 0:
+            break
+    sigma = _crossing(levels, logs)
+    # Newton steps on log(sigma) through the refined models' own ratios; the slope from the
+    # bracket until two refined models give their own.
+    slope = _slope(levels, logs)
+    tried = []
+    for _ in range(PERIOD_STEPS):
+        out = _at_noise_level(fit, spec, us, ys, sigma, opts, refine_blocks=True)
+        check = periods.evaluate(spec, out.theta, us, sigma)
+        if not (np.isfinite(check.power_ratio) and check.power_ratio > 0):
+            break
+        tried.append((abs(np.log(check.power_ratio)), sigma, out, check))
+        if abs(np.log(check.power_ratio)) < PERIOD_TOLERANCE:
+            break
+        if len(tried) >= 2:
+            slope = _slope([t[1] for t in tried[-2:]], [np.log(t[3].power_ratio) for t in tried[-2:]]) or slope
+        sigma = float(sigma * np.exp(-np.clip(np.log(check.power_ratio) / slope, -1.0, 1.0)))
+    if not tried:
+        raise ValueError("the period differences could not be simulated")
+    _, sigma, out, check = min(tried, key=lambda t: t[0])
+    out.build = (fit.build + " + " if fit.build else "") + "process noise (level from repeated periods)"
+    out.notes = {"process_noise": {
+        "method": "repeated periods", "periods": periods.describe(), "sigma": float(sigma),
+        "sigma_per_spread": float(sigma / spread), "power_ratio": float(check.power_ratio),
+        "shape_misfit": float(check.shape_misfit), "band_edges": check.band_edges.tolist(),
+        "noise_density": check.shape.tolist(), "smoothness": opts.smoothness}}
+    return out
+
+
+def _slope(levels, logs) -> float:
+    """d log(power ratio) / d log(sigma) by least squares over the finite points (>= 0.5;
+    2 for a linear g: the output noise power grows with sigma squared)."""
+    lv, lr = np.log(np.asarray(levels, dtype=float)), np.asarray(logs, dtype=float)
+    ok = np.isfinite(lr)
+    if np.sum(ok) < 2 or np.ptp(lv[ok]) == 0:
+        return 2.0
+    return float(max(np.polyfit(lv[ok], lr[ok], 1)[0], 0.5))
+
+
+def _crossing(levels, logs) -> float:
+    """Level where the log power ratio, linear in log level between neighbours, first crosses
+    0 upwards; the nearest level tried when it never crosses."""
+    lv = np.log(np.asarray(levels, dtype=float))
+    lr = np.asarray(logs, dtype=float)
+    ok = np.isfinite(lr)
+    if not np.any(ok):
+        raise ValueError("no noise level gave a finite period-difference power")
+    order = np.argsort(lv[ok])
+    lv, lr = lv[ok][order], lr[ok][order]
+    for k in range(len(lv) - 1):
+        if lr[k] <= 0 < lr[k + 1]:
+            t = lr[k] / (lr[k] - lr[k + 1])
+            return float(np.exp(lv[k] + t * (lv[k + 1] - lv[k])))
+    return float(np.exp(lv[np.argmin(np.abs(lr))]))

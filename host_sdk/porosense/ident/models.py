@@ -157,7 +157,7 @@ class Model:
             # The output-error fit stays a member (the search scores it too) and the start of
             # a WH model built from this one.
             self._oe_fit = result
-            noisy = estimate.with_process_noise(result, nus, nys, opts)
+            noisy = estimate.with_process_noise(result, nus, nys, opts, alternatives=self.alternatives)
             self.alternatives = [result] + list(self.alternatives)
             result = noisy
         self._set_result(result, sum(len(v) - self.skip for v in ys))
@@ -171,6 +171,7 @@ class Model:
         self.info = {"sse": sse, "n_samples": n, "aic": aic, "bic": bic, "nfev": result.nfev}
         if result.build:
             self.info["build"] = result.build
+        self.info.update(result.notes)
 
     # -- use --------------------------------------------------------------------------
 

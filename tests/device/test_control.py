@@ -13,21 +13,13 @@ from porosense.device import ControlGains, NakError
 from porosense.errors import InputError
 from porosense.protocol import Result, StatusFlag
 
+from control_samples import controlled_samples
+
 GAINS = ControlGains(kp_kpa=2.0, ki_kpa_per_s=1.0, slew_per_s=50.0)
 
 
 def _run(dev, n, ping_every=20, ping=True, limit=5000):
-    """n samples from the first controlled one on (the back-end may have queued samples made
-    before the start), pinging when ``ping`` so a live host keeps the watchdog fed."""
-    out = []
-    for k, s in enumerate(dev.samples(limit, timeout_s=20)):
-        if out or s.status & StatusFlag.CONTROL_ACTIVE:
-            out.append(s)
-        if ping and k % ping_every == ping_every - 1:
-            dev.ping()
-        if len(out) >= n:
-            break
-    return out
+    return controlled_samples(dev, n, limit=limit, ping_every=ping_every, ping=ping)
 
 
 def test_gains_round_trip_within_one_quantisation_step(dev, blob):

@@ -21,6 +21,7 @@ from test_firmware_simboard import _open, elf  # noqa: F401  (the built ELF fixt
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "device"))
 from models import make_blob  # noqa: E402
+from control_samples import controlled_samples  # noqa: E402
 
 pytestmark = [pytest.mark.simboard, pytest.mark.xdist_group("firmware-build")]
 
@@ -29,15 +30,7 @@ STACK_MARGIN_B = 150  # the RAM budget's stated margin (firmware/Makefile)
 
 
 def _controlled(dev, n, limit=4000, ping_every=20, ping=True):
-    out = []
-    for k, s in enumerate(dev.samples(limit, timeout_s=30)):
-        if out or s.status & F.CONTROL_ACTIVE:
-            out.append(s)
-        if ping and k % ping_every == ping_every - 1:
-            dev.ping()
-        if len(out) >= n:
-            break
-    return out
+    return controlled_samples(dev, n, limit=limit, timeout_s=30, ping_every=ping_every, ping=ping)
 
 
 def test_sensor_fault_mid_move_vents_with_a_flag(elf) -> None:

@@ -82,14 +82,14 @@ def test_selected_wh_validates_and_tests_better_than_linear(wh_data, process_noi
     With ``process_noise`` (a Gaussian noise at g's input, its level measured from the two
     periods of each realisation, candidates scored by their expected output on the held-out
     realisation, which carries the same noise): the WH candidate is the better of the
-    noise-aware and OE fits by validation fit, so it validates at least as well as the OE WH.
-    Measured: the OE member is kept (same 36.26 mV; 50 s wall against 7 s). At this size (3
-    realisations, 6 poles / 5 zeros) the noise-aware member itself tests at 43.0 mV, worse than
-    linear: the measured level helps with 5 realisations (the test below: 1.82x), not with 3. The 2x goal is not met: from the mean output the
-    noise level is not identifiable (a smoother g with less noise gives the same expected
-    output); with the true blocks (a WH fitted on the test multisine, 0.83 mV) held and g
-    re-solved under a known noise level, a monotone g reaches 20 mV at best, and the
-    estimation cost prefers a noise level at which it is 33 mV (tests/ident/test_process_noise.py).
+    noise-aware and OE fits by validation fit (the noise-aware one when they are within one
+    standard error), so it validates at least as well as the OE WH up to that error.
+    Measured: the OE member is kept (same 36.26 mV; 50-90 s wall against 7 s): the noise-aware
+    member validates more than one standard error worse, so the tie rule does not keep it. At
+    this size (3 realisations, 6 poles / 5 zeros) the noise-aware member itself tests at 43.0 mV,
+    worse than linear: the measured level helps with 5 realisations (the test below), not with 3.
+    Without repeated periods the level is not identifiable from the mean output (a smoother g
+    with less noise gives the same expected output; tests/ident/test_process_noise.py).
     The test data carry no comparable noise: a WH fitted on the multisine reaches 0.83 mV, while
     the two periods of an estimation realisation (same input to 0.2 mV) differ by 121 mV rms.
     """
@@ -117,10 +117,13 @@ def test_noise_level_from_repeated_periods_on_the_benchmark(wh_data):
 
     Measured (5 realisations, 6 poles / 3 zeros, 10 breakpoints, 40 evaluations per refinement):
     noise-aware WH 20.49 mV against linear 37.32 mV (ratio 1.82; the OE WH 36.26 mV); noise level
-    1.16 x the spread of g's input, period power ratio 1.00. With all 10 realisations the build
-    with the lowest expected-output error is another split and the ratio is 1.37. The 2x of
-    issue 22 is not reached: with the blocks of a WH fitted on the noise-free test multisine the
-    same deconvolution reaches 11-15 mV, so what is left is in the blocks the noisy records give.
+    1.16 x the spread of g's input, period power ratio 1.00. With the default 200 evaluations
+    (`porosense bench ident`): 13.91 against 37.33 mV (ratio 2.68); all 10 realisations, 200
+    evaluations: 20.03 against 38.14 mV (1.90). Of the OE builds refined with the noise, the
+    ones within one standard error of the lowest expected-output error are tied and the fewest
+    parameters taken (the order search's rule): the BLA split (3 | 3 poles) each time here. With
+    the blocks of a WH fitted on the noise-free test multisine the same deconvolution reaches
+    11-15 mV, so what is left is in the blocks the noisy records give.
     Bound: 1.6.
     """
     us, ys, ts, tests = wh_data

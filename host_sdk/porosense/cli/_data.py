@@ -141,13 +141,27 @@ def output_file(path, what: str = "output") -> Path:
 
 
 def emit_json(doc, args) -> None:
-    """Print ``doc`` on stdout with --json and write it to --json-out; floats as plain numbers."""
+    """Print ``doc`` on stdout with --json and write it to --json-out; floats as plain numbers,
+    a NaN or infinite value as null (JSON has no NaN: strict parsers refuse the token)."""
     normalise_json_args(args)
-    text = json.dumps(doc, indent=1, default=_plain)
+    text = json.dumps(_finite(doc), indent=1, default=_plain, allow_nan=False)
     if getattr(args, "json_out", None):
         output_file(args.json_out, "--json-out").write_text(text + "\n")
     if getattr(args, "json", False):
         sys.stdout.write(text + "\n")
+
+
+def _finite(value):
+    """``value`` with every non-finite float (NaN, inf) replaced by None, arrays as lists."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if type(value).__module__ == "numpy":
+        return _finite(_plain(value))
+    return value
 
 
 def _plain(value):

@@ -458,14 +458,16 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS, alt
 
     When recordings repeat their input, the noise level comes from the differences between
     periods instead (:func:`_noise_from_periods`), and every build in ``alternatives`` (other
-    output-error fits of the same orders) is refined too: the lowest expected-output error wins.
+    output-error fits of the same orders) is refined too; they are chosen between by the order
+    search's rule (:func:`_fewest_within_noise`).
     """
     if not fit.spec.g_bp or fit.spec.g_noise:
         raise ValueError("process noise needs a map g and a model without it")
     periods = noise_level.PeriodData(us, ys, opts.skip)
     if periods:
         builds = [fit] + [f for f in alternatives if f.spec.g_bp and not f.spec.g_noise]
-        return _best([_noise_from_periods(f, us, ys, opts, periods) for f in builds])
+        n = sum(len(y) - opts.skip for y in ys)
+        return _fewest_within_noise([_noise_from_periods(f, us, ys, opts, periods) for f in builds], n)
     spec = replace(fit.spec, g_noise=True)
     sl, old = spec.slices(), fit.spec.slices()
     chain = Chain(fit.spec, fit.theta)
@@ -616,6 +618,21 @@ def _noise_from_periods(fit: Fit, us, ys, opts: Options, periods) -> Fit:
         "shape_misfit": float(check.shape_misfit), "band_edges": check.band_edges.tolist(),
         "noise_density": check.shape.tolist(), "smoothness": opts.smoothness}}
     return out
+
+
+def _fewest_within_noise(fits: list[Fit], n: int) -> Fit:
+    """The fit with the fewest parameters among those whose error is within one standard error
+    of the lowest, the rule the order search applies to candidates (search.SearchResult): a fit
+    of F % over n samples has a standard error of (100 - F) / sqrt(2 n) points, i.e. the error
+    norm a relative one of 1 / sqrt(2 n) and the squared error sqrt(2 / n). Noise-aware builds
+    differ in how they split the dynamics between H1 and H2; their expected outputs agree
+    to well within that on the measured benchmark (0.2-0.5 % over 40,000 samples)."""
+    finite = [f for f in fits if np.isfinite(f.sse)]
+    if not finite:
+        return fits[0]
+    low = min(f.sse for f in finite)
+    near = [f for f in finite if f.sse <= low * (1.0 + np.sqrt(2.0 / max(n, 1)))]
+    return min(near, key=lambda f: (f.spec.n_params, f.sse))
 
 
 def _slope(levels, logs) -> float:

@@ -114,12 +114,7 @@ class SearchResult:
 
     def tolerance(self, top: Candidate) -> float:
         """Fit points within which candidates are tied (one standard error of ``top``'s fit)."""
-        if self.criterion not in ("fit", "paper"):
-            return 0.0
-        n = top.n_validation if top.fit_validation else top.model.info.get("n_samples", 0) if top.model else 0
-        if self.criterion == "paper" or n <= 0:
-            return self.tie_tol
-        return max(self.tie_tol, (100.0 - top.score(self.criterion)) / np.sqrt(2.0 * n))
+        return tie_tolerance(top, self.criterion, self.tie_tol)
 
     def _select(self):
         pool = self.feasible or self.candidates
@@ -272,11 +267,29 @@ def _model_kwargs(structure, kwargs) -> dict:
     return kwargs
 
 
+def tie_tolerance(top: Candidate, criterion: str, tie_tol: float = 0.01) -> float:
+    """Score points within which candidates are tied with ``top``: one standard error of its
+    fit, (100 - fit) / sqrt(2 N) for N scored samples (at least ``tie_tol``); 0 for AIC/BIC."""
+    if criterion not in ("fit", "paper"):
+        return 0.0
+    n = top.n_validation if top.fit_validation else top.model.info.get("n_samples", 0) if top.model else 0
+    if criterion == "paper" or n <= 0:
+        return tie_tol
+    return max(tie_tol, (100.0 - top.score(criterion)) / np.sqrt(2.0 * n))
+
+
 def _best_member(structure, n_poles, n_zeros, model, kwargs, fit_args, val, criterion) -> Candidate:
     """The model or one of its alternative members, whichever scores best by ``criterion``."""
     members = [_score(structure, n_poles, n_zeros, m, kwargs, fit_args, val, 0.0, 0.0)
                for m in [model] + model.alternative_models()]
     best = max(members, key=lambda c: c.score(criterion))
+    measured = model.info.get("process_noise", {}).get("method") == "repeated periods"
+    if measured and members[0] is not best and \
+            members[0].score(criterion) >= best.score(criterion) - tie_tolerance(best, criterion):
+        # The noise level was measured and the noise-aware model (what process_noise asks for)
+        # validates within the noise of its output-error member: the validation data carry
+        # the same process noise and cannot tell the noise-free map from the smoothed one.
+        best = members[0]
     best.model.alternatives = []
     return best
 

@@ -123,7 +123,8 @@ def test_noise_level_from_repeated_periods_on_the_benchmark(wh_data):
     ones within one standard error of the lowest expected-output error are tied and the fewest
     parameters taken (the order search's rule): the BLA split (3 | 3 poles) each time here. With
     the blocks of a WH fitted on the noise-free test multisine the same deconvolution reaches
-    11-15 mV, so what is left is in the blocks the noisy records give.
+    11.2 mV (tools/explore/wh_oracle_blocks.py), so what is left is in the blocks the noisy
+    records give.
     Bound: 1.6.
     """
     us, ys, ts, tests = wh_data

@@ -189,6 +189,19 @@ def test_noise_level_from_repeated_periods(seed):
     assert abs(np.log(info["power_ratio"])) < 0.25
 
 
+def test_builds_refined_on_a_pool_equal_the_ones_refined_in_turn(monkeypatch):
+    """The process-noise builds are independent: refined on the machine's cores they give the
+    same model, parameter for parameter, as refined one after another (one core)."""
+    us, ys, _ = _periodic_records(3)
+    kw = dict(n_poles=2, n_zeros=1, n_breakpoints=6, skip=SKIP, starts=1, max_nfev=15, process_noise=True)
+    monkeypatch.setattr("os.cpu_count", lambda: 2)
+    pooled = ident.WienerHammerstein(**kw).fit(u=[u[:, None] for u in us], y=ys)
+    monkeypatch.setattr("os.cpu_count", lambda: 1)
+    in_turn = ident.WienerHammerstein(**kw).fit(u=[u[:, None] for u in us], y=ys)
+    assert pooled.info["build"] == in_turn.info["build"]
+    assert np.max(np.abs(pooled.theta - in_turn.theta)) <= 1e-12 * max(1.0, np.max(np.abs(in_turn.theta)))
+
+
 def test_repeated_period_detection():
     rng = np.random.default_rng(11)
     base = rng.standard_normal(700)

@@ -7,7 +7,11 @@ of (N_r,) arrays, one pair per recording (each simulated from rest). They return
 
 from __future__ import annotations
 
+import multiprocessing
+import os
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
+from functools import partial
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -458,8 +462,9 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS, alt
 
     When recordings repeat their input, the noise level comes from the differences between
     periods instead (:func:`_noise_from_periods`), and every build in ``alternatives`` (other
-    output-error fits of the same orders) is refined too; they are chosen between by the order
-    search's rule (:func:`_fewest_within_noise`).
+    output-error fits of the same orders) is refined too, on the machine's cores
+    (:func:`_map_builds`); they are chosen between by the order search's rule
+    (:func:`_fewest_within_noise`).
     """
     if not fit.spec.g_bp or fit.spec.g_noise:
         raise ValueError("process noise needs a map g and a model without it")
@@ -467,7 +472,8 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS, alt
     if periods:
         builds = [fit] + [f for f in alternatives if f.spec.g_bp and not f.spec.g_noise]
         n = sum(len(y) - opts.skip for y in ys)
-        return _fewest_within_noise([_noise_from_periods(f, us, ys, opts, periods) for f in builds], n)
+        refined = _map_builds(partial(_noise_from_periods, us=us, ys=ys, opts=opts, periods=periods), builds)
+        return _fewest_within_noise(refined, n)
     spec = replace(fit.spec, g_noise=True)
     sl, old = spec.slices(), fit.spec.slices()
     chain = Chain(fit.spec, fit.theta)
@@ -618,6 +624,17 @@ def _noise_from_periods(fit: Fit, us, ys, opts: Options, periods) -> Fit:
         "shape_misfit": float(check.shape_misfit), "band_edges": check.band_edges.tolist(),
         "noise_density": check.shape.tolist(), "smoothness": opts.smoothness}}
     return out
+
+
+def _map_builds(refine_build, builds: list) -> list:
+    """``refine_build`` applied to every build, in order. The builds are independent, so in the
+    main process they run on a pool of the machine's cores; inside a worker (the order search
+    already spreads its candidates over the cores) they run one after another."""
+    workers = min(os.cpu_count() or 1, len(builds))
+    if workers < 2 or multiprocessing.parent_process() is not None:
+        return [refine_build(f) for f in builds]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(refine_build, builds))
 
 
 def _fewest_within_noise(fits: list[Fit], n: int) -> Fit:

@@ -1,0 +1,67 @@
+"""Does the expected-output cost tell the WH blocks apart on the measured process-noise benchmark?
+
+Every split of the best linear approximation's poles and zeros (6 poles / 3 zeros) between H1
+and H2 gets g re-solved for the expected output with a process noise of 0.9 x the spread of g's
+input (the level the builds measure: 0.86-1.03); the split that fits best is refined with its
+level measured from the repeated periods, like every other process-noise build. Printed: its
+error against the build ``identify --process-noise`` selects (lower is better), its level
+and its noise-free multisine test RMSE (mV).
+Run: .venv/bin/python tools/explore/wh_noise_ranked_split.py [realisations, default 5]
+"""
+
+import sys
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from porosense import ident
+from porosense.bench.ident import shared_data_folder
+from porosense.data import read_table
+from porosense.ident import bla_split, estimate, noise_level
+from porosense.ident.chain import Chain
+
+SKIP = 200
+LEVEL = 0.9
+
+
+def main() -> int:
+    n = int(sys.argv[1]) if len(sys.argv) > 1 else 5
+    folder = shared_data_folder()
+    if folder is None:
+        print("benchmark data folder not found", file=sys.stderr)
+        return 2
+    est = read_table(folder / "wh_process_noise" / "WH_EstimationExample.csv")
+    test = read_table(folder / "wh_process_noise" / "WH_TestDataset.csv")
+    us = [est.columns[f"u_{i}"][:, None] for i in range(n)]
+    ys = [est.columns[f"y_{i}"] for i in range(n)]
+    ut, yt = test.columns["u_0"][:, None], test.columns["y_0"]
+    t0 = time.perf_counter()
+    wh = ident.WienerHammerstein(n_poles=6, n_zeros=3, n_breakpoints=10, skip=SKIP, starts=1,
+                                 process_noise=True).fit(u=us, y=ys)
+    selected = wh.info["sse"] / wh.y_std ** 2
+    print(f"identify --process-noise ({time.perf_counter() - t0:.0f} s): {wh.info['build']}, test RMSE "
+          f"{ident.rmse(yt[SKIP:], wh.predict(u=ut)[SKIP:]) * 1e3:.2f} mV")
+    nus = [u / wh.u_scale for u in us]
+    nys = [(y - wh.y_mean) / wh.y_std for y in ys]
+    opts = estimate.Options(skip=SKIP)
+    lin = estimate.fit_linear(nus, nys, 6, 3, 0, estimate._bla_options(opts))
+    best = None
+    for sse_oe, spec, theta, _, split in bla_split.ranked_split_starts(lin.spec, lin.theta, nus, nys, 10, SKIP,
+                                                                       keep=10_000):
+        fit = estimate.Fit(spec, theta, sse_oe)
+        spread = float(np.std(np.concatenate([Chain(spec, theta).linear_sum(u)[SKIP:] for u in nus])))
+        g = estimate._at_noise_level(fit, replace(spec, g_noise=True), nus, nys, LEVEL * spread,
+                                     replace(opts, smoothness=estimate.NOISE_MIN_SMOOTHNESS), refine_blocks=False)
+        if best is None or g.sse < best[0]:
+            best = (g.sse, fit, split)
+    out = estimate._noise_from_periods(best[1], nus, nys, opts, noise_level.PeriodData(nus, nys, SKIP))
+    z = Chain(out.spec, out.theta).simulate(ut / wh.u_scale, expected=False) * wh.y_std + wh.y_mean
+    print(f"split ranked by its noise-aware error ({best[2].describe()}): error / the selected build's "
+          f"{out.sse / selected:.5f}, level {out.notes['process_noise']['sigma_per_spread']:.2f} x the spread, "
+          f"test RMSE {ident.rmse(yt[SKIP:], z[SKIP:]) * 1e3:.2f} mV")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -121,7 +121,8 @@ def test_noise_level_from_repeated_periods_on_the_benchmark(wh_data):
     (`porosense bench ident`): 13.91 against 37.33 mV (ratio 2.68); all 10 realisations, 200
     evaluations: 20.03 against 38.14 mV (1.90). Of the OE builds refined with the noise, the
     ones within one standard error of the lowest expected-output error are tied and the fewest
-    parameters taken (the order search's rule): the BLA split (3 | 3 poles) each time here. With
+    parameters taken (the order search's rule): a BLA split each time here (3 | 3 poles with 5
+    realisations, 4 | 2 from its identity start with 10). With
     the blocks of a WH fitted on the noise-free test multisine the same deconvolution reaches
     11.2 mV (tools/explore/wh_oracle_blocks.py), so what is left is in the blocks the noisy
     records give. The expected-output cost does not tell the blocks apart: the BLA split ranked

@@ -16,10 +16,9 @@ from dataclasses import replace
 import numpy as np
 
 from porosense import ident
-from porosense.bench.ident import shared_data_folder
-from porosense.data import read_table
 from porosense.ident import bla_split, estimate, noise_level
 from porosense.ident.chain import Chain
+from wh_benchmark import records
 
 SKIP = 200
 LEVEL = 0.9
@@ -27,15 +26,7 @@ LEVEL = 0.9
 
 def main() -> int:
     n = int(sys.argv[1]) if len(sys.argv) > 1 else 5
-    folder = shared_data_folder()
-    if folder is None:
-        print("benchmark data folder not found", file=sys.stderr)
-        return 2
-    est = read_table(folder / "wh_process_noise" / "WH_EstimationExample.csv")
-    test = read_table(folder / "wh_process_noise" / "WH_TestDataset.csv")
-    us = [est.columns[f"u_{i}"][:, None] for i in range(n)]
-    ys = [est.columns[f"y_{i}"] for i in range(n)]
-    ut, yt = test.columns["u_0"][:, None], test.columns["y_0"]
+    us, ys, ut, yt = records(n)
     t0 = time.perf_counter()
     wh = ident.WienerHammerstein(n_poles=6, n_zeros=3, n_breakpoints=10, skip=SKIP, starts=1,
                                  process_noise=True).fit(u=us, y=ys)

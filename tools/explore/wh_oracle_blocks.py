@@ -15,21 +15,15 @@ from dataclasses import replace
 import numpy as np
 
 from porosense import ident
-from porosense.bench.ident import shared_data_folder
-from porosense.data import read_table
 from porosense.ident import estimate
 from porosense.ident.chain import Chain
+from wh_benchmark import tables
 
 SKIP = 200
 
 
 def main() -> int:
-    folder = shared_data_folder()
-    if folder is None:
-        print("benchmark data folder not found", file=sys.stderr)
-        return 2
-    est = read_table(folder / "wh_process_noise" / "WH_EstimationExample.csv")
-    test = read_table(folder / "wh_process_noise" / "WH_TestDataset.csv")
+    est, test = tables()
     ut, yt = test.columns["u_0"][:, None], test.columns["y_0"]
     oracle = ident.WienerHammerstein(n_poles=6, n_zeros=5, n_breakpoints=10, skip=SKIP, starts=1).fit(u=ut, y=yt)
     print(f"blocks from the test multisine: {oracle.info.get('build')}, test RMSE "

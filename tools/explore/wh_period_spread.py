@@ -11,18 +11,13 @@ import sys
 
 import numpy as np
 
-from porosense.bench.ident import shared_data_folder
-from porosense.data import read_table
+from wh_benchmark import tables
 
 PERIOD = 4096
 
 
 def main() -> int:
-    folder = shared_data_folder()
-    if folder is None:
-        print("benchmark data folder not found", file=sys.stderr)
-        return 2
-    est = read_table(folder / "wh_process_noise" / "WH_EstimationExample.csv")
+    est, _ = tables()
     for i in range(10):
         u, y = est.columns[f"u_{i}"], est.columns[f"y_{i}"]
         du = u[PERIOD:2 * PERIOD] - u[:PERIOD]

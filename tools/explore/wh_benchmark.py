@@ -1,0 +1,29 @@
+"""The measured WH process-noise benchmark's records, for the scripts in this folder.
+
+Reads ../shared/data/wh_process_noise (or POROSENSE_SHARED_DATA); exits with a one-line error
+when the folder is not there.
+"""
+
+import sys
+
+from porosense.bench.ident import shared_data_folder
+from porosense.data import read_table
+
+
+def tables():
+    """(estimation table, test table) of the benchmark, or exit 2 when its folder is missing."""
+    folder = shared_data_folder()
+    if folder is None:
+        print("benchmark data folder not found", file=sys.stderr)
+        sys.exit(2)
+    return (read_table(folder / "wh_process_noise" / "WH_EstimationExample.csv"),
+            read_table(folder / "wh_process_noise" / "WH_TestDataset.csv"))
+
+
+def records(n: int):
+    """(us, ys, test u, test y): the first ``n`` estimation realisations ((N, 1) inputs, volts)
+    and the test multisine."""
+    est, test = tables()
+    us = [est.columns[f"u_{i}"][:, None] for i in range(n)]
+    ys = [est.columns[f"y_{i}"] for i in range(n)]
+    return us, ys, test.columns["u_0"][:, None], test.columns["y_0"]

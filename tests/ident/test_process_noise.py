@@ -202,6 +202,18 @@ def test_builds_refined_on_a_pool_equal_the_ones_refined_in_turn(monkeypatch):
     assert np.max(np.abs(pooled.theta - in_turn.theta)) <= 1e-12 * max(1.0, np.max(np.abs(in_turn.theta)))
 
 
+def test_builds_are_refined_in_turn_when_no_process_can_be_started(monkeypatch):
+    """A machine that refuses new processes still gets its model, the same one."""
+    from porosense.ident import estimate
+
+    def refuse(*args, **kwargs):
+        raise OSError("no processes")
+
+    monkeypatch.setattr("os.cpu_count", lambda: 2)
+    monkeypatch.setattr(estimate, "ProcessPoolExecutor", refuse)
+    assert estimate._map_builds(abs, [-3, 2, -1]) == [3, 2, 1]
+
+
 def test_repeated_period_detection():
     rng = np.random.default_rng(11)
     base = rng.standard_normal(700)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 from functools import partial
 
@@ -633,8 +634,11 @@ def _map_builds(refine_build, builds: list) -> list:
     workers = min(os.cpu_count() or 1, len(builds))
     if workers < 2 or multiprocessing.parent_process() is not None:
         return [refine_build(f) for f in builds]
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        return list(pool.map(refine_build, builds))
+    try:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            return list(pool.map(refine_build, builds))
+    except (OSError, BrokenProcessPool):  # no processes to be had here: the same work in turn
+        return [refine_build(f) for f in builds]
 
 
 def _fewest_within_noise(fits: list[Fit], n: int) -> Fit:

@@ -127,9 +127,9 @@ def test_noise_level_from_repeated_periods_on_the_benchmark(wh_data):
     11.2 mV (tools/explore/wh_oracle_blocks.py), so what is left is in the blocks the noisy
     records give. The expected-output cost does not tell the blocks apart: the BLA split ranked
     by its noise-aware error instead (g re-solved at 0.9 x the spread) and refined the same way
-    fits the records better than every build (0.37 % below the selected one, 0.06 % below the
-    lowest; tools/explore/wh_noise_ranked_split.py) and tests worse, 26.1 mV
-    with 5 realisations and 41.0 mV with 10.
+    fits the records better than the selected build (0.37 % lower error with 5 realisations;
+    tools/explore/wh_noise_ranked_split.py) and tests worse, 26.1 mV with 5 realisations and
+    41.0 mV with 10. Every build side by side: tools/explore/wh_process_noise_builds.py.
     Bound: 1.6.
     """
     us, ys, ts, tests = wh_data

@@ -646,8 +646,9 @@ def _fewest_within_noise(fits: list[Fit], n: int) -> Fit:
     of the lowest, the rule the order search applies to candidates (search.SearchResult): a fit
     of F % over n samples has a standard error of (100 - F) / sqrt(2 n) points, i.e. the error
     norm a relative one of 1 / sqrt(2 n) and the squared error sqrt(2 / n). Noise-aware builds
-    differ in how they split the dynamics between H1 and H2; their expected outputs agree
-    to well within that on the measured benchmark (0.2-0.5 % over 40,000 samples)."""
+    differ in how they split the dynamics between H1 and H2; on the measured benchmark their
+    expected outputs agree to 0.2-0.7 % against a standard error of 0.5-0.7 %
+    (tools/explore/wh_process_noise_builds.py)."""
     finite = [f for f in fits if np.isfinite(f.sse)]
     if not finite:
         return fits[0]

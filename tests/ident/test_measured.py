@@ -85,9 +85,8 @@ def test_selected_wh_validates_and_tests_better_than_linear(wh_data, process_noi
     noise-aware and OE fits by validation fit (the noise-aware one when they are within one
     standard error), so it validates at least as well as the OE WH up to that error.
     Measured: the OE member is kept (same 36.26 mV; 50-90 s wall against 7 s): the noise-aware
-    member validates more than one standard error worse, so the tie rule does not keep it. At
-    this size (3 realisations, 6 poles / 5 zeros) the noise-aware member itself tests at 43.0 mV,
-    worse than linear: the measured level helps with 5 realisations (the test below), not with 3.
+    member validates more than one standard error worse, so the tie rule does not keep it; the
+    measured level helps with 5 realisations (the test below).
     Without repeated periods the level is not identifiable from the mean output (a smoother g
     with less noise gives the same expected output; tests/ident/test_process_noise.py).
     The test data carry no comparable noise: a WH fitted on the multisine reaches 0.83 mV, while

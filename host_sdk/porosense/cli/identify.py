@@ -67,9 +67,11 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--monotone", action="store_true",
                    help="constrain the static nonlinearities to be monotone (the paper's maps all are)")
     p.add_argument("--process-noise", action="store_true",
-                   help="Wiener and WH models also estimate a Gaussian noise entering before the static "
-                        "nonlinearity (g learnt noise-free, not noise-smoothed); candidates are scored by their "
-                        "output averaged over that noise, and the saved model predicts and quantizes as the "
+                   help="after the search, the best Wiener and WH candidates are refitted with a Gaussian "
+                        "noise entering before the static nonlinearity (g learnt noise-free, not "
+                        "noise-smoothed); they are scored by their output averaged over that noise and each "
+                        "keeps the noise unless its output-error fit validates better by more than one "
+                        "standard error; the saved model predicts and quantizes as the "
                         "noise-free system (predict --expected gives the averaged output). The noise level is "
                         "measured from the differences between periods when a file repeats its input (at least "
                         "2 whole periods of a periodic excitation); without repeats only the averaged output "
@@ -241,7 +243,13 @@ def run(args) -> int:
             say(args, f"{name}:")
             say(args, str(result))
             model_j, choice = result.model, None
-            if smooth is None and val is not None and result.best.structure != "linear":
+            measured_noise = result.model.info.get("process_noise") or {}
+            if measured_noise.get("method") == "repeated periods":
+                # Validation data carry the same process noise: they cannot choose g's smoothness
+                # (a smoother g validates alike), so the noise fit's own weight stays.
+                say(args, f"smoothness weight {measured_noise['smoothness']:g} kept: the process-noise level was "
+                          "measured, and validation data carrying the same noise cannot choose the weight")
+            elif smooth is None and val is not None and result.best.structure != "linear":
                 choice = ident.choose_smoothness(
                     result, u=est_u, y=[y[:, j] for y in est_y], ts=args.ts,
                     validation=(val[0], [y[:, j] for y in val[1]]), validation_skip=val[2],

@@ -260,13 +260,6 @@ def _score(structure, n_poles, n_zeros, model, kwargs, fit_args, val, seconds, c
                      model.aic, model.bic, model.n_params, seconds, True, model, cpu_seconds, n_val)
 
 
-def _model_kwargs(structure, kwargs) -> dict:
-    """The options of ``structure``: process noise only for the structures with a map g."""
-    if kwargs.get("process_noise") and structure not in NOISE_KINDS:
-        return {k: v for k, v in kwargs.items() if k != "process_noise"}
-    return kwargs
-
-
 def tie_tolerance(top: Candidate, criterion: str, tie_tol: float = 0.01) -> float:
     """Score points within which candidates are tied with ``top``: one standard error of its
     fit, (100 - fit) / sqrt(2 N) for N scored samples (at least ``tie_tol``); 0 for AIC/BIC."""
@@ -278,11 +271,12 @@ def tie_tolerance(top: Candidate, criterion: str, tie_tol: float = 0.01) -> floa
     return max(tie_tol, (100.0 - top.score(criterion)) / np.sqrt(2.0 * n))
 
 
-def _best_member(structure, n_poles, n_zeros, model, kwargs, fit_args, val, criterion) -> Candidate:
-    """The model or one of its alternative members, whichever scores best by ``criterion``."""
+def _best_member(structure, n_poles, n_zeros, model, kwargs, fit_args, val, criterion, others=()) -> Candidate:
+    """The model or one of its alternative members (or one of the candidates ``others`` of the
+    same structure and order), whichever scores best by ``criterion``."""
     members = [_score(structure, n_poles, n_zeros, m, kwargs, fit_args, val, 0.0, 0.0)
                for m in [model] + model.alternative_models()]
-    best = max(members, key=lambda c: c.score(criterion))
+    best = max(members + list(others), key=lambda c: c.score(criterion))
     measured = model.info.get("process_noise", {}).get("method") == "repeated periods"
     if measured and members[0] is not best and \
             members[0].score(criterion) >= best.score(criterion) - tie_tolerance(best, criterion):
@@ -297,7 +291,7 @@ def _best_member(structure, n_poles, n_zeros, model, kwargs, fit_args, val, crit
 def _fit_candidate(structure, n_poles, n_zeros, kwargs, fit_args, val):
     """Worker: estimate one model and score it (top level so process pools can pickle it)."""
     t0, c0 = time.perf_counter(), time.process_time()
-    model = make_model(structure, n_poles=n_poles, n_zeros=n_zeros, **_model_kwargs(structure, kwargs))
+    model = make_model(structure, n_poles=n_poles, n_zeros=n_zeros, **kwargs)
     model.fit(**fit_args)
     return _score(structure, n_poles, n_zeros, model, kwargs, fit_args, val,
                   time.perf_counter() - t0, time.process_time() - c0)
@@ -319,15 +313,10 @@ def _fit_order_group(structures, n_poles, n_zeros, kwargs, fit_args, val, criter
     for s in needed:
         t0, c0 = time.perf_counter(), time.process_time()
         start = {"linear": parts["linear"]} if s != "linear" else {}
-        parts[s] = make_model(s, n_poles=n_poles, n_zeros=n_zeros, **_model_kwargs(s, kwargs)).fit(**fit_args, **start)
+        parts[s] = make_model(s, n_poles=n_poles, n_zeros=n_zeros, **kwargs).fit(**fit_args, **start)
         dt, dc = time.perf_counter() - t0, time.process_time() - c0
         if s in structures:
-            if parts[s].alternatives:  # a process-noise model: it or its OE fit, by the rule
-                cand = _best_member(s, n_poles, n_zeros, parts[s], kwargs, fit_args, val, criterion)
-                cand.seconds, cand.cpu_seconds = dt, dc
-            else:
-                cand = _score(s, n_poles, n_zeros, parts[s], kwargs, fit_args, val, dt, dc)
-            out.append(cand)
+            out.append(_score(s, n_poles, n_zeros, parts[s], kwargs, fit_args, val, dt, dc))
         else:
             extra[0] += dt
             extra[1] += dc
@@ -383,9 +372,11 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     (default, the paper's mean fit over all recordings), fit (validation fit), aic or bic.
     ``holdout``: how the validation data was made, reported with the rule.
 
-    ``process_noise``: the Wiener and WH candidates also estimate a Gaussian noise at g's input
-    (:meth:`Model.predict`); every candidate is scored by its expected output, and a WH / Wiener
-    candidate is the better of its process-noise and output-error fits by ``criterion``.
+    ``process_noise``: after the output-error search, the best Wiener and the best WH candidate
+    by ``criterion`` are refitted with a Gaussian noise at g's input (:meth:`Model.predict`,
+    started from the same models of their order) and scored by their expected output; each
+    becomes the better of its process-noise and output-error fits (:func:`_best_member`). A
+    process-noise fit costs many output-error fits, so only these finalists get one.
     ``input_unit`` / ``output_unit``: stored in every model (:meth:`Model.fit`).
 
     ``smoothness`` / ``monotone``: regularisation of the piecewise-linear maps of every
@@ -398,13 +389,26 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     """
     if criterion not in CRITERIA:
         raise InputError(f"unknown criterion {criterion!r}; choose from {', '.join(CRITERIA)}")
+    if process_noise:
+        oe = search(u=u, y=y, ts=ts, validation=validation, structures=structures, poles=poles, zeros=zeros,
+                    n_breakpoints=n_breakpoints, delay=delay, starts=starts, max_nfev=max_nfev, skip=skip,
+                    inputs=inputs, output=output, executor=executor, progress=progress, constraint=constraint,
+                    size_fn=size_fn, max_bytes=max_bytes, grid=grid, tie_tol=tie_tol,
+                    validation_skip=validation_skip, criterion=criterion, holdout=holdout, staged=staged,
+                    staged_orders=staged_orders, smoothness=smoothness, monotone=monotone,
+                    input_unit=input_unit, output_unit=output_unit)
+        return _with_process_noise(oe, u=u, y=y, ts=ts, validation=validation, validation_skip=validation_skip,
+                                   inputs=inputs, output=output, input_unit=input_unit, output_unit=output_unit,
+                                   constraint=constraint, size_fn=size_fn, max_bytes=max_bytes,
+                                   kwargs=dict(n_breakpoints=n_breakpoints, delay=delay, starts=starts,
+                                               max_nfev=max_nfev, skip=skip, smoothness=smoothness,
+                                               monotone=monotone))
     if staged:
         args = dict(u=u, y=y, ts=ts, validation=validation, n_breakpoints=n_breakpoints, delay=delay,
                     starts=starts, max_nfev=max_nfev, skip=skip, inputs=inputs, output=output,
                     progress=progress, constraint=constraint, size_fn=size_fn, max_bytes=max_bytes,
                     tie_tol=tie_tol, validation_skip=validation_skip, criterion=criterion, holdout=holdout,
-                    smoothness=smoothness, monotone=monotone, process_noise=process_noise,
-                    input_unit=input_unit, output_unit=output_unit)
+                    smoothness=smoothness, monotone=monotone, input_unit=input_unit, output_unit=output_unit)
         return _staged_search(list(grid) if grid is not None else order_grid(structures, poles, zeros),
                               executor, staged_orders, args)
     us, ys = as_recordings(u, y)
@@ -422,8 +426,6 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     kwargs = {"n_breakpoints": n_breakpoints, "delay": delay, "starts": starts, "max_nfev": max_nfev, "skip": skip}
     if smoothness or monotone:
         kwargs.update(smoothness=smoothness, monotone=monotone)
-    if process_noise:
-        kwargs["process_noise"] = True
     fit_args = {"u": us, "y": ys, "ts": ts, "inputs": inputs, "output": output, "input_unit": input_unit,
                 "output_unit": output_unit}
     # Most expensive first so that the pool stays busy to the end.
@@ -463,6 +465,54 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
         c.feasible = _feasible(c.model, constraint, size_fn, max_bytes)
     candidates.sort(key=lambda c: rank[(c.structure, c.n_poles, c.n_zeros)])
     return SearchResult(candidates, time.perf_counter() - t0, tie_tol, criterion, holdout)
+
+
+def _with_process_noise(result: SearchResult, *, u, y, ts, validation, validation_skip, inputs, output, input_unit,
+                        output_unit, constraint, size_fn, max_bytes, kwargs) -> SearchResult:
+    """``result`` with its best Wiener and best WH candidate (by its criterion, feasible first)
+    refitted with a process noise at g's input, each replaced by the better of that fit and the
+    output-error fits by :func:`_best_member`. The refit starts from the linear, Wiener and
+    Hammerstein models of the same order when the search estimated them, as the candidate did.
+
+    Runs in this process, so the WH's builds are refined on a pool of the machine's cores
+    (:func:`porosense.ident.estimate._map_builds`)."""
+    t0 = time.perf_counter()
+    us, ys = as_recordings(u, y)
+    val = None
+    if validation is not None:
+        vu, vy = as_recordings(*validation)
+        val = (vu, vy, _skips(validation_skip, len(vy)))
+    fit_args = {"u": us, "y": ys, "ts": ts, "inputs": inputs, "output": output, "input_unit": input_unit,
+                "output_unit": output_unit}
+    if not kwargs.get("smoothness") and not kwargs.get("monotone"):
+        kwargs = {k: v for k, v in kwargs.items() if k not in ("smoothness", "monotone")}
+    candidates = list(result.candidates)
+    refitted = []
+    for structure in NOISE_KINDS:
+        own = [c for c in candidates if c.structure == structure and c.model is not None]
+        if not own:
+            continue
+        pool = [c for c in own if c.feasible] or own
+        top = max(pool, key=lambda c: c.score(result.criterion))
+        order = (top.n_poles, top.n_zeros)
+        parts = {c.structure: c.model for c in candidates if (c.n_poles, c.n_zeros) == order
+                 and c.structure in ("linear", "wiener", "hammerstein") and c.model is not None
+                 and (structure == "wh" or c.structure == "linear")}
+        t1, c1 = time.perf_counter(), time.process_time()
+        model = make_model(structure, n_poles=top.n_poles, n_zeros=top.n_zeros, process_noise=True, **kwargs)
+        model.fit(**fit_args, **parts)
+        best = _best_member(structure, top.n_poles, top.n_zeros, model, kwargs, fit_args, val, result.criterion,
+                            others=[top])
+        if best is not top:
+            best.seconds = top.seconds + time.perf_counter() - t1
+            best.cpu_seconds = top.cpu_seconds + time.process_time() - c1
+            best.feasible = _feasible(best.model, constraint, size_fn, max_bytes)
+            candidates[candidates.index(top)] = best
+        kept = "process noise" if best.model.spec.g_noise else "output error kept"
+        refitted.append(f"{structure} {top.n_poles}p{top.n_zeros}z ({kept})")
+    note = "process noise fitted for " + ", ".join(refitted) if refitted else "no Wiener or WH candidate for process noise"
+    return SearchResult(candidates, result.seconds + time.perf_counter() - t0, result.tie_tol, result.criterion,
+                        result.holdout + ("; " if result.holdout else "") + note)
 
 
 def _staged_search(grid, executor, n_orders: int, args) -> SearchResult:

@@ -21,3 +21,16 @@ def test_rms_percent_of_a_negative_output_uses_its_peak_magnitude():
     yhat = y + 0.08
     assert abs(rms_percent(y, yhat) - 0.08 / np.abs(y).max() * 100) < 1e-9
     assert 0.99 < rms_percent(y, yhat) < 1.01  # 0.08 of a peak of about 8
+
+
+def test_relative_standard_error_matches_the_spread_of_error_norms():
+    """The tie rules' standard error, 1 / sqrt(2 n), against the measured spread of ||e|| over
+    4000 draws of n Gaussian residuals (its own estimate has a relative error of about
+    1 / sqrt(2 x 4000) = 1.1 %; bound 5 %)."""
+    from porosense.ident.metrics import relative_standard_error
+
+    rng = np.random.default_rng(3)
+    for n in (50, 400, 3000):
+        norms = np.linalg.norm(rng.standard_normal((4000, n)), axis=1)
+        measured = np.std(norms) / np.mean(norms)
+        assert abs(measured / relative_standard_error(n) - 1.0) < 0.05, (n, measured)

@@ -17,6 +17,7 @@ import numpy as np
 from porosense import ident
 from porosense.ident import estimate, noise_level
 from porosense.ident.chain import Chain
+from porosense.ident.metrics import relative_standard_error
 from wh_benchmark import records
 
 SKIP = 200
@@ -35,7 +36,7 @@ def main() -> int:
     builds = estimate._map_builds(partial(estimate._noise_from_periods, us=nus, ys=nys, opts=opts, periods=periods), oe)
     low = min(f.sse for f in builds)
     n_res = sum(len(y) - SKIP for y in ys)
-    print(f"{n} realisations; tie: within {np.sqrt(2.0 / n_res) * 100:.2f} % of the lowest error")
+    print(f"{n} realisations; tie: within {200 * relative_standard_error(n_res):.2f} % of the lowest error")
     for f in builds:
         z = Chain(f.spec, f.theta).simulate(ut / scale, expected=False) * std + mean
         print(f"{f.build}: {f.spec.n_params} parameters, error {100 * (f.sse / low - 1):+.2f} %, level "

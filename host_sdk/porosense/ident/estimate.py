@@ -21,6 +21,7 @@ from porosense.ident import bla_split, blocks, noise_level
 from porosense.ident.chain import Chain, ChainSpec, _filter
 from porosense.ident.linear_init import arx, iv
 from porosense.ident.lm import levenberg_marquardt
+from porosense.ident.metrics import relative_standard_error
 
 
 
@@ -643,9 +644,9 @@ def _map_builds(refine_build, builds: list) -> list:
 
 def _fewest_within_noise(fits: list[Fit], n: int) -> Fit:
     """The fit with the fewest parameters among those whose error is within one standard error
-    of the lowest, the rule the order search applies to candidates (search.SearchResult): a fit
-    of F % over n samples has a standard error of (100 - F) / sqrt(2 n) points, i.e. the error
-    norm a relative one of 1 / sqrt(2 n) and the squared error sqrt(2 / n). Noise-aware builds
+    of the lowest, the rule the order search applies to candidates (search.SearchResult), with
+    the same standard error (metrics.relative_standard_error; twice it for a squared error).
+    Noise-aware builds
     differ in how they split the dynamics between H1 and H2; on the measured benchmark their
     expected outputs agree to 0.2-0.7 % against a standard error of 0.5-0.7 %
     (tools/explore/wh_process_noise_builds.py)."""
@@ -653,7 +654,7 @@ def _fewest_within_noise(fits: list[Fit], n: int) -> Fit:
     if not finite:
         return fits[0]
     low = min(f.sse for f in finite)
-    near = [f for f in finite if f.sse <= low * (1.0 + np.sqrt(2.0 / max(n, 1)))]
+    near = [f for f in finite if f.sse <= low * (1.0 + 2.0 * relative_standard_error(n))]
     return min(near, key=lambda f: (f.spec.n_params, f.sse))
 
 

@@ -19,6 +19,15 @@ def fit_percent(y, yhat) -> float:
     return float(100.0 * (1.0 - np.linalg.norm(y - yhat) / den))
 
 
+def relative_standard_error(n_samples: int) -> float:
+    """Relative standard error of an error norm ||e|| over ``n_samples`` independent Gaussian
+    residuals: 1 / sqrt(2 n) (dimensionless). The squared norm's is twice that. Both tie rules
+    of the engine use it: candidates of the order search within one standard error of the best
+    fit (a fit of F % has one of (100 - F) / sqrt(2 n) points), and process-noise builds within
+    one standard error of the lowest squared error."""
+    return 1.0 / np.sqrt(2.0 * max(int(n_samples), 1))
+
+
 def rms_percent(y, yhat) -> float:
     """RMS error in % of the output's peak, as the paper reports it (100 / max(y) RMSE).
 

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from porosense.errors import InputError
+from porosense.ident.metrics import relative_standard_error
 from porosense.ident.models import KINDS, NOISE_KINDS, Model, as_recordings, make_model
 
 STRUCTURES = tuple(KINDS)
@@ -268,7 +269,7 @@ def tie_tolerance(top: Candidate, criterion: str, tie_tol: float = 0.01) -> floa
     n = top.n_validation if top.fit_validation else top.model.info.get("n_samples", 0) if top.model else 0
     if criterion == "paper" or n <= 0:
         return tie_tol
-    return max(tie_tol, (100.0 - top.score(criterion)) / np.sqrt(2.0 * n))
+    return max(tie_tol, (100.0 - top.score(criterion)) * relative_standard_error(n))
 
 
 def _best_member(structure, n_poles, n_zeros, model, kwargs, fit_args, val, criterion, others=()) -> Candidate:

@@ -40,6 +40,10 @@ def main() -> int:
         noise = " (process noise)" if c.model.spec.g_noise else ""
         print(f"{s} {c.n_poles}p{c.n_zeros}z{noise}: validation fit {c.validation_fit:.2f} %, "
               f"test RMSE {test_mv(c.model):.2f} mV")
+    for c in res.candidates:
+        if c.model.spec.g_noise:
+            print(f"refitted with process noise: {c.structure} {c.n_poles}p{c.n_zeros}z, validation fit "
+                  f"{c.validation_fit:.2f} %, test RMSE {test_mv(c.model):.2f} mV")
     print(f"selected: test RMSE {test_mv(res.model):.2f} mV")
     return 0
 

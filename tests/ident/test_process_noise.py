@@ -164,6 +164,7 @@ def test_search_refits_only_the_best_wiener_and_wh_with_process_noise():
               n_breakpoints=6, max_nfev=20, starts=1, progress=False, criterion="fit")
     oe = ident.search(**kw)
     pn = ident.search(**kw, process_noise=True)
+    tie_tolerance = importlib.import_module("porosense.ident.search").tie_tolerance
     assert "process noise fitted for wiener" in pn.rule and ", wh " in pn.rule, pn.rule
     for structure in ("wiener", "wh"):
         top = max((c for c in oe.candidates if c.structure == structure), key=lambda c: c.score("fit"))
@@ -171,7 +172,7 @@ def test_search_refits_only_the_best_wiener_and_wh_with_process_noise():
         refit = after.pop((top.n_poles, top.n_zeros))
         # The finalist is the noise fit or an output-error fit; its score is never more than one
         # standard error below the output-error candidate it replaced.
-        assert refit.score("fit") >= top.score("fit") - importlib.import_module("porosense.ident.search").tie_tolerance(top, "fit") - 1e-9
+        assert refit.score("fit") >= top.score("fit") - tie_tolerance(top, "fit") - 1e-9
         print(f"{structure} {top.n_poles}p{top.n_zeros}z: OE {top.score('fit'):.3f} %, "
               f"after the refit {refit.score('fit'):.3f} % (process noise: {refit.model.spec.g_noise})")
         # The other orders are the output-error fits, parameter for parameter.
@@ -307,7 +308,6 @@ def test_search_keeps_the_measured_noise_model_when_its_oe_member_is_within_the_
     """The order search scores a process-noise model and its output-error member on validation
     data that carry the same noise. With the level measured from periods, the noise-aware model
     is kept unless its member validates better by more than one standard error of the fit."""
-
     search_mod = importlib.import_module("porosense.ident.search")  # the module, not the function
 
     us, ys, _ = _periodic_records(1)

@@ -398,12 +398,11 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
                     validation_skip=validation_skip, criterion=criterion, holdout=holdout, staged=staged,
                     staged_orders=staged_orders, smoothness=smoothness, monotone=monotone,
                     input_unit=input_unit, output_unit=output_unit)
-        return _with_process_noise(oe, u=u, y=y, ts=ts, validation=validation, validation_skip=validation_skip,
-                                   inputs=inputs, output=output, input_unit=input_unit, output_unit=output_unit,
-                                   constraint=constraint, size_fn=size_fn, max_bytes=max_bytes,
-                                   kwargs=dict(n_breakpoints=n_breakpoints, delay=delay, starts=starts,
-                                               max_nfev=max_nfev, skip=skip, smoothness=smoothness,
-                                               monotone=monotone))
+        fit_args, val = _fit_args_and_validation(u, y, ts, validation, validation_skip, inputs, output,
+                                                 input_unit, output_unit)
+        return _with_process_noise(oe, fit_args, val, _model_options(n_breakpoints, delay, starts, max_nfev, skip,
+                                                                     smoothness, monotone),
+                                   constraint, size_fn, max_bytes)
     if staged:
         args = dict(u=u, y=y, ts=ts, validation=validation, n_breakpoints=n_breakpoints, delay=delay,
                     starts=starts, max_nfev=max_nfev, skip=skip, inputs=inputs, output=output,
@@ -412,23 +411,13 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
                     smoothness=smoothness, monotone=monotone, input_unit=input_unit, output_unit=output_unit)
         return _staged_search(list(grid) if grid is not None else order_grid(structures, poles, zeros),
                               executor, staged_orders, args)
-    us, ys = as_recordings(u, y)
-    val = None
-    if validation is not None:
-        vu, vy = as_recordings(*validation)
-        vskips = _skips(validation_skip, len(vy))
-        if len(vskips) != len(vy) or any(len(v) - k < 2 for v, k in zip(vy, vskips)):
-            raise InputError("every validation recording needs at least 2 scored samples after its skip")
-        val = (vu, vy, vskips)
+    fit_args, val = _fit_args_and_validation(u, y, ts, validation, validation_skip, inputs, output, input_unit,
+                                             output_unit)
     grid = list(grid) if grid is not None else order_grid(structures, poles, zeros)
     if not grid:
         raise InputError("empty order grid")
     rank = {g: i for i, g in enumerate(grid)}
-    kwargs = {"n_breakpoints": n_breakpoints, "delay": delay, "starts": starts, "max_nfev": max_nfev, "skip": skip}
-    if smoothness or monotone:
-        kwargs.update(smoothness=smoothness, monotone=monotone)
-    fit_args = {"u": us, "y": ys, "ts": ts, "inputs": inputs, "output": output, "input_unit": input_unit,
-                "output_unit": output_unit}
+    kwargs = _model_options(n_breakpoints, delay, starts, max_nfev, skip, smoothness, monotone)
     # Most expensive first so that the pool stays busy to the end.
     weight = {"wh": 2, "hammerstein": 2, "wiener": 2, "linear": 1}
     tasks = _tasks(grid)
@@ -468,8 +457,30 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     return SearchResult(candidates, time.perf_counter() - t0, tie_tol, criterion, holdout)
 
 
-def _with_process_noise(result: SearchResult, *, u, y, ts, validation, validation_skip, inputs, output, input_unit,
-                        output_unit, constraint, size_fn, max_bytes, kwargs) -> SearchResult:
+def _fit_args_and_validation(u, y, ts, validation, validation_skip, inputs, output, input_unit, output_unit):
+    """(keyword arguments of Model.fit, (validation inputs, outputs, skips) or None), checked."""
+    us, ys = as_recordings(u, y)
+    val = None
+    if validation is not None:
+        vu, vy = as_recordings(*validation)
+        vskips = _skips(validation_skip, len(vy))
+        if len(vskips) != len(vy) or any(len(v) - k < 2 for v, k in zip(vy, vskips)):
+            raise InputError("every validation recording needs at least 2 scored samples after its skip")
+        val = (vu, vy, vskips)
+    fit_args = {"u": us, "y": ys, "ts": ts, "inputs": inputs, "output": output, "input_unit": input_unit,
+                "output_unit": output_unit}
+    return fit_args, val
+
+
+def _model_options(n_breakpoints, delay, starts, max_nfev, skip, smoothness, monotone) -> dict:
+    """The make_model options every candidate of a search shares (the penalties only when set)."""
+    kwargs = {"n_breakpoints": n_breakpoints, "delay": delay, "starts": starts, "max_nfev": max_nfev, "skip": skip}
+    if smoothness or monotone:
+        kwargs.update(smoothness=smoothness, monotone=monotone)
+    return kwargs
+
+
+def _with_process_noise(result: SearchResult, fit_args, val, kwargs, constraint, size_fn, max_bytes) -> SearchResult:
     """``result`` with its best Wiener and best WH candidate (by its criterion, feasible first)
     refitted with a process noise at g's input, each replaced by the better of that fit and the
     output-error fits by :func:`_best_member`. The refit starts from the linear, Wiener and
@@ -478,15 +489,6 @@ def _with_process_noise(result: SearchResult, *, u, y, ts, validation, validatio
     Runs in this process, so the WH's builds are refined on a pool of the machine's cores
     (:func:`porosense.ident.estimate._map_builds`)."""
     t0 = time.perf_counter()
-    us, ys = as_recordings(u, y)
-    val = None
-    if validation is not None:
-        vu, vy = as_recordings(*validation)
-        val = (vu, vy, _skips(validation_skip, len(vy)))
-    fit_args = {"u": us, "y": ys, "ts": ts, "inputs": inputs, "output": output, "input_unit": input_unit,
-                "output_unit": output_unit}
-    if not kwargs.get("smoothness") and not kwargs.get("monotone"):
-        kwargs = {k: v for k, v in kwargs.items() if k not in ("smoothness", "monotone")}
     candidates = list(result.candidates)
     refitted = []
     for structure in NOISE_KINDS:

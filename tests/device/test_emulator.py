@@ -225,3 +225,25 @@ def test_estimates_are_made_by_the_firmware_core(tmp_path):
     dr, est = np.array(out["dr"], dtype=np.int16), np.array(out["est"], dtype=np.int16)
     assert np.ptp(est[:, 0]) > 0  # the model responds to the boot transient and noise
     assert np.array_equal(est, reference_run(blob, dr))
+
+
+def test_a_driving_board_leads_a_silent_host_by_at_most_the_lockstep_lead():
+    """Lockstep makes samples as fast as the host reads, and the socket buffers hold thousands.
+    While the board drives the plant its clock may lead the host's last frame by at most
+    LOCKSTEP_LEAD_S plus the wall time since: otherwise a host pinging every few samples looks
+    silent to the link watchdog (measured without the bound: about 37 s of device time in a
+    0.3 s pause at 100 Hz). Bound: the lead plus the pause plus one sample period."""
+    from porosense.emulator.emulator import LOCKSTEP_LEAD_S
+
+    with Emulator() as emu, Device.open(emu.url) as dev:
+        dev.set_watchdog(10000)
+        dev.start_stream(100)
+        dev.set_outputs(-10.0, pumps=1)
+        t0, w0 = dev.ping().device_time_us, time.monotonic()
+        time.sleep(0.3)  # the host reads nothing
+        t1, wall = dev.ping().device_time_us, time.monotonic() - w0
+        dev.set_outputs(0.0)
+        dev.stop_stream()
+    lead = (t1 - t0) / 1e6
+    print(f"device time between the pings {lead:.3f} s over {wall:.3f} s of wall time")
+    assert lead <= LOCKSTEP_LEAD_S + wall + 1 / 100

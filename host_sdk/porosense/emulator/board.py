@@ -100,6 +100,12 @@ class BoardCore:
         st = self.fw.state
         return list(st.setpoint_dkpa), int(st.pump_mask), int(st.valve_mask)
 
+    @property
+    def driving(self) -> bool:
+        """True while the board drives the plant (a setpoint, a pump or a valve is on)."""
+        setpoints, pumps, valves = self._drive
+        return any(setpoints) or any(pumps) or any(valves)
+
     def _collect(self, data: bytes, sample_t_us: int | None = None) -> None:
         """After firmware ran: follow its outputs, pass on its bytes, honour reset or power loss."""
         st = self.fw.state

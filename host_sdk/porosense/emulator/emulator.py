@@ -6,6 +6,10 @@ Two timings:
   period per SAMPLE and the next sample is made as soon as the previous one has left, so the
   host receives correctly timestamped samples as fast as it reads them (a host that stops
   reading stops the board's clock). When not streaming the clock follows the wall clock.
+  While the board drives the plant, its clock leads the host's last frame by at most
+  LOCKSTEP_LEAD_S plus the wall-clock time since that frame: the kernel's socket buffers
+  hold thousands of samples, and a board that ran that far ahead would see a host pinging
+  every few samples as silent for seconds (its link watchdog would cut the outputs).
 * real time (``realtime=True``): the clock follows the wall clock (times ``speed``) and
   the UART sends at 115200 baud from a 64-byte transmit buffer; telemetry that does not fit
   is dropped and counted, like on the board.
@@ -35,6 +39,7 @@ FAST_BATCH_BYTES = 1024
 MAX_CATCH_UP_S = 1.0
 WRAP_US = float(1 << 32)  # the device's microsecond clock wraps here
 IDLE_WAIT_S = 0.02
+LOCKSTEP_LEAD_S = 1.0  # device s a driving board may run ahead of the host's last frame
 
 
 @dataclass
@@ -99,6 +104,7 @@ class Emulator:
         self._out = bytearray()
         self._tokens = 0.0  # real time: bytes the UART may send now
         self._t_tokens_us = 0  # device time of that credit
+        self._host_frame = (0, time.monotonic())  # (board time us, wall s) of the host's last bytes
         self._lock = threading.RLock()
         self._hello = HelloRewrite(version=tuple(proto_version) if proto_version else None)
         self.core = BoardCore(
@@ -280,7 +286,7 @@ class Emulator:
             # Wait for input, room to write, or the next event.
             wait = IDLE_WAIT_S
             if core.streaming:
-                if lockstep and not self._out:
+                if lockstep and not self._out and self._may_lead(core, wall):
                     wait = 0.0
                 elif self.realtime:
                     due = core.next_tick_T_us()
@@ -301,16 +307,26 @@ class Emulator:
                         if self.reset_on_connect:
                             core.power_cycle()
                     if data:
+                        self._host_frame = (core.T_us, time.monotonic())
                         core.receive(self.link.host_to_board(data))
             with self._lock:
                 if core.streaming:
                     if self.realtime:
                         self._sample_due(core)
                     elif ep.connected:
-                        while core.streaming and len(self._out) < FAST_BATCH_BYTES:
+                        now = time.monotonic()
+                        while core.streaming and len(self._out) < FAST_BATCH_BYTES and self._may_lead(core, now):
                             core.sample()
             if self._out:
                 self._flush()
+
+    def _may_lead(self, core: BoardCore, wall: float) -> bool:
+        """Lockstep: whether the next sample may be made now (see the module docstring)."""
+        if not core.driving:
+            return True
+        due = core.next_tick_T_us()
+        host_T_us, host_wall = self._host_frame
+        return due is None or due <= host_T_us + (LOCKSTEP_LEAD_S + (wall - host_wall) * self.speed) * 1e6
 
     def _sample_due(self, core: BoardCore) -> None:
         """Real time: every tick up to now. A loop that fell behind (a busy host computer)

@@ -331,3 +331,62 @@ def test_search_keeps_the_measured_noise_model_when_its_oe_member_is_within_the_
     assert best_aic.score("aic") == max(m.score("aic") for m in members)
     best = search_mod._best_member("wh", 2, 1, model, kwargs, fit_args, val, "fit")
     assert best.model.spec.g_noise
+
+
+def test_period_power_standard_error_matches_the_spread_over_independent_records():
+    """The standard error that decides whether a model reproduces the measured period power
+    (noise_level.PeriodData.measured_error, from the Welch segments of one data set) against
+    the actual spread of that power over 200 independent data sets of the same system. Own
+    generator: a periodic input through a random resonant filter, output plus AR(2) noise of
+    random colour; 3 records x 2 periods x 1500 samples. Bound: within 25 % of the spread
+    (the spread of 200 draws is itself known to about 5 %)."""
+    rng = np.random.default_rng(11)
+    period = 1500
+    r, a = rng.uniform(0.6, 0.9), rng.uniform(0.2, 1.0)
+    ar = [1.0, -2 * r * np.cos(a), r * r]
+    us = [np.tile(rng.standard_normal(period), 2)[:, None] for _ in range(3)]
+    clean = [lfilter([1.0, 0.5], [1.0, -0.7], u[:, 0]) for u in us]
+
+    def data_set():
+        ys = [c + 0.3 * lfilter([1.0], ar, rng.standard_normal(len(c))) for c in clean]
+        return noise_level.PeriodData(us, ys, skip=SKIP)
+
+    first = data_set()
+    used, width = first.bands.used, np.diff(first.bands.edges)[first.bands.used]
+    powers, errors = [], []
+    for _ in range(200):
+        d = data_set()
+        powers.append(float(d.measured[used] @ width))
+        errors.append(d.measured_error)
+    spread = np.std(powers, ddof=1) / np.mean(powers)
+    print(f"relative standard error: from segments {np.mean(errors):.4f} (median {np.median(errors):.4f}), "
+          f"spread over data sets {spread:.4f}")
+    assert abs(np.mean(errors) / spread - 1) < 0.25
+
+
+def test_a_noise_model_the_period_differences_refute_is_rejected_and_the_oe_fit_kept(monkeypatch, tmp_path):
+    """When no refined build reproduces the measured period power (every one beyond its
+    bound; here forced by a zero bound), the process-noise fit is refuted by the data: the model
+    keeps the output-error fit (a vanishing noise: the same output), says so, and the search
+    does not prefer it over its output-error member."""
+    est = importlib.import_module("porosense.ident.estimate")
+    monkeypatch.setattr(noise_level, "CONSISTENCY_Z", 0.0)
+    monkeypatch.setattr(est, "PERIOD_TOLERANCE", 0.0)
+    us, ys, _ = _periodic_records(0)
+    us = [u[:, None] for u in us]
+    m = ident.WienerHammerstein(n_poles=2, n_zeros=1, n_breakpoints=8, skip=SKIP, starts=1, max_nfev=20,
+                                process_noise=True).fit(u=us, y=ys)
+    info = m.info["process_noise"]
+    assert info["method"] == "repeated periods, rejected" and not info["consistent"]
+    assert info["power_ratio_error"] > 0 and "rejected" in m.info["build"]
+    oe = m.alternative_models()[0]
+    assert not oe.spec.g_noise
+    np.testing.assert_allclose(m.predict(u=us[0]), oe.predict(u=us[0]), rtol=1e-9, atol=1e-9)
+    line = importlib.import_module("porosense.cli.identify")._process_noise_line(m)
+    assert line.startswith("process noise: rejected") and "2.58 standard errors" in line
+    search_mod = importlib.import_module("porosense.ident.search")
+    kwargs, fit_args = {"skip": SKIP}, {"u": us, "y": ys}
+    best = search_mod._best_member("wh", 2, 1, m, kwargs, fit_args, (us, ys, [SKIP] * 2), "fit")
+    assert best.score("fit") == max(c.score("fit") for c in
+                                    [search_mod._score("wh", 2, 1, x, kwargs, fit_args, (us, ys, [SKIP] * 2), 0, 0)
+                                     for x in [m] + m.alternative_models()])

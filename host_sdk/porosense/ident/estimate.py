@@ -475,7 +475,16 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS, alt
         builds = [fit] + [f for f in alternatives if f.spec.g_bp and not f.spec.g_noise]
         n = sum(len(y) - opts.skip for y in ys)
         refined = _map_builds(partial(_noise_from_periods, us=us, ys=ys, opts=opts, periods=periods), builds)
-        return _fewest_within_noise(refined, n)
+        consistent = [f for f in refined if f.notes["process_noise"]["consistent"]]
+        if consistent:
+            return _fewest_within_noise(consistent, n)
+        # No build reproduces the measured period power at any level tried: its noise model is
+        # refuted by the data, and the output-error fit stays (as a vanishing noise).
+        closest = min(refined, key=lambda f: abs(np.log(f.notes["process_noise"]["power_ratio"])))
+        out = _vanishing_noise(fit, us, ys, opts.skip)
+        out.build = (fit.build + " + " if fit.build else "") + "process noise rejected"
+        out.notes = {"process_noise": {**closest.notes["process_noise"], "method": "repeated periods, rejected"}}
+        return out
     spec = replace(fit.spec, g_noise=True)
     sl, old = spec.slices(), fit.spec.slices()
     chain = Chain(fit.spec, fit.theta)
@@ -493,14 +502,21 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS, alt
         keep = [thetas[i] for i in np.argsort(costs)[: max(opts.starts, 1)]]
         out = multistart(spec, keep, us, ys, opts)
         if not out.sse <= fit.sse:
-            # No noise level beats the output-error fit: keep it, as a vanishing noise (exp(-30)).
-            theta = np.zeros(spec.n_params)
-            theta[:cut] = fit.theta[:cut]
-            theta[sl["g.s"]] = -30.0
-            theta[sl["g.s"].stop:] = fit.theta[cut:]
-            out = Fit(spec, theta, sse(spec, theta, us, ys, opts.skip), out.nfev)
+            # No noise level beats the output-error fit: keep it, as a vanishing noise.
+            out = _vanishing_noise(fit, us, ys, opts.skip, out.nfev)
     out.build = (fit.build + " + " if fit.build else "") + "process noise"
     return out
+
+
+def _vanishing_noise(fit: Fit, us, ys, skip: int, nfev: int = 0) -> Fit:
+    """``fit`` as a process-noise model whose noise vanishes (sigma = exp(-30)): the same output."""
+    spec = replace(fit.spec, g_noise=True)
+    sl, cut = spec.slices(), fit.spec.slices()["g.y"].stop
+    theta = np.zeros(spec.n_params)
+    theta[:cut] = fit.theta[:cut]
+    theta[sl["g.s"]] = -30.0
+    theta[sl["g.s"].stop:] = fit.theta[cut:]
+    return Fit(spec, theta, sse(spec, theta, us, ys, skip), nfev)
 
 
 # The smallest weight of the smoothness grid (search.choose_smoothness). A noise-aware g is a
@@ -623,6 +639,8 @@ def _noise_from_periods(fit: Fit, us, ys, opts: Options, periods) -> Fit:
     out.notes = {"process_noise": {
         "method": "repeated periods", "periods": periods.describe(), "sigma": float(sigma),
         "sigma_per_spread": float(sigma / spread), "power_ratio": float(check.power_ratio),
+        "power_ratio_error": float(check.ratio_error),
+        "consistent": periods.consistent(check, PERIOD_TOLERANCE),
         "shape_misfit": float(check.shape_misfit), "band_edges": check.band_edges.tolist(),
         "noise_density": check.shape.tolist(), "smoothness": opts.smoothness}}
     return out

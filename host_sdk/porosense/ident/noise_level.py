@@ -13,6 +13,10 @@ draws) and compared with the measured one in frequency bands:
 - what remains is the ratio of simulated to measured power. It grows with the level, and the
   level at which it equals 1 is the estimate.
 
+A model whose ratio stays away from 1 by more than CONSISTENCY_Z standard errors (the scatter
+of the measured and simulated powers over their Welch segments) cannot reproduce the noise: its
+blocks are refuted by the period differences, whatever its expected output fits.
+
 Bands beyond the one where the measured power reaches 99.9 % of its total are left out: what is
 there is the output's measurement noise, not the process noise. Everything works in the
 normalised units of :mod:`porosense.ident.estimate`.
@@ -23,7 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import welch
+from scipy.signal import spectrogram, welch
 
 from porosense.ident import blocks
 from porosense.ident.chain import Chain, _filter
@@ -38,6 +42,9 @@ N_BANDS = 14               # log-spaced band edges over the Welch grid
 POWER_KEPT = 0.999         # measured power the compared bands hold
 SHAPE_ITERATIONS = 8
 MC_PAIRS = 2               # simulated period pairs per measured one
+# Two-sided 1 % quantile of the standard normal: a model whose simulated period power misses the
+# measured one by more than this many standard errors cannot reproduce the noise at any level.
+CONSISTENCY_Z = 2.576
 
 
 def repeated_period(u, skip: int = 0) -> int:
@@ -79,6 +86,28 @@ class _Bands:
         p = total / weight
         return np.array([p[a:b].mean() for a, b in zip(self.edges[:-1], self.edges[1:])])
 
+    def relative_error(self, diffs) -> float:
+        """Relative standard error of the compared power of ``diffs`` as :meth:`powers` averages
+        it: the compared power of every Welch segment, whose mean has variance (c0 + 2 c1) / K
+        for K segments (c0 their variance, c1 the covariance of neighbours, which overlap by half;
+        segments further apart are independent for noise far shorter than a segment)."""
+        width = np.diff(self.edges)[self.used]
+        per_record = []
+        for d in diffs:
+            if len(d) < SEGMENT:
+                continue
+            _, _, p = spectrogram(d, nperseg=SEGMENT, noverlap=SEGMENT // 2, window="hann", mode="psd")
+            band = np.array([p[a:b].mean(axis=0) for a, b in zip(self.edges[:-1], self.edges[1:])])
+            per_record.append(width @ band[self.used])
+        k = sum(len(p) for p in per_record)
+        if k < 3:
+            return float("inf")
+        mean = np.concatenate(per_record).mean()
+        dev = [p - mean for p in per_record]
+        c0 = sum(float(d @ d) for d in dev) / (k - 1)
+        c1 = sum(float(d[1:] @ d[:-1]) for d in dev) / (k - 1)
+        return float(np.sqrt(max(c0 + 2 * c1, c0 / k) / k) / mean)
+
 
 @dataclass
 class PeriodNoise:
@@ -90,6 +119,7 @@ class PeriodNoise:
     band_edges: np.ndarray       # band edges, cycles per sample
     shape_misfit: float          # largest |log| band ratio left after the shape fit
     n_pairs: int = 0
+    ratio_error: float = float("nan")  # standard error of log(power_ratio): measured and simulated scatter
     extra: dict = field(default_factory=dict)
 
 
@@ -116,6 +146,14 @@ class PeriodData:
         cum = np.cumsum(measured * width) / np.sum(measured * width)
         bands.used = np.r_[True, cum[:-1] < POWER_KEPT]
         self.bands, self.measured = bands, measured
+        self.measured_error = bands.relative_error([d for _, _, ds in self.records for d in ds])
+
+    def consistent(self, check: PeriodNoise, tolerance: float = 0.0) -> bool:
+        """Whether a model's simulated period power (``check``) agrees with the measured one:
+        |log ratio| within CONSISTENCY_Z standard errors (two-sided, 1 %) or ``tolerance``."""
+        bound = max(tolerance, CONSISTENCY_Z * check.ratio_error)
+        return bool(np.isfinite(check.power_ratio) and check.power_ratio > 0
+                    and abs(np.log(check.power_ratio)) <= bound)
 
     def __bool__(self) -> bool:
         return bool(self.records)
@@ -154,7 +192,8 @@ class PeriodData:
             misfit = float(np.max(np.abs(np.log(update))))
             shape[used] *= update
             shape /= shape.max()
-        return PeriodNoise(sigma, ratio, shape[used].copy(), edges / SEGMENT, misfit, self.n_pairs)
+        error = float(np.hypot(self.measured_error, self.bands.relative_error(simulated)))
+        return PeriodNoise(sigma, ratio, shape[used].copy(), edges / SEGMENT, misfit, self.n_pairs, error)
 
 
 def _split(y, period: int, skip: int):

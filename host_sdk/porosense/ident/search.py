@@ -511,7 +511,9 @@ def _with_process_noise(result: SearchResult, fit_args, val, kwargs, constraint,
             best.cpu_seconds = top.cpu_seconds + time.process_time() - c1
             best.feasible = _feasible(best.model, constraint, size_fn, max_bytes)
             candidates[candidates.index(top)] = best
-        kept = "process noise" if best.model.spec.g_noise else "output error kept"
+        method = best.model.info.get("process_noise", {}).get("method", "")
+        kept = ("process noise rejected by the period differences, output error kept" if method.endswith("rejected")
+                else "process noise" if best.model.spec.g_noise else "output error kept")
         refitted.append(f"{structure} {top.n_poles}p{top.n_zeros}z ({kept})")
     note = "process noise fitted for " + ", ".join(refitted) if refitted else "no Wiener or WH candidate for process noise"
     return SearchResult(candidates, result.seconds + time.perf_counter() - t0, result.tie_tol, result.criterion,

@@ -390,3 +390,28 @@ def test_a_noise_model_the_period_differences_refute_is_rejected_and_the_oe_fit_
     assert best.score("fit") == max(c.score("fit") for c in
                                     [search_mod._score("wh", 2, 1, x, kwargs, fit_args, (us, ys, [SKIP] * 2), 0, 0)
                                      for x in [m] + m.alternative_models()])
+
+
+def test_search_with_process_noise_orders_by_the_nonparametric_bla():
+    """With at least 4 realisations that repeat their input, the search with process noise
+    ranks orders by the nonparametric BLA (validation data carrying the noise cannot): linear
+    orders by their number of parameters until one is not refuted at 1 %, the nonlinear
+    structures at that order only, candidates at refuted orders never selected. Own generator
+    (random WH, AR(1) process noise at 0.3-0.7 of g's input spread), 5 + 1 records x 2 periods."""
+    us, ys, _ = _periodic_records(4, n_records=6, period=600)
+    us = [u[:, None] for u in us]
+    grid = [(s, p, z) for s in ("linear", "wh") for p in (1, 2, 3, 4) for z in range(p)]
+    res = ident.search(u=us[:5], y=ys[:5], ts=0.02, validation=(us[5:], ys[5:]), validation_skip=SKIP, skip=SKIP,
+                       grid=grid, n_breakpoints=6, max_nfev=20, starts=1, progress=False, criterion="fit",
+                       staged=True, process_noise=True)
+    print(res)
+    assert "order from the nonparametric BLA of 5 realisations" in res.rule
+    order = {(c.n_poles, c.n_zeros) for c in res.candidates if c.structure == "wh"}
+    assert len(order) == 1
+    (p, z), = order
+    linear = {(c.n_poles, c.n_zeros): c for c in res.candidates if c.structure == "linear"}
+    # Every linear order with fewer parameters was fitted and refuted; none with more was fitted.
+    assert all(linear[o].refuted for o in linear if sum(o) < p + z)
+    assert not linear[(p, z)].refuted and max(sum(o) for o in linear) == p + z
+    assert not res.best.refuted and (res.best.n_poles, res.best.n_zeros) not in \
+        {o for o, c in linear.items() if c.refuted}

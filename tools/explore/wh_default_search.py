@@ -6,7 +6,8 @@ selection by the validation fit; ``--process-noise`` refits the best Wiener and 
 with a process noise whose level is measured from the two periods of each realisation.
 Prints the search table and rule, the wall time, and the noise-free multisine test RMSE (mV)
 of the best candidate of each structure and of the selected one.
-Run: .venv/bin/python tools/explore/wh_default_search.py [realisations] [--process-noise]
+``--wh``: the WH structure only (``identify --structure wh``).
+Run: .venv/bin/python tools/explore/wh_default_search.py [realisations] [--process-noise] [--wh]
 """
 
 import sys
@@ -15,6 +16,7 @@ import time
 import numpy as np
 
 from porosense import ident
+from porosense.ident.search import STRUCTURES
 from wh_benchmark import records
 
 SKIP = 200
@@ -26,7 +28,9 @@ def main() -> int:
     n = int(args[0]) if args else 5
     us, ys, ut, yt = records(n + 1)
     t0 = time.perf_counter()
+    structures = ("wh",) if "--wh" in sys.argv else STRUCTURES
     res = ident.search(u=us[:n], y=ys[:n], ts=1 / FS, validation=(us[n:], ys[n:]), validation_skip=SKIP, skip=SKIP,
+                       structures=structures,
                        n_breakpoints=10, starts=2, max_nfev=200, criterion="fit", staged=True,
                        process_noise="--process-noise" in sys.argv, progress=False)
     wall = time.perf_counter() - t0

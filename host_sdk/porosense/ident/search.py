@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from porosense.errors import InputError
+from porosense.ident.bla_test import NonparametricBLA
 from porosense.ident.metrics import relative_standard_error
 from porosense.ident.models import KINDS, NOISE_KINDS, Model, as_recordings, make_model
 
@@ -45,6 +46,7 @@ class Candidate:
     model: Model | None = field(default=None, repr=False)
     cpu_seconds: float = float("nan")
     n_validation: int = 0
+    refuted: bool = False  # its order's linear model is refuted by the nonparametric BLA (bla_test)
 
     @property
     def validation_fit(self) -> float:
@@ -119,6 +121,7 @@ class SearchResult:
 
     def _select(self):
         pool = self.feasible or self.candidates
+        pool = [c for c in pool if not c.refuted] or pool
         key = (lambda c: c.score(self.criterion))
         top = max(pool, key=key)
         tol = self.tolerance(top)
@@ -391,15 +394,18 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     if criterion not in CRITERIA:
         raise InputError(f"unknown criterion {criterion!r}; choose from {', '.join(CRITERIA)}")
     if process_noise:
-        oe = search(u=u, y=y, ts=ts, validation=validation, structures=structures, poles=poles, zeros=zeros,
-                    n_breakpoints=n_breakpoints, delay=delay, starts=starts, max_nfev=max_nfev, skip=skip,
-                    inputs=inputs, output=output, executor=executor, progress=progress, constraint=constraint,
-                    size_fn=size_fn, max_bytes=max_bytes, grid=grid, tie_tol=tie_tol,
-                    validation_skip=validation_skip, criterion=criterion, holdout=holdout, staged=staged,
-                    staged_orders=staged_orders, smoothness=smoothness, monotone=monotone,
-                    input_unit=input_unit, output_unit=output_unit)
         fit_args, val = _fit_args_and_validation(u, y, ts, validation, validation_skip, inputs, output,
                                                  input_unit, output_unit)
+        args = dict(u=u, y=y, ts=ts, validation=validation, n_breakpoints=n_breakpoints, delay=delay,
+                    starts=starts, max_nfev=max_nfev, skip=skip, inputs=inputs, output=output, progress=progress,
+                    constraint=constraint, size_fn=size_fn, max_bytes=max_bytes, tie_tol=tie_tol,
+                    validation_skip=validation_skip, criterion=criterion, holdout=holdout, smoothness=smoothness,
+                    monotone=monotone, input_unit=input_unit, output_unit=output_unit)
+        full = list(grid) if grid is not None else order_grid(structures, poles, zeros)
+        bla = NonparametricBLA.from_records(fit_args["u"], fit_args["y"], skip)
+        oe = _bla_ordered_search(bla, full, staged, executor, args) if bla is not None else None
+        if oe is None:
+            oe = search(grid=full, executor=executor, staged=staged, staged_orders=staged_orders, **args)
         return _with_process_noise(oe, fit_args, val, _model_options(n_breakpoints, delay, starts, max_nfev, skip,
                                                                      smoothness, monotone),
                                    constraint, size_fn, max_bytes)
@@ -496,6 +502,7 @@ def _with_process_noise(result: SearchResult, fit_args, val, kwargs, constraint,
         if not own:
             continue
         pool = [c for c in own if c.feasible] or own
+        pool = [c for c in pool if not c.refuted] or pool
         top = max(pool, key=lambda c: c.score(result.criterion))
         order = (top.n_poles, top.n_zeros)
         parts = {c.structure: c.model for c in candidates if (c.n_poles, c.n_zeros) == order
@@ -510,6 +517,7 @@ def _with_process_noise(result: SearchResult, fit_args, val, kwargs, constraint,
             best.seconds = top.seconds + time.perf_counter() - t1
             best.cpu_seconds = top.cpu_seconds + time.process_time() - c1
             best.feasible = _feasible(best.model, constraint, size_fn, max_bytes)
+            best.refuted = top.refuted
             candidates[candidates.index(top)] = best
         method = best.model.info.get("process_noise", {}).get("method", "")
         kept = ("process noise rejected by the period differences, output error kept" if method.endswith("rejected")
@@ -518,6 +526,58 @@ def _with_process_noise(result: SearchResult, fit_args, val, kwargs, constraint,
     note = "process noise fitted for " + ", ".join(refitted) if refitted else "no Wiener or WH candidate for process noise"
     return SearchResult(candidates, result.seconds + time.perf_counter() - t0, result.tie_tol, result.criterion,
                         result.holdout + ("; " if result.holdout else "") + note)
+
+
+# One-sided level at which the nonparametric BLA refutes a linear order (bla_test).
+BLA_ALPHA = 0.01
+
+
+def _bla_ordered_search(bla: NonparametricBLA, grid, staged: bool, executor, args) -> SearchResult | None:
+    """The search with orders ranked by the nonparametric BLA instead of validation data.
+
+    The linear orders of the grid are fitted and tested against the BLA (bla_test) in order of
+    their number of parameters; the BLA order is the one with the fewest parameters among those
+    it does not refute at BLA_ALPHA (the lowest misfit among equals). Candidates at refuted
+    orders are kept in the table but never selected (SearchResult). ``staged``: the linear
+    orders stop at the first parameter count with an order the BLA does not refute, and the
+    nonlinear structures are fitted at the BLA order only. None when the BLA refutes every
+    linear order (the caller searches as without it)."""
+    t0 = time.perf_counter()
+    own = executor is None
+    linear_grid = sorted({("linear", p, z) for _, p, z in grid}, key=lambda g: (g[1], g[2]))
+    if own and len(linear_grid) > 1:
+        executor = ProcessPoolExecutor(max_workers=os.cpu_count() or 1)
+    us = as_recordings(args["u"], args["y"])[0]
+    limit = bla.threshold(BLA_ALPHA)
+    misfit, linear = {}, []
+    try:
+        # Orders by their number of parameters, all orders of one count at a time; staged, the
+        # search stops at the first count with an order the BLA does not refute.
+        for count in sorted({p + z for _, p, z in linear_grid}):
+            batch = [g for g in linear_grid if g[1] + g[2] == count]
+            linear += search(grid=batch, executor=executor, **args).candidates
+            misfit.update({(c.n_poles, c.n_zeros): bla.misfit(c.model, us) for c in linear[-len(batch):]})
+            if staged and any(misfit[(p, z)] <= limit for _, p, z in batch):
+                break
+        kept = [c for c in linear if misfit[(c.n_poles, c.n_zeros)] <= limit]
+        if not kept:
+            return None
+        best = min(kept, key=lambda c: (c.n_params, misfit[(c.n_poles, c.n_zeros)]))
+        order = (best.n_poles, best.n_zeros)
+        second_grid = [(s, p, z) for s, p, z in grid if s != "linear" and ((p, z) == order or not staged)]
+        candidates = [c for c in linear if ("linear", c.n_poles, c.n_zeros) in grid]
+        if second_grid:
+            candidates += search(grid=second_grid, executor=executor, **args).candidates
+    finally:
+        if own and executor is not None:
+            executor.shutdown()
+    for c in candidates:
+        c.refuted = misfit.get((c.n_poles, c.n_zeros), 0.0) > limit
+    note = (f"order from the {bla.describe()}: {order[0]}p{order[1]}z, the fewest parameters of the "
+            f"{len(kept)} of {len(linear)} linear order(s) fitted it does not refute (misfit {misfit[order]:.3f} "
+            f"<= {limit:.3f}, {100 * BLA_ALPHA:g} % one-sided); candidates at refuted orders not selected")
+    return SearchResult(candidates, time.perf_counter() - t0, args["tie_tol"], args["criterion"],
+                        args["holdout"] + ("; " if args["holdout"] else "") + note)
 
 
 def _staged_search(grid, executor, n_orders: int, args) -> SearchResult:
@@ -537,7 +597,7 @@ def _staged_search(grid, executor, n_orders: int, args) -> SearchResult:
             if (c.n_poles, c.n_zeros) not in orders:
                 orders.append((c.n_poles, c.n_zeros))
         second_grid = [(s, p, z) for s, p, z in grid if s != "linear" and (p, z) in orders]
-        candidates = [c for c in first.candidates if ("linear", c.n_poles, c.n_zeros) in grid]
+        candidates = [c for c in linear if ("linear", c.n_poles, c.n_zeros) in grid]
         if second_grid:
             candidates += search(grid=second_grid, executor=executor, **args).candidates
     finally:

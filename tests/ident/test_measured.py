@@ -66,8 +66,7 @@ def test_wh_beats_linear_on_both_test_signals_five_records(wh_data):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("process_noise", [False, True])
-def test_selected_wh_validates_and_tests_better_than_linear(wh_data, process_noise):
+def test_selected_wh_validates_and_tests_better_than_linear(wh_data):
     """Search over linear and WH at the order 6 poles / 5 zeros (CI size: 3 realisations to
     estimate, 1 to select), selection by the validation fit. The selected model validates at
     least as well as linear, and the WH model's multisine test RMSE is below linear's.
@@ -79,14 +78,8 @@ def test_selected_wh_validates_and_tests_better_than_linear(wh_data, process_noi
     fits the estimation data worse than the linear model does (93.0 mV against 87.7 mV), and
     no output-error estimator can reach the 2x ratio that the noise-free test would allow.
 
-    With ``process_noise`` (a Gaussian noise at g's input, its level measured from the two
-    periods of each realisation, candidates scored by their expected output on the held-out
-    realisation, which carries the same noise): the WH candidate is the better of the
-    noise-aware and OE fits by validation fit (the noise-aware one when they are within one
-    standard error), so it validates at least as well as the OE WH up to that error.
-    Measured: the OE member is kept (same 36.26 mV; 50-90 s wall against 7 s): the noise-aware
-    member validates more than one standard error worse, so the tie rule does not keep it; the
-    measured level helps with 5 realisations (the test below).
+    With process noise the search ranks orders by the nonparametric BLA when the records hold
+    at least 4 realisations (the test below); these 3 do not.
     Without repeated periods the level is not identifiable from the mean output (a smoother g
     with less noise gives the same expected output; tests/ident/test_process_noise.py).
     The test data carry no comparable noise: a WH fitted on the multisine reaches 0.83 mV, while
@@ -95,7 +88,7 @@ def test_selected_wh_validates_and_tests_better_than_linear(wh_data, process_noi
     us, ys, ts, tests = wh_data
     res = ident.search(u=us[:3], y=ys[:3], ts=ts, validation=(us[3:4], ys[3:4]), validation_skip=SKIP,
                        skip=SKIP, grid=[("linear", 6, 5), ("wh", 6, 5)], criterion="fit", max_nfev=60,
-                       starts=1, progress=False, process_noise=process_noise)
+                       starts=1, progress=False)
     per = res.best_per_structure("fit")
     u, y = tests["multisine"]
     err = {k: ident.rmse(y[SKIP:], c.model.predict(u=u)[SKIP:]) * 1e3 for k, c in per.items()}
@@ -105,42 +98,58 @@ def test_selected_wh_validates_and_tests_better_than_linear(wh_data, process_noi
     assert err["wh"] < RATIO_BOUND * err["linear"]
 
 
-PERIOD_NOISE_RATIO = 1.6  # linear / noise-aware WH test RMSE must exceed this (measured 1.82)
+SEARCH_RATIO = 2.0  # the issue's goal: linear / selected WH test RMSE
 
 
 @pytest.mark.slow
-def test_noise_level_from_repeated_periods_on_the_benchmark(wh_data):
-    """Each estimation realisation holds two periods of its multisine, so the process noise's
-    level is identified from the period differences (identify --process-noise does this when
-    the input repeats) and g is learnt noise-free: the test multisine carries no such noise.
+def test_default_search_with_process_noise_selects_a_wh_twice_better_than_linear(shared_data):
+    """The staged search of ``identify --process-noise`` over linear and WH (the paper's grid),
+    5 realisations to estimate, the 6th to validate. The records repeat their multisine, so the
+    orders are ranked by the nonparametric BLA and its variance over the realisations (the
+    validation data carry the process noise and rank nothing: every candidate validates within
+    one standard error), the nonlinear structure is fitted at the BLA order, refitted with the
+    process noise measured from the period differences and kept by the one-standard-error rule.
+    Each structure's model is the one the search's rule selects among that structure's
+    candidates (``identify --structure wh`` and ``--structure linear``).
 
-    Measured (5 realisations, 6 poles / 3 zeros, 10 breakpoints, 40 evaluations per refinement):
-    noise-aware WH 20.49 mV against linear 37.32 mV (ratio 1.82; the OE WH 36.26 mV); noise level
-    1.16 x the spread of g's input, period power ratio 1.00. With the default 200 evaluations
-    (`porosense bench ident`): 13.91 against 37.33 mV (ratio 2.68); all 10 realisations, 200
-    evaluations: 20.03 against 38.14 mV (1.90). Of the OE builds refined with the noise, the
-    ones within one standard error of the lowest expected-output error are tied and the fewest
-    parameters taken (the order search's rule): a BLA split each time here (3 | 3 poles with 5
-    realisations, 4 | 2 from its identity start with 10). With
-    the blocks of a WH fitted on the noise-free test multisine the same deconvolution reaches
-    11.2 mV (tools/explore/wh_oracle_blocks.py), so what is left is in the blocks the noisy
-    records give. The expected-output cost does not tell the blocks apart: the BLA split ranked
-    by its noise-aware error instead (g re-solved at 0.9 x the spread) and refined the same way
-    fits the records better than the selected build (0.37 % lower error with 5 realisations;
-    tools/explore/wh_noise_ranked_split.py) and tests worse, 26.1 mV with 5 realisations and
-    41.0 mV with 10. Every build side by side: tools/explore/wh_process_noise_builds.py.
-    Bound: 1.6.
+    Measured (the defaults: 10 breakpoints, 2 starts, 200 evaluations per refinement): BLA order
+    6p5z (the first of 35 linear orders by parameter count that the BLA does not refute at 1 %:
+    misfit 1.421 against 1.490), WH 6p5z with process noise (BLA split 3 | 3 poles, level 1.12 x
+    the spread of g's input), test 16.35 mV, 237 s wall on 2 cores; linear at that order 37.33 mV
+    (ratio 2.28; the output-error WH 36.1 mV). With all four structures the rule selects linear
+    6p5z: the WH validates 0.39 points below it (within one standard error, and a nonlinear model
+    validating below linear is never selected). Bound: the issue's 2.
+
+    How fragile it is (tools/explore/wh_noise_orders.py): the gain needs a 6-pole order, where
+    the BLA split can give each block the circuit's 3 poles; the noise-aware WH tests at 13.9 mV
+    at 6p3z and 16.4 at 6p5z, but 30.8 at 5p2z, 35.1 at 5p4z, 38.2 at 7p4z, 33.7 at 8p3z and
+    61-63 at 4p1z. 5p4z misses the BLA here (misfit 1.579) but not with linear fits of 40
+    evaluations (1.438) or with 9 realisations (1.182 against 1.252): the BLA does not separate 5
+    from 6 poles beyond doubt, and then the search lands where the deconvolution fails.
     """
-    us, ys, ts, tests = wh_data
-    lin = ident.Linear(n_poles=6, n_zeros=5, skip=SKIP, max_nfev=40).fit(u=us, y=ys, ts=ts)
-    wh = ident.WienerHammerstein(n_poles=6, n_zeros=3, n_breakpoints=10, skip=SKIP, max_nfev=40, starts=1,
-                                 process_noise=True).fit(u=us, y=ys, ts=ts)
-    info = wh.info["process_noise"]
-    u, y = tests["multisine"]
-    e_lin = ident.rmse(y[SKIP:], lin.predict(u=u)[SKIP:]) * 1e3
-    e_wh = ident.rmse(y[SKIP:], wh.predict(u=u)[SKIP:]) * 1e3
-    print(f"multisine: noise-aware WH {e_wh:.2f} mV, linear {e_lin:.2f} mV (ratio {e_lin / e_wh:.2f}); "
-          f"noise level {info['sigma_per_spread']:.2f} x g's input spread, power ratio {info['power_ratio']:.3f}; "
-          f"{info['periods']}")
-    assert info["method"] == "repeated periods"
-    assert e_lin / e_wh > PERIOD_NOISE_RATIO
+    folder = shared_data / "wh_process_noise"
+    if not folder.is_dir():
+        pytest.skip(f"{folder} not found")
+    est = read_table(folder / "WH_EstimationExample.csv")
+    test = read_table(folder / "WH_TestDataset.csv")
+    us = [est.columns[f"u_{i}"][:, None] for i in range(N_RECORDS + 1)]
+    ys = [est.columns[f"y_{i}"] for i in range(N_RECORDS + 1)]
+    ts = 1.0 / float(est.columns["fs"][0])
+    res = ident.search(u=us[:N_RECORDS], y=ys[:N_RECORDS], ts=ts, validation=(us[N_RECORDS:], ys[N_RECORDS:]),
+                       validation_skip=SKIP, skip=SKIP, structures=("linear", "wh"), n_breakpoints=10, starts=2,
+                       max_nfev=200, criterion="fit", staged=True, process_noise=True, progress=False)
+    print(res)
+    u, y = test.columns["u_0"][:, None], test.columns["y_0"]
+    chosen, err = {}, {}
+    for s in ("linear", "wh"):
+        own = ident.SearchResult([c for c in res.candidates if c.structure == s], res.seconds, res.tie_tol,
+                                 res.criterion)
+        chosen[s] = own.best
+        err[s] = ident.rmse(y[SKIP:], own.model.predict(u=u)[SKIP:]) * 1e3
+    w = chosen["wh"]
+    print(f"selected WH {w.n_poles}p{w.n_zeros}z ({w.model.info.get('build')}): {err['wh']:.2f} mV; selected linear "
+          f"{chosen['linear'].n_poles}p{chosen['linear'].n_zeros}z: {err['linear']:.2f} mV; ratio "
+          f"{err['linear'] / err['wh']:.2f}; {res.seconds:.0f} s")
+    assert "order from the nonparametric BLA of 5 realisations" in res.rule
+    assert w.model.info["process_noise"]["method"] == "repeated periods"
+    assert err["linear"] / err["wh"] >= SEARCH_RATIO

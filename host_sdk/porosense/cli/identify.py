@@ -77,7 +77,11 @@ def register(sub) -> argparse.ArgumentParser:
                         "2 whole periods of a periodic excitation), and a model that reproduces the measured "
                         "period power at no level (beyond 2.58 standard errors, 1 %% two-sided) is rejected for its "
                         "output-error fit; without repeats only the averaged output is fitted, which cannot "
-                        "tell the level (the report says which)")
+                        "tell the level (the report says which). When at least 4 files are realisations of one "
+                        "periodic excitation (random-phase multisines), the orders are ranked by their "
+                        "nonparametric best linear approximation instead of the validation data, which carry "
+                        "the same noise: linear orders by number of parameters until one is not refuted at 1 %%, "
+                        "the nonlinear structures at that order")
     p.add_argument("--max-iter", type=int, default=200, metavar="N",
                    help="function evaluations per refinement (default 200, as in the paper)")
     p.add_argument("--jobs", type=int, metavar="N", help="worker processes of the order search (default: all cores)")

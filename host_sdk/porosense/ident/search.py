@@ -166,9 +166,11 @@ class SearchResult:
         return self.best.model
 
     def best_per_structure(self, criterion: str = "paper") -> dict:
-        """The best candidate of each structure by ``criterion`` (default the paper's mean fit)."""
+        """The best candidate of each structure by ``criterion`` (default the paper's mean fit),
+        among the candidates the selection may take (feasible, at orders the BLA does not refute)."""
         out = {}
-        for c in self.feasible or self.candidates:
+        pool = self.feasible or self.candidates
+        for c in [c for c in pool if not c.refuted] or pool:
             if c.structure not in out or c.score(criterion) > out[c.structure].score(criterion):
                 out[c.structure] = c
         return out
@@ -380,7 +382,10 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     by ``criterion`` are refitted with a Gaussian noise at g's input (:meth:`Model.predict`,
     started from the same models of their order) and scored by their expected output; each
     becomes the better of its process-noise and output-error fits (:func:`_best_member`). A
-    process-noise fit costs many output-error fits, so only these finalists get one.
+    process-noise fit costs many output-error fits, so only these finalists get one. When the
+    estimation records are at least 4 realisations of one periodic input, the orders come from
+    their nonparametric BLA instead (:func:`_bla_ordered_search`): validation data carrying the
+    same noise cannot rank them.
     ``input_unit`` / ``output_unit``: stored in every model (:meth:`Model.fit`).
 
     ``smoothness`` / ``monotone``: regularisation of the piecewise-linear maps of every
@@ -597,7 +602,7 @@ def _staged_search(grid, executor, n_orders: int, args) -> SearchResult:
             if (c.n_poles, c.n_zeros) not in orders:
                 orders.append((c.n_poles, c.n_zeros))
         second_grid = [(s, p, z) for s, p, z in grid if s != "linear" and (p, z) in orders]
-        candidates = [c for c in linear if ("linear", c.n_poles, c.n_zeros) in grid]
+        candidates = [c for c in first.candidates if ("linear", c.n_poles, c.n_zeros) in grid]
         if second_grid:
             candidates += search(grid=second_grid, executor=executor, **args).candidates
     finally:

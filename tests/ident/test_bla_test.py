@@ -96,3 +96,19 @@ def test_no_bla_without_enough_realisations_or_repeats():
     assert NonparametricBLA.from_records(us, ys) is not None
     noisy = [u + 0.5 * rng.standard_normal(u.shape) for u in us]  # no longer periodic
     assert NonparametricBLA.from_records(noisy, ys) is None
+
+
+def test_identify_help_states_the_levels_the_code_uses():
+    """--help names the levels as numbers (the CLI does not import the engine to print help)."""
+    import argparse
+    import importlib
+
+    from porosense.ident import noise_level
+
+    search = importlib.import_module("porosense.ident.search")  # the module, not the function
+    parser = argparse.ArgumentParser()
+    importlib.import_module("porosense.cli.identify").register(parser.add_subparsers())
+    text = parser._subparsers._group_actions[0].choices["identify"].format_help()
+    text = " ".join(text.split())
+    assert f"beyond {noise_level.CONSISTENCY_Z:.2f} standard errors, 1 % two-sided" in text
+    assert f"not refuted at {100 * search.BLA_ALPHA:g} %" in text

@@ -383,10 +383,11 @@ def test_a_noise_model_the_period_differences_refute_is_rejected_and_the_oe_fit_
     assert not oe.spec.g_noise
     np.testing.assert_allclose(m.predict(u=us[0]), oe.predict(u=us[0]), rtol=1e-9, atol=1e-9)
     line = importlib.import_module("porosense.cli.identify")._process_noise_line(m)
-    assert line.startswith("process noise: rejected") and "2.58 standard errors" in line
+    assert line.startswith("process noise: rejected") and "0.00 standard errors" in line  # the bound in force
     search_mod = importlib.import_module("porosense.ident.search")
     kwargs, fit_args = {"skip": SKIP}, {"u": us, "y": ys}
     best = search_mod._best_member("wh", 2, 1, m, kwargs, fit_args, (us, ys, [SKIP] * 2), "fit")
+    assert not best.model.spec.g_noise  # the search keeps an output-error member, not the refuted noise model
     assert best.score("fit") == max(c.score("fit") for c in
                                     [search_mod._score("wh", 2, 1, x, kwargs, fit_args, (us, ys, [SKIP] * 2), 0, 0)
                                      for x in [m] + m.alternative_models()])

@@ -75,12 +75,14 @@ def register(sub) -> argparse.ArgumentParser:
                         "noise-free system (predict --expected gives the averaged output). The noise level is "
                         "measured from the differences between periods when a file repeats its input (at least "
                         "2 whole periods of a periodic excitation), and a model that reproduces the measured "
-                        "period power at no level (beyond 2.58 standard errors, 1 %% two-sided) is rejected for its "
+                        "period power at no level (beyond 2.58 standard errors, 1 %% two-sided) is "
+                        "rejected for its "
                         "output-error fit; without repeats only the averaged output is fitted, which cannot "
                         "tell the level (the report says which). When at least 4 files are realisations of one "
                         "periodic excitation (random-phase multisines), the orders are ranked by their "
                         "nonparametric best linear approximation instead of the validation data, which carry "
-                        "the same noise: linear orders by number of parameters until one is not refuted at 1 %%, "
+                        "the same noise: linear orders by number of parameters until one is not refuted at "
+                        "1 %%, "
                         "the nonlinear structures at that order")
     p.add_argument("--max-iter", type=int, default=200, metavar="N",
                    help="function evaluations per refinement (default 200, as in the paper)")
@@ -290,11 +292,13 @@ def _process_noise_line(model) -> str | None:
         return None  # no map g (a linear or Hammerstein model was selected)
     if not spec.g_noise:
         return "process noise: not in the selected model (its output-error fit validated better and was kept)"
+    from porosense.ident.noise_level import CONSISTENCY_Z
+
     info = model.info.get("process_noise")
     if info and info.get("method", "").endswith("rejected"):
         return (f"process noise: rejected; at no level tried does the model reproduce the measured period "
                 f"differences (simulated/measured power {info['power_ratio']:.3f}, standard error "
-                f"{info['power_ratio_error']:.3f}; beyond 2.58 standard errors, 1 % two-sided), so the "
+                f"{info['power_ratio_error']:.3f}; beyond {CONSISTENCY_Z:.2f} standard errors, 1 % two-sided), so the "
                 "output-error fit is kept")
     if info:
         return (f"process noise: {info['sigma_per_spread']:.2f} x the spread of g's input, measured from "

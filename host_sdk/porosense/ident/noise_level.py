@@ -106,7 +106,7 @@ class _Bands:
         dev = [p - mean for p in per_record]
         c0 = sum(float(d @ d) for d in dev) / (k - 1)
         c1 = sum(float(d[1:] @ d[:-1]) for d in dev) / (k - 1)
-        return float(np.sqrt(max(c0 + 2 * c1, c0 / k) / k) / mean)
+        return float(np.sqrt(max(c0 + 2 * c1, 0.0) / k) / mean)
 
 
 @dataclass

@@ -90,6 +90,7 @@ class Candidate:
                 "rms_estimation": self.rms_estimation, "rms_validation": self.rms_validation,
                 "aic": self.aic, "bic": self.bic, "n_params": self.n_params,
                 "seconds": self.seconds, "cpu_seconds": self.cpu_seconds, "feasible": self.feasible,
+                "refuted": self.refuted,
                 "build": (self.model.info.get("build") if self.model is not None else None)}
 
 
@@ -280,10 +281,13 @@ def tie_tolerance(top: Candidate, criterion: str, tie_tol: float = 0.01) -> floa
 def _best_member(structure, n_poles, n_zeros, model, kwargs, fit_args, val, criterion, others=()) -> Candidate:
     """The model or one of its alternative members (or one of the candidates ``others`` of the
     same structure and order), whichever scores best by ``criterion``."""
+    own = [] if model.info.get("process_noise", {}).get("method", "").endswith("rejected") else [model]
+    # A noise model the period differences refute is only its output-error fit with a vanishing
+    # noise: its members (that fit among them) stand instead.
     members = [_score(structure, n_poles, n_zeros, m, kwargs, fit_args, val, 0.0, 0.0)
-               for m in [model] + model.alternative_models()]
+               for m in own + model.alternative_models()]
     best = max(members + list(others), key=lambda c: c.score(criterion))
-    measured = model.info.get("process_noise", {}).get("method") == "repeated periods"
+    measured = bool(own) and model.info.get("process_noise", {}).get("method") == "repeated periods"
     if measured and members[0] is not best and \
             members[0].score(criterion) >= best.score(criterion) - tie_tolerance(best, criterion):
         # The noise level was measured and the noise-aware model (what process_noise asks for)
@@ -524,7 +528,7 @@ def _with_process_noise(result: SearchResult, fit_args, val, kwargs, constraint,
             best.feasible = _feasible(best.model, constraint, size_fn, max_bytes)
             best.refuted = top.refuted
             candidates[candidates.index(top)] = best
-        method = best.model.info.get("process_noise", {}).get("method", "")
+        method = model.info.get("process_noise", {}).get("method", "")
         kept = ("process noise rejected by the period differences, output error kept" if method.endswith("rejected")
                 else "process noise" if best.model.spec.g_noise else "output error kept")
         refitted.append(f"{structure} {top.n_poles}p{top.n_zeros}z ({kept})")

@@ -218,6 +218,10 @@ def test_noise_level_from_repeated_periods(seed):
           f"RMSE noise-aware / OE {e_pn / e_oe:.2f}")
     assert abs(np.log(est / noise)) < np.log(2.0)
     assert abs(np.log(info["power_ratio"])) < 0.25
+    colour = info["colour"]  # the period-difference colour diagnostic (tests/ident/test_noise_colour.py)
+    assert colour["dof"] >= 1 and 0.0 <= colour["p_value"] <= 1.0 and colour["refuted"] == (colour["p_value"] < 0.01)
+    line = importlib.import_module("porosense.cli.identify")._process_noise_line(m)
+    assert f"p = {colour['p_value']:.2g}" in line and ("does not explain" in line) == colour["refuted"]
 
 
 def test_builds_refined_on_a_pool_equal_the_ones_refined_in_turn(monkeypatch):

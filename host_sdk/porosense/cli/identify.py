@@ -301,7 +301,11 @@ def _process_noise_line(model) -> str | None:
                 f"{info['power_ratio_error']:.3f}; beyond {CONSISTENCY_Z:.2f} standard errors, 1 % two-sided), so the "
                 "output-error fit is kept")
     if info:
+        colour = info.get("colour")
+        tail = (f"; white noise at g's input {'does not explain' if colour['refuted'] else 'explains'} the colour of "
+                f"the differences: misfit {colour['statistic']:.1f} on {colour['dof']} dof, p = {colour['p_value']:.2g}"
+                if colour else "")
         return (f"process noise: {info['sigma_per_spread']:.2f} x the spread of g's input, measured from "
-                f"{info['periods']} (simulated/measured period power {info['power_ratio']:.3f})")
+                f"{info['periods']} (simulated/measured period power {info['power_ratio']:.3f}{tail})")
     return (f"process noise: {model.process_noise_std:.3g} at g's input, from the averaged output only "
             "(no file repeats its input, so the level is not identifiable; see --help)")

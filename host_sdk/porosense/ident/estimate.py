@@ -17,7 +17,7 @@ from functools import partial
 import numpy as np
 from scipy.optimize import least_squares
 
-from porosense.ident import bla_split, blocks, noise_level
+from porosense.ident import bla_split, blocks, noise_colour, noise_level
 from porosense.ident.chain import Chain, ChainSpec, _filter
 from porosense.ident.linear_init import arx, iv
 from porosense.ident.lm import levenberg_marquardt
@@ -466,7 +466,8 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS, alt
     periods instead (:func:`_noise_from_periods`), and every build in ``alternatives`` (other
     output-error fits of the same orders) is refined too, on the machine's cores
     (:func:`_map_builds`); they are chosen between by the order search's rule
-    (:func:`_fewest_within_noise`).
+    (:func:`_fewest_within_noise`). Each build's notes also say whether white noise at g's
+    input explains the colour of the period differences (:mod:`noise_colour`), a diagnostic.
     """
     if not fit.spec.g_bp or fit.spec.g_noise:
         raise ValueError("process noise needs a map g and a model without it")
@@ -641,6 +642,7 @@ def _noise_from_periods(fit: Fit, us, ys, opts: Options, periods) -> Fit:
         "sigma_per_spread": float(sigma / spread), "power_ratio": float(check.power_ratio),
         "power_ratio_error": float(check.ratio_error),
         "consistent": periods.consistent(check, PERIOD_TOLERANCE),
+        "colour": noise_colour.check(periods, spec, out.theta, us).to_dict(),
         "shape_misfit": float(check.shape_misfit), "band_edges": check.band_edges.tolist(),
         "noise_density": check.shape.tolist(), "smoothness": opts.smoothness}}
     return out

@@ -420,3 +420,16 @@ def test_search_with_process_noise_orders_by_the_nonparametric_bla():
     assert not linear[(p, z)].refuted and max(sum(o) for o in linear) == p + z
     assert not res.best.refuted and (res.best.n_poles, res.best.n_zeros) not in \
         {o for o, c in linear.items() if c.refuted}
+
+
+def test_records_too_short_for_the_colour_diagnostic_still_fit():
+    """One record of two 320-sample periods repeats its input but holds a single Welch segment
+    per difference: the level is still measured, and the colour diagnostic is left out (None)
+    instead of failing the fit; the identify line then omits it."""
+    us, ys, _ = _periodic_records(3, n_records=1, period=320)
+    m = ident.WienerHammerstein(n_poles=2, n_zeros=1, n_breakpoints=6, skip=SKIP, starts=1, max_nfev=10,
+                                process_noise=True).fit(u=[u[:, None] for u in us], y=ys)
+    info = m.info["process_noise"]
+    assert info["method"].startswith("repeated periods") and info["colour"] is None
+    line = importlib.import_module("porosense.cli.identify")._process_noise_line(m)
+    assert line.startswith("process noise") and "colour" not in line

@@ -642,10 +642,19 @@ def _noise_from_periods(fit: Fit, us, ys, opts: Options, periods) -> Fit:
         "sigma_per_spread": float(sigma / spread), "power_ratio": float(check.power_ratio),
         "power_ratio_error": float(check.ratio_error),
         "consistent": periods.consistent(check, PERIOD_TOLERANCE),
-        "colour": noise_colour.check(periods, spec, out.theta, us).to_dict(),
+        "colour": _colour_or_none(periods, spec, out.theta, us),
         "shape_misfit": float(check.shape_misfit), "band_edges": check.band_edges.tolist(),
         "noise_density": check.shape.tolist(), "smoothness": opts.smoothness}}
     return out
+
+
+def _colour_or_none(periods, spec: ChainSpec, theta, us) -> dict | None:
+    """The period-difference colour diagnostic (:mod:`noise_colour`) as a dict, or None when
+    the differences hold too few Welch segments to test it (the fit stands either way)."""
+    try:
+        return noise_colour.check(periods, spec, theta, us).to_dict()
+    except ValueError:
+        return None
 
 
 def _map_builds(refine_build, builds: list) -> list:

@@ -31,15 +31,14 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import nnls
-from scipy.signal import spectrogram
 from scipy.stats import chi2
 
 from porosense.ident.chain import Chain
-from porosense.ident.noise_level import SEGMENT, PeriodData, _noisy_output, _split
+from porosense.ident.noise_level import PeriodData, _Bands, _noisy_output, _split
 
 # Level at which a model's noise path is refuted: one-sided, as a misfit only grows when wrong.
 ALPHA = 0.01
-MC_PAIRS = 4  # simulated period pairs per measured one (their scatter enters the covariance)
+MC_PAIRS = 4  # simulated period pairs per measured one (their scatter enters each band's variance)
 
 
 @dataclass
@@ -67,28 +66,18 @@ class ColourCheck:
                 "output_noise": float(self.output_noise)}
 
 
-def _segment_bands(diffs, edges) -> list[np.ndarray]:
-    """Per difference record, the band powers of every half-overlapping Hann segment (K, bands)."""
-    out = []
-    for d in diffs:
-        if len(d) < SEGMENT:
-            continue
-        _, _, p = spectrogram(d, nperseg=SEGMENT, noverlap=SEGMENT // 2, window="hann", mode="psd")
-        out.append(np.array([p[a:b].mean(axis=0) for a, b in zip(edges[:-1], edges[1:])]).T)
-    return out
-
-
-def band_means(diffs, edges, used) -> tuple[np.ndarray, np.ndarray]:
-    """(mean band power, relative variance of that mean) over the Welch segments of ``diffs``.
+def band_means(bands: _Bands, diffs) -> tuple[np.ndarray, np.ndarray]:
+    """(mean power of each compared band, relative variance of that mean) over the Welch
+    segments of ``diffs`` (:meth:`noise_level._Bands.segment_powers`).
 
     Neighbouring segments overlap by half, so the variance of the mean over K segments is
     (c0 + 2 c1) / K with c0 the segments' variance and c1 the covariance of neighbours (segments
     further apart are independent for noise far shorter than a segment); never below c0 / K, so
     that a few segments cannot make a band look more certain than independent ones would."""
-    per = [s[:, used] for s in _segment_bands(diffs, edges)]
+    per = [seg[:, bands.used] for seg in bands.segment_powers(diffs)]
     k = sum(len(s) for s in per)
     if k < 3:
-        raise ValueError("too few Welch segments in the period differences")
+        raise ValueError("too few Welch segments in the period differences (at least 3)")
     mean = np.concatenate(per).mean(axis=0)
     dev = [s - mean for s in per]
     c0 = sum(np.sum(d * d, axis=0) for d in dev) / (k - 1)
@@ -104,7 +93,6 @@ def check(periods: PeriodData, spec, theta, us, seed: int = 0) -> ColourCheck:
     sigma = chain.g_sigma
     if not sigma > 0:
         raise ValueError("the model has no process noise")
-    edges, used = periods.bands.edges, periods.bands.used
     rng = np.random.default_rng(seed)
     simulated = []
     for i, p, _ in periods.records:
@@ -114,8 +102,8 @@ def check(periods: PeriodData, spec, theta, us, seed: int = 0) -> ColourCheck:
             first, second = _split(y[0], p, periods.skip), _split(y[1], p, periods.skip)
             simulated += [b - a for a, b in zip(first[0], second[1])]
     measured = [d for _, _, ds in periods.records for d in ds]
-    m, var_m = band_means(measured, edges, used)
-    s, var_s = band_means(simulated, edges, used)
+    m, var_m = band_means(periods.bands, measured)
+    s, var_s = band_means(periods.bands, simulated)
     # Relative residual r = 1 - (a s + b) / m per band, each weighted by its standard error.
     w = 1.0 / np.sqrt(var_m + var_s)
     design = np.column_stack([s / m, 1.0 / m])

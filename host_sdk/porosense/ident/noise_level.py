@@ -86,19 +86,24 @@ class _Bands:
         p = total / weight
         return np.array([p[a:b].mean() for a, b in zip(self.edges[:-1], self.edges[1:])])
 
+    def segment_powers(self, diffs) -> list[np.ndarray]:
+        """Per record of ``diffs`` at least a segment long, the mean density per band (all
+        bands) of every half-overlapping Hann segment: an array (segments, bands)."""
+        out = []
+        for d in diffs:
+            if len(d) < SEGMENT:
+                continue
+            _, _, p = spectrogram(d, nperseg=SEGMENT, noverlap=SEGMENT // 2, window="hann", mode="psd")
+            out.append(np.array([p[a:b].mean(axis=0) for a, b in zip(self.edges[:-1], self.edges[1:])]).T)
+        return out
+
     def relative_error(self, diffs) -> float:
         """Relative standard error of the compared power of ``diffs`` as :meth:`powers` averages
         it: the compared power of every Welch segment, whose mean has variance (c0 + 2 c1) / K
         for K segments (c0 their variance, c1 the covariance of neighbours, which overlap by half;
         segments further apart are independent for noise far shorter than a segment)."""
         width = np.diff(self.edges)[self.used]
-        per_record = []
-        for d in diffs:
-            if len(d) < SEGMENT:
-                continue
-            _, _, p = spectrogram(d, nperseg=SEGMENT, noverlap=SEGMENT // 2, window="hann", mode="psd")
-            band = np.array([p[a:b].mean(axis=0) for a, b in zip(self.edges[:-1], self.edges[1:])])
-            per_record.append(width @ band[self.used])
+        per_record = [seg[:, self.used] @ width for seg in self.segment_powers(diffs)]
         k = sum(len(p) for p in per_record)
         if k < 3:
             return float("inf")

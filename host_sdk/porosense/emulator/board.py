@@ -164,6 +164,23 @@ class BoardCore:
         t = self.fw.next_tick()
         return None if t is None else self.boot_T_us + t
 
+    def run_until(self, T_us: int, *, max_late_us: int | None = None, before_tick=None) -> None:
+        """Advance emulator time to ``T_us`` as a board whose loop kept time would have: every
+        sample tick on the way at its own time (the plant follows the outputs tick by tick, so a
+        late caller changes nothing the board does), then the clock (the firmware's loop) to
+        ``T_us``. Ticks more than ``max_late_us`` behind ``T_us`` are not made: the firmware sees
+        them missed at once and counts overruns. ``before_tick(T_us)`` runs before each tick made."""
+        due = self.next_tick_T_us()
+        while due is not None and due <= T_us:
+            if max_late_us is not None and T_us - due > max_late_us:
+                self.sample(int(T_us - max_late_us))
+            else:
+                if before_tick is not None:
+                    before_tick(due)
+                self.sample()
+            due = self.next_tick_T_us()
+        self.set_time(T_us)
+
     def sample(self, T_us: int | None = None) -> None:
         """Run the clock to the next tick (or to ``T_us``, the ticks missed on the way counting
         as overruns) and pass on the sample the firmware makes there."""

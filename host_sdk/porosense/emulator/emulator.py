@@ -277,10 +277,14 @@ class Emulator:
             wall = time.monotonic()
             lockstep = not self.realtime and core.streaming and ep.connected
             with self._lock:
-                if not lockstep:
-                    core.set_time(core.T_us + int((wall - last_wall) * 1e6 * self.speed))
-                else:
+                if lockstep:
                     core.set_time(core.T_us)  # watchdog only
+                elif self.realtime and core.streaming:
+                    # The ticks a late loop missed are made first, each at its own time, and only
+                    # then what the host sent meanwhile is read: the board's loop kept time.
+                    self._sample_due(core, core.T_us + int((wall - last_wall) * 1e6 * self.speed))
+                else:
+                    core.set_time(core.T_us + int((wall - last_wall) * 1e6 * self.speed))
             last_wall = wall
 
             # Wait for input, room to write, or the next event.
@@ -328,16 +332,11 @@ class Emulator:
         host_T_us, host_wall = self._host_frame
         return due is None or due <= host_T_us + (LOCKSTEP_LEAD_S + (wall - host_wall) * self.speed) * 1e6
 
-    def _sample_due(self, core: BoardCore) -> None:
-        """Real time: every tick up to now. A loop that fell behind (a busy host computer)
-        catches up with the right timestamps; beyond ``max_catch_up_s`` (device time) the
-        firmware sees the missed ticks at once and counts them as overruns."""
-        now = core.T_us
-        due = core.next_tick_T_us()
-        while due is not None and due <= now:
-            if now - due > self.max_catch_up_s * 1e6:
-                core.sample(int(now - self.max_catch_up_s * 1e6))
-            else:
-                self._flush_paced(upto_us=due)  # what the UART sent before this tick
-                core.sample()
-            due = core.next_tick_T_us()
+    def _sample_due(self, core: BoardCore, upto_us: int | None = None) -> None:
+        """Real time: every tick up to ``upto_us`` (default now), then the clock there
+        (BoardCore.run_until). A loop that fell behind (a busy host computer) catches up with the
+        right timestamps, and the UART sends what it sent before each tick; beyond
+        ``max_catch_up_s`` (device time) the firmware sees the missed ticks at once and counts
+        them as overruns."""
+        core.run_until(core.T_us if upto_us is None else upto_us, max_late_us=int(self.max_catch_up_s * 1e6),
+                       before_tick=lambda due: self._flush_paced(upto_us=due))

@@ -20,10 +20,19 @@ def tables():
             read_table(folder / "wh_process_noise" / "WH_TestDataset.csv"))
 
 
-def records(n: int):
-    """(us, ys, test u, test y): the first ``n`` estimation realisations ((N, 1) inputs, volts)
-    and the test multisine."""
+def records(n):
+    """(us, ys, test u, test y): the estimation realisations ((N, 1) inputs, volts), the first
+    ``n`` or those ``n`` lists, and the test multisine."""
     est, test = tables()
-    us = [est.columns[f"u_{i}"][:, None] for i in range(n)]
-    ys = [est.columns[f"y_{i}"] for i in range(n)]
+    which = range(n) if isinstance(n, int) else list(n)
+    us = [est.columns[f"u_{i}"][:, None] for i in which]
+    ys = [est.columns[f"y_{i}"] for i in which]
     return us, ys, test.columns["u_0"][:, None], test.columns["y_0"]
+
+
+def realisations(arg: str):
+    """Realisation indices from a command-line word: ``N`` (the first N) or ``A-B`` (A to B)."""
+    if "-" in arg:
+        lo, hi = (int(v) for v in arg.split("-"))
+        return list(range(lo, hi + 1))
+    return list(range(int(arg)))

@@ -7,7 +7,9 @@ with a process noise whose level is measured from the two periods of each realis
 Prints the search table and rule, the wall time, and the noise-free multisine test RMSE (mV)
 of the best candidate of each structure and of the selected one.
 ``--wh``: the WH structure only (``identify --structure wh``).
-Run: .venv/bin/python tools/explore/wh_default_search.py [realisations] [--process-noise] [--wh]
+Realisations: ``N`` (the first N, validation on the next) or ``A-B`` (A to B, validation on the
+one after B, or before A when B is the last).
+Run: .venv/bin/python tools/explore/wh_default_search.py [N | A-B] [--process-noise] [--wh]
 """
 
 import sys
@@ -17,7 +19,7 @@ import numpy as np
 
 from porosense import ident
 from porosense.ident.search import STRUCTURES
-from wh_benchmark import records
+from wh_benchmark import realisations, records
 
 SKIP = 200
 FS = 78125.0  # Hz
@@ -25,8 +27,10 @@ FS = 78125.0  # Hz
 
 def main() -> int:
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
-    n = int(args[0]) if args else 5
-    us, ys, ut, yt = records(n + 1)
+    which = realisations(args[0] if args else "5")
+    extra = which[-1] + 1 if which[-1] < 9 else which[0] - 1
+    n = len(which)
+    us, ys, ut, yt = records(which + [extra])
     t0 = time.perf_counter()
     structures = ("wh",) if "--wh" in sys.argv else STRUCTURES
     res = ident.search(u=us[:n], y=ys[:n], ts=1 / FS, validation=(us[n:], ys[n:]), validation_skip=SKIP, skip=SKIP,
@@ -35,7 +39,7 @@ def main() -> int:
                        process_noise="--process-noise" in sys.argv, progress=False)
     wall = time.perf_counter() - t0
     print(res)
-    print(f"wall {wall:.1f} s on {n} realisations")
+    print(f"wall {wall:.1f} s on realisations {which[0]}-{which[-1]} (validation on {extra})")
 
     def test_mv(model) -> float:
         return ident.rmse(yt[SKIP:], np.asarray(model.predict(u=ut)).ravel()[SKIP:]) * 1e3

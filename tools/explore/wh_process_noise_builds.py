@@ -7,8 +7,12 @@ repeated periods; printed per build: its expected-output error relative to the l
 (the tie rule keeps the fewest parameters within one standard error, also printed), the level
 (x the spread of g's input), the noise-free multisine test RMSE (mV) and whether white noise at
 g's input explains the colour of the period differences (porosense.ident.noise_colour: the
-chi-square misfit over the bands and its p-value).
-Run: .venv/bin/python tools/explore/wh_process_noise_builds.py [realisations, default 5] [poles,zeros]
+chi-square misfit over the bands and its p-value), and the RMS distance (mV) of its noise-free
+output on the estimation inputs from the build the tie rule keeps. Then the output-error builds'
+test RMSE, and the deconvolution check of the kept build as the estimator makes it
+(estimate.deconvolution_spread: its move from its output-error fit against the spread of the
+tied builds).
+Run: .venv/bin/python tools/explore/wh_process_noise_builds.py [N | A-B realisations, default 5] [poles,zeros]
 """
 
 import sys
@@ -20,7 +24,7 @@ from porosense import ident
 from porosense.ident import estimate, noise_level
 from porosense.ident.chain import Chain
 from porosense.ident.metrics import relative_standard_error
-from wh_benchmark import records
+from wh_benchmark import realisations, records
 
 SKIP = 200
 
@@ -28,8 +32,8 @@ SKIP = 200
 def main() -> int:
     args = [a for a in sys.argv[1:] if "," not in a]
     order = [tuple(map(int, a.split(","))) for a in sys.argv[1:] if "," in a] or [(6, 3)]
-    n = int(args[0]) if args else 5
-    us, ys, ut, yt = records(n)
+    which = realisations(args[0] if args else "5")
+    us, ys, ut, yt = records(which)
     scale = np.max(np.abs(np.vstack(us)), axis=0)
     all_y = np.concatenate(ys)
     mean, std = float(np.mean(all_y)), float(np.std(all_y))
@@ -40,13 +44,33 @@ def main() -> int:
     builds = estimate._map_builds(partial(estimate._noise_from_periods, us=nus, ys=nys, opts=opts, periods=periods), oe)
     low = min(f.sse for f in builds)
     n_res = sum(len(y) - SKIP for y in ys)
-    print(f"{n} realisations, {order[0][0]}p{order[0][1]}z; tie: within {200 * relative_standard_error(n_res):.2f} % of the lowest error")
+    tied = estimate._within_noise([f for f in builds if f.notes["process_noise"]["consistent"]], n_res)
+    kept = min(tied, key=lambda f: (f.spec.n_params, f.sse)) if tied else None
+
+    def noise_free(f, u):
+        return Chain(f.spec, f.theta).simulate(u / scale, expected=False) * std + mean
+
+    def distance_mv(f) -> float:
+        d = np.concatenate([(noise_free(f, u) - noise_free(kept, u))[SKIP:] for u in us])
+        return float(np.sqrt(np.mean(d ** 2))) * 1e3
+
+    print(f"realisations {which[0]}-{which[-1]}, {order[0][0]}p{order[0][1]}z; tie: within "
+          f"{200 * relative_standard_error(n_res):.2f} % of the lowest error")
     for f in builds:
-        z = Chain(f.spec, f.theta).simulate(ut / scale, expected=False) * std + mean
+        z = noise_free(f, ut)
         pn = f.notes["process_noise"]
-        print(f"{f.build}: {f.spec.n_params} parameters, error {100 * (f.sse / low - 1):+.2f} %, level "
-              f"{pn['sigma_per_spread']:.2f}, test RMSE {ident.rmse(yt[SKIP:], z[SKIP:]) * 1e3:.2f} mV, colour misfit "
-              f"{pn['colour']['statistic']:.1f} on {pn['colour']['dof']} dof (p = {pn['colour']['p_value']:.2g})")
+        print(f"{'*' if f is kept else ' '} {f.build}: {f.spec.n_params} parameters, error {100 * (f.sse / low - 1):+.2f} %, "
+              f"level {pn['sigma_per_spread']:.2f}{'' if pn['consistent'] else ' (period power refuted)'}, test RMSE "
+              f"{ident.rmse(yt[SKIP:], z[SKIP:]) * 1e3:.2f} mV, noise-free {distance_mv(f) if kept else np.nan:.2f} mV "
+              f"from the kept build, colour misfit {pn['colour']['statistic']:.1f} on {pn['colour']['dof']} dof "
+              f"(p = {pn['colour']['p_value']:.2g})")
+    for f in oe:
+        print(f"  output error {f.build}: test RMSE {ident.rmse(yt[SKIP:], noise_free(f, ut)[SKIP:]) * 1e3:.2f} mV")
+    if kept is not None:
+        d = estimate.deconvolution_spread(kept, oe[builds.index(kept)], tied, nus, SKIP)
+        print(f"deconvolution check of the kept build: moved {d['correction'] * std * 1e3:.2f} mV from its output-error "
+              f"fit, spread {d['spread'] * std * 1e3:.2f} mV over {d['tied_builds']} tied builds: "
+              f"{'determined, kept' if d['determined'] else 'undetermined, the output-error fit stays'}")
     return 0
 
 

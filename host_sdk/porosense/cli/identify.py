@@ -300,11 +300,24 @@ def _process_noise_line(model) -> str | None:
                 f"differences (simulated/measured power {info['power_ratio']:.3f}, standard error "
                 f"{info['power_ratio_error']:.3f}; beyond {CONSISTENCY_Z:.2f} standard errors, 1 % two-sided), so the "
                 "output-error fit is kept")
+    deconvolution = (info or {}).get("deconvolution")
+    unit = f" {model.output_unit}" if getattr(model, "output_unit", None) else ""
+    if info and info.get("method", "").endswith("undetermined"):
+        d = deconvolution
+        return (f"process noise: {info['sigma_per_spread']:.2f} x the spread of g's input, measured from {info['periods']}, "
+                f"but the records do not determine the noise-free system: {d['tied_builds']} builds fit them within the "
+                f"noise and their noise-free outputs differ by up to {d['spread'] * model.y_std:.3g}{unit} RMS, more than "
+                f"the {d['correction'] * model.y_std:.3g}{unit} the chosen one moved from its output-error fit; the "
+                "output-error fit is kept")
     if info:
         colour = info.get("colour")
         tail = (f"; white noise at g's input {'does not explain' if colour['refuted'] else 'explains'} the colour of "
                 f"the differences: misfit {colour['statistic']:.1f} on {colour['dof']} dof, p = {colour['p_value']:.2g}"
                 if colour else "")
+        if deconvolution:
+            tail += (f"; noise-free system determined: it moved {deconvolution['correction'] * model.y_std:.3g}{unit} RMS "
+                     f"from its output-error fit, more than the {deconvolution['spread'] * model.y_std:.3g}{unit} "
+                     f"between the {deconvolution['tied_builds']} builds that fit within the noise")
         return (f"process noise: {info['sigma_per_spread']:.2f} x the spread of g's input, measured from "
                 f"{info['periods']} (simulated/measured period power {info['power_ratio']:.3f}{tail})")
     return (f"process noise: {model.process_noise_std:.3g} at g's input, from the averaged output only "

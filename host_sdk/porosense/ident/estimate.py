@@ -466,7 +466,8 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS, alt
     periods instead (:func:`_noise_from_periods`), and every build in ``alternatives`` (other
     output-error fits of the same orders) is refined too, on the machine's cores
     (:func:`_map_builds`); they are chosen between by the order search's rule
-    (:func:`_fewest_within_noise`). Each build's notes also say whether white noise at g's
+    (the fewest parameters within the noise, :func:`_within_noise`), and kept only when the
+    records determine its noise-free system (:func:`deconvolution_spread`). Each build's notes also say whether white noise at g's
     input explains the colour of the period differences (:mod:`noise_colour`), a diagnostic.
     """
     if not fit.spec.g_bp or fit.spec.g_noise:
@@ -476,9 +477,22 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS, alt
         builds = [fit] + [f for f in alternatives if f.spec.g_bp and not f.spec.g_noise]
         n = sum(len(y) - opts.skip for y in ys)
         refined = _map_builds(partial(_noise_from_periods, us=us, ys=ys, opts=opts, periods=periods), builds)
+        parents = {id(f): b for f, b in zip(refined, builds)}
         consistent = [f for f in refined if f.notes["process_noise"]["consistent"]]
         if consistent:
-            return _fewest_within_noise(consistent, n)
+            tied = _within_noise(consistent, n)
+            chosen = min(tied, key=lambda f: (f.spec.n_params, f.sse))
+            spread = deconvolution_spread(chosen, parents[id(chosen)], tied, us, opts.skip)
+            chosen.notes["process_noise"]["deconvolution"] = spread
+            if spread["determined"]:
+                return chosen
+            # Builds the data cannot tell apart disagree on the noise-free system by more than
+            # the chosen one moved away from its output-error fit: the deconvolution is not
+            # determined by these records, and the output-error fit (the smoothed map) stays.
+            out = _vanishing_noise(fit, us, ys, opts.skip)
+            out.build = (fit.build + " + " if fit.build else "") + "process noise undetermined"
+            out.notes = {"process_noise": {**chosen.notes["process_noise"], "method": "repeated periods, undetermined"}}
+            return out
         # No build reproduces the measured period power at any level tried: its noise model is
         # refuted by the data, and the output-error fit stays (as a vanishing noise).
         closest = min(refined, key=lambda f: abs(np.log(f.notes["process_noise"]["power_ratio"])))
@@ -671,20 +685,43 @@ def _map_builds(refine_build, builds: list) -> list:
         return [refine_build(f) for f in builds]
 
 
-def _fewest_within_noise(fits: list[Fit], n: int) -> Fit:
-    """The fit with the fewest parameters among those whose error is within one standard error
-    of the lowest, the rule the order search applies to candidates (search.SearchResult), with
-    the same standard error (metrics.relative_standard_error; twice it for a squared error).
-    Noise-aware builds
-    differ in how they split the dynamics between H1 and H2; on the measured benchmark their
-    expected outputs agree to 0.2-0.7 % against a standard error of 0.5-0.7 %
+def _within_noise(fits: list[Fit], n: int) -> list[Fit]:
+    """The fits whose error is within one standard error of the lowest, the tie of the order
+    search's rule (search.SearchResult), with the same standard error
+    (metrics.relative_standard_error; twice it for a squared error). Noise-aware builds differ
+    in how they split the dynamics between H1 and H2; on the measured benchmark their expected
+    outputs agree to 0.2-0.7 % against a standard error of 0.5-0.7 %
     (tools/explore/wh_process_noise_builds.py)."""
     finite = [f for f in fits if np.isfinite(f.sse)]
     if not finite:
-        return fits[0]
+        return fits[:1]
     low = min(f.sse for f in finite)
-    near = [f for f in finite if f.sse <= low * (1.0 + 2.0 * relative_standard_error(n))]
-    return min(near, key=lambda f: (f.spec.n_params, f.sse))
+    return [f for f in finite if f.sse <= low * (1.0 + 2.0 * relative_standard_error(n))]
+
+
+def deconvolution_spread(chosen: Fit, parent: Fit, tied: list[Fit], us, skip: int) -> dict:
+    """Whether the records determine the noise-free system a process-noise fit deconvolves.
+
+    ``tied`` are the noise-aware builds the records cannot tell apart (their expected outputs
+    agree within one standard error), ``chosen`` one of them and ``parent`` the output-error
+    fit it was refined from. On the estimation inputs (normalised output units, RMS past
+    ``skip``): ``correction`` is how far the chosen noise-free output moved from its parent's,
+    ``spread`` the largest distance from it to another tied build's noise-free output.
+    Determined when the correction exceeds the spread: the output-error fit then lies farther
+    from the chosen model than every model the data support as well, so the correction is not
+    one of the ambiguities the records leave open. (A rank statement over the tied builds, not a
+    significance level: with K tied builds, an output-error fit that were just one more of them
+    would lie farthest with probability 1 / K.)"""
+    def noise_free(f):
+        chain = Chain(f.spec, f.theta)
+        return np.concatenate([chain.simulate(u, expected=False)[skip:] for u in us])
+
+    base = noise_free(chosen)
+    rms = (lambda d: float(np.sqrt(np.mean(d ** 2))))
+    correction = rms(base - noise_free(parent))
+    spread = max([rms(noise_free(f) - base) for f in tied if f is not chosen] or [0.0])
+    return {"correction": correction, "spread": spread, "tied_builds": len(tied),
+            "determined": bool(correction > spread)}
 
 
 def _slope(levels, logs) -> float:

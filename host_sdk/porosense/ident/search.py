@@ -530,6 +530,7 @@ def _with_process_noise(result: SearchResult, fit_args, val, kwargs, constraint,
             candidates[candidates.index(top)] = best
         method = model.info.get("process_noise", {}).get("method", "")
         kept = ("process noise rejected by the period differences, output error kept" if method.endswith("rejected")
+                else "process noise undetermined by the records, output error kept" if method.endswith("undetermined")
                 else "process noise" if best.model.spec.g_noise else "output error kept")
         refitted.append(f"{structure} {top.n_poles}p{top.n_zeros}z ({kept})")
     note = "process noise fitted for " + ", ".join(refitted) if refitted else "no Wiener or WH candidate for process noise"

@@ -99,48 +99,51 @@ def test_selected_wh_validates_and_tests_better_than_linear(wh_data):
 
 
 SEARCH_RATIO = 2.0  # the issue's goal: linear / selected WH test RMSE
+SAFE_RATIO = 1.0  # on the other five realisations: never a WH that tests worse than linear
 
 
 @pytest.mark.slow
-def test_default_search_with_process_noise_selects_a_wh_twice_better_than_linear(shared_data):
+@pytest.mark.parametrize("first, bound", [(0, SEARCH_RATIO), (5, SAFE_RATIO)], ids=["realisations 0-4", "realisations 5-9"])
+def test_default_search_with_process_noise_selects_a_wh_twice_better_than_linear(shared_data, first, bound):
     """The staged search of ``identify --process-noise`` over linear and WH (the paper's grid),
-    5 realisations to estimate, the 6th to validate. The records repeat their multisine, so the
-    orders are ranked by the nonparametric BLA and its variance over the realisations (the
-    validation data carry the process noise and rank nothing: every candidate validates within
-    one standard error), the nonlinear structure is fitted at the BLA order, refitted with the
-    process noise measured from the period differences and kept by the one-standard-error rule.
+    5 realisations to estimate, the next to validate, on both disjoint halves of the 10. The
+    records repeat their multisine, so the orders are ranked by the nonparametric BLA and its
+    variance over the realisations (the validation data carry the process noise and rank
+    nothing: every candidate validates within one standard error), the nonlinear structure is
+    fitted at the BLA order and refitted with the process noise measured from the period
+    differences, kept by the one-standard-error rule when the records determine the noise-free
+    system it deconvolves (estimate.deconvolution_spread), else its output-error fit stays.
     Each structure's model is the one the search's rule selects among that structure's
     candidates (``identify --structure wh`` and ``--structure linear``).
 
-    CI size: the grid's 6-pole orders only (the BLA still ranks the zeros and refutes 6p0z-6p4z)
-    and 100 evaluations per refinement (the whole default search took over 500 s beside the
-    rest of the suite). Measured at this size: BLA order 6p5z, WH 6p5z with process noise (the
-    BLA split's identity start) 14.39 mV against linear 37.33 mV (ratio 2.59), 119 s on 2 cores
-    alone. The whole grid (the defaults: 10 breakpoints, 2
-    starts, 200 evaluations per refinement; tools/explore/wh_default_search.py): BLA order
-    6p5z (the first of 35 linear orders by parameter count that the BLA does not refute at 1 %:
-    misfit 1.421 against 1.490), WH 6p5z with process noise (BLA split 3 | 3 poles, level 1.12 x
-    the spread of g's input), test 16.35 mV, 237 s wall on 2 cores; linear at that order 37.33 mV
-    (ratio 2.28; the output-error WH 36.1 mV). With all four structures the rule selects linear
-    6p5z: the WH validates 0.39 points below it (within one standard error, and a nonlinear model
-    validating below linear is never selected). Bound: the issue's 2.
+    CI size: the grid's 6-pole orders only and 100 evaluations per refinement. Measured at this
+    size (2 cores, alone): realisations 0-4: BLA order 6p5z, WH 6p5z with process noise (the
+    BLA split's identity start) 14.37 mV against linear 37.33 mV, ratio 2.60, 193 s;
+    realisations 5-9: BLA order 6p3z, the deconvolution undetermined, the output-error WH 35.38
+    mV against linear 39.13 mV, ratio 1.11, 239 s. Bounds: the issue's 2 on 0-4; on 5-9 no WH
+    worse than linear (before the deconvolution check, the noise-aware WH of 5-9 at 6p5z tested
+    at 65.7 mV).
 
-    How fragile it is (tools/explore/wh_noise_orders.py): the gain needs a 6-pole order, where
-    the BLA split can give each block the circuit's 3 poles; the noise-aware WH tests at 13.9 mV
-    at 6p3z and 16.4 at 6p5z, but 30.8 at 5p2z, 35.1 at 5p4z, 38.2 at 7p4z, 33.7 at 8p3z and
-    61-63 at 4p1z. 5p4z misses the BLA here (misfit 1.579) but not with linear fits of 40
-    evaluations (1.438) or with 9 realisations (1.183 against 1.252): the BLA does not separate 5
-    from 6 poles beyond doubt, and then the search lands where the deconvolution fails. The
-    default search on 9 realisations (the 10th to validate) selects WH 5p4z with process noise:
-    28.63 mV (linear about 38 mV, ratio 1.33; 500 s wall).
+    The whole default grid (10 breakpoints, 2 starts, 200 evaluations;
+    ``tools/explore/wh_default_search.py 0-4 --process-noise --wh``, or ``5-9``): 0-4: BLA
+    order 6p5z, WH with process noise 16.60 mV, ratio 2.25, 399 s; 5-9: BLA order 4p3z, the
+    deconvolution undetermined, the output-error WH 35.39 mV, 472 s. With all four structures
+    the rule selects linear on 0-4: the WH validates below it (within one standard error, and a
+    nonlinear model validating below linear is never selected).
+
+    How fragile the gain is: it needs a 6-pole order and the circuit's 3 | 3 split, which these
+    records barely determine (on 5-9 the BLA split at 6p3z goes 2 | 4 and tests at 27.9 mV, at
+    6p5z 1 | 5; ``tools/explore/wh_process_noise_builds.py 5-9 6,5``), and the BLA does not
+    separate 4 or 5 from 6 poles beyond doubt (9 realisations select 5p4z).
     """
     folder = shared_data / "wh_process_noise"
     if not folder.is_dir():
         pytest.skip(f"{folder} not found")
     est = read_table(folder / "WH_EstimationExample.csv")
     test = read_table(folder / "WH_TestDataset.csv")
-    us = [est.columns[f"u_{i}"][:, None] for i in range(N_RECORDS + 1)]
-    ys = [est.columns[f"y_{i}"] for i in range(N_RECORDS + 1)]
+    which = list(range(first, first + N_RECORDS)) + [(first + N_RECORDS) % 10]  # the next one validates
+    us = [est.columns[f"u_{i}"][:, None] for i in which]
+    ys = [est.columns[f"y_{i}"] for i in which]
     ts = 1.0 / float(est.columns["fs"][0])
     res = ident.search(u=us[:N_RECORDS], y=ys[:N_RECORDS], ts=ts, validation=(us[N_RECORDS:], ys[N_RECORDS:]),
                        validation_skip=SKIP, skip=SKIP, structures=("linear", "wh"), poles=(6,), n_breakpoints=10, starts=2,
@@ -158,5 +161,8 @@ def test_default_search_with_process_noise_selects_a_wh_twice_better_than_linear
           f"{chosen['linear'].n_poles}p{chosen['linear'].n_zeros}z: {err['linear']:.2f} mV; ratio "
           f"{err['linear'] / err['wh']:.2f}; {res.seconds:.0f} s")
     assert "order from the nonparametric BLA of 5 realisations" in res.rule
-    assert w.model.info["process_noise"]["method"] == "repeated periods"
-    assert err["linear"] / err["wh"] >= SEARCH_RATIO
+    assert "process noise fitted for wh" in res.rule
+    if first == 0:  # the 2x needs the noise model; elsewhere the records may leave the deconvolution
+        # undetermined, and the output-error fit stays (estimate.deconvolution_spread)
+        assert w.model.info["process_noise"]["method"] == "repeated periods"
+    assert err["linear"] / err["wh"] >= bound

@@ -10,6 +10,7 @@ generated these records.
 import copy
 import importlib
 import json
+import os
 
 import numpy as np
 import pytest
@@ -451,7 +452,8 @@ def test_a_deconvolution_the_records_do_not_determine_keeps_the_output_error_fit
     (their tied builds are two refinements of one route and agree). On the measured WH
     benchmark it keeps realisations 0-4 (test 16.6 mV at 6p5z) and discards 5-9 (65.7 mV, worse
     than linear 39.1 mV: its OE fit, 35.4 mV, stays; tools/explore/wh_process_noise_builds.py).
-    Bounds: no gain discarded, the check fires at least once, and never on a model it improves.
+    The suite runs seeds 0-5 (cost); ``DECONVOLUTION_SEEDS=8`` runs all eight. Bounds: no gain
+    discarded, the check fires at least once, and never on a model it improves.
     """
     estimate = importlib.import_module("porosense.ident.estimate")
     real = estimate.deconvolution_spread
@@ -463,7 +465,7 @@ def test_a_deconvolution_the_records_do_not_determine_keeps_the_output_error_fit
 
     monkeypatch.setattr(estimate, "deconvolution_spread", spy)
     rows = []
-    for seed in range(8):
+    for seed in range(int(os.environ.get("DECONVOLUTION_SEEDS", "6"))):
         us, ys, _ = _periodic_records(seed)
         m = ident.WienerHammerstein(n_poles=2, n_zeros=1, n_breakpoints=10, skip=SKIP, starts=1, max_nfev=40,
                                     process_noise=True).fit(u=[u[:, None] for u in us], y=ys)

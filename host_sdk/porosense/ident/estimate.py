@@ -466,9 +466,10 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS, alt
     periods instead (:func:`_noise_from_periods`), and every build in ``alternatives`` (other
     output-error fits of the same orders) is refined too, on the machine's cores
     (:func:`_map_builds`); they are chosen between by the order search's rule
-    (the fewest parameters within the noise, :func:`_within_noise`), and kept only when the
-    records determine its noise-free system (:func:`deconvolution_spread`). Each build's notes also say whether white noise at g's
-    input explains the colour of the period differences (:mod:`noise_colour`), a diagnostic.
+    (the fewest parameters within the noise, :func:`_within_noise`), and the one chosen is kept
+    only when the records determine its noise-free system (:func:`deconvolution_spread`). Each
+    build's notes also say whether white noise at g's input explains the colour of the period
+    differences (:mod:`noise_colour`), a diagnostic.
     """
     if not fit.spec.g_bp or fit.spec.g_noise:
         raise ValueError("process noise needs a map g and a model without it")

@@ -6,6 +6,8 @@ sine). Every model simulates each record from rest, so the first 200 samples (2.
 each record are left out of the cost and of the test RMSE.
 """
 
+import os
+
 import pytest
 
 from porosense import ident
@@ -103,7 +105,9 @@ SAFE_RATIO = 1.0  # on the other five realisations: never a WH that tests worse 
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("first, bound", [(0, SEARCH_RATIO), (5, SAFE_RATIO)], ids=["realisations 0-4", "realisations 5-9"])
+@pytest.mark.parametrize("first, bound", [(0, SEARCH_RATIO), pytest.param(5, SAFE_RATIO, marks=pytest.mark.skipif(
+    os.environ.get("WH_SECOND_HALF") != "1", reason="the second half costs 4-9 minutes; WH_SECOND_HALF=1 runs it"))],
+    ids=["realisations 0-4", "realisations 5-9"])
 def test_default_search_with_process_noise_selects_a_wh_twice_better_than_linear(shared_data, first, bound):
     """The staged search of ``identify --process-noise`` over linear and WH (the paper's grid),
     5 realisations to estimate, the next to validate, on both disjoint halves of the 10. The
@@ -116,7 +120,9 @@ def test_default_search_with_process_noise_selects_a_wh_twice_better_than_linear
     Each structure's model is the one the search's rule selects among that structure's
     candidates (``identify --structure wh`` and ``--structure linear``).
 
-    CI size: the grid's 6-pole orders only and 100 evaluations per refinement. Measured at this
+    CI size: the grid's 6-pole orders only and 100 evaluations per refinement; the suite runs
+    realisations 0-4 (``WH_SECOND_HALF=1`` adds 5-9: both took 8-9 minutes each beside the rest of
+    the suite on 2 cores). Measured at this
     size (2 cores, alone): realisations 0-4: BLA order 6p5z, WH 6p5z with process noise (the
     BLA split's identity start) 14.37 mV against linear 37.33 mV, ratio 2.60, 193 s;
     realisations 5-9: BLA order 6p3z, the deconvolution undetermined, the output-error WH 35.38

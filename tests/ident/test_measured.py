@@ -139,7 +139,7 @@ def test_default_search_with_process_noise_selects_a_wh_twice_better_than_linear
 
     How fragile the gain is: it needs a 6-pole order and the circuit's 3 | 3 split, which these
     records barely determine (on 5-9 the BLA split at 6p3z goes 2 | 4 and tests at 27.9 mV, at
-    6p5z 1 | 5; ``tools/explore/wh_process_noise_builds.py 5-9 6,5``), and the BLA does not
+    6p5z 1 | 5; ``tools/explore/wh_process_noise_builds.py 5-9 6,5 --starts 2``), and the BLA does not
     separate 4 or 5 from 6 poles beyond doubt (9 realisations select 5p4z).
     """
     folder = shared_data / "wh_process_noise"

@@ -12,7 +12,8 @@ output on the estimation inputs from the build the tie rule keeps. Then the outp
 test RMSE, and the deconvolution check of the kept build as the estimator makes it
 (estimate.deconvolution_spread: its move from its output-error fit against the spread of the
 tied builds).
-Run: .venv/bin/python tools/explore/wh_process_noise_builds.py [N | A-B realisations, default 5] [poles,zeros]
+``--starts K``: starts per nonlinear model (default 1; ``identify`` uses 2).
+Run: .venv/bin/python tools/explore/wh_process_noise_builds.py [N | A-B realisations, default 5] [poles,zeros] [--starts K]
 """
 
 import sys
@@ -30,15 +31,21 @@ SKIP = 200
 
 
 def main() -> int:
-    args = [a for a in sys.argv[1:] if "," not in a]
-    order = [tuple(map(int, a.split(","))) for a in sys.argv[1:] if "," in a] or [(6, 3)]
+    argv = sys.argv[1:]
+    starts = 1
+    if "--starts" in argv:
+        k = argv.index("--starts")
+        starts = int(argv[k + 1])
+        argv = argv[:k] + argv[k + 2:]
+    args = [a for a in argv if "," not in a]
+    order = [tuple(map(int, a.split(","))) for a in argv if "," in a] or [(6, 3)]
     which = realisations(args[0] if args else "5")
     us, ys, ut, yt = records(which)
     scale = np.max(np.abs(np.vstack(us)), axis=0)
     all_y = np.concatenate(ys)
     mean, std = float(np.mean(all_y)), float(np.std(all_y))
     nus, nys = [u / scale for u in us], [(y - mean) / std for y in ys]
-    opts = estimate.Options(skip=SKIP, starts=1)
+    opts = estimate.Options(skip=SKIP, starts=starts, max_nfev=200)
     oe = estimate.wh_fits(nus, nys, *order[0], 10, 0, opts)
     periods = noise_level.PeriodData(nus, nys, SKIP)
     builds = estimate._map_builds(partial(estimate._noise_from_periods, us=nus, ys=nys, opts=opts, periods=periods), oe)

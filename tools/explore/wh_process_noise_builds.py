@@ -74,7 +74,8 @@ def main() -> int:
     for f in oe:
         print(f"  output error {f.build}: test RMSE {ident.rmse(yt[SKIP:], noise_free(f, ut)[SKIP:]) * 1e3:.2f} mV")
     if kept is not None:
-        d = estimate.deconvolution_spread(kept, oe[builds.index(kept)], tied, nus, SKIP)
+        parent = oe[next(i for i, f in enumerate(builds) if f is kept)]  # by identity: Fits hold arrays
+        d = estimate.deconvolution_spread(kept, parent, tied, nus, SKIP)
         print(f"deconvolution check of the kept build: moved {d['correction'] * std * 1e3:.2f} mV from its output-error "
               f"fit, spread {d['spread'] * std * 1e3:.2f} mV over {d['tied_builds']} tied builds: "
               f"{'determined, kept' if d['determined'] else 'undetermined, the output-error fit stays'}")

@@ -31,8 +31,14 @@ def render(cat: dict) -> str:
     for m in msgs:
         if m.reply:
             replies_to.setdefault(m.reply, []).append(m.name)
-    out = [BEGIN, "", "### Message summary", "", "| type | name | direction | answered by | reply deadline | payload bytes | bytes on the wire |",
-           "|---|---|---|---|---|---|---|"]
+    out = [
+        BEGIN,
+        "",
+        "### Message summary",
+        "",
+        "| type | name | direction | answered by | reply deadline | payload bytes | bytes on the wire |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for m in sorted(msgs, key=lambda m: m.type):
         if m.dir == "h2d":
             answer = m.reply or "-"
@@ -43,11 +49,15 @@ def render(cat: dict) -> str:
         else:
             answer = "(unsolicited)"
         deadline = f"{m.deadline_ms} ms" if m.deadline_ms else "-"
-        out.append(f"| 0x{m.type:02X} | {m.name} | {'host -> device' if m.dir == 'h2d' else 'device -> host'} | {answer} "
-                   f"| {deadline} | {_length(m)} | {_length(m, FRAME_OVERHEAD)} |")
+        out.append(
+            f"| 0x{m.type:02X} | {m.name} | {'host -> device' if m.dir == 'h2d' else 'device -> host'} | {answer} "
+            f"| {deadline} | {_length(m)} | {_length(m, FRAME_OVERHEAD)} |"
+        )
     out += ["", "### Messages", ""]
     for m in msgs:
-        out.append(f"#### {m.name} (0x{m.type:02X}, {'host -> device' if m.dir == 'h2d' else 'device -> host'}, {_length(m)} bytes)")
+        out.append(
+            f"#### {m.name} (0x{m.type:02X}, {'host -> device' if m.dir == 'h2d' else 'device -> host'}, {_length(m)} bytes)"
+        )
         out.append("")
         out.append(_esc(m.doc) + (f" Answered by {m.reply}." if m.reply else ""))
         out.append("")
@@ -76,11 +86,22 @@ def render(cat: dict) -> str:
     out += ["", "### Capabilities (HELLO_REPLY.capabilities)", "", "| bit | name | meaning |", "|---|---|---|"]
     for f in cat["capability"]:
         out.append(f"| {f['bit']} | {f['name']} | {_esc(f['doc'])} |")
-    out += ["", "### Stream channels (START_STREAM.channel_mask, SAMPLE.channel_mask)", "", "| bit | name |", "|---|---|"]
+    out += [
+        "",
+        "### Stream channels (START_STREAM.channel_mask, SAMPLE.channel_mask)",
+        "",
+        "| bit | name |",
+        "|---|---|",
+    ]
     for f in cat["channel"]:
         out.append(f"| {f['bit']} | {f['name']} |")
-    out += ["", "### Configuration keys (CONFIG_GET / CONFIG_SET, values i32)", "",
-            "| key | name | default | min | max | meaning |", "|---|---|---|---|---|---|"]
+    out += [
+        "",
+        "### Configuration keys (CONFIG_GET / CONFIG_SET, values i32)",
+        "",
+        "| key | name | default | min | max | meaning |",
+        "|---|---|---|---|---|---|",
+    ]
     for c in cat["config"]:
         out.append(f"| {c['key']} | {c['name']} | {c['default']} | {c['min']} | {c['max']} | {_esc(c['doc'])} |")
     out += ["", END]
@@ -93,4 +114,4 @@ def splice(spec_text: str, cat: dict) -> str:
     stop = spec_text.find(END)
     if start < 0 or stop < start:
         raise ValueError(f"spec.md lacks the markers {BEGIN!r} ... {END!r}")
-    return spec_text[:start] + render(cat) + spec_text[stop + len(END):]
+    return spec_text[:start] + render(cat) + spec_text[stop + len(END) :]

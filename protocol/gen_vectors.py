@@ -153,6 +153,7 @@ def _values(msg, rng: random.Random, var_count: int | None = None, fill=None) ->
     """Field values of msg: random (seeded), or every element equal to fill."""
     vals = {}
     for f in msg.fields:
+
         def one():
             return fill if fill is not None else _random_value(rng, f.base)
 
@@ -212,25 +213,57 @@ def build(cat: dict) -> dict:
         add(m.name.lower(), m, _values(m, rng), (i * 37 + 5) % 256, why="one of each message type")
     chunk, sample, replay = by_name["MODEL_CHUNK"], by_name["SAMPLE"], by_name["REPLAY"]
     v = chunk.variable
-    add("max_payload_model_chunk", chunk, _values(chunk, random.Random(1), var_count=v.max), 200,
-        why=f"largest payload: {chunk.max_len} bytes")
-    add("max_payload_zeros", chunk, _values(chunk, None, var_count=v.max, fill=0), 0,
-        why="largest payload, all 0x00: one COBS code per byte")
+    add(
+        "max_payload_model_chunk",
+        chunk,
+        _values(chunk, random.Random(1), var_count=v.max),
+        200,
+        why=f"largest payload: {chunk.max_len} bytes",
+    )
+    add(
+        "max_payload_zeros",
+        chunk,
+        _values(chunk, None, var_count=v.max, fill=0),
+        0,
+        why="largest payload, all 0x00: one COBS code per byte",
+    )
     all_ff = _values(chunk, None, var_count=v.max, fill=0xFF)
     all_ff["offset"] = 0xFFFF
     add("max_payload_ff", chunk, all_ff, 255, why="largest payload, no 0x00 at all: one long COBS block")
     add("sample_zeros", sample, _values(sample, None, fill=0), 0, why="fixed payload full of 0x00")
-    add("model_chunk_empty", chunk, _values(chunk, None, var_count=0, fill=0), 1,
-        why="variable message with no trailing elements")
-    add("replay_full", replay, _values(replay, random.Random(2), var_count=replay.variable.max), 17,
-        why="largest REPLAY: 16 samples of 3 inputs")
+    add(
+        "model_chunk_empty",
+        chunk,
+        _values(chunk, None, var_count=0, fill=0),
+        1,
+        why="variable message with no trailing elements",
+    )
+    add(
+        "replay_full",
+        replay,
+        _values(replay, random.Random(2), var_count=replay.variable.max),
+        17,
+        why="largest REPLAY: 16 samples of 3 inputs",
+    )
     hello, hello_reply, ping = by_name["HELLO"], by_name["HELLO_REPLY"], by_name["PING"]
     other = (p["major"] % 15) + 1  # another major than ours
     add("hello_other_major", hello, {}, 3, ver=other * 16 + 1, why="HELLO is accepted with any version")
-    add("hello_reply_other_major", hello_reply, _values(hello_reply, random.Random(3)), 3, ver=other * 16,
-        why="HELLO_REPLY too, so the host can report the mismatch")
-    add("ping_newer_minor", ping, {"nonce": 0x01020304}, 9, ver=version | 0x0F,
-        why="a different minor of the same major is accepted")
+    add(
+        "hello_reply_other_major",
+        hello_reply,
+        _values(hello_reply, random.Random(3)),
+        3,
+        ver=other * 16,
+        why="HELLO_REPLY too, so the host can report the mismatch",
+    )
+    add(
+        "ping_newer_minor",
+        ping,
+        {"nonce": 0x01020304},
+        9,
+        ver=version | 0x0F,
+        why="a different minor of the same major is accepted",
+    )
 
     streams = []
     ref_frame = lambda name: bytes.fromhex(next(f["frame"] for f in frames if f["name"] == name))  # noqa: E731
@@ -255,43 +288,88 @@ def build(cat: dict) -> dict:
     bad[3] ^= 0x04  # the sequence number: nonzero before and after the flip
     assert bad[3] != 0 and good[3] != 0
     add_stream("bad_crc", bytes(bad), "one flipped bit in the sequence number", "bad_crc", 0)
-    add_stream("bad_cobs_truncated", good[:-3] + b"\x00", "frame cut short: the COBS chain overruns",
-               "bad_cobs", 0)
+    add_stream("bad_cobs_truncated", good[:-3] + b"\x00", "frame cut short: the COBS chain overruns", "bad_cobs", 0)
     add_stream("bad_cobs_chain", b"\x05\x11\x22\x00", "code byte claims more bytes than the chunk holds", "bad_cobs", 0)
-    add_stream("short_body", b"\x03\x10\x02\x00", "COBS-valid but only 2 bytes: no room for header and CRC",
-               "bad_length", 0)
-    add_stream("bad_length_header", body_frame(bytes((version, ping.type, 1, 5)) + b"\x01\x02\x03\x04"),
-               "header says 5 payload bytes, the frame holds 4 (CRC correct)", "bad_length", 0)
-    add_stream("bad_length_type", body_frame(bytes((version, ping.type, 1, 3)) + b"\x01\x02\x03"),
-               "PING needs 4 payload bytes, 3 sent (CRC correct)", "bad_length", 0)
-    add_stream("bad_version", body_frame(bytes((other * 16, ping.type, 1, 4)) + b"\x01\x02\x03\x04"),
-               f"protocol major {other} on a PING", "bad_version", 0)
-    add_stream("unknown_type", body_frame(bytes((version, 0x7E, 1, 0))), "type 0x7E is not in the catalogue",
-               "unknown_type", 0)
+    add_stream(
+        "short_body", b"\x03\x10\x02\x00", "COBS-valid but only 2 bytes: no room for header and CRC", "bad_length", 0
+    )
+    add_stream(
+        "bad_length_header",
+        body_frame(bytes((version, ping.type, 1, 5)) + b"\x01\x02\x03\x04"),
+        "header says 5 payload bytes, the frame holds 4 (CRC correct)",
+        "bad_length",
+        0,
+    )
+    add_stream(
+        "bad_length_type",
+        body_frame(bytes((version, ping.type, 1, 3)) + b"\x01\x02\x03"),
+        "PING needs 4 payload bytes, 3 sent (CRC correct)",
+        "bad_length",
+        0,
+    )
+    add_stream(
+        "bad_version",
+        body_frame(bytes((other * 16, ping.type, 1, 4)) + b"\x01\x02\x03\x04"),
+        f"protocol major {other} on a PING",
+        "bad_version",
+        0,
+    )
+    add_stream(
+        "unknown_type", body_frame(bytes((version, 0x7E, 1, 0))), "type 0x7E is not in the catalogue", "unknown_type", 0
+    )
     add_stream("overlong", bytes([0x55]) * 300 + b"\x00", "300 bytes without a delimiter", "overlong", 0)
-    add_stream("idle_zeros", b"\x00\x00" + good + b"\x00\x00\x00", "repeated 0x00 between frames is idle, not an error",
-               None, 1)
+    add_stream(
+        "idle_zeros",
+        b"\x00\x00" + good + b"\x00\x00\x00",
+        "repeated 0x00 between frames is idle, not an error",
+        None,
+        1,
+    )
     add_stream("two_frames", good + ref_frame("sample"), "back to back", None, 2)
     rng = random.Random(4)
     garbage = bytes(rng.randrange(1, 256) for _ in range(17))
-    add_stream("garbage_then_frame", garbage + ref_frame("sample"),
-               "17 bytes of garbage without 0x00 glued to a SAMPLE: the SAMPLE is recovered", None, 1)
+    add_stream(
+        "garbage_then_frame",
+        garbage + ref_frame("sample"),
+        "17 bytes of garbage without 0x00 glued to a SAMPLE: the SAMPLE is recovered",
+        None,
+        1,
+    )
     long_garbage = bytes(rng.randrange(1, 256) for _ in range(300))
-    add_stream("overlong_garbage_then_frame", long_garbage + ref_frame("max_payload_ff"),
-               "300 bytes of garbage then the largest frame: overlong, frame recovered", "overlong", 1)
+    add_stream(
+        "overlong_garbage_then_frame",
+        long_garbage + ref_frame("max_payload_ff"),
+        "300 bytes of garbage then the largest frame: overlong, frame recovered",
+        "overlong",
+        1,
+    )
     half = ref_frame("status_reply")
-    add_stream("truncated_then_frame", good + half[: len(half) // 2] + ref_frame("ack"),
-               "half a frame (transmitter reset) then an ACK: PING and ACK recovered", None, 2)
-    add_stream("hello_reply_other_major_layout", body_frame(bytes((other * 16, hello_reply.type, 7, 3))
-                                                            + bytes((other, 1, 0))),
-               f"a HELLO_REPLY of major {other} with its own layout is delivered: the host reads proto_major", None, 1)
-    add_stream("hello_reply_bad_length", body_frame(bytes((version, hello_reply.type, 7, 3))
-                                                    + bytes((p["major"], 0, 0))),
-               "the same length under our own major is wrong", "bad_length", 0)
+    add_stream(
+        "truncated_then_frame",
+        good + half[: len(half) // 2] + ref_frame("ack"),
+        "half a frame (transmitter reset) then an ACK: PING and ACK recovered",
+        None,
+        2,
+    )
+    add_stream(
+        "hello_reply_other_major_layout",
+        body_frame(bytes((other * 16, hello_reply.type, 7, 3)) + bytes((other, 1, 0))),
+        f"a HELLO_REPLY of major {other} with its own layout is delivered: the host reads proto_major",
+        None,
+        1,
+    )
+    add_stream(
+        "hello_reply_bad_length",
+        body_frame(bytes((version, hello_reply.type, 7, 3)) + bytes((p["major"], 0, 0))),
+        "the same length under our own major is wrong",
+        "bad_length",
+        0,
+    )
     zero_in = bytearray(ref_frame("sample"))
     zero_in[10] = 0
-    add_stream("zero_inside_frame", bytes(zero_in), "a byte turned into 0x00 splits the frame: both parts dropped",
-               None, 0)
+    add_stream(
+        "zero_inside_frame", bytes(zero_in), "a byte turned into 0x00 splits the frame: both parts dropped", None, 0
+    )
     return {"format": 1, "version_byte": version, "frames": frames, "streams": streams}
 
 

@@ -96,10 +96,12 @@ def _resolve_limits(node, configs: dict):
     """Docs name a configuration limit as {config.NAME.max} (or .min, .default), so that a
     limit is written once, in its [[config]] entry, and every doc that quotes it follows."""
     if isinstance(node, str):
+
         def sub(m):
             if m.group(1) not in configs:
                 raise SystemExit(f"messages.toml: {m.group(0)} names no [[config]] entry")
             return str(configs[m.group(1)][m.group(2)])
+
         return re.sub(r"\{config\.(\w+)\.(min|max|default)\}", sub, node)
     if isinstance(node, list):
         return [_resolve_limits(v, configs) for v in node]
@@ -206,8 +208,10 @@ def gen_cpp(cat: dict) -> str:
     ]
     for c in cat["config"]:
         # Field by field: an aggregate copy would come from a constant in .rodata (RAM on AVR).
-        out.append(f"    case {c['name']}: out->def = {c['default']}L; out->min = {c['min']}L; "
-                   f"out->max = {c['max']}L; return true;")
+        out.append(
+            f"    case {c['name']}: out->def = {c['default']}L; out->min = {c['min']}L; "
+            f"out->max = {c['max']}L; return true;"
+        )
     out += [
         "    default: return false;",
         "  }",
@@ -280,9 +284,13 @@ def gen_cpp(cat: dict) -> str:
                 out.append(f"    {f.name} = {get}(buf + n); n += {f.size};")
             elif f.count == 0:
                 out.append(f"    {f.name}_count = (uint8_t)((len - kMinLen) / {f.size});")
-                out.append(f"    for (uint8_t i = 0; i < {f.name}_count; ++i) {{ {f.name}[i] = {get}(buf + n); n += {f.size}; }}")
+                out.append(
+                    f"    for (uint8_t i = 0; i < {f.name}_count; ++i) {{ {f.name}[i] = {get}(buf + n); n += {f.size}; }}"
+                )
             else:
-                out.append(f"    for (uint8_t i = 0; i < {f.count}; ++i) {{ {f.name}[i] = {get}(buf + n); n += {f.size}; }}")
+                out.append(
+                    f"    for (uint8_t i = 0; i < {f.count}; ++i) {{ {f.name}[i] = {get}(buf + n); n += {f.size}; }}"
+                )
         out.append("    return true;")
         out.append("  }")
         out.append("};")

@@ -7,7 +7,7 @@ top="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$top"
 
 # g++ builds the firmware core for the emulator; chromium renders the demo's HTML report in its test.
-APT_PACKAGES="g++ gcc-avr avr-libc binutils-avr arduino-core-avr simavr libsimavr-dev libelf-dev pkg-config chromium"
+APT_PACKAGES="g++ clang-format gcc-avr avr-libc binutils-avr arduino-core-avr simavr libsimavr-dev libelf-dev pkg-config chromium"
 
 missing=()
 if [ "${1:-}" != "--no-apt" ]; then

@@ -8,20 +8,28 @@
 namespace {
 constexpr uint8_t kRegConversion = 0x00;
 constexpr uint8_t kRegConfig = 0x01;
-constexpr uint16_t kOs = 0x8000;          // write: start; read: 1 = idle
+constexpr uint16_t kOs = 0x8000;  // write: start; read: 1 = idle
 constexpr uint16_t kModeSingle = 0x0100;
 constexpr uint16_t kCompDisable = 0x0003;
 
 uint16_t samples_per_s(uint8_t rate_code) {  // a switch, not a table: tables cost RAM on AVR
   switch (rate_code) {
-    case 0: return 8;
-    case 1: return 16;
-    case 2: return 32;
-    case 3: return 64;
-    case 4: return 128;
-    case 5: return 250;
-    case 6: return 475;
-    default: return 860;
+    case 0:
+      return 8;
+    case 1:
+      return 16;
+    case 2:
+      return 32;
+    case 3:
+      return 64;
+    case 4:
+      return 128;
+    case 5:
+      return 250;
+    case 6:
+      return 475;
+    default:
+      return 860;
   }
 }
 }  // namespace
@@ -46,8 +54,7 @@ bool Ads1115::fail() {
 
 bool Ads1115::start(uint8_t channel) {
   const uint16_t mux = (uint16_t)((4u + (channel & 3u)) << 12);  // AINx vs GND
-  const uint16_t cfg = kOs | mux | (uint16_t)(pga_ << 9) | kModeSingle |
-                       (uint16_t)(rate_ << 5) | kCompDisable;
+  const uint16_t cfg = kOs | mux | (uint16_t)(pga_ << 9) | kModeSingle | (uint16_t)(rate_ << 5) | kCompDisable;
   const uint8_t w[2] = {(uint8_t)(cfg >> 8), (uint8_t)cfg};
   // Also leaves the register pointer on the config register for the OS polls.
   if (!twi::write_reg(addr_, kRegConfig, w, 2)) return fail();

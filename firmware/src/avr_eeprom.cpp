@@ -4,9 +4,7 @@
 
 #include "idle.h"
 
-uint8_t AvrEeprom::read(uint16_t addr) {
-  return eeprom_read_byte(reinterpret_cast<const uint8_t*>(addr));
-}
+uint8_t AvrEeprom::read(uint16_t addr) { return eeprom_read_byte(reinterpret_cast<const uint8_t*>(addr)); }
 
 void AvrEeprom::write(uint16_t addr, uint8_t value) {
   idle::run();  // ~3.4 ms per byte: feed the AVR watchdog, keep the link watchdog running

@@ -13,8 +13,10 @@ inline volatile uint8_t& input(uint8_t pin) { return pin < 8 ? PIND : pin < 14 ?
 inline uint8_t mask(uint8_t pin) { return (uint8_t)(1u << (pin < 8 ? pin : pin < 14 ? pin - 8 : pin - 14)); }
 
 inline void write(uint8_t pin, bool high) {
-  if (high) port(pin) |= mask(pin);
-  else port(pin) &= (uint8_t)~mask(pin);
+  if (high)
+    port(pin) |= mask(pin);
+  else
+    port(pin) &= (uint8_t)~mask(pin);
 }
 inline bool read(uint8_t pin) { return input(pin) & mask(pin); }
 inline void output(uint8_t pin) { ddr(pin) |= mask(pin); }

@@ -56,8 +56,10 @@ void loop() {
   sync_sample_clock();
   uint32_t tick_us;
   const uint8_t n = sample_clock::take(&tick_us);
-  if (n) g_device.on_sample_ticks(n, tick_us);
-  else idle::sleep(work_pending);
+  if (n)
+    g_device.on_sample_ticks(n, tick_us);
+  else
+    idle::sleep(work_pending);
 }
 
 // In place of the Arduino core's main(): without serialEventRun() polling HardwareSerial,

@@ -15,9 +15,9 @@ inline uint8_t valve(uint8_t ch) { return ch == 0 ? 8 : ch == 1 ? 12 : 13; }
 inline uint8_t regulator(uint8_t ch) { return ch == 0 ? 5 : ch == 1 ? 6 : 9; }
 // D11: camera sync indicator LED, HIGH = on; the core drives it (lib/core/sync_blink.h, kSyncPin).
 
-constexpr uint8_t kAds1115Addr = 0x48;         // ADDR pin to GND; AIN0..AIN2 single-ended
-constexpr uint8_t kBno055Addr = 0x28;          // COM3 low
-constexpr uint32_t kBaud = 115200;             // UART 8N1
+constexpr uint8_t kAds1115Addr = 0x48;  // ADDR pin to GND; AIN0..AIN2 single-ended
+constexpr uint8_t kBno055Addr = 0x28;   // COM3 low
+constexpr uint32_t kBaud = 115200;      // UART 8N1
 constexpr uint32_t kI2cHz = 400000;
 
 }  // namespace pins

@@ -7,7 +7,7 @@
 
 namespace sample_clock {
 void begin();
-void set_rate(uint16_t rate_hz);            // 0 stops; drops ticks not yet taken
-uint8_t take(uint32_t* tick_us);            // ticks since the last take, time of the latest
-bool pending();                             // a tick waits to be taken
+void set_rate(uint16_t rate_hz);  // 0 stops; drops ticks not yet taken
+uint8_t take(uint32_t* tick_us);  // ticks since the last take, time of the latest
+bool pending();                   // a tick waits to be taken
 }  // namespace sample_clock

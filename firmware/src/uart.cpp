@@ -16,7 +16,7 @@ void tx_one() {
   UDR0 = g_tx[t];
   g_tx_tail = (uint8_t)((t + 1) & (kRing - 1));
   UCSR0A = (uint8_t)((UCSR0A & ((1 << U2X0) | (1 << MPCM0))) | (1 << TXC0));  // clear TXC
-  if (g_tx_head == g_tx_tail) UCSR0B &= (uint8_t)~(1 << UDRIE0);
+  if (g_tx_head == g_tx_tail) UCSR0B &= (uint8_t) ~(1 << UDRIE0);
 }
 }  // namespace
 
@@ -70,7 +70,7 @@ ISR(USART_RX_vect) {
   const uint8_t c = UDR0;
   if (parity_error) return;  // dropped, as the Arduino core does
   const uint8_t h = uart::g_rx_head, next = (uint8_t)((h + 1) & (uart::kRing - 1));
-  if (next != uart::g_rx_tail) {     // full: the byte is lost (the protocol's CRC notices)
+  if (next != uart::g_rx_tail) {  // full: the byte is lost (the protocol's CRC notices)
     uart::g_rx[h] = c;
     uart::g_rx_head = next;
   }

@@ -74,11 +74,21 @@ class DemoResult:
     control: dict | None = None
 
     def to_dict(self) -> dict:
-        return {"actuator": self.actuator, "board": self.board, "recordings": list(self.recordings),
-                "table": self.table, "selected": self.selected, "ranking": self.ranking, "quant": self.quant,
-                "verify": self.verify, "on_device_fit": self.on_device_fit, "float_fit": self.float_fit,
-                "report_dir": str(self.report_dir) if self.report_dir else None, "seconds": self.seconds,
-                "control": self.control}
+        return {
+            "actuator": self.actuator,
+            "board": self.board,
+            "recordings": list(self.recordings),
+            "table": self.table,
+            "selected": self.selected,
+            "ranking": self.ranking,
+            "quant": self.quant,
+            "verify": self.verify,
+            "on_device_fit": self.on_device_fit,
+            "float_fit": self.float_fit,
+            "report_dir": str(self.report_dir) if self.report_dir else None,
+            "seconds": self.seconds,
+            "control": self.control,
+        }
 
 
 # ------------------------------------------------------------------------------ boards
@@ -95,8 +105,9 @@ def open_board(board: str, actuator: str, *, seed: int = 0):
         from porosense.emulator import Emulator
 
         # A busy host computer delays samples but never skips them: the recordings stay regular.
-        with Emulator(actuator, realtime=True, speed=EMULATOR_SPEED, seed=seed, truth_log=True,
-                      max_catch_up_s=3600.0) as emu:
+        with Emulator(
+            actuator, realtime=True, speed=EMULATOR_SPEED, seed=seed, truth_log=True, max_catch_up_s=3600.0
+        ) as emu:
             with Device.open(emu.url) as dev:
                 yield dev, emu.truth, emu.program_flash
     elif board == "simboard":
@@ -135,8 +146,15 @@ def record_protocol(dev, actuator: str, truth, *, rate_hz: int, progress: bool, 
     for exp in est + val:
         for copy in ("a",) if exp in SINGLE else ("a", "b"):
             name = exp if exp in SINGLE else f"{exp}_{copy}"
-            recs[name] = run_schedule(dev, schedule(exp), rate_hz=rate_hz, n_channels=n_ch, truth=truth,
-                                      progress=progress, meta={"actuator": actuator, "experiment": exp, "copy": copy})
+            recs[name] = run_schedule(
+                dev,
+                schedule(exp),
+                rate_hz=rate_hz,
+                n_channels=n_ch,
+                truth=truth,
+                progress=progress,
+                meta={"actuator": actuator, "experiment": exp, "copy": copy},
+            )
             lost = recs[name].meta["samples_lost"]
             log(f"  recorded {name}: {len(recs[name])} samples" + (f", {lost} lost" if lost else ""))
     return recs
@@ -149,8 +167,9 @@ def _io(recs: dict, actuator: str, names: list[str], j: int):
     return u, y
 
 
-def paper_table(searches: list, est_names: list[str], val_names: list[str], output_names: list[str],
-                chosen: list | None = None) -> str:
+def paper_table(
+    searches: list, est_names: list[str], val_names: list[str], output_names: list[str], chosen: list | None = None
+) -> str:
     """Fit % / RMS % per structure (best of its order search) and recording; '*' marks the one
     kept (``chosen``: one candidate per output; default each search's best)."""
     lines = []
@@ -168,17 +187,31 @@ def paper_table(searches: list, est_names: list[str], val_names: list[str], outp
             rms = c.rms_estimation + c.rms_validation
             mark = "*" if s == best else " "
             label = f"{mark}{s} ({c.n_poles}p{c.n_zeros}z)"
-            lines.append(f"{label:<14}" + "".join(f"{f:>6.1f}/{r:<5.1f}" for f, r in zip(fits, rms))
-                         + f"{c.mean_fit:>6.1f}/{c.mean_rms:<5.1f}")
+            lines.append(
+                f"{label:<14}"
+                + "".join(f"{f:>6.1f}/{r:<5.1f}" for f, r in zip(fits, rms))
+                + f"{c.mean_fit:>6.1f}/{c.mean_rms:<5.1f}"
+            )
         rule = "the paper's structure and orders" if chosen else "selected by mean fit"
-        lines.append(f"  columns: fit % / RMS %; estimation: {', '.join(est_names)}; "
-                     f"validation: {', '.join(val_names)}; * {rule}")
+        lines.append(
+            f"  columns: fit % / RMS %; estimation: {', '.join(est_names)}; "
+            f"validation: {', '.join(val_names)}; * {rule}"
+        )
         lines.append("")
     return "\n".join(lines)
 
 
-def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="out/demo", rate_hz: int = 50,
-             max_poles: int = 3, seed: int = 0, progress: bool = True, log=print) -> DemoResult:
+def run_demo(
+    actuator: str = "contractor",
+    board: str = "emulator",
+    *,
+    out_dir="out/demo",
+    rate_hz: int = 50,
+    max_poles: int = 3,
+    seed: int = 0,
+    progress: bool = True,
+    log=print,
+) -> DemoResult:
     """Run the whole pipeline for one actuator; see the module docstring. ``max_poles`` bounds
     the order search (the paper's grid is 10; 3 keeps the demo within minutes)."""
     from porosense.ident import fit_percent
@@ -202,15 +235,18 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
             rec.to_csv(out / "recordings" / f"{name}.csv")
         clock["record"] = time.perf_counter() - t0
         if truth is None:
-            log(f"  a real board gives no ground truth: recordings are in {out / 'recordings'}; add the measured "
-                f"{', '.join(outputs)} columns and run 'porosense identify'")
+            log(
+                f"  a real board gives no ground truth: recordings are in {out / 'recordings'}; add the measured "
+                f"{', '.join(outputs)} columns and run 'porosense identify'"
+            )
             return DemoResult(actuator, board, recs, "", {}, {}, {}, {}, [], [], None, clock)
 
         est_names = [n for n in recs if n.rsplit("_", 1)[0] in est_exps or n in est_exps]
         val_names = [n for n in recs if n not in est_names]
         t1 = time.perf_counter()
-        searches, chosen = identify_outputs(recs, actuator, est_names, val_names, rate_hz=rate_hz,
-                                            max_poles=max_poles, progress=progress, log=log)
+        searches, chosen = identify_outputs(
+            recs, actuator, est_names, val_names, rate_hz=rate_hz, max_poles=max_poles, progress=progress, log=log
+        )
         clock["identify"] = time.perf_counter() - t1
         table = paper_table(searches, est_names, val_names, outputs, chosen if actuator in PAPER_ORDERS else None)
         log("")
@@ -219,8 +255,10 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
         structure, q = quantize_model(chosen, recs, actuator, val_names, rate_hz)
         blob = q.blob
         loss = q.report.worst_loss_points
-        log(f"  quantized: {blob.length} bytes, worst fixed-point fit loss "
-            f"{loss if loss is not None else float('nan'):.3f} points, {q.report.saturated_samples} saturated samples")
+        log(
+            f"  quantized: {blob.length} bytes, worst fixed-point fit loss "
+            f"{loss if loss is not None else float('nan'):.3f} points, {q.report.saturated_samples} saturated samples"
+        )
         from porosense.ident import save_models
 
         save_models([c.model for c in chosen], out / "model.json")
@@ -236,9 +274,18 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
         from porosense.sim import schedule
 
         live_exp = val_exps[0]
-        live = run_schedule(dev, schedule(live_exp), rate_hz=rate_hz, n_channels=len(inputs), truth=truth,
-                            progress=progress, out_scale=blob.out_scale, output_names=outputs,
-                            monitor=_live_fit(outputs), meta={"actuator": actuator, "experiment": live_exp})
+        live = run_schedule(
+            dev,
+            schedule(live_exp),
+            rate_hz=rate_hz,
+            n_channels=len(inputs),
+            truth=truth,
+            progress=progress,
+            out_scale=blob.out_scale,
+            output_names=outputs,
+            monitor=_live_fit(outputs),
+            meta={"actuator": actuator, "experiment": live_exp},
+        )
         clock["stream"] = time.perf_counter() - t2
         live.to_csv(out / "recordings" / f"live_{live_exp}.csv")
 
@@ -247,8 +294,7 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
             from porosense.control.demo_segment import run_segment
 
             t4 = time.perf_counter()
-            control, control_run = run_segment(dev, truth, recs, outputs[0], float(blob.out_scale[0]), rate_hz,
-                                               log=log)
+            control, control_run = run_segment(dev, truth, recs, outputs[0], float(blob.out_scale[0]), rate_hz, log=log)
             control_run.to_csv(out / "recordings" / "closed_loop.csv")
             clock["control"] = time.perf_counter() - t4
     on_device = [fit_percent(live[o], live[f"est_{o}"]) for o in outputs]
@@ -256,30 +302,61 @@ def run_demo(actuator: str = "contractor", board: str = "emulator", *, out_dir="
     y_float = structure.simulate(u_live)
     float_fit = [fit_percent(live[o], y_float[:, j]) for j, o in enumerate(outputs)]
     for o, a, b in zip(outputs, on_device, float_fit):
-        log(f"  live {live_exp}: on-device fit of {o} {a:.2f} %, host float model {b:.2f} % "
-            f"(difference {a - b:+.2f} points)")
+        log(
+            f"  live {live_exp}: on-device fit of {o} {a:.2f} %, host float model {b:.2f} % "
+            f"(difference {a - b:+.2f} points)"
+        )
 
     ranking = {o: {s: c.mean_fit for s, c in res.best_per_structure().items()} for o, res in zip(outputs, searches)}
-    selected = {o: {"structure": c.structure, "poles": c.n_poles, "zeros": c.n_zeros,
-                    "mean_fit": c.mean_fit, "mean_rms": c.mean_rms,
-                    "rule": "paper orders" if actuator in PAPER_ORDERS else "order search, best mean fit"}
-                for o, c in zip(outputs, chosen)}
-    result = DemoResult(actuator, board, recs, table, selected, ranking,
-                        {"bytes": blob.length, "report": q.report.to_dict()}, verify, on_device, float_fit,
-                        None, clock, control.to_dict() if control else None)
+    selected = {
+        o: {
+            "structure": c.structure,
+            "poles": c.n_poles,
+            "zeros": c.n_zeros,
+            "mean_fit": c.mean_fit,
+            "mean_rms": c.mean_rms,
+            "rule": "paper orders" if actuator in PAPER_ORDERS else "order search, best mean fit",
+        }
+        for o, c in zip(outputs, chosen)
+    }
+    result = DemoResult(
+        actuator,
+        board,
+        recs,
+        table,
+        selected,
+        ranking,
+        {"bytes": blob.length, "report": q.report.to_dict()},
+        verify,
+        on_device,
+        float_fit,
+        None,
+        clock,
+        control.to_dict() if control else None,
+    )
     from porosense.report.demo_report import write_demo_report
 
     t3 = time.perf_counter()
-    result.report_dir = write_demo_report(result, searches, live, structure, out, inputs, outputs, labels,
-                                          control_run=control_run)
+    result.report_dir = write_demo_report(
+        result, searches, live, structure, out, inputs, outputs, labels, control_run=control_run
+    )
     clock["report"] = time.perf_counter() - t3
     clock["total"] = time.perf_counter() - t0
     log(f"  report: {result.report_dir / 'summary.html'} ({clock['total']:.0f} s in all)")
     return result
 
 
-def identify_outputs(recs: dict, actuator: str, est_names: list[str], val_names: list[str], *, rate_hz: int,
-                     max_poles: int, progress: bool = False, log=print):
+def identify_outputs(
+    recs: dict,
+    actuator: str,
+    est_names: list[str],
+    val_names: list[str],
+    *,
+    rate_hz: int,
+    max_poles: int,
+    progress: bool = False,
+    log=print,
+):
     """One search per output; returns (searches, chosen candidates). The 3-DoF segment is
     fitted at the paper's orders (PAPER_ORDERS: every structure at 2 poles / 1 zero / 10
     breakpoints for the table, WH kept); the others by the order search up to ``max_poles``,
@@ -295,9 +372,11 @@ def identify_outputs(recs: dict, actuator: str, est_names: list[str], val_names:
     paper = PAPER_ORDERS.get(actuator)
     if paper:
         poles, zeros, bps = paper
-        log(f"  {actuator}: WH at the paper's orders ({poles} poles, {zeros} zero, {bps} breakpoints; the other "
+        log(
+            f"  {actuator}: WH at the paper's orders ({poles} poles, {zeros} zero, {bps} breakpoints; the other "
             "structures at the same orders for the table), stored in the EEPROM when it fits beside the running "
-            "model, else in the flash store")
+            "model, else in the flash store"
+        )
         grid = [(st, poles, zeros) for st in ("linear", "hammerstein", "wiener", "wh")]
         capacity, compact = FLASH_BLOB_MAX, False
     else:
@@ -311,10 +390,24 @@ def identify_outputs(recs: dict, actuator: str, est_names: list[str], val_names:
         vu, vy = _io(recs, actuator, val_names, j)
         what = "4 structures at the paper's orders" if paper else f"4 structures, poles 1..{max_poles}, zeros < poles"
         log(f"  identifying {name}: {what}, 2 starts")
-        searches.append(search(u=u, y=y, ts=1.0 / rate_hz, validation=(vu, vy), poles=range(1, max_poles + 1),
-                               grid=grid, n_breakpoints=bps, inputs=inputs, output=name, progress=progress,
-                               size_fn=size_fn, max_bytes=share, input_unit="dR/100",  # _io divides dR (%) by 100
-                               output_unit=getattr(recs[est_names[0]], "units", {}).get(name)))
+        searches.append(
+            search(
+                u=u,
+                y=y,
+                ts=1.0 / rate_hz,
+                validation=(vu, vy),
+                poles=range(1, max_poles + 1),
+                grid=grid,
+                n_breakpoints=bps,
+                inputs=inputs,
+                output=name,
+                progress=progress,
+                size_fn=size_fn,
+                max_bytes=share,
+                input_unit="dR/100",  # _io divides dR (%) by 100
+                output_unit=getattr(recs[est_names[0]], "units", {}).get(name),
+            )
+        )
     chosen = [r.best_per_structure()["wh"] if paper else r.best for r in searches]
     return searches, chosen
 
@@ -329,10 +422,17 @@ def quantize_model(chosen: list, recs: dict, actuator: str, val_names: list[str]
 
     inputs, outputs, _ = SIGNALS[actuator]
     chains = [c.model.to_structure() for c in chosen]
-    structure = EstimatorStructure(tuple(inputs), tuple(o for c in chains for o in c.outputs), 1.0 / rate_hz,
-                                   meta={"actuator": actuator}, input_units=("dR/100",) * len(inputs))
-    qrecs = [(n, np.column_stack([recs[n][c] / 100.0 for c in inputs]),
-              np.column_stack([recs[n][o] for o in outputs])) for n in val_names]
+    structure = EstimatorStructure(
+        tuple(inputs),
+        tuple(o for c in chains for o in c.outputs),
+        1.0 / rate_hz,
+        meta={"actuator": actuator},
+        input_units=("dR/100",) * len(inputs),
+    )
+    qrecs = [
+        (n, np.column_stack([recs[n][c] / 100.0 for c in inputs]), np.column_stack([recs[n][o] for o in outputs]))
+        for n in val_names
+    ]
     capacity = FLASH_BLOB_MAX if actuator in PAPER_ORDERS else MAX_BLOB_LEN
     return structure, quantize(structure, recordings=qrecs, capacity=capacity)
 
@@ -352,8 +452,10 @@ def store_model(dev, blob: bytes, upload=None, *, log=print):
         log(f"  flashed into the EEPROM: {info}")
         return info
     if upload is None:
-        raise ModelError(f"the {len(blob)}-byte model needs the flash store (room in the EEPROM: {room} bytes): "
-                         "upload it with porosense flash --store flash")
+        raise ModelError(
+            f"the {len(blob)}-byte model needs the flash store (room in the EEPROM: {room} bytes): "
+            "upload it with porosense flash --store flash"
+        )
     plan, info = flash_upload(dev, blob, upload)
     dev.calibrate_r0(n_samples=32, channels=(1 << info.n_inputs) - 1)  # the upload reset the board: R0 again
     if not info.valid or info.store != "flash" or info.length != len(blob):

@@ -113,8 +113,13 @@ def run_schedule(
             # what the estimator will see; a ground-truth copy goes to <name>_true.
             cols[f"{name}_true" if name in cols else name] = np.asarray(values, dtype=float)
     lost = dev.stats.samples_lost if hasattr(dev, "stats") else 0
-    info = {"schedule": schedule.name, "rate_hz": rate_hz, "device": dev.url, "samples_lost": int(lost),
-            "schedule_data": schedule.to_dict()}
+    info = {
+        "schedule": schedule.name,
+        "rate_hz": rate_hz,
+        "device": dev.url,
+        "samples_lost": int(lost),
+        "schedule_data": schedule.to_dict(),
+    }
     info.update(meta or {})
     return Recording(t, cols, meta=info, units=units)
 

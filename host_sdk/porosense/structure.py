@@ -228,7 +228,7 @@ class EstimatorStructure:
             for br in out.branches:
                 x = u[:, br.input] - br.u_offset
                 if br.delay:
-                    x = np.concatenate([np.full(br.delay, x[0] * 0.0), x[:-br.delay]])
+                    x = np.concatenate([np.full(br.delay, x[0] * 0.0), x[: -br.delay]])
                 if br.f is not None:
                     x = br.f(x)
                 s += br.h1.filter(x)

@@ -26,8 +26,22 @@ def test_every_subcommand_has_help_example_and_json(name):
 
 def test_user_mistakes_exit_with_one_line_and_no_traceback(tmp_path):
     missing = tmp_path / "absent.csv"
-    proc = subprocess.run([sys.executable, "-m", "porosense", "predict", "--model", str(tmp_path / "m.json"),
-                           "--data", str(missing), "--out", str(tmp_path / "p.csv")], capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "porosense",
+            "predict",
+            "--model",
+            str(tmp_path / "m.json"),
+            "--data",
+            str(missing),
+            "--out",
+            str(tmp_path / "p.csv"),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 4 and "not found" in proc.stderr  # a model problem: exit 4
     assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
     assert main(["bench", "protocol", "--size", "small", "--json"]) == 0

@@ -36,8 +36,9 @@ def work(tmp_path_factory):
     nan_rows = rows.splitlines()
     nan_rows[7] = nan_rows[7].split(",")[0] + ",nan," + nan_rows[7].split(",")[2]
     (d / "nan.csv").write_text("t,dR_0,strain_0\n" + "\n".join(nan_rows) + "\n")
-    m = ident.make_model("linear", n_poles=1, n_zeros=0).fit(u=u[:, None], y=y, ts=0.01, inputs=("dR_0",),
-                                                            output="strain_0")
+    m = ident.make_model("linear", n_poles=1, n_zeros=0).fit(
+        u=u[:, None], y=y, ts=0.01, inputs=("dR_0",), output="strain_0"
+    )
     m.save(d / "model.json")
     doc = json.loads((d / "model.json").read_text())
     doc["models"][0]["theta"][0] = float("nan")
@@ -86,7 +87,9 @@ CASES = [
 ]
 
 
-@pytest.mark.parametrize("args,code,words", CASES, ids=[c[0].split(" {d}")[0][:40] + f"#{i}" for i, c in enumerate(CASES)])
+@pytest.mark.parametrize(
+    "args,code,words", CASES, ids=[c[0].split(" {d}")[0][:40] + f"#{i}" for i, c in enumerate(CASES)]
+)
 def test_failure_is_one_line_with_its_exit_code(work, args, code, words, capsys):
     # In process: an exception that escapes main() is a traceback and fails the test.
     argv = [a.replace("{d}", str(work)) for a in args.split()]
@@ -97,8 +100,13 @@ def test_failure_is_one_line_with_its_exit_code(work, args, code, words, capsys)
     assert words in err, err
 
 
-@pytest.mark.parametrize("args,code", [("identify --data {d}/run.csv --input dR_0 --output strain_0 --ts 0.5", 2),
-                                       ("predict --model {d}/nan_model.json --data {d}/run.csv", 4)])
+@pytest.mark.parametrize(
+    "args,code",
+    [
+        ("identify --data {d}/run.csv --input dR_0 --output strain_0 --ts 0.5", 2),
+        ("predict --model {d}/nan_model.json --data {d}/run.csv", 4),
+    ],
+)
 def test_process_exit_code_and_no_traceback(work, args, code):
     argv = [a.replace("{d}", str(work)) for a in args.split()]
     proc = subprocess.run([sys.executable, "-m", "porosense", *argv], capture_output=True, text=True, timeout=120)
@@ -115,8 +123,11 @@ def test_closed_pipe_stops_quietly():
     """`porosense bench protocol --json | head -0`, unbuffered so that the first print meets the
     closed pipe (the reader closes before the interpreter has imported porosense). The command
     stops with the shell's SIGPIPE status (141) and no traceback or 'Exception ignored' message."""
-    proc = subprocess.Popen([sys.executable, "-u", "-m", "porosense", "bench", "protocol", "--size", "small",
-                             "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [sys.executable, "-u", "-m", "porosense", "bench", "protocol", "--size", "small", "--json"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
     proc.stdout.close()
     _, err = proc.communicate(timeout=120)
     err = err.decode()

@@ -44,8 +44,20 @@ def test_hex_out_upload_and_verify_from_flash(paper_blob, tmp_path, capsys):
     with Emulator("3dof") as emu:
         for slot in (0, 1):
             hex_file = tmp_path / f"slot{slot}.hex"
-            code = main(["flash", "--port", emu.url, str(path), "--store", "flash", "--hex-out", str(hex_file),
-                         "--json", "--set-rate"])
+            code = main(
+                [
+                    "flash",
+                    "--port",
+                    emu.url,
+                    str(path),
+                    "--store",
+                    "flash",
+                    "--hex-out",
+                    str(hex_file),
+                    "--json",
+                    "--set-rate",
+                ]
+            )
             out = json.loads(capsys.readouterr().out)
             assert code == 0 and (out["flash_slot"], out["seq"]) == (slot, slot)
             pages = pages_from_hex(hex_file.read_text())
@@ -69,8 +81,21 @@ def test_flash_store_refusals_are_one_line(paper_blob, tmp_path, capsys):
             (["flash", "--port", emu.url, str(path)], 4, f"exceeds the {L.MAX_BLOB_LEN}-byte"),  # EEPROM: too large
             (["flash", "--port", emu.url, str(path), "--store", "flash", "--set-rate"], 2, "no bootloader"),
             (["flash", "--port", emu.url, str(path), "--hex-out", str(tmp_path / "x.hex")], 2, "--store flash"),
-            (["flash", "--port", emu.url, str(path), "--store", "flash", "--set-rate",
-              "--hex-out", str(tmp_path / "no" / "x.hex")], 2, "does not exist"),
+            (
+                [
+                    "flash",
+                    "--port",
+                    emu.url,
+                    str(path),
+                    "--store",
+                    "flash",
+                    "--set-rate",
+                    "--hex-out",
+                    str(tmp_path / "no" / "x.hex"),
+                ],
+                2,
+                "does not exist",
+            ),
         ]
         for args, want, words in cases:
             code = main(args)
@@ -82,9 +107,11 @@ def test_bench_fails_when_advertised_rate_is_not_the_measured_one(monkeypatch, c
     import porosense.bench.firmware as fw
 
     def measured(rate):
-        return lambda size: {"summary": ["rates"], "advertised_equals_measured": rate == fw.advertised_max_rate_hz(),
-                             "max_clean_rates": {"advertised_max_hz": fw.advertised_max_rate_hz(),
-                                                 "measured_max_hz": rate}}
+        return lambda size: {
+            "summary": ["rates"],
+            "advertised_equals_measured": rate == fw.advertised_max_rate_hz(),
+            "max_clean_rates": {"advertised_max_hz": fw.advertised_max_rate_hz(), "measured_max_hz": rate},
+        }
 
     monkeypatch.setattr(fw, "run", measured(fw.advertised_max_rate_hz() - 7))
     assert main(["bench", "firmware", "--size", "full"]) == 3

@@ -25,8 +25,24 @@ COVERED_ELSEWHERE = {
     "firmware": "uploading needs a board; tests/packaging runs `firmware upload` with a stand-in avrdude",
     "record": "needs a camera; tests/record runs `porosense record` on rendered video and the emulator",
 }
-ORDER = ("simulate", "identify", "predict", "compare", "report", "export", "quantize", "diagnose", "emulator",
-         "flash", "verify", "control", "config", "ports", "infoam", "bench")
+ORDER = (
+    "simulate",
+    "identify",
+    "predict",
+    "compare",
+    "report",
+    "export",
+    "quantize",
+    "diagnose",
+    "emulator",
+    "flash",
+    "verify",
+    "control",
+    "config",
+    "ports",
+    "infoam",
+    "bench",
+)
 EMULATOR_PORT = 5000
 
 
@@ -39,10 +55,14 @@ def help_examples() -> dict:
         lines = []
         for raw in (sub.epilog or "").splitlines():
             line = raw.split("  #", 1)[0].strip()
-            for prefix in ("examples (on the emulator, porosense emulator; a board is --port /dev/ttyACM0):",
-                           "examples:", "example:", "then:"):
+            for prefix in (
+                "examples (on the emulator, porosense emulator; a board is --port /dev/ttyACM0):",
+                "examples:",
+                "example:",
+                "then:",
+            ):
                 if line.startswith(prefix):
-                    line = line[len(prefix):].strip()
+                    line = line[len(prefix) :].strip()
             if line.startswith(("porosense ", "python -c")):
                 lines.append(line)
         out[name] = lines
@@ -78,8 +98,14 @@ def test_help_examples_run_as_printed(tmp_path):
     if not _port_free(EMULATOR_PORT):
         pytest.skip(f"port {EMULATOR_PORT} is in use: the printed device examples need it")
     work = tmp_path
-    sim = subprocess.run(_argv("porosense simulate contractor -e step_10 -e step_20 -e step_40 -e step_60 "
-                               f"--rate 50 --out {work} --json"), capture_output=True, text=True, check=True)
+    sim = subprocess.run(
+        _argv(
+            f"porosense simulate contractor -e step_10 -e step_20 -e step_40 -e step_60 --rate 50 --out {work} --json"
+        ),
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     for item in json.loads(sim.stdout):
         src = work / item["path"].rsplit("/", 1)[-1]
         src.rename(work / f"{item['experiment']}.csv")
@@ -112,7 +138,26 @@ def test_help_examples_run_as_printed(tmp_path):
     expected = sum(len(v) for k, v in examples.items() if k not in COVERED_ELSEWHERE)
     assert len(ran) == expected
     # What the examples promised to write is there.
-    for path in ("runs", "model.json", "report.json", "pred.csv", "pred.png", "compare.png", "report/report.html",
-                 "model.c", "model_tf.json", "model.bin", "quant.json", "diag.json", "diag/summary.md",
-                 "my_contractor.json", "contractor.gcode", "c.png", "bending.gcode", "segment.gcode", "parts", "build"):
+    for path in (
+        "runs",
+        "model.json",
+        "report.json",
+        "pred.csv",
+        "pred.png",
+        "compare.png",
+        "report/report.html",
+        "model.c",
+        "model_tf.json",
+        "model.bin",
+        "quant.json",
+        "diag.json",
+        "diag/summary.md",
+        "my_contractor.json",
+        "contractor.gcode",
+        "c.png",
+        "bending.gcode",
+        "segment.gcode",
+        "parts",
+        "build",
+    ):
         assert (work / path).exists(), path

@@ -12,8 +12,8 @@ import json
 
 import numpy as np
 import pytest
-
 from data.matlab_files import write_european_csv, write_mat_v5, write_mat_v73
+
 from porosense import ident
 from porosense.cli import main
 
@@ -40,20 +40,44 @@ def recording():
 
 def _identify(path, tmp_path, name):
     out = tmp_path / f"{name}.json"
-    rc = main(["identify", "--data", str(path), "--input", "u", "--output", "y", "--structure", "linear",
-               "--poles", "2", "--zeros", "1", "--quiet", "--save", str(out), "--json-out", str(tmp_path / "r.json")])
+    rc = main(
+        [
+            "identify",
+            "--data",
+            str(path),
+            "--input",
+            "u",
+            "--output",
+            "y",
+            "--structure",
+            "linear",
+            "--poles",
+            "2",
+            "--zeros",
+            "1",
+            "--quiet",
+            "--save",
+            str(out),
+            "--json-out",
+            str(tmp_path / "r.json"),
+        ]
+    )
     assert rc == 0
     report = json.loads((tmp_path / "r.json").read_text())
     return ident.load_model(out), report
 
 
-@pytest.mark.parametrize("fmt", ["mat_v5_vectors", "mat_v5_struct", "mat_v73_vectors", "mat_v73_struct",
-                                 "european_csv"])
+@pytest.mark.parametrize(
+    "fmt", ["mat_v5_vectors", "mat_v5_struct", "mat_v73_vectors", "mat_v73_struct", "european_csv"]
+)
 def test_matlab_and_european_files_identify_without_edits(recording, tmp_path, fmt):
     rec = recording
     ref_csv = tmp_path / "ref.csv"
-    ref_csv.write_text("t,u,y\n" + "\n".join(f"{t!r},{u!r},{y!r}" for t, u, y in
-                                             zip(rec["t"].tolist(), rec["u"].tolist(), rec["y"].tolist())) + "\n")
+    ref_csv.write_text(
+        "t,u,y\n"
+        + "\n".join(f"{t!r},{u!r},{y!r}" for t, u, y in zip(rec["t"].tolist(), rec["u"].tolist(), rec["y"].tolist()))
+        + "\n"
+    )
     ref, ref_report = _identify(ref_csv, tmp_path, "ref")
 
     if fmt == "european_csv":
@@ -62,15 +86,20 @@ def test_matlab_and_european_files_identify_without_edits(recording, tmp_path, f
     else:
         path = tmp_path / f"{fmt}.mat"
         writer = write_mat_v5 if fmt.startswith("mat_v5") else write_mat_v73
-        writer(path, {"u": rec["u"], "y": rec["y"], "Ts": np.array([[rec["ts"]]])},
-               struct_name="data" if fmt.endswith("struct") else None)
+        writer(
+            path,
+            {"u": rec["u"], "y": rec["y"], "Ts": np.array([[rec["ts"]]])},
+            struct_name="data" if fmt.endswith("struct") else None,
+        )
     model, report = _identify(path, tmp_path, fmt)
     assert report["ts"] == pytest.approx(rec["ts"], rel=1e-9)  # Ts from the file, no --ts given
     yhat, yref = model.predict(u=rec["u"][:, None]), ref.predict(u=rec["u"][:, None])
     diff = float(np.max(np.abs(yhat - yref)) / np.max(np.abs(yref)))
     fit = ident.fit_percent(rec["y"], yhat)
-    print(f"{fmt}: fit {fit:.2f} % (best possible {rec['ideal_fit']:.2f} %), max difference from the CSV "
-          f"model {diff:.1e} of max |y|")
+    print(
+        f"{fmt}: fit {fit:.2f} % (best possible {rec['ideal_fit']:.2f} %), max difference from the CSV "
+        f"model {diff:.1e} of max |y|"
+    )
     # .mat holds the same doubles: the same model. The European CSV rounds to 9 digits.
     assert diff <= (1e-9 if fmt.startswith("mat") else 1e-4)
     assert fit >= rec["ideal_fit"] - 3.0  # a correct 2-pole model reaches the noise floor

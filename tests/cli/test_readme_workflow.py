@@ -17,7 +17,7 @@ from .test_help_examples import EMULATOR_PORT, _port_free
 def workflow_block(readme: Path) -> str:
     """The first ```sh block after the '## Workflow' heading."""
     text = readme.read_text()
-    section = text[text.index("## Workflow"):]
+    section = text[text.index("## Workflow") :]
     return re.search(r"```sh\n(.*?)```", section, re.S).group(1)
 
 
@@ -36,16 +36,23 @@ def test_readme_workflow_runs_as_printed(repo_root, tmp_path):
     block = workflow_block(repo_root / "README.md")
     script = "set -e\ntrap 'kill $(jobs -p) 2>/dev/null || true' EXIT\n" + block
     env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")
-    proc = subprocess.run(["bash", "-c", script], cwd=tmp_path, env=env, capture_output=True, text=True,
-                          timeout=900)
+    proc = subprocess.run(["bash", "-c", script], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     assert "Traceback" not in proc.stderr
     assert "identical" in proc.stdout  # verify: every replayed estimate equals the reference
     report = json.loads((tmp_path / "report.json").read_text())
     fits = {r["output"]: r for r in report["results"]}
     print("identify report outputs:", list(fits))
-    for path in ("pred.png", "report/report.html", "diagnosis.json", "diag/summary.md", "model.c",
-                 "model_tf.json", "model.bin", "quant.json"):
+    for path in (
+        "pred.png",
+        "report/report.html",
+        "diagnosis.json",
+        "diag/summary.md",
+        "model.c",
+        "model_tf.json",
+        "model.bin",
+        "quant.json",
+    ):
         assert (tmp_path / path).exists(), path
     fit = re.search(r"strain_0: fit (-?[\d.]+) %", proc.stdout)
     print("predict on step_40:", fit.group(0))

@@ -6,17 +6,17 @@
 static int g_checks = 0;
 static int g_failures = 0;
 
-#define CHECK_MSG(cond, ...)                              \
-  do {                                                    \
-    ++g_checks;                                           \
-    if (!(cond)) {                                        \
-      ++g_failures;                                       \
-      if (g_failures <= 30) {                             \
+#define CHECK_MSG(cond, ...)                                   \
+  do {                                                         \
+    ++g_checks;                                                \
+    if (!(cond)) {                                             \
+      ++g_failures;                                            \
+      if (g_failures <= 30) {                                  \
         printf("FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-        printf(__VA_ARGS__);                              \
-        printf("\n");                                     \
-      }                                                   \
-    }                                                     \
+        printf(__VA_ARGS__);                                   \
+        printf("\n");                                          \
+      }                                                        \
+    }                                                          \
   } while (0)
 
 #define CHECK(cond) CHECK_MSG(cond, "%s", "check failed")

@@ -105,7 +105,8 @@ std::vector<Reply> take_replies(Hal& hal) {
     proto::FrameDecoder d;
     d.feed(0);  // a fresh decoder waits for a delimiter before its first frame
     for (uint8_t b : w) {
-      if (d.feed(b)) out.push_back(Reply{d.type(), d.seq(), std::vector<uint8_t>(d.payload(), d.payload() + d.length())});
+      if (d.feed(b))
+        out.push_back(Reply{d.type(), d.seq(), std::vector<uint8_t>(d.payload(), d.payload() + d.length())});
     }
   }
   hal.writes.clear();
@@ -115,29 +116,39 @@ std::vector<Reply> take_replies(Hal& hal) {
 uint8_t reply_type_of(uint8_t type) {
   namespace m = proto::msg;
   switch (type) {
-    case m::HELLO: return m::HELLO_REPLY;
-    case m::PING: return m::PONG;
-    case m::MODEL_INFO: return m::MODEL_INFO_REPLY;
-    case m::MODEL_READ: return m::MODEL_DATA;
-    case m::REPLAY: return m::REPLAY_RESULT;
-    case m::CALIBRATE_R0: return m::R0_REPLY;
-    case m::STATUS: return m::STATUS_REPLY;
-    case m::CONFIG_GET: return m::CONFIG_VALUE;
-    case m::CONTROL_GAINS_GET: return m::CONTROL_GAINS_REPLY;
-    default: return m::ACK;
+    case m::HELLO:
+      return m::HELLO_REPLY;
+    case m::PING:
+      return m::PONG;
+    case m::MODEL_INFO:
+      return m::MODEL_INFO_REPLY;
+    case m::MODEL_READ:
+      return m::MODEL_DATA;
+    case m::REPLAY:
+      return m::REPLAY_RESULT;
+    case m::CALIBRATE_R0:
+      return m::R0_REPLY;
+    case m::STATUS:
+      return m::STATUS_REPLY;
+    case m::CONFIG_GET:
+      return m::CONFIG_VALUE;
+    case m::CONTROL_GAINS_GET:
+      return m::CONTROL_GAINS_REPLY;
+    default:
+      return m::ACK;
   }
 }
 
 int g_failures = 0;
-#define INVARIANT(cond, ...)                                   \
-  do {                                                         \
-    if (!(cond)) {                                             \
-      if (++g_failures <= 20) {                                \
-        printf("INVARIANT %s (frame %ld): ", #cond, (long)i);  \
-        printf(__VA_ARGS__);                                   \
-        printf("\n");                                          \
-      }                                                        \
-    }                                                          \
+#define INVARIANT(cond, ...)                                  \
+  do {                                                        \
+    if (!(cond)) {                                            \
+      if (++g_failures <= 20) {                               \
+        printf("INVARIANT %s (frame %ld): ", #cond, (long)i); \
+        printf(__VA_ARGS__);                                  \
+        printf("\n");                                         \
+      }                                                       \
+    }                                                         \
   } while (0)
 
 bool outputs_active(const dev::Outputs& o) {
@@ -295,7 +306,8 @@ int main(int argc, char** argv) {
         r.type == proto::msg::ACK ? ++acks : ++naks;
         if (r.type == proto::msg::NAK) ++nak_per_type[type];
         if (r.type == proto::msg::ACK && !dup && type == proto::msg::MODEL_BEGIN) next_offset = 0;
-        if (r.type == proto::msg::ACK && !dup && type == proto::msg::MODEL_CHUNK) next_offset = (uint16_t)(next_offset + len - 2);
+        if (r.type == proto::msg::ACK && !dup && type == proto::msg::MODEL_CHUNK)
+          next_offset = (uint16_t)(next_offset + len - 2);
         if (r.type == proto::msg::ACK && type == proto::msg::SET_OUTPUTS && !dup) {
           proto::SetOutputs so;
           so.decode(payload, proto::SetOutputs::kMinLen);
@@ -311,8 +323,7 @@ int main(int argc, char** argv) {
         }
       }
     }
-    INVARIANT(answers == (delivered ? 1 : 0), "type 0x%02x seq %u len %u got %d answers", type, seq_sent, len,
-              answers);
+    INVARIANT(answers == (delivered ? 1 : 0), "type 0x%02x seq %u len %u got %d answers", type, seq_sent, len, answers);
     answered += answers == 1;
     dropped += !delivered;
     if (delivered && !dup) cache = type != proto::msg::HELLO;
@@ -337,10 +348,12 @@ int main(int argc, char** argv) {
     }
     hal.reset = false;
   }
-  printf("fuzz_commands: %ld frames (seed %llu): %ld answered once, %ld ACK, %ld NAK, %ld retries, "
-         "%ld echoes, %ld dropped by the decoder; %ld watchdog trips, %ld silences with outputs on; outputs on at most %ld ms "
-         "after the last command\n",
-         n_frames, (unsigned long long)seed, answered, acks, naks, retries, echoes, dropped, trips, silences, on_ms_max);
+  printf(
+      "fuzz_commands: %ld frames (seed %llu): %ld answered once, %ld ACK, %ld NAK, %ld retries, "
+      "%ld echoes, %ld dropped by the decoder; %ld watchdog trips, %ld silences with outputs on; outputs on at most "
+      "%ld ms "
+      "after the last command\n",
+      n_frames, (unsigned long long)seed, answered, acks, naks, retries, echoes, dropped, trips, silences, on_ms_max);
   printf("frames (refused) per host-to-device type:");
   for (int t = 0; t < 0x80; ++t) {
     uint8_t a, b;

@@ -25,8 +25,8 @@ int main() {
       if (dec.length() == 0 && used + 2 < sizeof out) used += (size_t)snprintf(out + used, sizeof out - used, "-");
     }
     const proto::DecoderCounters& c = dec.counters();
-    printf("%u %u %u %u %u %u %u%s\n", c.frames, c.bad_cobs, c.bad_crc, c.bad_length, c.bad_version,
-           c.unknown_type, c.overlong, out);
+    printf("%u %u %u %u %u %u %u%s\n", c.frames, c.bad_cobs, c.bad_crc, c.bad_length, c.bad_version, c.unknown_type,
+           c.overlong, out);
   }
   return 0;
 }

@@ -133,7 +133,7 @@ uint8_t random_frame(uint8_t* out, bool zero_heavy, bool any_version = false) {
   for (uint8_t i = 0; i < len; ++i) payload[i] = zero_heavy && below(2) ? 0 : (uint8_t)rnd();
   uint8_t version = kVersionByte;
   if (below(16) == 0) version = (uint8_t)((kVersionMajor << 4) | below(16));  // another minor
-  if (any_version && below(16) == 0) version = (uint8_t)rnd();  // mostly another major
+  if (any_version && below(16) == 0) version = (uint8_t)rnd();                // mostly another major
   return encode_frame(type, (uint8_t)rnd(), payload, len, out, version);
 }
 
@@ -154,13 +154,27 @@ size_t mutate(uint8_t* s, size_t n, size_t cap) {
   for (uint32_t e = 0; e < edits && n > 0; ++e) {
     const size_t at = below((uint32_t)n);
     switch (below(6)) {
-      case 0: case 1: s[at] ^= (uint8_t)(1u << below(8)); break;       // bit flip
-      case 2: s[at] = (uint8_t)rnd(); break;                              // byte replaced
-      case 3:                                                             // insertion
-        if (n < cap) { memmove(s + at + 1, s + at, n - at); s[at] = (uint8_t)rnd(); ++n; }
+      case 0:
+      case 1:
+        s[at] ^= (uint8_t)(1u << below(8));
+        break;  // bit flip
+      case 2:
+        s[at] = (uint8_t)rnd();
+        break;  // byte replaced
+      case 3:   // insertion
+        if (n < cap) {
+          memmove(s + at + 1, s + at, n - at);
+          s[at] = (uint8_t)rnd();
+          ++n;
+        }
         break;
-      case 4: memmove(s + at, s + at + 1, n - at - 1); --n; break;       // deletion
-      default: n = at + 1; break;                                        // truncation
+      case 4:
+        memmove(s + at, s + at + 1, n - at - 1);
+        --n;
+        break;  // deletion
+      default:
+        n = at + 1;
+        break;  // truncation
     }
   }
   return n;
@@ -218,10 +232,11 @@ int main(int argc, char** argv) {
     }
     persistent.feed(stream, n, input, nullptr, 0);
   }
-  printf("{\"inputs\": %llu, \"bytes\": %llu, \"frames\": %llu, \"frames_after_garbage\": %llu, "
-         "\"recovered_after_garbage\": %llu, \"chunks\": %llu}\n",
-         (unsigned long long)inputs, (unsigned long long)bytes, (unsigned long long)frames_total,
-         (unsigned long long)expected, (unsigned long long)recovered, (unsigned long long)persistent.chunks);
+  printf(
+      "{\"inputs\": %llu, \"bytes\": %llu, \"frames\": %llu, \"frames_after_garbage\": %llu, "
+      "\"recovered_after_garbage\": %llu, \"chunks\": %llu}\n",
+      (unsigned long long)inputs, (unsigned long long)bytes, (unsigned long long)frames_total,
+      (unsigned long long)expected, (unsigned long long)recovered, (unsigned long long)persistent.chunks);
   return 0;
 }
 

@@ -175,8 +175,10 @@ void test_pi_reaches_targets_on_random_plants() {
     if (err > worst_err) worst_err = err;
   }
   CHECK_MSG(worst_err <= 1.0, "worst steady-state error %.2f command steps", worst_err);
-  printf("PI on 200 random first-order plants: worst steady-state error %.2f command steps (x G LSB) "
-         "after 600 samples\n", worst_err);
+  printf(
+      "PI on 200 random first-order plants: worst steady-state error %.2f command steps (x G LSB) "
+      "after 600 samples\n",
+      worst_err);
 }
 
 void test_anti_windup_and_limits() {

@@ -16,7 +16,6 @@
 #include "f32_bits.h"
 #include "sensing.h"
 
-
 namespace r = proto::result;
 namespace f = proto::flag;
 
@@ -47,7 +46,7 @@ struct FakeHal : dev::Hal {
     out = o;
     ++apply_calls;
   }
-  int adc_channel = -1;  // conversion in progress
+  int adc_channel = -1;       // conversion in progress
   int adc_dead_channel = -1;  // this channel's conversion never starts
   bool adc_start(uint8_t ch) override {
     ++adc_reads;
@@ -88,7 +87,10 @@ struct FakeHal : dev::Hal {
 struct FakeModel : dev::ModelPort {
   bool loaded = true;
   int resets = 0, steps = 0, begins = 0;
-  uint8_t begin(uint16_t, uint16_t, uint8_t, int16_t*) override { ++begins; return r::OK; }
+  uint8_t begin(uint16_t, uint16_t, uint8_t, int16_t*) override {
+    ++begins;
+    return r::OK;
+  }
   uint8_t chunk(uint16_t off, const uint8_t*, uint8_t, int16_t* detail) override {
     if (off != 0) {
       *detail = 0;
@@ -213,9 +215,9 @@ void test_boot_outputs_off() {
   rig.boot();
   CHECK(rig.hal.apply_calls >= 1);
   CHECK(rig.hal.out.pump_mask == 0 && rig.hal.out.valve_mask == 0);
-  CHECK((rig.dev.flags() & f::CONFIG_DEFAULTS) != 0);   // blank EEPROM
-  CHECK((rig.dev.flags() & f::R0_UNCALIBRATED) == 0);   // R0 taken from the first samples
-  CHECK(rig.dev.config().r0_mohm[0] == 1000000);        // 20000 counts at 125 uV = 2.5 V
+  CHECK((rig.dev.flags() & f::CONFIG_DEFAULTS) != 0);  // blank EEPROM
+  CHECK((rig.dev.flags() & f::R0_UNCALIBRATED) == 0);  // R0 taken from the first samples
+  CHECK(rig.dev.config().r0_mohm[0] == 1000000);       // 20000 counts at 125 uV = 2.5 V
 }
 
 void test_duplicate_is_not_executed_twice() {
@@ -248,8 +250,7 @@ void test_duplicate_is_not_executed_twice() {
   rig.send_msg(ping, 7);
   Frame d = rig.one();
   CHECK(d.payload == c.payload);
-  printf("duplicates: %d applies for 2 SET_OUTPUTS frames with one sequence number\n",
-         rig.hal.apply_calls - before);
+  printf("duplicates: %d applies for 2 SET_OUTPUTS frames with one sequence number\n", rig.hal.apply_calls - before);
 }
 
 void test_output_limits() {
@@ -259,7 +260,7 @@ void test_output_limits() {
   rig.send_msg(outputs(-601, 1, 0), 1);  // below MIN_SETPOINT_DKPA = -600
   Frame a = rig.one();
   CHECK(nak_code(a) == r::OUT_OF_RANGE && nak_detail(a) == 0);
-  rig.send_msg(outputs(5, 1, 0), 2);     // positive pressure
+  rig.send_msg(outputs(5, 1, 0), 2);  // positive pressure
   CHECK(nak_code(rig.one()) == r::OUT_OF_RANGE);
   rig.send_msg(outputs(-100, 0x08, 0), 3);
   Frame c = rig.one();
@@ -436,7 +437,7 @@ void test_sensor_faults_do_not_stall() {
   int errors = 0;
   for (const Frame& fr : fs) errors += fr.type == proto::msg::ERROR;
   CHECK(s.size() == 5);
-  CHECK(errors == 1);  // reported once, when it happens
+  CHECK(errors == 1);             // reported once, when it happens
   CHECK(rig.hal.adc_reads == 5);  // one failed read per sample, not one per channel
   for (const proto::Sample& x : s) CHECK((x.status & (f::ADC_FAULT | f::IMU_FAULT)) == (f::ADC_FAULT | f::IMU_FAULT));
   CHECK(rig.dev.counters().sensor_faults == 5);
@@ -476,17 +477,20 @@ void test_dr_math() {
         const double r_mohm = 1e6 * v / (5.0 - v);
         const double want = (r_mohm - r0) / r0 * 1e4;
         const int16_t got = dev::counts_to_dr_centi(counts, pga, r0);
-        if (want >= 32767.5) { CHECK(got == 32767); continue; }
+        if (want >= 32767.5) {
+          CHECK(got == 32767);
+          continue;
+        }
         const double err = fabs(got - want) / (0.5 + 0.5e4 / r0 + 1e-6);
         if (err > worst) worst = err;
         CHECK(err <= 1.0);
       }
     }
   }
-  CHECK(dev::counts_to_dr_centi(0, 1, 1000000) == -10000);    // short: -100 %
-  CHECK(dev::counts_to_dr_centi(32767, 1, 1000000) == 32767); // above 5 V: saturated
+  CHECK(dev::counts_to_dr_centi(0, 1, 1000000) == -10000);     // short: -100 %
+  CHECK(dev::counts_to_dr_centi(32767, 1, 1000000) == 32767);  // above 5 V: saturated
   CHECK(dev::counts_to_dr_centi(-5, 1, 1000000) == -10000);
-  CHECK(dev::counts_to_dr_centi(123, 1, 0) == 0);             // no R0
+  CHECK(dev::counts_to_dr_centi(123, 1, 0) == 0);               // no R0
   CHECK(dev::divider_b(0) == 80000 && dev::divider_a(0) == 3);  // 6.144 V: 3/16000 V per count
   CHECK(dev::divider_b(5) == 640000 && dev::divider_b(9) == 640000);
   CHECK(dev::counts_to_mohm(-3, 1, 1) == 0 && dev::counts_to_mohm(40000, 1, 1) == 0x7FFFFFFF);
@@ -799,7 +803,6 @@ void test_sequence_rules() {
   CHECK(fs.size() == 1 && fs[0].type == proto::msg::SAMPLE && fs[0].seq == 0);
 }
 
-
 // Issue 19, item 1: only a valid host command feeds the link watchdog. The board's own frames
 // echoed back (TX-RX loopback) and malformed commands keep nothing alive.
 void test_watchdog_fed_only_by_host_commands() {
@@ -950,11 +953,12 @@ void test_replayed_set_outputs_refused() {
   rig.send_msg(h, 21);
   Frame h3 = rig.one();
   proto::HelloReply r1, r2, r3;
-  CHECK(r1.decode(h1.payload.data(), (uint8_t)h1.payload.size()) && r2.decode(h2.payload.data(), (uint8_t)h2.payload.size()) &&
+  CHECK(r1.decode(h1.payload.data(), (uint8_t)h1.payload.size()) &&
+        r2.decode(h2.payload.data(), (uint8_t)h2.payload.size()) &&
         r3.decode(h3.payload.data(), (uint8_t)h3.payload.size()));
   CHECK(r1.session == r2.session && r3.session != r2.session && r1.session != reply.session);
-  printf("replay: an old 'on' frame refused in its session and after a new HELLO (session %04x -> %04x)\n",
-         session, reply.session);
+  printf("replay: an old 'on' frame refused in its session and after a new HELLO (session %04x -> %04x)\n", session,
+         reply.session);
 }
 
 // Issue 19, item 3: skipped sample ticks take their SAMPLE sequence numbers, so the host

@@ -22,7 +22,9 @@ class Eeprom : public est::Eeprom {
   uint8_t mem[1024];
   Eeprom() { memset(mem, 0xFF, sizeof(mem)); }
   uint8_t read(uint16_t a) override { return a < 1024 ? mem[a] : 0xFF; }
-  void write(uint16_t a, uint8_t v) override { if (a < 1024) mem[a] = v; }
+  void write(uint16_t a, uint8_t v) override {
+    if (a < 1024) mem[a] = v;
+  }
 };
 
 class Flash : public est::FlashRom {
@@ -51,14 +53,26 @@ int load_blobs(Blob* out, int want) {
     unsigned len, n, maxlen;
     if (fscanf(fh, " case %u %u %u", &len, &n, &maxlen) != 3) break;
     static uint8_t buf[4096];
-    for (unsigned i = 0; i < len; ++i) { unsigned b; if (fscanf(fh, "%2x", &b) != 1) return got; buf[i] = uint8_t(b); }
+    for (unsigned i = 0; i < len; ++i) {
+      unsigned b;
+      if (fscanf(fh, "%2x", &b) != 1) return got;
+      buf[i] = uint8_t(b);
+    }
     Blob& bl = out[got];
     for (unsigned t = 0; t < n; ++t) {
       int v[7];
       if (fscanf(fh, "%d %d %d %d %d %d %d", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], &v[6]) != 7) return got;
-      if (t < 64) for (int k = 0; k < 3; ++k) { bl.u[t][k] = int16_t(v[k]); bl.e[t][k] = int16_t(v[3 + k]); }
+      if (t < 64)
+        for (int k = 0; k < 3; ++k) {
+          bl.u[t][k] = int16_t(v[k]);
+          bl.e[t][k] = int16_t(v[3 + k]);
+        }
     }
-    if (len <= L::kMaxBlobLength / 2 && n >= 64) { memcpy(bl.data, buf, len); bl.len = uint16_t(len); ++got; }
+    if (len <= L::kMaxBlobLength / 2 && n >= 64) {
+      memcpy(bl.data, buf, len);
+      bl.len = uint16_t(len);
+      ++got;
+    }
   }
   fclose(fh);
   return got;
@@ -120,26 +134,34 @@ uint8_t boot(Eeprom& ee, Flash& fl, uint16_t* crc = 0, const Blob* expect = 0, u
 
 int main() {
   static Blob blobs[3];
-  if (load_blobs(blobs, 3) < 3) { printf("FAIL need three blobs in data/estimator_vectors.txt\n"); return 1; }
+  if (load_blobs(blobs, 3) < 3) {
+    printf("FAIL need three blobs in data/estimator_vectors.txt\n");
+    return 1;
+  }
   const Blob &A = blobs[0], &B = blobs[1], &C = blobs[2];
   CHECK_MSG(A.crc() != B.crc() && B.crc() != C.crc() && A.crc() != C.crc(), "test blobs must differ");
   const uint8_t F0 = est::ModelStore::kFlashSlot0, F1 = uint8_t(F0 + 1), NONE = est::ModelStore::kNoSlot;
 
   // One flash slot alone runs, bit-exact, and MODEL_INFO names it.
   {
-    Eeprom ee; Flash fl; upload(fl, 0, A, 5);
-    est::Estimator e; est::ModelStore st(ee, e, &fl);
+    Eeprom ee;
+    Flash fl;
+    upload(fl, 0, A, 5);
+    est::Estimator e;
+    est::ModelStore st(ee, e, &fl);
     st.boot();
-    CHECK_MSG(st.status() == 1 && st.active_slot() == F0 && runs_like(e, A), "flash slot 0 alone: slot %u", st.active_slot());
+    CHECK_MSG(st.status() == 1 && st.active_slot() == F0 && runs_like(e, A), "flash slot 0 alone: slot %u",
+              st.active_slot());
     proto::ModelInfoReply info;
     st.info(&info);
-    CHECK_MSG(info.slot == F0 && info.seq == 5 && info.crc == A.crc() && info.length == A.len, "MODEL_INFO slot %u seq %u",
-              info.slot, info.seq);
+    CHECK_MSG(info.slot == F0 && info.seq == 5 && info.crc == A.crc() && info.length == A.len,
+              "MODEL_INFO slot %u seq %u", info.slot, info.seq);
     uint8_t buf[16];
     CHECK_MSG(st.read(0, 16, buf) == res::OK && memcmp(buf, A.data, 16) == 0, "MODEL_READ from flash");
     CHECK_MSG(st.room() == L::kAreaLen, "EEPROM room beside a flash model: %u", st.room());
     // Without a flash store the same EEPROM holds nothing.
-    est::Estimator e2; est::ModelStore st2(ee, e2);
+    est::Estimator e2;
+    est::ModelStore st2(ee, e2);
     st2.boot();
     CHECK_MSG(st2.status() == 0 && !e2.loaded(), "no flash store: no model");
   }
@@ -147,7 +169,10 @@ int main() {
   {
     const uint8_t pairs[][2] = {{5, 6}, {6, 5}, {255, 0}, {0, 255}, {100, 227}, {200, 71}};
     for (const auto& p : pairs) {
-      Eeprom ee; Flash fl; upload(fl, 0, A, p[0]); upload(fl, 1, B, p[1]);
+      Eeprom ee;
+      Flash fl;
+      upload(fl, 0, A, p[0]);
+      upload(fl, 1, B, p[1]);
       const bool second = int8_t(uint8_t(p[1] - p[0])) > 0;
       uint8_t seq;
       uint8_t s = boot(ee, fl, 0, second ? &B : &A, &seq);
@@ -157,22 +182,31 @@ int main() {
   // A bad flash slot is skipped for the previous one: blob byte, CRC trailer, header byte, magic.
   {
     const int hdr = L::kFlashSlotSize + L::kFlashBlobMax;
-    const int spots[] = {L::kFlashSlotSize + 0, L::kFlashSlotSize + 40, L::kFlashSlotSize + B.len - 1,
-                         hdr + L::kOffSlotSeq, hdr + L::kOffSlotLength, hdr + L::kOffSlotCrc, hdr + L::kOffSlotHeaderCrc,
-                         hdr + L::kOffSlotMagic};
+    const int spots[] = {L::kFlashSlotSize + 0,      L::kFlashSlotSize + 40,  L::kFlashSlotSize + B.len - 1,
+                         hdr + L::kOffSlotSeq,       hdr + L::kOffSlotLength, hdr + L::kOffSlotCrc,
+                         hdr + L::kOffSlotHeaderCrc, hdr + L::kOffSlotMagic};
     for (int at : spots) {
-      Eeprom ee; Flash fl; upload(fl, 0, A, 5); upload(fl, 1, B, 6);
+      Eeprom ee;
+      Flash fl;
+      upload(fl, 0, A, 5);
+      upload(fl, 1, B, 6);
       fl.mem[at] ^= 0x5A;
       uint16_t crc;
       uint8_t s = boot(ee, fl, &crc, &A);
       CHECK_MSG(s == F0 && crc == A.crc(), "byte %d of the newer slot corrupted: slot %u runs", at, s);
     }
     // Both bad: nothing runs, and the status says a model was there.
-    Eeprom ee; Flash fl; upload(fl, 0, A, 5); upload(fl, 1, B, 6);
-    fl.mem[10] ^= 1; fl.mem[L::kFlashSlotSize + 10] ^= 1;
-    est::Estimator e; est::ModelStore st(ee, e, &fl);
+    Eeprom ee;
+    Flash fl;
+    upload(fl, 0, A, 5);
+    upload(fl, 1, B, 6);
+    fl.mem[10] ^= 1;
+    fl.mem[L::kFlashSlotSize + 10] ^= 1;
+    est::Estimator e;
+    est::ModelStore st(ee, e, &fl);
     st.boot();
-    CHECK_MSG(st.status() == 2 && !e.loaded() && st.active_slot() == NONE, "both flash slots bad: status %u", st.status());
+    CHECK_MSG(st.status() == 2 && !e.loaded() && st.active_slot() == NONE, "both flash slots bad: status %u",
+              st.status());
   }
   // Torn upload: the new model's image over slot 1 (which held an older model C) cut after each
   // page. The previous model (A in slot 0) runs until the last page, with the header, is written.
@@ -180,21 +214,30 @@ int main() {
     const int pages = L::kFlashSlotSize / L::kFlashPage;
     int old_runs = 0, new_runs = 0, none = 0;
     for (int k = 0; k <= pages; ++k) {
-      Eeprom ee; Flash fl; upload(fl, 1, C, 4); upload(fl, 0, A, 5);
+      Eeprom ee;
+      Flash fl;
+      upload(fl, 1, C, 4);
+      upload(fl, 0, A, 5);
       upload(fl, 1, B, 6, k);
       uint16_t crc;
       uint8_t s = boot(ee, fl, &crc);
-      if (s == F0 && crc == A.crc()) ++old_runs;
-      else if (s == F1 && crc == B.crc()) ++new_runs;
-      else ++none;
+      if (s == F0 && crc == A.crc())
+        ++old_runs;
+      else if (s == F1 && crc == B.crc())
+        ++new_runs;
+      else
+        ++none;
       CHECK_MSG(k == pages ? s == F1 : s == F0, "upload torn after %d of %d pages: slot %u runs", k, pages, s);
     }
-    CHECK_MSG(old_runs == pages && new_runs == 1 && none == 0, "torn uploads: old %d new %d other %d", old_runs, new_runs, none);
+    CHECK_MSG(old_runs == pages && new_runs == 1 && none == 0, "torn uploads: old %d new %d other %d", old_runs,
+              new_runs, none);
     // The same with the previous model in the EEPROM (flash store empty before the upload).
     for (int k = 0; k <= pages; ++k) {
-      Eeprom ee; Flash fl;
+      Eeprom ee;
+      Flash fl;
       {
-        est::Estimator e; est::ModelStore st(ee, e, &fl);
+        est::Estimator e;
+        est::ModelStore st(ee, e, &fl);
         st.boot();
         CHECK_MSG(flash_eeprom(st, A), "EEPROM flash");
       }
@@ -205,11 +248,14 @@ int main() {
   }
   // EEPROM newer than flash and back: each store's write takes the latest counter + 1.
   {
-    Eeprom ee; Flash fl; upload(fl, 0, A, 5);
+    Eeprom ee;
+    Flash fl;
+    upload(fl, 0, A, 5);
     uint8_t seq;
     CHECK_MSG(boot(ee, fl) == F0, "flash A runs");
     {
-      est::Estimator e; est::ModelStore st(ee, e, &fl);
+      est::Estimator e;
+      est::ModelStore st(ee, e, &fl);
       st.boot();
       CHECK_MSG(flash_eeprom(st, B) && st.active_slot() == 0 && st.seq() == 6 && runs_like(e, B),
                 "EEPROM write over a flash model: slot %u seq %u", st.active_slot(), st.seq());
@@ -218,7 +264,8 @@ int main() {
     upload(fl, 1, C, uint8_t(seq + 1));  // the host's upload: latest + 1 into the flash slot not running
     CHECK_MSG(boot(ee, fl, 0, &C, &seq) == F1 && seq == 7, "flash newer than EEPROM runs (seq %u)", seq);
     {
-      est::Estimator e; est::ModelStore st(ee, e, &fl);
+      est::Estimator e;
+      est::ModelStore st(ee, e, &fl);
       st.boot();
       // The EEPROM slot written is 0 again: with a flash model running, BEGIN takes slot 0.
       CHECK_MSG(flash_eeprom(st, A) && st.active_slot() == 0 && st.seq() == 8, "EEPROM again: slot %u seq %u",
@@ -230,7 +277,8 @@ int main() {
     CHECK_MSG(boot(ee, fl, 0, &C, &seq) == F1 && seq == 7, "corrupt newest EEPROM slot: flash seq %u runs", seq);
     // MODEL_ERASE clears the EEPROM slots only; the flash model is back at the next boot.
     {
-      est::Estimator e; est::ModelStore st(ee, e, &fl);
+      est::Estimator e;
+      est::ModelStore st(ee, e, &fl);
       st.boot();
       CHECK_MSG(st.erase() == res::OK && !e.loaded(), "erase");
     }

@@ -14,8 +14,6 @@ using namespace proto;
 
 namespace {
 
-
-
 typedef std::vector<uint8_t> Bytes;
 
 Bytes from_hex(const char* s) {
@@ -52,8 +50,8 @@ std::vector<Decoded> feed_all(FrameDecoder& dec, const Bytes& stream) {
 }
 
 bool counters_zero_but_frames(const DecoderCounters& c) {
-  return c.bad_cobs == 0 && c.bad_crc == 0 && c.bad_length == 0 && c.bad_version == 0 &&
-         c.unknown_type == 0 && c.overlong == 0;
+  return c.bad_cobs == 0 && c.bad_crc == 0 && c.bad_length == 0 && c.bad_version == 0 && c.unknown_type == 0 &&
+         c.overlong == 0;
 }
 
 void check_crc() {
@@ -63,7 +61,8 @@ void check_crc() {
   for (uint32_t state = 0; state < 0x10000; state += 0x1111) {
     for (uint16_t b = 0; b < 256; ++b) {
       uint16_t bitwise = (uint16_t)(state ^ b);
-      for (int k = 0; k < 8; ++k) bitwise = (bitwise & 1) ? (uint16_t)((bitwise >> 1) ^ 0x8408) : (uint16_t)(bitwise >> 1);
+      for (int k = 0; k < 8; ++k)
+        bitwise = (bitwise & 1) ? (uint16_t)((bitwise >> 1) ^ 0x8408) : (uint16_t)(bitwise >> 1);
       CHECK_MSG(crc16_update((uint16_t)state, (uint8_t)b) == bitwise, "state %04X byte %02X", (unsigned)state, b);
     }
   }
@@ -71,20 +70,19 @@ void check_crc() {
 
 int n_frame_vectors = 0, n_stream_vectors = 0;
 
-void check_frame_vector(const char* name, int version, int type, int seq, const Bytes& payload,
-                        const Bytes& frame) {
+void check_frame_vector(const char* name, int version, int type, int seq, const Bytes& payload, const Bytes& frame) {
   ++n_frame_vectors;
   uint8_t out[kMaxFrameLen];
   uint8_t n = encode_frame((uint8_t)type, (uint8_t)seq, payload.empty() ? nullptr : payload.data(),
                            (uint8_t)payload.size(), out, (uint8_t)version);
-  CHECK_MSG(n == frame.size() && memcmp(out, frame.data(), n) == 0, "%s: encoding differs (%u vs %zu bytes)",
-        name, n, frame.size());
+  CHECK_MSG(n == frame.size() && memcmp(out, frame.data(), n) == 0, "%s: encoding differs (%u vs %zu bytes)", name, n,
+            frame.size());
   FrameDecoder dec;
   std::vector<Decoded> got = feed_all(dec, frame);
   CHECK_MSG(got.size() == 1, "%s: %zu frames decoded", name, got.size());
   if (got.size() == 1) {
     CHECK_MSG(got[0].version == version && got[0].type == type && got[0].seq == seq && got[0].payload == payload,
-          "%s: decoded fields differ", name);
+              "%s: decoded fields differ", name);
   }
   CHECK_MSG(dec.counters().frames == 1 && counters_zero_but_frames(dec.counters()), "%s: counters", name);
 }
@@ -102,7 +100,7 @@ void check_stream_vector(const char* name, const Bytes& stream, const uint16_t w
     const Decoded& a = got[i];
     const Decoded& b = want_frames[i];
     CHECK_MSG(a.version == b.version && a.type == b.type && a.seq == b.seq && a.payload == b.payload,
-          "%s: frame %zu differs", name, i);
+              "%s: frame %zu differs", name, i);
   }
 }
 
@@ -264,7 +262,7 @@ int main() {
   check_counters_saturate();
   check_vectors("../../protocol/vectors/frames.txt");
   CHECK_MSG(n_frame_vectors >= 33 && n_stream_vectors >= 10, "only %d frame and %d stream vectors", n_frame_vectors,
-        n_stream_vectors);
+            n_stream_vectors);
 
   const uint8_t ping_payload[] = {0x78, 0x56, 0x34, 0x12};
   const Bytes ping(ping_payload, ping_payload + 4);

@@ -20,8 +20,9 @@ HERE = Path(__file__).resolve().parent
 def fuzzer() -> Path:
     if shutil.which("g++") is None:
         pytest.skip("g++ not installed")
-    proc = subprocess.run(["make", "-s", "-C", str(HERE), "-f", "Makefile.fuzz", "build/fuzz_commands"],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        ["make", "-s", "-C", str(HERE), "-f", "Makefile.fuzz", "build/fuzz_commands"], capture_output=True, text=True
+    )
     assert proc.returncode == 0, f"build of fuzz_commands failed:\n{proc.stdout}\n{proc.stderr}"
     return HERE / "build" / "fuzz_commands"
 
@@ -29,9 +30,14 @@ def fuzzer() -> Path:
 def _run(fuzzer: Path, frames: int, seed: int) -> dict:
     proc = subprocess.run([str(fuzzer), str(frames), str(seed)], capture_output=True, text=True, timeout=900)
     print(proc.stdout[-3000:])
-    assert proc.returncode == 0, f"fuzz_commands failed (exit {proc.returncode}):\n{proc.stdout[-4000:]}\n{proc.stderr[-4000:]}"
-    m = re.search(r"(\d+) frames .*?: (\d+) answered once, (\d+) ACK, (\d+) NAK, (\d+) retries, (\d+) echoes, "
-                  r"(\d+) dropped by the decoder; (\d+) watchdog trips, (\d+) silences with outputs on", proc.stdout)
+    assert proc.returncode == 0, (
+        f"fuzz_commands failed (exit {proc.returncode}):\n{proc.stdout[-4000:]}\n{proc.stderr[-4000:]}"
+    )
+    m = re.search(
+        r"(\d+) frames .*?: (\d+) answered once, (\d+) ACK, (\d+) NAK, (\d+) retries, (\d+) echoes, "
+        r"(\d+) dropped by the decoder; (\d+) watchdog trips, (\d+) silences with outputs on",
+        proc.stdout,
+    )
     assert m, proc.stdout
     keys = ("frames", "answered", "ack", "nak", "retries", "echoes", "dropped", "trips", "silences")
     return dict(zip(keys, map(int, m.groups())))

@@ -13,7 +13,6 @@
 
 namespace {
 
-
 namespace res = proto::result;
 
 // 1 KB EEPROM that can "lose power": after `budget` writes every further write is dropped,
@@ -53,14 +52,26 @@ int load_blobs(Blob* out, int want) {
     unsigned len, n, maxlen;
     if (fscanf(fh, " case %u %u %u", &len, &n, &maxlen) != 3) break;
     static uint8_t buf[4096];
-    for (unsigned i = 0; i < len; ++i) { unsigned b; if (fscanf(fh, "%2x", &b) != 1) return got; buf[i] = uint8_t(b); }
+    for (unsigned i = 0; i < len; ++i) {
+      unsigned b;
+      if (fscanf(fh, "%2x", &b) != 1) return got;
+      buf[i] = uint8_t(b);
+    }
     Blob& bl = out[got];
     for (unsigned t = 0; t < n; ++t) {
       int v[7];
       if (fscanf(fh, "%d %d %d %d %d %d %d", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], &v[6]) != 7) return got;
-      if (t < 64) for (int k = 0; k < 3; ++k) { bl.u[t][k] = int16_t(v[k]); bl.e[t][k] = int16_t(v[3 + k]); }
+      if (t < 64)
+        for (int k = 0; k < 3; ++k) {
+          bl.u[t][k] = int16_t(v[k]);
+          bl.e[t][k] = int16_t(v[3 + k]);
+        }
     }
-    if (len <= est::layout::kMaxBlobLength / 2 && n >= 64) { memcpy(bl.data, buf, len); bl.len = uint16_t(len); ++got; }
+    if (len <= est::layout::kMaxBlobLength / 2 && n >= 64) {
+      memcpy(bl.data, buf, len);
+      bl.len = uint16_t(len);
+      ++got;
+    }
   }
   fclose(fh);
   return got;
@@ -91,13 +102,18 @@ bool runs_like(est::Estimator& e, const Blob& b) {
 int main() {
   const uint8_t V = est::layout::kFormatVersion;
   static Blob blobs[2];
-  if (load_blobs(blobs, 2) < 2) { printf("FAIL need two blobs in data/estimator_vectors.txt\n"); return 1; }
+  if (load_blobs(blobs, 2) < 2) {
+    printf("FAIL need two blobs in data/estimator_vectors.txt\n");
+    return 1;
+  }
   const Blob &A = blobs[0], &B = blobs[1];
   CHECK_MSG(A.crc() != B.crc(), "the two test blobs must differ");
 
   // Empty EEPROM: no model, estimator off.
   {
-    FakeEeprom ee; est::Estimator e; est::ModelStore st(ee, e);
+    FakeEeprom ee;
+    est::Estimator e;
+    est::ModelStore st(ee, e);
     st.boot();
     CHECK_MSG(st.status() == 0 && !e.loaded(), "blank EEPROM: status %u", st.status());
     uint8_t buf[4];
@@ -107,34 +123,42 @@ int main() {
   // Flash, reboot, info, read back.
   FakeEeprom base;  // A in slot 0
   {
-    est::Estimator e; est::ModelStore st(base, e);
+    est::Estimator e;
+    est::ModelStore st(base, e);
     st.boot();
     CHECK_MSG(flash(st, A), "flashing a valid blob failed");
     CHECK_MSG(st.status() == 1 && e.loaded() && st.crc() == A.crc() && st.active_slot() == 0, "after commit");
-    est::Estimator e2; est::ModelStore st2(base, e2);
+    est::Estimator e2;
+    est::ModelStore st2(base, e2);
     st2.boot();
-    CHECK_MSG(st2.status() == 1 && st2.crc() == A.crc() && st2.length() == A.len, "after reboot: status %u", st2.status());
+    CHECK_MSG(st2.status() == 1 && st2.crc() == A.crc() && st2.length() == A.len, "after reboot: status %u",
+              st2.status());
     CHECK_MSG(runs_like(e2, A), "estimator from EEPROM differs from the reference");
     proto::ModelInfoReply info;
     st2.info(&info);
     CHECK_MSG(info.status == 1 && info.length == A.len && info.crc == A.crc() && info.format_version == V &&
-          info.n_inputs == A.data[3] && info.n_outputs == A.data[4], "MODEL_INFO fields");
+                  info.n_inputs == A.data[3] && info.n_outputs == A.data[4],
+              "MODEL_INFO fields");
     uint8_t buf[112];
     CHECK_MSG(st2.read(0, 112, buf) == res::OK && memcmp(buf, A.data, 112) == 0, "MODEL_READ content");
     CHECK_MSG(st2.read(uint16_t(A.len - 1), 2, buf) == res::OUT_OF_RANGE, "MODEL_READ past the end");
   }
   FakeEeprom both = base;  // A in slot 0 (older), B in slot 1 (running)
   {
-    est::Estimator e; est::ModelStore st(both, e);
+    est::Estimator e;
+    est::ModelStore st(both, e);
     st.boot();
     CHECK_MSG(flash(st, B) && st.active_slot() == 1 && st.crc() == B.crc() && runs_like(e, B), "B beside A");
-    est::Estimator e2; est::ModelStore st2(both, e2);
+    est::Estimator e2;
+    est::ModelStore st2(both, e2);
     st2.boot();
     CHECK_MSG(st2.crc() == B.crc() && st2.active_slot() == 1 && runs_like(e2, B), "after reboot B runs");
   }
   // Result codes; every refusal keeps the running model.
   {
-    FakeEeprom ee = base; est::Estimator e; est::ModelStore st(ee, e);
+    FakeEeprom ee = base;
+    est::Estimator e;
+    est::ModelStore st(ee, e);
     st.boot();
     int16_t d = 0;
     uint16_t room = st.room();
@@ -166,7 +190,8 @@ int main() {
     bad.data[bad.len - 1] = uint8_t(c >> 8);
     CHECK_MSG(!flash(st, bad) && st.status() == 1 && st.crc() == A.crc() && runs_like(e, A),
               "structurally bad blob: the old model must keep running");
-    est::Estimator e2; est::ModelStore st2(ee, e2);
+    est::Estimator e2;
+    est::ModelStore st2(ee, e2);
     st2.boot();
     CHECK_MSG(st2.status() == 1 && st2.crc() == A.crc() && runs_like(e2, A), "after failed commits: status %u",
               st2.status());
@@ -177,7 +202,9 @@ int main() {
   }
   // A blob that does not fit beside the running one is refused, and the running one stays.
   {
-    FakeEeprom ee = base; est::Estimator e; est::ModelStore st(ee, e);
+    FakeEeprom ee = base;
+    est::Estimator e;
+    est::ModelStore st(ee, e);
     st.boot();
     int16_t d = 0;
     uint16_t big = uint16_t(est::layout::kMaxBlobLength - A.len + 1);
@@ -192,7 +219,8 @@ int main() {
       if (a >= hdr + est::layout::kSlotHeaderLen && a < est::ModelStore::kAreaBase) continue;  // slot 1's header
       FakeEeprom ee = base;
       ee.mem[a] ^= 0x10;
-      est::Estimator e; est::ModelStore st(ee, e);
+      est::Estimator e;
+      est::ModelStore st(ee, e);
       st.boot();
       bool magic = a == hdr;
       CHECK_MSG(st.status() == (magic ? 0 : 2) && !e.loaded(), "byte %u corrupted: status %u", a, st.status());
@@ -204,7 +232,8 @@ int main() {
       if (a >= hdr1 + est::layout::kSlotHeaderLen && a < b0) continue;
       FakeEeprom ee = both;
       ee.mem[a] ^= 0x10;
-      est::Estimator e; est::ModelStore st(ee, e);
+      est::Estimator e;
+      est::ModelStore st(ee, e);
       st.boot();
       CHECK_MSG(st.status() == 1 && st.crc() == A.crc() && runs_like(e, A), "byte %u of B corrupted: A must run", a);
       ++corrupt_checked;
@@ -212,14 +241,19 @@ int main() {
   }
   // Reset at every write of a flash, clean and torn: B over A (slot 1 free), then A over
   // {A older, B running} (slot 0 reused).
-  struct Case { const FakeEeprom* start; const Blob* old_b; const Blob* new_b; } cases[2] = {
-      {&base, &A, &B}, {&both, &B, &A}};
+  struct Case {
+    const FakeEeprom* start;
+    const Blob* old_b;
+    const Blob* new_b;
+  } cases[2] = {{&base, &A, &B}, {&both, &B, &A}};
   int old_seen = 0, new_seen = 0;
   long positions = 0;
   for (const Case& cs : cases) {
     long total = 0;
     {
-      FakeEeprom ee = *cs.start; est::Estimator e; est::ModelStore st(ee, e);
+      FakeEeprom ee = *cs.start;
+      est::Estimator e;
+      est::ModelStore st(ee, e);
       ee.writes = 0;
       st.boot();
       CHECK_MSG(flash(st, *cs.new_b), "clean flash");
@@ -233,16 +267,17 @@ int main() {
         ee.budget = k;
         ee.torn = torn;
         {
-          est::Estimator e; est::ModelStore st(ee, e);
+          est::Estimator e;
+          est::ModelStore st(ee, e);
           st.boot();
           flash(st, *cs.new_b);
         }
-        est::Estimator e; est::ModelStore st(ee, e);
+        est::Estimator e;
+        est::ModelStore st(ee, e);
         st.boot();
         bool is_new = st.status() == 1 && st.crc() == cs.new_b->crc();
         bool is_old = st.status() == 1 && st.crc() == cs.old_b->crc();
-        CHECK_MSG(is_old || is_new, "reset at write %ld (torn %d): status %u, not the old model", k, torn,
-                  st.status());
+        CHECK_MSG(is_old || is_new, "reset at write %ld (torn %d): status %u, not the old model", k, torn, st.status());
         CHECK_MSG(!is_new || k >= total, "reset at write %ld: new model valid before the last write", k);
         CHECK_MSG(runs_like(e, is_new ? *cs.new_b : *cs.old_b), "reset at write %ld: model runs differently", k);
         old_seen += is_old;
@@ -253,20 +288,24 @@ int main() {
   CHECK_MSG(new_seen >= 2 && old_seen >= 2, "torn-write outcomes old %d new %d", old_seen, new_seen);
   // The commit counter wraps: 300 alternating flashes, the last one always runs after a reboot.
   {
-    FakeEeprom ee; est::Estimator e; est::ModelStore st(ee, e);
+    FakeEeprom ee;
+    est::Estimator e;
+    est::ModelStore st(ee, e);
     st.boot();
     bool ok = true;
     for (int i = 0; i < 300 && ok; ++i) {
       const Blob& b = (i & 1) ? B : A;
       ok = flash(st, b);
-      est::Estimator e2; est::ModelStore st2(ee, e2);
+      est::Estimator e2;
+      est::ModelStore st2(ee, e2);
       st2.boot();
       ok = ok && st2.crc() == b.crc();
     }
     CHECK_MSG(ok, "commit counter wrap: the newest model did not run");
   }
-  printf("model store: %d corrupted bytes refused or fallen back; resets at %ld write positions x2 "
-         "(clean/torn): old model %d, new model %d, no model 0, broken 0\n",
-         corrupt_checked, positions, old_seen, new_seen);
+  printf(
+      "model store: %d corrupted bytes refused or fallen back; resets at %ld write positions x2 "
+      "(clean/torn): old model %d, new model %d, no model 0, broken 0\n",
+      corrupt_checked, positions, old_seen, new_seen);
   return g_failures ? 1 : 0;
 }

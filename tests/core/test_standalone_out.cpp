@@ -10,7 +10,6 @@
 
 #include "standalone_out.h"
 
-
 static std::string fixed(int32_t v, uint8_t decimals) {
   char buf[16];
   const uint8_t n = dev::format_fixed(buf, v, decimals);
@@ -22,14 +21,16 @@ static std::string reference(int64_t v, int decimals) {  // exact, via integers
   for (int i = 0; i < decimals; ++i) p *= 10;
   const int64_t mag = v < 0 ? -v : v;
   char buf[40];
-  if (decimals == 0) snprintf(buf, sizeof buf, "%s%lld", v < 0 ? "-" : "", (long long)mag);
-  else snprintf(buf, sizeof buf, "%s%lld.%0*lld", v < 0 ? "-" : "", (long long)(mag / p), decimals, (long long)(mag % p));
+  if (decimals == 0)
+    snprintf(buf, sizeof buf, "%s%lld", v < 0 ? "-" : "", (long long)mag);
+  else
+    snprintf(buf, sizeof buf, "%s%lld.%0*lld", v < 0 ? "-" : "", (long long)(mag / p), decimals, (long long)(mag % p));
   return buf;
 }
 
 static void test_format_fixed() {
-  const int32_t values[] = {0, 1, -1, 9, -9, 10, 99, -100, 1234, -1234, 32767, -32768, 999999,
-                            2147483647, -2147483647 - 1, 5, -5, 100000};
+  const int32_t values[] = {
+      0, 1, -1, 9, -9, 10, 99, -100, 1234, -1234, 32767, -32768, 999999, 2147483647, -2147483647 - 1, 5, -5, 100000};
   int mismatches = 0;
   for (int32_t v : values)
     for (uint8_t d = 0; d <= 3; ++d) mismatches += fixed(v, d) != reference(v, d);

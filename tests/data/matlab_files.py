@@ -25,7 +25,7 @@ def write_mat_v73(path, variables: dict, struct_name: str | None = None) -> None
     """``save(path, ..., '-v7.3')``: HDF5 with MATLAB's user block, classes and transposed arrays."""
     import h5py
 
-    header = (b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  5 10:00:00 2026 HDF5 schema 1.00 .")
+    header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  5 10:00:00 2026 HDF5 schema 1.00 ."
     with h5py.File(path, "w", userblock_size=512) as fh:
         group = fh
         if struct_name:
@@ -36,8 +36,9 @@ def write_mat_v73(path, variables: dict, struct_name: str | None = None) -> None
             arr = arr.reshape(-1, 1) if arr.ndim == 1 else arr
             ds = group.create_dataset(name, data=arr.T)  # column-major: stored transposed
             ds.attrs["MATLAB_class"] = np.bytes_(b"double")
-        note = fh.create_dataset("note", data=np.frombuffer("run 3".encode("utf-16-le"), dtype=np.uint16)
-                                 .reshape(-1, 1))
+        note = fh.create_dataset(
+            "note", data=np.frombuffer("run 3".encode("utf-16-le"), dtype=np.uint16).reshape(-1, 1)
+        )
         note.attrs["MATLAB_class"] = np.bytes_(b"char")
     with open(path, "r+b") as fh:
         fh.write(header.ljust(116, b" ") + b"\x00" * 8 + b"\x00\x02IM")

@@ -74,7 +74,9 @@ def test_empty_cell_is_reported_with_its_line(tmp_path):
 def test_unreadable_dialect_names_what_was_seen(tmp_path):
     path = tmp_path / "odd.csv"
     path.write_text("t;u;y\n0;1;2\n1;2;3;4\n")
-    with pytest.raises(InputError, match=r"line 3: expected 3 cells, found 4 \(read as semicolon-separated.*--separator"):
+    with pytest.raises(
+        InputError, match=r"line 3: expected 3 cells, found 4 \(read as semicolon-separated.*--separator"
+    ):
         load_data(path)
 
 

@@ -21,8 +21,13 @@ def sample_recording(n=500, seed=3):
             "strain_0": np.concatenate([[np.nan], rng.random(n - 1) * 1e-300]),
             "valve_0": t % 2 < 1,
         },
-        meta={"actuator": "contractor", "porosity": 82.0, "seed": np.int64(seed),
-              "truth": ["strain_0"], "effects": {"drift": {"rate_pct_per_min": 0.5}}},
+        meta={
+            "actuator": "contractor",
+            "porosity": 82.0,
+            "seed": np.int64(seed),
+            "truth": ["strain_0"],
+            "effects": {"drift": {"rate_pct_per_min": 0.5}},
+        },
         units={"p_cmd_0": "kPa", "adc_0": "counts", "dR_0": "%", "strain_0": "%"},
     )
 

@@ -58,8 +58,7 @@ def test_wrong_cell_count_names_line(tmp_path):
         read_table(path)
 
 
-@pytest.mark.parametrize("text, pattern", [("", "empty file"), (",,\n1,2\n", "line 1"),
-                                           ("a,a\n1,2\n", "duplicate")])
+@pytest.mark.parametrize("text, pattern", [("", "empty file"), (",,\n1,2\n", "line 1"), ("a,a\n1,2\n", "duplicate")])
 def test_bad_header(tmp_path, text, pattern):
     with pytest.raises(InputError, match=pattern):
         read_table(write(tmp_path, text))

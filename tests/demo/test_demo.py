@@ -9,17 +9,30 @@ import subprocess
 import numpy as np
 import pytest
 
-CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+CHROMIUM_FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
 
 
 @pytest.fixture(scope="module")
 def demo(tmp_path_factory, repo_root):
     out = tmp_path_factory.mktemp("demo")
-    proc = subprocess.run(["make", "-s", "demo", f"DEMO_ARGS=--out {out} --json --no-progress"], cwd=repo_root,
-                          capture_output=True, text=True, timeout=1200)
+    proc = subprocess.run(
+        ["make", "-s", "demo", f"DEMO_ARGS=--out {out} --json --no-progress"],
+        cwd=repo_root,
+        capture_output=True,
+        text=True,
+        timeout=1200,
+    )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    text = proc.stdout[proc.stdout.index("[\n"):]
+    text = proc.stdout[proc.stdout.index("[\n") :]
     return out, json.loads(text)[0]
 
 
@@ -54,15 +67,19 @@ def test_demo_report_renders_in_chromium(demo, tmp_path):
     if browser is None:
         pytest.skip("chromium is not installed (tools/bootstrap.sh installs it)")
     flags = CHROMIUM_FLAGS + [f"--user-data-dir={tmp_path / 'profile'}"]
-    dom = subprocess.run([browser, *flags, "--dump-dom", page.as_uri()], capture_output=True, text=True,
-                         timeout=120).stdout
+    dom = subprocess.run(
+        [browser, *flags, "--dump-dom", page.as_uri()], capture_output=True, text=True, timeout=120
+    ).stdout
     loaded = dom.split('data-figures-loaded="', 1)[1].split('"', 1)[0]
     n_ok, n_all = (int(v) for v in loaded.split("/"))
     print(f"figures loaded: {n_ok}/{n_all}")
     assert n_all >= 5 and n_ok == n_all
     shot = tmp_path / "page.png"
-    subprocess.run([browser, *flags, f"--screenshot={shot}", "--window-size=1200,2400", page.as_uri()],
-                   capture_output=True, timeout=120)
+    subprocess.run(
+        [browser, *flags, f"--screenshot={shot}", "--window-size=1200,2400", page.as_uri()],
+        capture_output=True,
+        timeout=120,
+    )
     import matplotlib.image
 
     img = matplotlib.image.imread(shot)

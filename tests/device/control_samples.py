@@ -5,8 +5,9 @@ from __future__ import annotations
 from porosense.protocol import StatusFlag
 
 
-def controlled_samples(dev, n: int, *, limit: int = 5000, timeout_s: float = 20.0, ping_every: int = 20,
-                       ping: bool = True) -> list:
+def controlled_samples(
+    dev, n: int, *, limit: int = 5000, timeout_s: float = 20.0, ping_every: int = 20, ping: bool = True
+) -> list:
     """n samples from the first controlled one on (the back-end may have queued samples made
     before the start), pinging every ``ping_every`` samples when ``ping`` so a live host keeps
     the watchdog fed; fewer when ``limit`` samples pass first."""

@@ -8,12 +8,11 @@ import math
 
 import numpy as np
 import pytest
+from control_samples import controlled_samples
 
 from porosense.device import ControlGains, NakError
 from porosense.errors import InputError
 from porosense.protocol import Result, StatusFlag
-
-from control_samples import controlled_samples
 
 GAINS = ControlGains(kp_kpa=2.0, ki_kpa_per_s=1.0, slew_per_s=50.0)
 

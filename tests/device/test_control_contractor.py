@@ -30,8 +30,18 @@ def contractor_model():
     recs = {e: run_experiment("contractor", e, rate_hz=RATE, seed=3) for e in ("staircase", "step_60", "step_40")}
     u = [np.column_stack([recs[e]["dR_0"] / 100.0]) for e in ("staircase", "step_60")]
     y = [recs[e]["strain_0"] for e in ("staircase", "step_60")]
-    res = search(u=u, y=y, ts=1.0 / RATE, poles=range(1, 3), structures=("wiener",), inputs=["dR_0"],
-                 output="strain_0", progress=False, executor=ThreadPoolExecutor(1), starts=1)
+    res = search(
+        u=u,
+        y=y,
+        ts=1.0 / RATE,
+        poles=range(1, 3),
+        structures=("wiener",),
+        inputs=["dR_0"],
+        output="strain_0",
+        progress=False,
+        executor=ThreadPoolExecutor(1),
+        starts=1,
+    )
     s = res.model.to_structure()
     structure = EstimatorStructure(("dR_0",), s.outputs, 1.0 / RATE, input_units=("dR/100",))
     blob = quantize(structure, recordings=[("staircase", u[0], np.column_stack([y[0]]))]).blob.to_bytes()
@@ -72,9 +82,11 @@ def test_step_target_reached_in_true_strain(contractor_model):
     cmd = np.array([s.command_kpa[0] for s in samples])
     last = slice(-2 * RATE, None)  # the last 2 s
     err_true = abs(truth[last].mean() - target)
-    print(f"K {k:.3f} %/kPa, model RMS {rms:.3f} %; last 2 s: estimate {est[last].mean():.2f} %, "
-          f"true strain {truth[last].mean():.2f} % "
-          f"(error {err_true:.3f} %), slewed target {tgt[-1]:.2f} %, command {cmd[last].mean():.1f} kPa")
+    print(
+        f"K {k:.3f} %/kPa, model RMS {rms:.3f} %; last 2 s: estimate {est[last].mean():.2f} %, "
+        f"true strain {truth[last].mean():.2f} % "
+        f"(error {err_true:.3f} %), slewed target {tgt[-1]:.2f} %, command {cmd[last].mean():.1f} kPa"
+    )
     assert not any(s.status & F.CONTROL_ABORTED for s in samples)
     assert abs(tgt[-1] - target) < 0.01
     assert np.all(cmd <= 0) and np.all(cmd >= -60.0)

@@ -21,9 +21,21 @@ def test_ports_json(capsys):
 
 def test_emulator_command_serves_a_board():
     proc = subprocess.Popen(
-        [sys.executable, "-m", "porosense", "emulator", "--listen", "tcp://127.0.0.1:0", "--actuator", "3dof",
-         "--duration", "30"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        [
+            sys.executable,
+            "-m",
+            "porosense",
+            "emulator",
+            "--listen",
+            "tcp://127.0.0.1:0",
+            "--actuator",
+            "3dof",
+            "--duration",
+            "30",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     try:
         line = proc.stdout.readline()
@@ -35,10 +47,13 @@ def test_emulator_command_serves_a_board():
         proc.wait(timeout=10)
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["emulator", "--listen", "udp://1.2.3.4:5", "--duration", "0"], "cannot listen"),
-    (["emulator", "--corrupt", "2", "--duration", "0"], "probability"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["emulator", "--listen", "udp://1.2.3.4:5", "--duration", "0"], "cannot listen"),
+        (["emulator", "--corrupt", "2", "--duration", "0"], "probability"),
+    ],
+)
 def test_emulator_mistakes_are_one_line_errors(capsys, argv, message):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()

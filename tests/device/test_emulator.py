@@ -7,14 +7,13 @@ import time
 
 import numpy as np
 import pytest
-
 from models import make_blob
+
 from porosense.device import Device, NakError
 from porosense.emulator import Emulator, Faults
 from porosense.errors import DeviceError
 from porosense.protocol import Result, StatusFlag
-from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
-from porosense.protocol._messages import VERSION_MAJOR
+from porosense.protocol._messages import CONFIG_SPECS, VERSION_MAJOR, ConfigKey
 from porosense.quant import ModelBlob
 
 
@@ -64,7 +63,9 @@ def test_power_loss_in_the_middle_of_a_model_write_keeps_the_old_model():
             dev.write_model(new)
         assert emu.core.stats.reboots_injected == 1
         info = dev.model_info()
-        assert info.status == "valid" and info.model_id == ModelBlob.from_bytes(old).model_id  # two slots: the old one runs
+        assert (
+            info.status == "valid" and info.model_id == ModelBlob.from_bytes(old).model_id
+        )  # two slots: the old one runs
         assert dev.status().reset_cause == 0x01  # power-on
         assert dev.write_model(new).valid  # the store works after the loss
 
@@ -217,8 +218,12 @@ def test_estimates_are_made_by_the_firmware_core(tmp_path):
 
     blob = make_blob(3, model_id=9, poles=0.8)
     (tmp_path / "model.bin").write_bytes(blob)
-    proc = subprocess.run([sys.executable, "-c", _STREAM_IN_A_FRESH_PROCESS, str(tmp_path / "model.bin")],
-                          capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-c", _STREAM_IN_A_FRESH_PROCESS, str(tmp_path / "model.bin")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     out = json.loads(proc.stdout.strip().splitlines()[-1])
     assert out["reference_calls"] == 0

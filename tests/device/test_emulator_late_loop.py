@@ -21,8 +21,8 @@ from porosense.protocol import _messages as m
 from porosense.sim import make_plant
 
 RATE_HZ = 50
-PING_EVERY_US = 100_000     # host frames, at the same device times in both runs (link watchdog 200 ms)
-LATE_S = 0.1                # the late run's loop wakes every 5 sample periods
+PING_EVERY_US = 100_000  # host frames, at the same device times in both runs (link watchdog 200 ms)
+LATE_S = 0.1  # the late run's loop wakes every 5 sample periods
 RUN_S = 6.0
 
 
@@ -50,7 +50,7 @@ def _closed_loop(step_us: int) -> dict:
     blob = _one_output_blob()
     board.command(m.ModelBegin(length=len(blob), crc=int.from_bytes(blob[-2:], "little"), format_version=blob[2]))
     for o in range(0, len(blob), 100):
-        board.command(m.ModelChunk(offset=o, data=blob[o:o + 100]))
+        board.command(m.ModelChunk(offset=o, data=blob[o : o + 100]))
     board.command(m.ModelCommit())
     board.command(m.Hello())
     hello = [r for r in board.replies if isinstance(r, m.HelloReply)][-1]
@@ -83,6 +83,8 @@ def test_a_late_loop_makes_the_same_closed_loop_as_one_on_time():
     # The controller moved the setpoint during the run (otherwise nothing is tested).
     assert len(set(on_time["setpoints"])) > 10
     gap = float(np.max(np.abs(on_time["strain"][:n] - late["strain"][:n])))
-    print(f"{n} ticks, strain {np.min(on_time['strain']):.2f}..{np.max(on_time['strain']):.2f} %, "
-          f"largest gap late vs on time {gap:.2e} % strain")
+    print(
+        f"{n} ticks, strain {np.min(on_time['strain']):.2f}..{np.max(on_time['strain']):.2f} %, "
+        f"largest gap late vs on time {gap:.2e} % strain"
+    )
     assert gap <= 1e-9

@@ -13,8 +13,15 @@ from porosense.emulator import Emulator
 def test_truth_follows_samples_after_the_clock_wrap():
     # The device clock starts 2 s before its 2^32 us wrap and has wrapped when the stream starts:
     # SAMPLE times are small again while the emulator's own clock is not.
-    with Emulator("contractor", truth_log=True, seed=3, realtime=True, speed=10.0, max_catch_up_s=60.0,
-                  clock_offset_us=(1 << 32) - 2_000_000) as emu:
+    with Emulator(
+        "contractor",
+        truth_log=True,
+        seed=3,
+        realtime=True,
+        speed=10.0,
+        max_catch_up_s=60.0,
+        clock_offset_us=(1 << 32) - 2_000_000,
+    ) as emu:
         with Device.open(emu.url) as dev:
             time.sleep(0.5)  # 5 s of device time
             dev.start_stream(rate_hz=50)

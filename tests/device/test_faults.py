@@ -12,8 +12,8 @@ import itertools
 
 import numpy as np
 import pytest
-
 from models import make_blob, reference_run
+
 from porosense.device import Device
 from porosense.emulator import Emulator, Faults
 

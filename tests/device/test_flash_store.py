@@ -75,8 +75,12 @@ def test_paper_set_twice_in_flash_newer_runs_bit_exact(simboard, sets):
     with Device.open(simboard.url, timeout_scale=4.0) as dev:
         assert _upload(simboard, dev, old).slot == 0
         info = dev.model_info()
-        assert (info.valid, info.slot, info.crc, info.store) == (True, FLASH_SLOT0, ModelBlob.from_bytes(
-            old, max_length=L.FLASH_BLOB_MAX).crc, "flash")
+        assert (info.valid, info.slot, info.crc, info.store) == (
+            True,
+            FLASH_SLOT0,
+            ModelBlob.from_bytes(old, max_length=L.FLASH_BLOB_MAX).crc,
+            "flash",
+        )
         plan = _upload(simboard, dev, new)
         info = dev.model_info()
         assert (plan.slot, info.slot, info.seq, info.length) == (1, FLASH_SLOT0 + 1, 1, len(new))
@@ -93,9 +97,9 @@ def test_upload_torn_after_each_page_keeps_the_previous_set(simboard, sets, cut)
     old, new, older = sets
     x = inputs(120)
     with Device.open(simboard.url, timeout_scale=4.0) as dev:
-        _upload(simboard, dev, older)                     # slot 0, counter 0
-        _upload(simboard, dev, old)                       # slot 1, counter 1: running
-        plan = _upload(simboard, dev, new, n_pages=cut)   # over slot 0 (the older set), torn
+        _upload(simboard, dev, older)  # slot 0, counter 0
+        _upload(simboard, dev, old)  # slot 1, counter 1: running
+        plan = _upload(simboard, dev, new, n_pages=cut)  # over slot 0 (the older set), torn
         info = dev.model_info()
         expect = new if cut == SLOT_PAGES else old
         assert plan.slot == 0 and info.valid and info.length == len(expect), (cut, info)

@@ -41,7 +41,9 @@ def test_bad_length(dev):
 
 
 def test_bad_version(dev):
-    expect_silence_and_count(dev, encode_frame(MsgType.PING, 0x12, (1).to_bytes(4, "little"), version=(VERSION_BYTE + 0x10) & 0xF0), 2)
+    expect_silence_and_count(
+        dev, encode_frame(MsgType.PING, 0x12, (1).to_bytes(4, "little"), version=(VERSION_BYTE + 0x10) & 0xF0), 2
+    )
 
 
 def test_unknown_type(dev):

@@ -12,12 +12,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from models import make_blob, reference_run
+
 from porosense.device import Device
 from porosense.device.client import blob_crc
-from porosense.quant.layout import MAX_BLOB_LEN
 from porosense.errors import DeviceError
+from porosense.quant.layout import MAX_BLOB_LEN
 
 ROOT = Path(__file__).resolve().parents[2]
 ELF = ROOT / "firmware" / "build" / "porosense.elf"

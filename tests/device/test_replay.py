@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
-
 from models import reference_run
+
 from porosense.quant import FixedPointEstimator, ModelBlob
 
 

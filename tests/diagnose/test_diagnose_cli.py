@@ -10,8 +10,20 @@ from porosense import sim
 from porosense.cli import main
 from porosense.diagnose import CAUSES, NONE, trials
 
-KEYS = {"cause", "confidence", "statistic", "evidence", "extension", "fit_before", "fit_after", "gain", "significant",
-        "effect_to_noise", "predictor_gain", "on_device"}
+KEYS = {
+    "cause",
+    "confidence",
+    "statistic",
+    "evidence",
+    "extension",
+    "fit_before",
+    "fit_after",
+    "gain",
+    "significant",
+    "effect_to_noise",
+    "predictor_gain",
+    "on_device",
+}
 
 
 def _write_sim(tmp_path, effects):
@@ -27,8 +39,27 @@ def _write_sim(tmp_path, effects):
 def test_cli_sim_finds_a_hidden_periodic_disturbance_and_writes_the_report(tmp_path, capsys):
     files = _write_sim(tmp_path, {"periodic_disturbance": {"amplitude_pct": 2.0, "freq_hz": 3.1}})
     out = tmp_path / "diag.json"
-    rc = main(["diagnose", "--data", *files, "--input", "p_cmd_0", "--output", "dR_0", "--ts", "0.05",
-               "--sim", "contractor", "--condition", "load_g", "--json", str(out), "--report", str(tmp_path / "rep")])
+    rc = main(
+        [
+            "diagnose",
+            "--data",
+            *files,
+            "--input",
+            "p_cmd_0",
+            "--output",
+            "dR_0",
+            "--ts",
+            "0.05",
+            "--sim",
+            "contractor",
+            "--condition",
+            "load_g",
+            "--json",
+            str(out),
+            "--report",
+            str(tmp_path / "rep"),
+        ]
+    )
     assert rc == 0
     doc = json.loads(out.read_text())
     assert set(doc) == {"top", "findings", "ties"}
@@ -53,21 +84,65 @@ def test_cli_baseline_and_model_paths(tmp_path):
     cols = {"p_cmd_0": rec.u[:, 0], "dR_0": rec.y, **rec.conditions}
     np.savetxt(path, np.column_stack(list(cols.values())), delimiter=",", header=",".join(cols), comments="")
     out = tmp_path / "base.json"
-    rc = main(["diagnose", "--data", str(path), "--input", "p_cmd_0", "--output", "dR_0", "--ts", str(trials.TS),
-               "--baseline", "linear", "--poles", "1", "--zeros", "0", "--condition", "p_cmd_1", "load_g",
-               "--estimation", "0:1440", "--validation", "1440:", "--json", str(out)])
+    rc = main(
+        [
+            "diagnose",
+            "--data",
+            str(path),
+            "--input",
+            "p_cmd_0",
+            "--output",
+            "dR_0",
+            "--ts",
+            str(trials.TS),
+            "--baseline",
+            "linear",
+            "--poles",
+            "1",
+            "--zeros",
+            "0",
+            "--condition",
+            "p_cmd_1",
+            "load_g",
+            "--estimation",
+            "0:1440",
+            "--validation",
+            "1440:",
+            "--json",
+            str(out),
+        ]
+    )
     assert rc == 0
     assert json.loads(out.read_text())["top"] == "time_delay"
 
     from porosense import ident
 
     model = ident.make_model("linear", n_poles=1, n_zeros=0).fit(
-        u=[rec.u[:1440]], y=[rec.y[:1440]], ts=trials.TS, inputs=["p_cmd_0"], output="dR_0")
+        u=[rec.u[:1440]], y=[rec.y[:1440]], ts=trials.TS, inputs=["p_cmd_0"], output="dR_0"
+    )
     model.save(tmp_path / "m.json")
     out2 = tmp_path / "model.json"
-    rc = main(["diagnose", "--data", str(path), "--input", "p_cmd_0", "--output", "dR_0", "--ts", str(trials.TS),
-               "--model", str(tmp_path / "m.json"), "--estimation", "0:1440", "--validation", "1440:",
-               "--json", str(out2)])
+    rc = main(
+        [
+            "diagnose",
+            "--data",
+            str(path),
+            "--input",
+            "p_cmd_0",
+            "--output",
+            "dR_0",
+            "--ts",
+            str(trials.TS),
+            "--model",
+            str(tmp_path / "m.json"),
+            "--estimation",
+            "0:1440",
+            "--validation",
+            "1440:",
+            "--json",
+            str(out2),
+        ]
+    )
     assert rc == 0
     assert json.loads(out2.read_text())["top"] == "time_delay"
 
@@ -75,7 +150,22 @@ def test_cli_baseline_and_model_paths(tmp_path):
 def test_cli_errors_are_one_line(tmp_path, capsys):
     path = tmp_path / "d.csv"
     path.write_text("a,b\n" + "\n".join(f"{i},{i}" for i in range(100)) + "\n")
-    rc = main(["diagnose", "--data", str(path), "--input", "a", "--output", "nope", "--ts", "0.1",
-               "--baseline", "linear", "--json", str(tmp_path / "o.json")])
+    rc = main(
+        [
+            "diagnose",
+            "--data",
+            str(path),
+            "--input",
+            "a",
+            "--output",
+            "nope",
+            "--ts",
+            "0.1",
+            "--baseline",
+            "linear",
+            "--json",
+            str(tmp_path / "o.json"),
+        ]
+    )
     err = capsys.readouterr().err
     assert rc == 2 and "no column 'nope'" in err and "Traceback" not in err

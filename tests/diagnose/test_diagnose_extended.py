@@ -43,16 +43,49 @@ def _diagnose(tmp_path, kind, seed):
     nominal, _ = bench.fit_nominal(trial.estimation["u"], trial.estimation["y"], trial.ts, trial.nominal_order)
     nominal.inputs, nominal.output = ("u",), "y"
     nominal.save(tmp_path / "nominal.json")
-    rc = main(["diagnose", "--data", str(est), "--validation-data", str(val), "--input", "u", "--output", "y",
-               "--ts", repr(trial.ts), "--model", str(tmp_path / "nominal.json"), "--condition", "u_aux", "load",
-               "--json", str(tmp_path / "d.json"), "--save-extended", str(tmp_path / "ext.json")])
+    rc = main(
+        [
+            "diagnose",
+            "--data",
+            str(est),
+            "--validation-data",
+            str(val),
+            "--input",
+            "u",
+            "--output",
+            "y",
+            "--ts",
+            repr(trial.ts),
+            "--model",
+            str(tmp_path / "nominal.json"),
+            "--condition",
+            "u_aux",
+            "load",
+            "--json",
+            str(tmp_path / "d.json"),
+            "--save-extended",
+            str(tmp_path / "ext.json"),
+        ]
+    )
     assert rc == 0
     return trial, json.loads((tmp_path / "d.json").read_text())
 
 
 def _predicted_fit(tmp_path, trial, model_file):
-    assert main(["predict", "--model", str(model_file), "--data", str(tmp_path / "val.csv"),
-                 "--out", str(tmp_path / "pred.csv")]) == 0
+    assert (
+        main(
+            [
+                "predict",
+                "--model",
+                str(model_file),
+                "--data",
+                str(tmp_path / "val.csv"),
+                "--out",
+                str(tmp_path / "pred.csv"),
+            ]
+        )
+        == 0
+    )
     pred = np.loadtxt(tmp_path / "pred.csv", delimiter=",", skiprows=1)[:, 1]
     # predict simulates from rest and the record starts at a non-zero level: the start-up
     # transient is left out of the score (the second half of the record)
@@ -69,8 +102,21 @@ def test_delay_extension_saved_predicted_quantised_flashed_and_verified(tmp_path
     fit_nom = _predicted_fit(tmp_path, trial, tmp_path / "nominal.json")
     print(f"validation fit from the saved files: nominal {fit_nom:.2f} %, extended {fit_ext:.2f} %")
     assert fit_ext > fit_nom + 0.5
-    assert main(["quantize", str(tmp_path / "ext.json"), "--out", str(tmp_path / "ext.bin"),
-                 "--data", str(tmp_path / "val.csv"), "--report", str(tmp_path / "q.json")]) == 0
+    assert (
+        main(
+            [
+                "quantize",
+                str(tmp_path / "ext.json"),
+                "--out",
+                str(tmp_path / "ext.bin"),
+                "--data",
+                str(tmp_path / "val.csv"),
+                "--report",
+                str(tmp_path / "q.json"),
+            ]
+        )
+        == 0
+    )
     rep = json.loads((tmp_path / "q.json").read_text())
     assert abs(rep["fits"][0]["loss_points"]) <= 1.0
     pytest.importorskip("porosense.emulator")
@@ -79,8 +125,22 @@ def test_delay_extension_saved_predicted_quantised_flashed_and_verified(tmp_path
     with Emulator(actuator="contractor") as emu:
         assert main(["flash", "--port", emu.url, "--set-rate", str(tmp_path / "ext.bin")]) == 0
         capsys.readouterr()
-        assert main(["verify", "--port", emu.url, str(tmp_path / "ext.bin"), "--data", str(tmp_path / "val.csv"),
-                     "--inputs", "u", "--json"]) == 0
+        assert (
+            main(
+                [
+                    "verify",
+                    "--port",
+                    emu.url,
+                    str(tmp_path / "ext.bin"),
+                    "--data",
+                    str(tmp_path / "val.csv"),
+                    "--inputs",
+                    "u",
+                    "--json",
+                ]
+            )
+            == 0
+        )
     assert json.loads(capsys.readouterr().out)["identical"] is True
 
 
@@ -101,6 +161,23 @@ def test_drift_extension_runs_on_the_host_and_quantize_says_why_not(tmp_path, ca
 def test_save_extended_needs_a_model(tmp_path, capsys):
     trial = he.draw_trial("clean", TEST_SEED)
     _write(tmp_path / "est.csv", trial.estimation, trial.ts)
-    rc = main(["diagnose", "--data", str(tmp_path / "est.csv"), "--input", "u", "--output", "y", "--ts", "0.05",
-               "--sim", "contractor", "--json", str(tmp_path / "d.json"), "--save-extended", str(tmp_path / "e.json")])
+    rc = main(
+        [
+            "diagnose",
+            "--data",
+            str(tmp_path / "est.csv"),
+            "--input",
+            "u",
+            "--output",
+            "y",
+            "--ts",
+            "0.05",
+            "--sim",
+            "contractor",
+            "--json",
+            str(tmp_path / "d.json"),
+            "--save-extended",
+            str(tmp_path / "e.json"),
+        ]
+    )
     assert rc == 2 and "--save-extended" in capsys.readouterr().err

@@ -17,12 +17,10 @@ from __future__ import annotations
 
 import os
 
-import numpy as np
 import pytest
 
 from porosense.bench import diagnose as bench
 from porosense.bench import hidden_effects as he
-from porosense.diagnose.metrics import fit_percent
 
 TEST_SEED = 9000
 IN_CI = bool(os.environ.get("CI"))

@@ -7,8 +7,6 @@ on the test multisine; the Bouc-Wen residual must be blamed on hysteresis.
 
 from __future__ import annotations
 
-import pytest
-
 from porosense import ident
 from porosense.data import read_table
 from porosense.diagnose import Record, diagnose
@@ -47,7 +45,9 @@ def test_bouc_wen_linear_model_misses_hysteresis(shared_data):
     model = _linear([u], [y], ts, 2)
     d = diagnose([Record(u, y, model.predict(u=u), ts)], [Record(uv, yv, model.predict(u=uv), ts)])
     top = d.findings[0]
-    print(f"Bouc-Wen, linear 2/1: {top.cause}, fit {top.fit_before:.2f} -> {top.fit_after:.2f} % "
-          f"(gain {top.gain:+.2f} points)")
+    print(
+        f"Bouc-Wen, linear 2/1: {top.cause}, fit {top.fit_before:.2f} -> {top.fit_after:.2f} % "
+        f"(gain {top.gain:+.2f} points)"
+    )
     assert d.top == "hysteresis"
     assert top.gain > 0.0

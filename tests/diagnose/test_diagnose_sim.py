@@ -65,8 +65,9 @@ def test_sim_3dof_clean_is_none():
 # names drift (the tracker's held-out gain is significant, t = 7.2: the simulator's slow creep
 # looks like drift to a first-order nominal model) and static_nonlinearity (gain indistinguishable
 # from zero). The independent generator's clean trials give 0 of 30 (porosense bench diagnose).
-_CLEAN_GAP = pytest.mark.xfail(strict=True, reason="clean simulator records named drift / static_nonlinearity "
-                                                   "in 2 of 4 trials (seeds 1000-1003)")
+_CLEAN_GAP = pytest.mark.xfail(
+    strict=True, reason="clean simulator records named drift / static_nonlinearity in 2 of 4 trials (seeds 1000-1003)"
+)
 
 
 @pytest.mark.slow

@@ -20,8 +20,7 @@ def coloured(rng, n, pole=0.9):
 
 def test_autocorrelation_false_alarm_on_white_noise():
     rng = np.random.default_rng(1)
-    rate = np.mean([stats.residual_autocorrelation(rng.normal(size=800), 25, ALPHA).significant
-                    for _ in range(N_RUNS)])
+    rate = np.mean([stats.residual_autocorrelation(rng.normal(size=800), 25, ALPHA).significant for _ in range(N_RUNS)])
     assert rate <= MAX_RATE
 
 
@@ -33,8 +32,12 @@ def test_autocorrelation_detects_coloured_residual():
 def test_crosscorrelation_bands_hold_for_coloured_input_and_residual():
     """Both signals strongly coloured and independent: prewhitening keeps the 1 % level."""
     rng = np.random.default_rng(3)
-    rate = np.mean([stats.input_crosscorrelation(coloured(rng, 800, 0.95), coloured(rng, 800, 0.9),
-                                                 25, ALPHA).significant for _ in range(N_RUNS)])
+    rate = np.mean(
+        [
+            stats.input_crosscorrelation(coloured(rng, 800, 0.95), coloured(rng, 800, 0.9), 25, ALPHA).significant
+            for _ in range(N_RUNS)
+        ]
+    )
     assert rate <= MAX_RATE
 
 

@@ -53,8 +53,12 @@ def models(tmp_path_factory):
         m.fit(u=u, y=y, ts=0.02, inputs=("a", "b"), output="y")
         out[kind] = (m.save(d / f"{kind}.json"), u)
     u, y = _data(20)
-    ms = [ident.make_model("wiener", n_poles=2, n_zeros=1, n_breakpoints=5, starts=1, max_nfev=20)
-          .fit(u=u, y=y * s, ts=0.02, inputs=("a", "b"), output=f"y{j}") for j, s in enumerate((1.0, -0.5))]
+    ms = [
+        ident.make_model("wiener", n_poles=2, n_zeros=1, n_breakpoints=5, starts=1, max_nfev=20).fit(
+            u=u, y=y * s, ts=0.02, inputs=("a", "b"), output=f"y{j}"
+        )
+        for j, s in enumerate((1.0, -0.5))
+    ]
     out["set"] = (ident.save_models(ms, d / "set.json"), u)
     return out
 
@@ -78,11 +82,15 @@ def test_c_export_compiles_and_matches_predict(models, kind, tmp_path):
         exe = tmp_path / f"run_{real}"
         drv = tmp_path / f"drv_{real}.c"
         drv.write_text(DRIVER.format(src=c_file, p="m", n_in=2, n_out=expected.shape[1]))
-        proc = subprocess.run([cc, "-std=c99", "-O2", "-Wall", "-Werror", f"-DPOROSENSE_REAL={real}", str(drv),
-                               "-o", str(exe), "-lm"], capture_output=True, text=True)
+        proc = subprocess.run(
+            [cc, "-std=c99", "-O2", "-Wall", "-Werror", f"-DPOROSENSE_REAL={real}", str(drv), "-o", str(exe), "-lm"],
+            capture_output=True,
+            text=True,
+        )
         assert proc.returncode == 0, proc.stderr
-        got = np.loadtxt(subprocess.run([str(exe)], input=stdin, capture_output=True, text=True,
-                                        check=True).stdout.splitlines()).reshape(expected.shape)
+        got = np.loadtxt(
+            subprocess.run([str(exe)], input=stdin, capture_output=True, text=True, check=True).stdout.splitlines()
+        ).reshape(expected.shape)
         errs[real] = float(np.max(np.abs(got - expected)) / max(1.0, np.max(np.abs(expected))))
     print(f"{kind}: max error relative to max |y|: double {errs['double']:.2e}, float {errs['float']:.2e}")
     assert errs["double"] <= 1e-6

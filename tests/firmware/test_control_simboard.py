@@ -12,16 +12,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_firmware_simboard import _open, elf  # noqa: F401  (the built ELF fixture)
 
 from porosense.bench import firmware as fw
 from porosense.device import ControlGains
 from porosense.protocol import StatusFlag as F
 
-from test_firmware_simboard import _open, elf  # noqa: F401  (the built ELF fixture)
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "device"))
-from models import make_blob  # noqa: E402
 from control_samples import controlled_samples  # noqa: E402
+from models import make_blob  # noqa: E402
 
 pytestmark = [pytest.mark.simboard, pytest.mark.xdist_group("firmware-build")]
 
@@ -137,9 +136,11 @@ def test_control_keeps_the_cycle_budget_and_stack_margin(elf) -> None:
         dev.stop_stream()
         st = dev.status()
         print(st, dev.errors[-3:])
-        print(f"control at 100 Hz on 3 channels, {len(blob)}-byte model (after a model write, R0 "
-              f"calibration, REPLAY, MODEL_READ): {st.overruns} overruns, free stack {st.free_ram} B "
-              f"(high-water since boot)")
+        print(
+            f"control at 100 Hz on 3 channels, {len(blob)}-byte model (after a model write, R0 "
+            f"calibration, REPLAY, MODEL_READ): {st.overruns} overruns, free stack {st.free_ram} B "
+            f"(high-water since boot)"
+        )
         assert len(s) == 300
         assert st.overruns == 0
         assert st.free_ram >= STACK_MARGIN_B

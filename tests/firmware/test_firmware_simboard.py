@@ -94,8 +94,7 @@ def test_lost_adc_is_flagged_without_stalling_the_clock(elf) -> None:
         st = dev.status()
         t = np.array([s.t_us for s in before + during + after], dtype=np.int64)
         period = np.diff(t)
-        print(f"periods {period.min()}..{period.max()} us, overruns {st.overruns}, "
-              f"sensor faults {st.sensor_faults}")
+        print(f"periods {period.min()}..{period.max()} us, overruns {st.overruns}, sensor faults {st.sensor_faults}")
         assert not any(s.status & ADC_FAULT for s in before)
         assert sum(bool(s.status & ADC_FAULT) for s in during) >= 50
         assert not any(s.status & ADC_FAULT for s in after[-20:])  # back once reconnected
@@ -141,8 +140,7 @@ def test_slow_imu_boot_is_waited_for(elf) -> None:
     from porosense.simboard import SimBoard
 
     # The BNO055 answers ~650 ms after power-on; the firmware waits up to 800 ms for it.
-    with SimBoard(elf, bno_boot_ms=650.0) as board, \
-            Device.open(board.url, handshake_timeout_s=HANDSHAKE_S) as dev:
+    with SimBoard(elf, bno_boot_ms=650.0) as board, Device.open(board.url, handshake_timeout_s=HANDSHAKE_S) as dev:
         hello = dev.hello()
         print(hello)
         assert "IMU" in str(hello)
@@ -157,8 +155,7 @@ def test_sample_clock_keeps_the_exact_mean_rate(elf) -> None:
         dev.stop_stream()
         period = np.diff(t)
         mean = (t[-1] - t[0]) / (len(t) - 1)
-        print(f"30 Hz: periods {sorted(set(np.round(period / 1000).astype(int).tolist()))} ms, "
-              f"mean {mean:.1f} us")
+        print(f"30 Hz: periods {sorted(set(np.round(period / 1000).astype(int).tolist()))} ms, mean {mean:.1f} us")
         assert np.all((np.abs(period - 33_000) <= 8) | (np.abs(period - 34_000) <= 8))
         assert abs(mean - 1e6 / 30) <= 2.0
     finally:

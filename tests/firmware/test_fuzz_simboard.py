@@ -11,12 +11,11 @@ from __future__ import annotations
 import random
 
 import pytest
+from test_firmware_simboard import _open, elf  # noqa: F401  (the built ELF fixture)
+from test_safety_simboard import MARGIN_S, _burst, _cut_after, _on_now
 
 from porosense.protocol import MsgType, Result
 from porosense.protocol import _messages as m
-
-from test_firmware_simboard import _open, elf  # noqa: F401  (the built ELF fixture)
-from test_safety_simboard import MARGIN_S, _burst, _cut_after, _on_now
 
 pytestmark = [pytest.mark.simboard, pytest.mark.xdist_group("firmware-build")]
 
@@ -37,8 +36,15 @@ def _payload(rng: random.Random, mtype: int, dev, state: dict) -> bytes:
     if mtype == MsgType.SET_OUTPUTS and structured:
         sp = tuple(0 if rng.random() < 0.3 else rng.randint(-850, 20) for _ in range(3))
         state["counter"] = (state["counter"] + 1) & 0xFFFF
-        p = bytearray(m.SetOutputs(setpoint_dkpa=sp, pump_mask=rng.randrange(9), valve_mask=rng.randrange(9),
-                                   session=state["session"], counter=state["counter"]).pack())
+        p = bytearray(
+            m.SetOutputs(
+                setpoint_dkpa=sp,
+                pump_mask=rng.randrange(9),
+                valve_mask=rng.randrange(9),
+                session=state["session"],
+                counter=state["counter"],
+            ).pack()
+        )
     elif mtype == MsgType.CONFIG_SET:
         key = rng.randrange(20)
         spec = m.CONFIG_SPECS.get(key) if key in m.ConfigKey._value2member_map_ else None
@@ -119,9 +125,11 @@ def test_fuzz_commands_on_the_simboard(elf) -> None:
                 cuts.append(_watchdog_holds(board, dev))
                 state["session"], state["counter"] = dev._session, dev._out_counter
         st = dev.status()
-        print(f"{FRAMES} frames: {counts}; watchdog cuts after {[round(c * 1000, 1) for c in cuts]} ms "
-              f"(timeout {WATCHDOG_MS} ms); STATUS: {st.rx_frames} frames received, "
-              f"{st.watchdog_trips} watchdog trips, {st.overruns} overruns, free stack {st.free_ram} B")
+        print(
+            f"{FRAMES} frames: {counts}; watchdog cuts after {[round(c * 1000, 1) for c in cuts]} ms "
+            f"(timeout {WATCHDOG_MS} ms); STATUS: {st.rx_frames} frames received, "
+            f"{st.watchdog_trips} watchdog trips, {st.overruns} overruns, free stack {st.free_ram} B"
+        )
         assert counts["ack"] > FRAMES // 10 and counts["nak"] > FRAMES // 10
         assert board.counters["resets"] - board_resets0 == counts["resets"]  # no reset of its own
         assert len(cuts) == FRAMES // CHECK_EVERY

@@ -12,12 +12,11 @@ from __future__ import annotations
 import threading
 
 import pytest
+from test_firmware_simboard import _open, elf  # noqa: F401  (the built ELF fixture)
 
 from porosense.bench import firmware as fw
 from porosense.protocol import MsgType, Result, encode_message
 from porosense.protocol import _messages as m
-
-from test_firmware_simboard import _open, elf  # noqa: F401  (the built ELF fixture)
 
 pytestmark = [pytest.mark.simboard, pytest.mark.xdist_group("firmware-build")]
 
@@ -47,8 +46,13 @@ def _burst(board, dev, messages, timeout_s: float = 5.0):
 def _on_now(dev, setpoint_dkpa: int = -200, mask: int = 0b111):
     """The SET_OUTPUTS the SDK would send next (this session, next counter)."""
     dev._out_counter += 1
-    return m.SetOutputs(setpoint_dkpa=(setpoint_dkpa,) * 3, pump_mask=mask, valve_mask=mask,
-                        session=dev._session, counter=dev._out_counter)
+    return m.SetOutputs(
+        setpoint_dkpa=(setpoint_dkpa,) * 3,
+        pump_mask=mask,
+        valve_mask=mask,
+        session=dev._session,
+        counter=dev._out_counter,
+    )
 
 
 def _cut_after(board, t_sent_s: float, timeout_s: float = 60.0) -> float:
@@ -82,8 +86,10 @@ def test_host_lost_during_calibration_at_the_slowest_adc_rate(elf) -> None:
         dev.set_watchdog(WATCHDOG_MS)
         t_last, (on, reply) = _burst(board, dev, [_on_now(dev), m.CalibrateR0(n_samples=64, channel_mask=0b111)])
         silent = _cut_after(board, t_last)
-        print(f"calibration at 8 SPS: {reply and reply.message()}; outputs cut {silent * 1000:.1f} ms "
-              f"after the last command (timeout {WATCHDOG_MS} ms)")
+        print(
+            f"calibration at 8 SPS: {reply and reply.message()}; outputs cut {silent * 1000:.1f} ms "
+            f"after the last command (timeout {WATCHDOG_MS} ms)"
+        )
         assert reply is not None and reply.message().code == Result.BUSY
         assert silent <= WATCHDOG_MS / 1000 + MARGIN_S
         # With the outputs off, the slow calibration runs and answers.
@@ -104,8 +110,10 @@ def test_host_lost_during_a_flash(elf) -> None:
         begin = m.ModelBegin(length=len(blob), crc=int.from_bytes(blob[-2:], "little"), format_version=blob[2])
         t_last, (on, _, reply) = _burst(board, dev, [_on_now(dev), begin, m.ModelChunk(offset=0, data=blob[:118])])
         silent = _cut_after(board, t_last)
-        print(f"flash with outputs on: {reply and reply.message()}; outputs cut {silent * 1000:.1f} ms "
-              f"after the last command")
+        print(
+            f"flash with outputs on: {reply and reply.message()}; outputs cut {silent * 1000:.1f} ms "
+            f"after the last command"
+        )
         assert silent <= WATCHDOG_MS / 1000 + MARGIN_S
         assert reply is not None and reply.message().code == Result.BUSY
     finally:
@@ -124,8 +132,10 @@ def test_host_lost_while_streaming_at_the_highest_rate(elf) -> None:
         t_last, _ = _burst(board, dev, [_on_now(dev), m.Ping(nonce=1)])
         silent = _cut_after(board, t_last)
         samples = dev.drain_samples()
-        print(f"{rate} Hz, every channel + IMU + estimator: outputs cut {silent * 1000:.1f} ms after the "
-              f"last command; {len(samples)} samples meanwhile, {dev.stats.samples_lost} lost")
+        print(
+            f"{rate} Hz, every channel + IMU + estimator: outputs cut {silent * 1000:.1f} ms after the "
+            f"last command; {len(samples)} samples meanwhile, {dev.stats.samples_lost} lost"
+        )
         assert silent <= WATCHDOG_MS / 1000 + MARGIN_S
         assert dev.status().overruns == 0
     finally:
@@ -183,8 +193,10 @@ def test_loopback_does_not_feed_the_watchdog(elf) -> None:
         finally:
             echo.stop.set()
             echo.join(timeout=5)
-        print(f"loopback: {echo.bytes} bytes echoed; outputs cut {silent * 1000:.1f} ms after the last command "
-              f"(timeout {timeout_ms} ms)")
+        print(
+            f"loopback: {echo.bytes} bytes echoed; outputs cut {silent * 1000:.1f} ms after the last command "
+            f"(timeout {timeout_ms} ms)"
+        )
         assert echo.bytes > 500  # > 12 SAMPLE frames came back
         assert silent <= timeout_ms / 1000 + MARGIN_S
     finally:
@@ -203,8 +215,10 @@ def test_skipped_ticks_are_counted_as_lost_samples(elf) -> None:
         block = dev.read_samples(100, timeout_s=15)
         dev.stop_stream()
         overruns = dev.status().overruns - before
-        print(f"100 Hz at 250 SPS: {overruns} ticks skipped, host counted {dev.stats.samples_lost} lost "
-              f"({block.lost} in the block of {len(block.t_us)})")
+        print(
+            f"100 Hz at 250 SPS: {overruns} ticks skipped, host counted {dev.stats.samples_lost} lost "
+            f"({block.lost} in the block of {len(block.t_us)})"
+        )
         assert overruns > 20
         # Every skipped tick is a gap, up to the samples that arrived after the last one read.
         assert block.lost > 20 and 0 <= overruns - dev.stats.samples_lost <= 2
@@ -217,8 +231,9 @@ def test_replayed_set_outputs_cannot_turn_pumps_on(elf) -> None:
     board, dev = _open(elf)
     try:
         dev.set_outputs(-30.0, pumps=0b111, valves=0b111)
-        on = m.SetOutputs(setpoint_dkpa=(-300, -300, -300), pump_mask=7, valve_mask=7,
-                          session=dev._session, counter=dev._out_counter)
+        on = m.SetOutputs(
+            setpoint_dkpa=(-300, -300, -300), pump_mask=7, valve_mask=7, session=dev._session, counter=dev._out_counter
+        )
         dev.set_outputs()  # off
         board.run_for(0.02)
         assert not any(board.pins.pumps)

@@ -23,8 +23,13 @@ def truth_system(kind: str) -> EstimatorStructure:
     elif kind == "wiener":
         out = OutputChain("y", (Branch(0, SOSCascade.from_tf([0.05, 0.04], [1.0, -1.5, 0.62])),), g=_g(), offset=0.5)
     elif kind == "wh":
-        out = OutputChain("y", (Branch(0, SOSCascade.from_tf([0.3], [1.0, -0.7])),), g=_g(),
-                          h2=SOSCascade.from_tf([0.15], [1.0, -0.85]), offset=0.5)
+        out = OutputChain(
+            "y",
+            (Branch(0, SOSCascade.from_tf([0.3], [1.0, -0.7])),),
+            g=_g(),
+            h2=SOSCascade.from_tf([0.15], [1.0, -0.85]),
+            offset=0.5,
+        )
     else:  # pragma: no cover
         raise ValueError(kind)
     return EstimatorStructure(("u",), (out,), ts=TS)

@@ -26,9 +26,9 @@ from scipy.signal import lfilter
 
 @dataclass
 class SensorRecord:
-    t: np.ndarray          # s
-    dR: np.ndarray         # % (measured, with drift and noise)
-    strain: np.ndarray     # % (the truth the model estimates)
+    t: np.ndarray  # s
+    dR: np.ndarray  # % (measured, with drift and noise)
+    strain: np.ndarray  # % (the truth the model estimates)
     params: dict
 
 
@@ -86,7 +86,15 @@ def sensor_record(seed: int, n: int = 3400, fs: float = 8.6) -> SensorRecord:
     drift = rng.uniform(-0.03, 0.03) * t / t[-1]
     noise = rng.uniform(0.002, 0.01) * np.ptp(rel) * rng.standard_normal(n)
     dR = 100.0 * (rel + drift + noise)
-    params = {"play_thresholds": thresholds.tolist(), "play_weights": weights.tolist(), "mix": mix,
-              "amplitude": amp, "x0": x0, "stiffening": stiff, "relaxation_s": taus.tolist(),
-              "relaxation_gain": gains.tolist(), "drift": float(drift[-1])}
+    params = {
+        "play_thresholds": thresholds.tolist(),
+        "play_weights": weights.tolist(),
+        "mix": mix,
+        "amplitude": amp,
+        "x0": x0,
+        "stiffening": stiff,
+        "relaxation_s": taus.tolist(),
+        "relaxation_gain": gains.tolist(),
+        "drift": float(drift[-1]),
+    }
     return SensorRecord(t, dR, strain, params)

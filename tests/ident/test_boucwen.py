@@ -34,18 +34,34 @@ def test_selected_model_validates_and_tests_at_least_as_well_as_linear(boucwen):
     1.635e-4). Published: 4.52e-5 m (dynoNet), 1.87e-5 m (decoupled PNLSS)."""
     u, y, tu, ty = boucwen
     est_u, est_y = [u[: 3 * PERIOD, None]], [y[: 3 * PERIOD]]
-    res = ident.search(u=est_u, y=est_y, ts=1 / 750, skip=PERIOD, validation=([u[:, None]], [y]),
-                       validation_skip=[4 * PERIOD], grid=[(s, 2, 1) for s in ident.KINDS], criterion="fit",
-                       max_nfev=60, starts=1, progress=False)
+    res = ident.search(
+        u=est_u,
+        y=est_y,
+        ts=1 / 750,
+        skip=PERIOD,
+        validation=([u[:, None]], [y]),
+        validation_skip=[4 * PERIOD],
+        grid=[(s, 2, 1) for s in ident.KINDS],
+        criterion="fit",
+        max_nfev=60,
+        starts=1,
+        progress=False,
+    )
     print(res)
     per = res.best_per_structure("fit")
 
     def test_rmse(model):
-        return ident.rmse(ty, model.predict(u=np.vstack([tu[:, None], tu[:, None]]))[len(ty):])
+        return ident.rmse(ty, model.predict(u=np.vstack([tu[:, None], tu[:, None]]))[len(ty) :])
 
     err = {k: test_rmse(c.model) for k, c in per.items()}
     sel = test_rmse(res.best.model)
-    print("test RMSE (m):", {k: f"{v:.3e}" for k, v in err.items()}, "selected", f"{sel:.3e}",
-          "ratio", sel / err["linear"])
+    print(
+        "test RMSE (m):",
+        {k: f"{v:.3e}" for k, v in err.items()},
+        "selected",
+        f"{sel:.3e}",
+        "ratio",
+        sel / err["linear"],
+    )
     assert res.best.validation_fit >= per["linear"].validation_fit
     assert sel <= RATIO_BOUND * err["linear"]

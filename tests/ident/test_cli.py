@@ -19,7 +19,9 @@ def csv_files(tmp_path, truth, make_recordings):
     for k, (u, y) in enumerate(zip(us, ys)):
         p = tmp_path / f"rec{k}.csv"
         t = np.arange(len(y)) * system.ts
-        lines = ["t,dR_0,strain_0,"] + [f"{a!r},{b!r},{c!r}," for a, b, c in zip(t.tolist(), u[:, 0].tolist(), y.tolist())]
+        lines = ["t,dR_0,strain_0,"] + [
+            f"{a!r},{b!r},{c!r}," for a, b, c in zip(t.tolist(), u[:, 0].tolist(), y.tolist())
+        ]
         p.write_text("\n".join(lines) + "\n")
         paths.append(p)
     return paths
@@ -27,10 +29,36 @@ def csv_files(tmp_path, truth, make_recordings):
 
 def test_identify_then_predict(csv_files, tmp_path, capsys):
     model, report, pred = tmp_path / "model.json", tmp_path / "report.json", tmp_path / "pred.csv"
-    rc = main(["identify", "--data", *map(str, csv_files), "--input", "dR_0", "--output", "strain_0",
-               "--ts", "0.02", "--structure", "wiener", "--poles", "2", "--zeros", "1", "--breakpoints", "5",
-               "--estimation", "0:500", "--validation", "500:", "--save", str(model), "--json", str(report),
-               "--quiet"])
+    rc = main(
+        [
+            "identify",
+            "--data",
+            *map(str, csv_files),
+            "--input",
+            "dR_0",
+            "--output",
+            "strain_0",
+            "--ts",
+            "0.02",
+            "--structure",
+            "wiener",
+            "--poles",
+            "2",
+            "--zeros",
+            "1",
+            "--breakpoints",
+            "5",
+            "--estimation",
+            "0:500",
+            "--validation",
+            "500:",
+            "--save",
+            str(model),
+            "--json",
+            str(report),
+            "--quiet",
+        ]
+    )
     assert rc == 0
     rep = json.loads(report.read_text())
     best = rep["results"][0]["best"]
@@ -43,29 +71,93 @@ def test_identify_then_predict(csv_files, tmp_path, capsys):
 
 
 def test_identify_reports_a_missing_column_in_one_line(csv_files, tmp_path, capsys):
-    rc = main(["identify", "--data", str(csv_files[0]), "--input", "dR_9", "--output", "strain_0",
-               "--ts", "0.02", "--structure", "linear", "--poles", "1", "--save", str(tmp_path / "m.json")])
+    rc = main(
+        [
+            "identify",
+            "--data",
+            str(csv_files[0]),
+            "--input",
+            "dR_9",
+            "--output",
+            "strain_0",
+            "--ts",
+            "0.02",
+            "--structure",
+            "linear",
+            "--poles",
+            "1",
+            "--save",
+            str(tmp_path / "m.json"),
+        ]
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "dR_9" in err[0]
 
 
 def test_bad_range_is_a_user_error(csv_files, tmp_path, capsys):
-    rc = main(["identify", "--data", str(csv_files[0]), "--input", "dR_0", "--output", "strain_0",
-               "--ts", "0.02", "--structure", "linear", "--poles", "1", "--estimation", "a:b",
-               "--save", str(tmp_path / "m.json")])
+    rc = main(
+        [
+            "identify",
+            "--data",
+            str(csv_files[0]),
+            "--input",
+            "dR_0",
+            "--output",
+            "strain_0",
+            "--ts",
+            "0.02",
+            "--structure",
+            "linear",
+            "--poles",
+            "1",
+            "--estimation",
+            "a:b",
+            "--save",
+            str(tmp_path / "m.json"),
+        ]
+    )
     assert rc == 2 and "sample range" in capsys.readouterr().err
 
 
 def test_predict_on_a_missing_model_file(tmp_path, csv_files, capsys):
-    rc = main(["predict", "--model", str(tmp_path / "none.json"), "--data", str(csv_files[0]),
-               "--out", str(tmp_path / "p.csv")])
+    rc = main(
+        [
+            "predict",
+            "--model",
+            str(tmp_path / "none.json"),
+            "--data",
+            str(csv_files[0]),
+            "--out",
+            str(tmp_path / "p.csv"),
+        ]
+    )
     assert rc == 4 and "not found" in capsys.readouterr().err
 
 
 def _identify(files, tmp_path, *extra):
-    return main(["identify", "--data", *map(str, files), "--input", "dR_0", "--output", "strain_0",
-                 "--ts", "0.02", "--structure", "linear", "--poles", "2", "--zeros", "1",
-                 "--save", str(tmp_path / "m.json"), "--quiet", *extra])
+    return main(
+        [
+            "identify",
+            "--data",
+            *map(str, files),
+            "--input",
+            "dR_0",
+            "--output",
+            "strain_0",
+            "--ts",
+            "0.02",
+            "--structure",
+            "linear",
+            "--poles",
+            "2",
+            "--zeros",
+            "1",
+            "--save",
+            str(tmp_path / "m.json"),
+            "--quiet",
+            *extra,
+        ]
+    )
 
 
 def test_default_selection_holds_out_the_last_quarter_and_prints_the_rule(csv_files, tmp_path, capsys):
@@ -88,18 +180,32 @@ def test_three_files_leave_the_last_one_out(csv_files, tmp_path, capsys):
 
 
 def test_validation_data_files_and_criterion(csv_files, tmp_path, capsys):
-    assert _identify(csv_files[:1], tmp_path, "--validation-data", str(csv_files[1]), "--criterion", "bic",
-                     "--json", str(tmp_path / "r.json")) == 0
+    assert (
+        _identify(
+            csv_files[:1],
+            tmp_path,
+            "--validation-data",
+            str(csv_files[1]),
+            "--criterion",
+            "bic",
+            "--json",
+            str(tmp_path / "r.json"),
+        )
+        == 0
+    )
     rep = json.loads((tmp_path / "r.json").read_text())
     assert rep["criterion"] == "bic" and "lowest BIC" in rep["results"][0]["rule"]
     assert min(rep["results"][0]["best"]["fit_validation"]) > 60.0
 
 
-@pytest.mark.parametrize("extra, words", [
-    (("--criterion", "r2"), "criterion"),
-    (("--validation-data", "MISSING_COLUMNS"), "no column"),
-    (("--estimation", "0:40"), "too short"),
-])
+@pytest.mark.parametrize(
+    "extra, words",
+    [
+        (("--criterion", "r2"), "criterion"),
+        (("--validation-data", "MISSING_COLUMNS"), "no column"),
+        (("--estimation", "0:40"), "too short"),
+    ],
+)
 def test_selection_input_errors_are_one_line(csv_files, tmp_path, capsys, extra, words):
     if "MISSING_COLUMNS" in extra:
         bad = tmp_path / "other.csv"
@@ -115,10 +221,37 @@ def test_identify_process_noise_then_predict_expected(csv_files, tmp_path, capsy
     noise-free truth stays above 99 %); predict gives the noise-free output, --expected the
     noise-averaged one, and --expected on a model without process noise is one line, exit 2."""
     model, pred = tmp_path / "model.json", tmp_path / "pred.csv"
-    rc = main(["identify", "--data", *map(str, csv_files), "--input", "dR_0", "--output", "strain_0",
-               "--ts", "0.02", "--structure", "wiener", "--poles", "2", "--zeros", "1", "--breakpoints", "5",
-               "--estimation", "0:500", "--validation", "500:", "--process-noise", "--smoothness", "0",
-               "--save", str(model), "--quiet"])
+    rc = main(
+        [
+            "identify",
+            "--data",
+            *map(str, csv_files),
+            "--input",
+            "dR_0",
+            "--output",
+            "strain_0",
+            "--ts",
+            "0.02",
+            "--structure",
+            "wiener",
+            "--poles",
+            "2",
+            "--zeros",
+            "1",
+            "--breakpoints",
+            "5",
+            "--estimation",
+            "0:500",
+            "--validation",
+            "500:",
+            "--process-noise",
+            "--smoothness",
+            "0",
+            "--save",
+            str(model),
+            "--quiet",
+        ]
+    )
     assert rc == 0
     doc = json.loads(model.read_text())["models"][0]
     assert doc["options"]["process_noise"] is True and doc["spec"]["g_noise"] is True
@@ -127,8 +260,29 @@ def test_identify_process_noise_then_predict_expected(csv_files, tmp_path, capsy
         assert main(["predict", "--model", str(model), "--data", str(csv_files[1]), "--out", str(pred), *extra]) == 0
         assert fit_percent(src.columns["strain_0"], read_table(pred).columns["strain_0_pred"]) > 99.0
     plain = tmp_path / "plain.json"
-    assert main(["identify", "--data", *map(str, csv_files), "--input", "dR_0", "--output", "strain_0", "--ts", "0.02",
-                 "--structure", "linear", "--poles", "1", "--save", str(plain), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "identify",
+                "--data",
+                *map(str, csv_files),
+                "--input",
+                "dR_0",
+                "--output",
+                "strain_0",
+                "--ts",
+                "0.02",
+                "--structure",
+                "linear",
+                "--poles",
+                "1",
+                "--save",
+                str(plain),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     rc = main(["predict", "--model", str(plain), "--data", str(csv_files[1]), "--expected"])
     err = capsys.readouterr().err.strip().splitlines()

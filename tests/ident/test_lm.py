@@ -40,8 +40,10 @@ def test_reaches_minpacks_minimum_on_exponential_fits(seed):
     ref = least_squares(fun, start, jac=jac, method="lm", max_nfev=2000, ftol=1e-12, xtol=1e-12, gtol=1e-12)
     ours = levenberg_marquardt(fun, jac, start, max_nfev=2000, ftol=1e-12, xtol=1e-12, gtol=1e-12)
     start_cost = float(np.sum(fun(start) ** 2))
-    print(f"seed {seed}: start {start_cost:.4g}, MINPACK {2 * ref.cost:.8g} ({ref.nfev} evaluations), "
-          f"ours {ours.cost:.8g} ({ours.nfev}, {ours.status})")
+    print(
+        f"seed {seed}: start {start_cost:.4g}, MINPACK {2 * ref.cost:.8g} ({ref.nfev} evaluations), "
+        f"ours {ours.cost:.8g} ({ours.nfev}, {ours.status})"
+    )
     assert ours.cost <= start_cost
     # Same local minimum up to the tolerance (both from the same start; a different, lower
     # minimum would also pass).

@@ -28,8 +28,10 @@ def wh_data(shared_data):
     fs = float(est.columns["fs"][0])
     us = [est.columns[f"u_{i}"][:, None] for i in range(N_RECORDS)]
     ys = [est.columns[f"y_{i}"] for i in range(N_RECORDS)]
-    tests = {"multisine": (test.columns["u_0"][:, None], test.columns["y_0"]),
-             "swept sine": (test.columns["u_1"][:, None], test.columns["y_1"])}
+    tests = {
+        "multisine": (test.columns["u_0"][:, None], test.columns["y_0"]),
+        "swept sine": (test.columns["u_1"][:, None], test.columns["y_1"]),
+    }
     return us, ys, 1.0 / fs, tests
 
 
@@ -37,8 +39,9 @@ def _wh_against_linear(wh_data, n_records, bounds):
     us, ys, ts, tests = wh_data
     us, ys = us[:n_records], ys[:n_records]
     lin = ident.Linear(n_poles=6, n_zeros=5, skip=SKIP, max_nfev=40).fit(u=us, y=ys, ts=ts)
-    wh = ident.WienerHammerstein(n_poles=6, n_zeros=3, n_breakpoints=5, skip=SKIP, max_nfev=40,
-                                 starts=1).fit(u=us, y=ys, ts=ts)
+    wh = ident.WienerHammerstein(n_poles=6, n_zeros=3, n_breakpoints=5, skip=SKIP, max_nfev=40, starts=1).fit(
+        u=us, y=ys, ts=ts
+    )
     for name, (u, y) in tests.items():
         e_lin = ident.rmse(y[SKIP:], lin.predict(u=u)[SKIP:]) * 1e3
         e_wh = ident.rmse(y[SKIP:], wh.predict(u=u)[SKIP:]) * 1e3
@@ -88,9 +91,19 @@ def test_selected_wh_validates_and_tests_better_than_linear(wh_data):
     the two periods of an estimation realisation (same input to 0.2 mV) differ by 121 mV rms.
     """
     us, ys, ts, tests = wh_data
-    res = ident.search(u=us[:3], y=ys[:3], ts=ts, validation=(us[3:4], ys[3:4]), validation_skip=SKIP,
-                       skip=SKIP, grid=[("linear", 6, 5), ("wh", 6, 5)], criterion="fit", max_nfev=60,
-                       starts=1, progress=False)
+    res = ident.search(
+        u=us[:3],
+        y=ys[:3],
+        ts=ts,
+        validation=(us[3:4], ys[3:4]),
+        validation_skip=SKIP,
+        skip=SKIP,
+        grid=[("linear", 6, 5), ("wh", 6, 5)],
+        criterion="fit",
+        max_nfev=60,
+        starts=1,
+        progress=False,
+    )
     per = res.best_per_structure("fit")
     u, y = tests["multisine"]
     err = {k: ident.rmse(y[SKIP:], c.model.predict(u=u)[SKIP:]) * 1e3 for k, c in per.items()}
@@ -105,9 +118,21 @@ SAFE_RATIO = 1.0  # on the other five realisations: never a WH that tests worse 
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("first, bound", [(0, SEARCH_RATIO), pytest.param(5, SAFE_RATIO, marks=pytest.mark.skipif(
-    os.environ.get("WH_SECOND_HALF") != "1", reason="the second half costs 4-9 minutes; WH_SECOND_HALF=1 runs it"))],
-    ids=["realisations 0-4", "realisations 5-9"])
+@pytest.mark.parametrize(
+    "first, bound",
+    [
+        (0, SEARCH_RATIO),
+        pytest.param(
+            5,
+            SAFE_RATIO,
+            marks=pytest.mark.skipif(
+                os.environ.get("WH_SECOND_HALF") != "1",
+                reason="the second half costs 4-9 minutes; WH_SECOND_HALF=1 runs it",
+            ),
+        ),
+    ],
+    ids=["realisations 0-4", "realisations 5-9"],
+)
 def test_default_search_with_process_noise_selects_a_wh_twice_better_than_linear(shared_data, first, bound):
     """The staged search of ``identify --process-noise`` over linear and WH (the paper's grid),
     5 realisations to estimate, the next to validate, on both disjoint halves of the 10. The
@@ -151,21 +176,38 @@ def test_default_search_with_process_noise_selects_a_wh_twice_better_than_linear
     us = [est.columns[f"u_{i}"][:, None] for i in which]
     ys = [est.columns[f"y_{i}"] for i in which]
     ts = 1.0 / float(est.columns["fs"][0])
-    res = ident.search(u=us[:N_RECORDS], y=ys[:N_RECORDS], ts=ts, validation=(us[N_RECORDS:], ys[N_RECORDS:]),
-                       validation_skip=SKIP, skip=SKIP, structures=("linear", "wh"), poles=(6,), n_breakpoints=10, starts=2,
-                       max_nfev=100, criterion="fit", staged=True, process_noise=True, progress=False)
+    res = ident.search(
+        u=us[:N_RECORDS],
+        y=ys[:N_RECORDS],
+        ts=ts,
+        validation=(us[N_RECORDS:], ys[N_RECORDS:]),
+        validation_skip=SKIP,
+        skip=SKIP,
+        structures=("linear", "wh"),
+        poles=(6,),
+        n_breakpoints=10,
+        starts=2,
+        max_nfev=100,
+        criterion="fit",
+        staged=True,
+        process_noise=True,
+        progress=False,
+    )
     print(res)
     u, y = test.columns["u_0"][:, None], test.columns["y_0"]
     chosen, err = {}, {}
     for s in ("linear", "wh"):
-        own = ident.SearchResult([c for c in res.candidates if c.structure == s], res.seconds, res.tie_tol,
-                                 res.criterion)
+        own = ident.SearchResult(
+            [c for c in res.candidates if c.structure == s], res.seconds, res.tie_tol, res.criterion
+        )
         chosen[s] = own.best
         err[s] = ident.rmse(y[SKIP:], own.model.predict(u=u)[SKIP:]) * 1e3
     w = chosen["wh"]
-    print(f"selected WH {w.n_poles}p{w.n_zeros}z ({w.model.info.get('build')}): {err['wh']:.2f} mV; selected linear "
-          f"{chosen['linear'].n_poles}p{chosen['linear'].n_zeros}z: {err['linear']:.2f} mV; ratio "
-          f"{err['linear'] / err['wh']:.2f}; {res.seconds:.0f} s")
+    print(
+        f"selected WH {w.n_poles}p{w.n_zeros}z ({w.model.info.get('build')}): {err['wh']:.2f} mV; selected linear "
+        f"{chosen['linear'].n_poles}p{chosen['linear'].n_zeros}z: {err['linear']:.2f} mV; ratio "
+        f"{err['linear'] / err['wh']:.2f}; {res.seconds:.0f} s"
+    )
     assert "order from the nonparametric BLA of 5 realisations" in res.rule
     assert "process noise fitted for wh" in res.rule
     if first == 0:  # the 2x needs the noise model; elsewhere the records may leave the deconvolution

@@ -29,8 +29,12 @@ def miso_data():
 @pytest.fixture(scope="module")
 def fitted(miso_data):
     us, ys = miso_data
-    return {k: ident.make_model(k, n_poles=2, n_zeros=1, n_breakpoints=6, delay=1, max_nfev=40)
-            .fit(u=us, y=ys, ts=0.02, inputs=("dR_0", "dR_1"), output="strain_0") for k in KINDS}
+    return {
+        k: ident.make_model(k, n_poles=2, n_zeros=1, n_breakpoints=6, delay=1, max_nfev=40).fit(
+            u=us, y=ys, ts=0.02, inputs=("dR_0", "dR_1"), output="strain_0"
+        )
+        for k in KINDS
+    }
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -82,14 +86,30 @@ def test_linear_blocks_are_transfer_functions_with_the_right_gain(fitted, miso_d
 def test_c_header_compiles(fitted, tmp_path):
     (tmp_path / "m.h").write_text(fitted["wh"].c_header("demo_model"))
     (tmp_path / "m.c").write_text('#include "m.h"\nint main(void){return (int)(demo_model_out0_offset * 0.0f);}\n')
-    res = subprocess.run(["gcc", "-Wall", "-Werror", "-Wno-unused-variable", "-Wno-unused-const-variable",
-                          "-o", str(tmp_path / "m"), str(tmp_path / "m.c")], capture_output=True, text=True)
+    res = subprocess.run(
+        [
+            "gcc",
+            "-Wall",
+            "-Werror",
+            "-Wno-unused-variable",
+            "-Wno-unused-const-variable",
+            "-o",
+            str(tmp_path / "m"),
+            str(tmp_path / "m.c"),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert res.returncode == 0, res.stderr
 
 
 def test_every_pole_of_every_fitted_block_is_inside_the_unit_circle(fitted):
-    radii = [np.max(np.abs(blk.poles())) for m in fitted.values() for out in m.to_structure().outputs
-             for blk in [br.h1 for br in out.branches] + ([out.h2] if out.h2 else [])]
+    radii = [
+        np.max(np.abs(blk.poles()))
+        for m in fitted.values()
+        for out in m.to_structure().outputs
+        for blk in [br.h1 for br in out.branches] + ([out.h2] if out.h2 else [])
+    ]
     assert max(radii) < 1.0
 
 

@@ -32,15 +32,21 @@ def _ranking(result) -> dict:
 @pytest.mark.slow
 @pytest.mark.parametrize("actuator", ["bending", "contractor"])
 def test_wh_ranks_first_and_hammerstein_above_linear_as_in_the_paper(actuator):
-    recs = {e: sim.run_experiment(actuator, e, rate_hz=RATE_HZ, seed=k)
-            for k, e in enumerate(ESTIMATION + VALIDATION)}
+    recs = {e: sim.run_experiment(actuator, e, rate_hz=RATE_HZ, seed=k) for k, e in enumerate(ESTIMATION + VALIDATION)}
     out = OUTPUT[actuator]
 
     def data(names):
         return [(recs[e]["dR_0"] / 100.0)[:, None] for e in names], [recs[e][out] for e in names]
 
-    result = ident.search(u=data(ESTIMATION)[0], y=data(ESTIMATION)[1], ts=1 / RATE_HZ,
-                          validation=data(VALIDATION), poles=range(1, 5), zeros=(0, 1, 2), progress=False)
+    result = ident.search(
+        u=data(ESTIMATION)[0],
+        y=data(ESTIMATION)[1],
+        ts=1 / RATE_HZ,
+        validation=data(VALIDATION),
+        poles=range(1, 5),
+        zeros=(0, 1, 2),
+        progress=False,
+    )
     best = _ranking(result)
     print(actuator, {k: round(v, 2) for k, v in best.items()})
     assert best["wh"] >= best["wiener"] - TIE
@@ -55,11 +61,20 @@ def test_miso_wh_contains_the_miso_hammerstein_on_the_3dof_segment():
     recs = {e: sim.run_experiment("3dof", e, rate_hz=RATE_HZ, seed=k) for k, e in enumerate(est + val)}
 
     def data(names):
-        return ([np.column_stack([recs[e][f"dR_{i}"] / 100.0 for i in range(3)]) for e in names],
-                [recs[e]["theta_x"] for e in names])
+        return (
+            [np.column_stack([recs[e][f"dR_{i}"] / 100.0 for i in range(3)]) for e in names],
+            [recs[e]["theta_x"] for e in names],
+        )
 
-    result = ident.search(u=data(est)[0], y=data(est)[1], ts=1 / RATE_HZ, validation=data(val),
-                          poles=range(1, 3), zeros=(0, 1), progress=False)
+    result = ident.search(
+        u=data(est)[0],
+        y=data(est)[1],
+        ts=1 / RATE_HZ,
+        validation=data(val),
+        poles=range(1, 3),
+        zeros=(0, 1),
+        progress=False,
+    )
     best = _ranking(result)
     print("3dof theta_x", {k: round(v, 2) for k, v in best.items()})
     assert best["wh"] >= best["hammerstein"] - TIE

@@ -105,13 +105,17 @@ def test_noise_aware_fit_against_output_error_fit(seed):
     pn = ident.WienerHammerstein(**kw, process_noise=True).fit(u=[u[:, None] for u in us], y=ys)
     oe = pn.alternative_models()[0]  # the OE fit the noise model was refined from
     assert pn.spec.g_noise and not oe.spec.g_noise and pn.process_noise_std > 0
-    sse = lambda m: sum(np.sum((m.predict(u=u[:, None], expected=True) - y)[SKIP:] ** 2)  # noqa: E731
-                        for u, y in zip(us, ys))
+    sse = lambda m: sum(
+        np.sum((m.predict(u=u[:, None], expected=True) - y)[SKIP:] ** 2)  # noqa: E731
+        for u, y in zip(us, ys)
+    )
     assert sse(pn) <= sse(oe) * (1 + 1e-9)
     e_oe = ident.rmse(yt[SKIP:], oe.predict(u=ut[:, None])[SKIP:])
     e_pn = ident.rmse(yt[SKIP:], pn.predict(u=ut[:, None])[SKIP:])
-    print(f"seed {seed}: expected-output SSE {sse(pn):.4g} vs OE {sse(oe):.4g}; noise-free test RMSE "
-          f"noise-aware {e_pn:.4g}, OE {e_oe:.4g} (ratio {e_pn / e_oe:.3g}), sigma {pn.process_noise_std:.3g}")
+    print(
+        f"seed {seed}: expected-output SSE {sse(pn):.4g} vs OE {sse(oe):.4g}; noise-free test RMSE "
+        f"noise-aware {e_pn:.4g}, OE {e_oe:.4g} (ratio {e_pn / e_oe:.3g}), sigma {pn.process_noise_std:.3g}"
+    )
 
 
 def test_process_noise_model_saves_loads_and_quantizes_as_the_noise_free_map(tmp_path):
@@ -143,9 +147,21 @@ def test_search_passes_units_and_process_noise_to_its_models(tmp_path):
     simulate, noise, gain, rng = _system(4)
     us = [gain * rng.standard_normal(800)[:, None] for _ in range(2)]
     ys = [simulate(u[:, 0], noise) for u in us]
-    res = ident.search(u=us[:1], y=ys[:1], ts=0.02, validation=(us[1:], ys[1:]), grid=[("linear", 1, 0), ("wh", 1, 0)],
-                       n_breakpoints=4, max_nfev=15, starts=1, progress=False, criterion="fit", process_noise=True,
-                       input_unit="dR/100", output_unit="%")
+    res = ident.search(
+        u=us[:1],
+        y=ys[:1],
+        ts=0.02,
+        validation=(us[1:], ys[1:]),
+        grid=[("linear", 1, 0), ("wh", 1, 0)],
+        n_breakpoints=4,
+        max_nfev=15,
+        starts=1,
+        progress=False,
+        criterion="fit",
+        process_noise=True,
+        input_unit="dR/100",
+        output_unit="%",
+    )
     assert {c.structure for c in res.candidates} == {"linear", "wh"}
     for c in res.candidates:
         assert c.model.input_units == ("dR/100",) and c.model.output_unit == "%"
@@ -162,8 +178,20 @@ def test_search_refits_only_the_best_wiener_and_wh_with_process_noise():
     us, ys, _ = _periodic_records(2, n_records=3, period=800)
     us = [u[:, None] for u in us]
     grid = [("linear", 1, 0), ("linear", 2, 1), ("wiener", 1, 0), ("wiener", 2, 1), ("wh", 1, 0), ("wh", 2, 1)]
-    kw = dict(u=us[:2], y=ys[:2], ts=0.02, validation=(us[2:], ys[2:]), validation_skip=SKIP, skip=SKIP, grid=grid,
-              n_breakpoints=6, max_nfev=20, starts=1, progress=False, criterion="fit")
+    kw = dict(
+        u=us[:2],
+        y=ys[:2],
+        ts=0.02,
+        validation=(us[2:], ys[2:]),
+        validation_skip=SKIP,
+        skip=SKIP,
+        grid=grid,
+        n_breakpoints=6,
+        max_nfev=20,
+        starts=1,
+        progress=False,
+        criterion="fit",
+    )
     oe = ident.search(**kw)
     pn = ident.search(**kw, process_noise=True)
     tie_tolerance = importlib.import_module("porosense.ident.search").tie_tolerance
@@ -175,8 +203,10 @@ def test_search_refits_only_the_best_wiener_and_wh_with_process_noise():
         # The finalist is the noise fit or an output-error fit; its score is never more than one
         # standard error below the output-error candidate it replaced.
         assert refit.score("fit") >= top.score("fit") - tie_tolerance(top, "fit") - 1e-9
-        print(f"{structure} {top.n_poles}p{top.n_zeros}z: OE {top.score('fit'):.3f} %, "
-              f"after the refit {refit.score('fit'):.3f} % (process noise: {refit.model.spec.g_noise})")
+        print(
+            f"{structure} {top.n_poles}p{top.n_zeros}z: OE {top.score('fit'):.3f} %, "
+            f"after the refit {refit.score('fit'):.3f} % (process noise: {refit.model.spec.g_noise})"
+        )
         # The other orders are the output-error fits, parameter for parameter.
         for (p, z), c in after.items():
             same = next(o for o in oe.candidates if (o.structure, o.n_poles, o.n_zeros) == (structure, p, z))
@@ -204,8 +234,9 @@ def test_noise_level_from_repeated_periods(seed):
     g is only as good as the blocks it sits between, and these maps have sharp kinks).
     """
     us, ys, noise = _periodic_records(seed)
-    m = ident.WienerHammerstein(n_poles=2, n_zeros=1, n_breakpoints=10, skip=SKIP, starts=1, max_nfev=40,
-                                process_noise=True).fit(u=[u[:, None] for u in us], y=ys)
+    m = ident.WienerHammerstein(
+        n_poles=2, n_zeros=1, n_breakpoints=10, skip=SKIP, starts=1, max_nfev=40, process_noise=True
+    ).fit(u=[u[:, None] for u in us], y=ys)
     info = m.info["process_noise"]
     assert info["method"] == "repeated periods" and "2 recording(s) repeat" in info["periods"]
     est = info["sigma_per_spread"]
@@ -215,9 +246,11 @@ def test_noise_level_from_repeated_periods(seed):
     oe = m.alternative_models()[0]
     e_oe = ident.rmse(yt[SKIP:], oe.predict(u=ut[:, None])[SKIP:])
     e_pn = ident.rmse(yt[SKIP:], m.predict(u=ut[:, None])[SKIP:])
-    print(f"seed {seed}: noise level estimate {est:.3f} of g's input spread, truth {noise:.3f} "
-          f"(ratio {est / noise:.2f}); period power ratio {info['power_ratio']:.3f}; noise-free test "
-          f"RMSE noise-aware / OE {e_pn / e_oe:.2f}")
+    print(
+        f"seed {seed}: noise level estimate {est:.3f} of g's input spread, truth {noise:.3f} "
+        f"(ratio {est / noise:.2f}); period power ratio {info['power_ratio']:.3f}; noise-free test "
+        f"RMSE noise-aware / OE {e_pn / e_oe:.2f}"
+    )
     assert abs(np.log(est / noise)) < np.log(2.0)
     assert abs(np.log(info["power_ratio"])) < 0.25
     colour = info["colour"]  # the period-difference colour diagnostic (tests/ident/test_noise_colour.py)
@@ -255,8 +288,10 @@ def test_repeated_period_detection():
     rng = np.random.default_rng(11)
     base = rng.standard_normal(700)
     assert noise_level.repeated_period(np.tile(base, 2)) == 700
-    assert noise_level.repeated_period(np.tile(base, 3)[:, None]) == 1050 or \
-        noise_level.repeated_period(np.tile(base, 3)[:, None]) == 700
+    assert (
+        noise_level.repeated_period(np.tile(base, 3)[:, None]) == 1050
+        or noise_level.repeated_period(np.tile(base, 3)[:, None]) == 700
+    )
     assert noise_level.repeated_period(rng.standard_normal(2100)) == 0
     # A repeat that differs by 5 % of the RMS is not one (tolerance 1 %).
     rep = np.concatenate([base, base + 0.05 * rng.standard_normal(700)])
@@ -269,6 +304,7 @@ def test_repeated_period_detection():
 
 def test_noise_level_crossing_interpolates_in_log_level():
     from porosense.ident import estimate
+
     # log ratio = 2 log(sigma / 0.8): crosses 0 at 0.8.
     levels = [0.25, 0.5, 1.0, 2.0]
     logs = [2 * np.log(s / 0.8) for s in levels]
@@ -289,12 +325,45 @@ def test_identify_says_how_the_noise_level_was_decided(tmp_path, capsys, periodi
         u = np.tile(base, 2) if periodic else gain * rng.standard_normal(1200)
         y = simulate(u, noise, 0.01)
         p = tmp_path / f"rec{k}.csv"
-        p.write_text("t,u,y\n" + "\n".join(f"{i * 0.01!r},{a!r},{b!r}" for i, (a, b) in enumerate(zip(u.tolist(), y.tolist()))) + "\n")
+        p.write_text(
+            "t,u,y\n"
+            + "\n".join(f"{i * 0.01!r},{a!r},{b!r}" for i, (a, b) in enumerate(zip(u.tolist(), y.tolist())))
+            + "\n"
+        )
         paths.append(str(p))
     report = tmp_path / "report.json"
-    rc = main(["identify", "--data", *paths, "--input", "u", "--output", "y", "--ts", "0.01", "--structure", "wh",
-               "--poles", "2", "--zeros", "1", "--breakpoints", "6", "--max-iter", "15", "--starts", "1",
-               "--smoothness", "0", "--process-noise", "--save", str(tmp_path / "m.json"), "--json", str(report)])
+    rc = main(
+        [
+            "identify",
+            "--data",
+            *paths,
+            "--input",
+            "u",
+            "--output",
+            "y",
+            "--ts",
+            "0.01",
+            "--structure",
+            "wh",
+            "--poles",
+            "2",
+            "--zeros",
+            "1",
+            "--breakpoints",
+            "6",
+            "--max-iter",
+            "15",
+            "--starts",
+            "1",
+            "--smoothness",
+            "0",
+            "--process-noise",
+            "--save",
+            str(tmp_path / "m.json"),
+            "--json",
+            str(report),
+        ]
+    )
     captured = capsys.readouterr()
     out = captured.out
     assert rc == 0, captured.err
@@ -306,7 +375,7 @@ def test_identify_says_how_the_noise_level_was_decided(tmp_path, capsys, periodi
         assert rep["process_noise"]["method"] == "repeated periods"
     else:
         # The mean-only fit cannot tell the level; its OE member may validate better and be kept.
-        assert ("not identifiable" in line[0] or "output-error fit validated better" in line[0])
+        assert "not identifiable" in line[0] or "output-error fit validated better" in line[0]
         assert rep["process_noise"] is None
 
 
@@ -318,13 +387,15 @@ def test_search_keeps_the_measured_noise_model_when_its_oe_member_is_within_the_
 
     us, ys, _ = _periodic_records(1)
     us = [u[:, None] for u in us]
-    model = ident.WienerHammerstein(n_poles=2, n_zeros=1, n_breakpoints=10, skip=SKIP, starts=1, max_nfev=40,
-                                    process_noise=True).fit(u=us, y=ys)
+    model = ident.WienerHammerstein(
+        n_poles=2, n_zeros=1, n_breakpoints=10, skip=SKIP, starts=1, max_nfev=40, process_noise=True
+    ).fit(u=us, y=ys)
     assert model.info["process_noise"]["method"] == "repeated periods"
     kwargs, fit_args = {"skip": SKIP}, {"u": us, "y": ys}
     val = (us, ys, [SKIP] * len(ys))  # scored on the estimation records: both members fit them alike
-    members = [search_mod._score("wh", 2, 1, m, kwargs, fit_args, val, 0.0, 0.0)
-               for m in [model] + model.alternative_models()]
+    members = [
+        search_mod._score("wh", 2, 1, m, kwargs, fit_args, val, 0.0, 0.0) for m in [model] + model.alternative_models()
+    ]
     top = max(members, key=lambda c: c.score("fit"))
     tol = search_mod.tie_tolerance(top, "fit")
     gap = top.score("fit") - members[0].score("fit")
@@ -365,8 +436,10 @@ def test_period_power_standard_error_matches_the_spread_over_independent_records
         powers.append(float(d.measured[used] @ width))
         errors.append(d.measured_error)
     spread = np.std(powers, ddof=1) / np.mean(powers)
-    print(f"relative standard error: from segments {np.mean(errors):.4f} (median {np.median(errors):.4f}), "
-          f"spread over data sets {spread:.4f}")
+    print(
+        f"relative standard error: from segments {np.mean(errors):.4f} (median {np.median(errors):.4f}), "
+        f"spread over data sets {spread:.4f}"
+    )
     assert abs(np.mean(errors) / spread - 1) < 0.25
 
 
@@ -380,8 +453,9 @@ def test_a_noise_model_the_period_differences_refute_is_rejected_and_the_oe_fit_
     monkeypatch.setattr(est, "PERIOD_TOLERANCE", 0.0)
     us, ys, _ = _periodic_records(0)
     us = [u[:, None] for u in us]
-    m = ident.WienerHammerstein(n_poles=2, n_zeros=1, n_breakpoints=8, skip=SKIP, starts=1, max_nfev=20,
-                                process_noise=True).fit(u=us, y=ys)
+    m = ident.WienerHammerstein(
+        n_poles=2, n_zeros=1, n_breakpoints=8, skip=SKIP, starts=1, max_nfev=20, process_noise=True
+    ).fit(u=us, y=ys)
     info = m.info["process_noise"]
     assert info["method"] == "repeated periods, rejected" and not info["consistent"]
     assert info["power_ratio_error"] > 0 and "rejected" in m.info["build"]
@@ -394,9 +468,13 @@ def test_a_noise_model_the_period_differences_refute_is_rejected_and_the_oe_fit_
     kwargs, fit_args = {"skip": SKIP}, {"u": us, "y": ys}
     best = search_mod._best_member("wh", 2, 1, m, kwargs, fit_args, (us, ys, [SKIP] * 2), "fit")
     assert not best.model.spec.g_noise  # the search keeps an output-error member, not the refuted noise model
-    assert best.score("fit") == max(c.score("fit") for c in
-                                    [search_mod._score("wh", 2, 1, x, kwargs, fit_args, (us, ys, [SKIP] * 2), 0, 0)
-                                     for x in [m] + m.alternative_models()])
+    assert best.score("fit") == max(
+        c.score("fit")
+        for c in [
+            search_mod._score("wh", 2, 1, x, kwargs, fit_args, (us, ys, [SKIP] * 2), 0, 0)
+            for x in [m] + m.alternative_models()
+        ]
+    )
 
 
 def test_search_with_process_noise_orders_by_the_nonparametric_bla():
@@ -408,20 +486,34 @@ def test_search_with_process_noise_orders_by_the_nonparametric_bla():
     us, ys, _ = _periodic_records(4, n_records=6, period=600)
     us = [u[:, None] for u in us]
     grid = [(s, p, z) for s in ("linear", "wh") for p in (1, 2, 3, 4) for z in range(p)]
-    res = ident.search(u=us[:5], y=ys[:5], ts=0.02, validation=(us[5:], ys[5:]), validation_skip=SKIP, skip=SKIP,
-                       grid=grid, n_breakpoints=6, max_nfev=20, starts=1, progress=False, criterion="fit",
-                       staged=True, process_noise=True)
+    res = ident.search(
+        u=us[:5],
+        y=ys[:5],
+        ts=0.02,
+        validation=(us[5:], ys[5:]),
+        validation_skip=SKIP,
+        skip=SKIP,
+        grid=grid,
+        n_breakpoints=6,
+        max_nfev=20,
+        starts=1,
+        progress=False,
+        criterion="fit",
+        staged=True,
+        process_noise=True,
+    )
     print(res)
     assert "order from the nonparametric BLA of 5 realisations" in res.rule
     order = {(c.n_poles, c.n_zeros) for c in res.candidates if c.structure == "wh"}
     assert len(order) == 1
-    (p, z), = order
+    ((p, z),) = order
     linear = {(c.n_poles, c.n_zeros): c for c in res.candidates if c.structure == "linear"}
     # Every linear order with fewer parameters was fitted and refuted; none with more was fitted.
     assert all(linear[o].refuted for o in linear if sum(o) < p + z)
     assert not linear[(p, z)].refuted and max(sum(o) for o in linear) == p + z
-    assert not res.best.refuted and (res.best.n_poles, res.best.n_zeros) not in \
-        {o for o, c in linear.items() if c.refuted}
+    assert not res.best.refuted and (res.best.n_poles, res.best.n_zeros) not in {
+        o for o, c in linear.items() if c.refuted
+    }
 
 
 def test_records_too_short_for_the_colour_diagnostic_still_fit():
@@ -429,8 +521,9 @@ def test_records_too_short_for_the_colour_diagnostic_still_fit():
     per difference: the level is still measured, and the colour diagnostic is left out (None)
     instead of failing the fit; the identify line then omits it."""
     us, ys, _ = _periodic_records(3, n_records=1, period=320)
-    m = ident.WienerHammerstein(n_poles=2, n_zeros=1, n_breakpoints=6, skip=SKIP, starts=1, max_nfev=10,
-                                process_noise=True).fit(u=[u[:, None] for u in us], y=ys)
+    m = ident.WienerHammerstein(
+        n_poles=2, n_zeros=1, n_breakpoints=6, skip=SKIP, starts=1, max_nfev=10, process_noise=True
+    ).fit(u=[u[:, None] for u in us], y=ys)
     info = m.info["process_noise"]
     assert info["method"].startswith("repeated periods") and info["colour"] is None
     line = importlib.import_module("porosense.cli.identify")._process_noise_line(m)
@@ -467,8 +560,9 @@ def test_a_deconvolution_the_records_do_not_determine_keeps_the_output_error_fit
     rows = []
     for seed in range(int(os.environ.get("DECONVOLUTION_SEEDS", "6"))):
         us, ys, _ = _periodic_records(seed)
-        m = ident.WienerHammerstein(n_poles=2, n_zeros=1, n_breakpoints=10, skip=SKIP, starts=1, max_nfev=40,
-                                    process_noise=True).fit(u=[u[:, None] for u in us], y=ys)
+        m = ident.WienerHammerstein(
+            n_poles=2, n_zeros=1, n_breakpoints=10, skip=SKIP, starts=1, max_nfev=40, process_noise=True
+        ).fit(u=[u[:, None] for u in us], y=ys)
         simulate, _, gain, rng = _system(seed)
         ut = gain * rng.standard_normal(N)
         yt = simulate(ut, 0.0)
@@ -478,16 +572,25 @@ def test_a_deconvolution_the_records_do_not_determine_keeps_the_output_error_fit
         e_oe = ident.rmse(yt[SKIP:], oe.predict(u=ut[:, None])[SKIP:])
         info = m.info["process_noise"]
         d = info["deconvolution"]
-        rows.append({"seed": seed, "determined": d["determined"],
-                     "unguarded": ident.rmse(yt[SKIP:], unguarded[SKIP:]) / e_oe,
-                     "kept": ident.rmse(yt[SKIP:], m.predict(u=ut[:, None])[SKIP:]) / e_oe})
-        print(f"seed {seed}: {info['method']}, correction / spread {d['correction'] / max(d['spread'], 1e-12):.2f} "
-              f"({d['tied_builds']} tied builds); noise-free test RMSE / OE: chosen build {rows[-1]['unguarded']:.2f}, "
-              f"kept {rows[-1]['kept']:.2f}")
+        rows.append(
+            {
+                "seed": seed,
+                "determined": d["determined"],
+                "unguarded": ident.rmse(yt[SKIP:], unguarded[SKIP:]) / e_oe,
+                "kept": ident.rmse(yt[SKIP:], m.predict(u=ut[:, None])[SKIP:]) / e_oe,
+            }
+        )
+        print(
+            f"seed {seed}: {info['method']}, correction / spread {d['correction'] / max(d['spread'], 1e-12):.2f} "
+            f"({d['tied_builds']} tied builds); noise-free test RMSE / OE: chosen build {rows[-1]['unguarded']:.2f}, "
+            f"kept {rows[-1]['kept']:.2f}"
+        )
         if not d["determined"]:
-            assert info["method"] == "repeated periods, undetermined" and rows[-1]["kept"] == pytest.approx(1.0, abs=0.01)
+            assert info["method"] == "repeated periods, undetermined" and rows[-1]["kept"] == pytest.approx(
+                1.0, abs=0.01
+            )
             line = importlib.import_module("porosense.cli.identify")._process_noise_line(m)
             assert "do not determine the noise-free system" in line and "output-error fit is kept" in line
-    assert all(r["determined"] for r in rows if r["unguarded"] < 1.0)   # no gain discarded
+    assert all(r["determined"] for r in rows if r["unguarded"] < 1.0)  # no gain discarded
     fired = [r for r in rows if not r["determined"]]
-    assert fired and all(r["unguarded"] > 1.0 for r in fired)         # it fires, and only on losses
+    assert fired and all(r["unguarded"] > 1.0 for r in fired)  # it fires, and only on losses

@@ -59,8 +59,19 @@ def test_smoothness_weight_reduces_the_bending_of_the_map(noisy_wiener):
 
 def test_smoothness_weight_is_chosen_on_validation(noisy_wiener):
     us, ys = noisy_wiener
-    res = ident.search(u=us[:1], y=ys[:1], ts=1.0, validation=(us[1:], ys[1:]), structures=("wiener",),
-                       poles=[1], zeros=[0], n_breakpoints=16, max_nfev=60, criterion="fit", progress=False)
+    res = ident.search(
+        u=us[:1],
+        y=ys[:1],
+        ts=1.0,
+        validation=(us[1:], ys[1:]),
+        structures=("wiener",),
+        poles=[1],
+        zeros=[0],
+        n_breakpoints=16,
+        max_nfev=60,
+        criterion="fit",
+        progress=False,
+    )
     choice = ident.choose_smoothness(res, u=us[:1], y=ys[:1], ts=1.0, validation=(us[1:], ys[1:]))
     print(choice)
     assert set(choice.fits) == {0.0, 1e-4, 1e-3, 1e-2}

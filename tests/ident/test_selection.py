@@ -45,9 +45,18 @@ def test_a_two_pole_system_with_noise_is_found_with_at_most_three_poles():
         y0 = signal.lfilter(b, a, u)
         y = y0 + 0.1 * np.std(y0) * rng.standard_normal(N)
         (eu, ey), (vu, vy, vskip) = held_out(u[:, None], y)
-        res = ident.search(u=eu, y=ey, ts=1.0, validation=(vu, vy), validation_skip=vskip,
-                           structures=("linear",), poles=range(1, 11), criterion="fit", progress=False,
-                           max_nfev=60)
+        res = ident.search(
+            u=eu,
+            y=ey,
+            ts=1.0,
+            validation=(vu, vy),
+            validation_skip=vskip,
+            structures=("linear",),
+            poles=range(1, 11),
+            criterion="fit",
+            progress=False,
+            max_nfev=60,
+        )
         found.append(res.best.n_poles)
         print(seed, res.best.n_poles, res.best.n_zeros, res.rule)
     print("selected poles per seed:", found)
@@ -63,8 +72,18 @@ def test_nonlinear_never_selected_over_a_better_validating_linear():
     y = y0 + 0.3 * np.std(y0) * rng.standard_normal(len(u))
     (eu, ey), (vu, vy, vskip) = held_out(u[:, None], y)
     for criterion in ("fit", "aic", "bic"):
-        res = ident.search(u=eu, y=ey, ts=1.0, validation=(vu, vy), validation_skip=vskip, poles=range(1, 3),
-                           criterion=criterion, progress=False, max_nfev=40, n_breakpoints=8)
+        res = ident.search(
+            u=eu,
+            y=ey,
+            ts=1.0,
+            validation=(vu, vy),
+            validation_skip=vskip,
+            poles=range(1, 3),
+            criterion=criterion,
+            progress=False,
+            max_nfev=40,
+            n_breakpoints=8,
+        )
         lin = max((c for c in res.candidates if c.structure == "linear"), key=lambda c: c.validation_fit)
         print(criterion, res.best.structure, res.best.validation_fit, lin.validation_fit, res.rule)
         assert res.best.validation_fit >= lin.validation_fit
@@ -73,5 +92,12 @@ def test_nonlinear_never_selected_over_a_better_validating_linear():
 
 def test_unknown_criterion_is_a_user_error():
     with pytest.raises(InputError, match="criterion"):
-        ident.search(u=np.zeros((50, 1)), y=np.zeros(50), ts=1.0, poles=[1], structures=("linear",),
-                     criterion="r2", progress=False)
+        ident.search(
+            u=np.zeros((50, 1)),
+            y=np.zeros(50),
+            ts=1.0,
+            poles=[1],
+            structures=("linear",),
+            criterion="r2",
+            progress=False,
+        )

@@ -13,8 +13,7 @@ def test_noise_free_search_selects_the_matching_structure(truth, make_recordings
     system = truth(kind)
     eu, ey, _ = make_recordings(system, N, seeds=(1, 2, 3))
     vu, vy, _ = make_recordings(system, N, seeds=(4, 5))
-    result = ident.search(u=eu, y=ey, ts=system.ts, validation=(vu, vy), poles=(1, 2), n_breakpoints=5,
-                          progress=False)
+    result = ident.search(u=eu, y=ey, ts=system.ts, validation=(vu, vy), poles=(1, 2), n_breakpoints=5, progress=False)
     best = result.best
     print(result)
     assert best.structure == kind

@@ -20,8 +20,13 @@ REL = 1e-9
 def siso():
     """A WH truth (first-order H1, PWL g, second-order H2), random steps, output noise."""
     g = PiecewiseLinear(np.array([-2.0, -0.8, 0.0, 0.7, 2.5]), np.array([-1.2, -0.9, 0.0, 1.4, 1.7]))
-    out = OutputChain("y", (Branch(0, SOSCascade.from_tf([0.3], [1.0, -0.7])),), g=g,
-                      h2=SOSCascade.from_tf([0.05, 0.04], [1.0, -1.5, 0.62]), offset=0.5)
+    out = OutputChain(
+        "y",
+        (Branch(0, SOSCascade.from_tf([0.3], [1.0, -0.7])),),
+        g=g,
+        h2=SOSCascade.from_tf([0.05, 0.04], [1.0, -1.5, 0.62]),
+        offset=0.5,
+    )
     system = EstimatorStructure(("u",), (out,), ts=0.02)
     rng = np.random.default_rng(41)
     us, ys = [], []
@@ -59,8 +64,16 @@ def test_wh_error_is_at_most_the_wiener_and_hammerstein_errors_of_its_order(requ
     reused = ident.WienerHammerstein(**ORDERS).fit(u=us, y=ys, ts=0.02, wiener=w, hammerstein=h)
     alone = ident.WienerHammerstein(**ORDERS).fit(u=us, y=ys, ts=0.02)
     bound = min(w.info["sse"], h.info["sse"]) * (1 + REL)
-    print(data, {"wiener": w.info["sse"], "hammerstein": h.info["sse"], "wh": reused.info["sse"],
-                 "wh alone": alone.info["sse"], "build": reused.info["build"]})
+    print(
+        data,
+        {
+            "wiener": w.info["sse"],
+            "hammerstein": h.info["sse"],
+            "wh": reused.info["sse"],
+            "wh alone": alone.info["sse"],
+            "build": reused.info["build"],
+        },
+    )
     assert reused.info["sse"] <= bound
     assert alone.info["sse"] <= bound
     # The same comparison as fit % on the estimation recordings.

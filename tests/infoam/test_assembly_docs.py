@@ -28,8 +28,17 @@ def test_guide_exists_and_every_figure_it_shows_is_committed():
 
 def test_guide_covers_sleeve_electrodes_wiring_and_markers():
     text = GUIDE.read_text().lower()
-    for topic in ("0.4 mm sebs", "heat-seal", "top-left and bottom-right", "1 kω bias", "markers", "stripe",
-                  "bno055", "pellet", "350 x 350 x 400"):
+    for topic in (
+        "0.4 mm sebs",
+        "heat-seal",
+        "top-left and bottom-right",
+        "1 kω bias",
+        "markers",
+        "stripe",
+        "bno055",
+        "pellet",
+        "350 x 350 x 400",
+    ):
         assert topic in text, topic
 
 

@@ -31,8 +31,12 @@ def winding(mesh, points) -> np.ndarray:
         a, b, c = (tri[:, k, :] - p for k in range(3))
         la, lb, lc = (np.linalg.norm(v, axis=1) for v in (a, b, c))
         det = np.einsum("ij,ij->i", a, np.cross(b, c))
-        den = la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", b, c) * la \
+        den = (
+            la * lb * lc
+            + np.einsum("ij,ij->i", a, b) * lc
+            + np.einsum("ij,ij->i", b, c) * la
             + np.einsum("ij,ij->i", c, a) * lb
+        )
         out.append(np.sum(2.0 * np.arctan2(det, den)) / (4.0 * math.pi))
     return np.array(out)
 
@@ -57,12 +61,20 @@ def ring(cx, cy, r, z, n=12):
 
 
 def test_every_part_is_one_closed_solid_that_fits_an_ordinary_bed(parts):
-    assert set(parts) == {"bending_holder", "contractor_hanger", "contractor_load_hook", "segment_base", "segment_stage"}
+    assert set(parts) == {
+        "bending_holder",
+        "contractor_hanger",
+        "contractor_load_hook",
+        "segment_base",
+        "segment_stage",
+    }
     for name, p in parts.items():
         m = p.mesh
         bodies = m.split(only_watertight=False)
-        print(f"{name}: {p.size_mm[0]:.1f} x {p.size_mm[1]:.1f} x {p.size_mm[2]:.1f} mm, "
-              f"{m.volume / 1000:.2f} cm^3, {len(m.faces)} triangles, {len(bodies)} body")
+        print(
+            f"{name}: {p.size_mm[0]:.1f} x {p.size_mm[1]:.1f} x {p.size_mm[2]:.1f} mm, "
+            f"{m.volume / 1000:.2f} cm^3, {len(m.faces)} triangles, {len(bodies)} body"
+        )
         assert m.is_watertight and m.is_winding_consistent and m.volume > 0
         assert len(bodies) == 1
         assert m.bounds[0][2] == pytest.approx(0.0, abs=1e-6)  # lies on the bed

@@ -47,7 +47,11 @@ def test_same_part_same_melt_on_every_machine_whatever_its_e_unit():
         m = load_machine(name)
         g = read_gcode(generate(paper_contractor(), PrintSettings(machine=m)).gcode)
         data = tomllib.loads(_text(name))["extruder"]
-        per_e = data["mm3_per_turn"] if data["e_unit"] == "turn" else 3.141592653589793 * data["filament_diameter_mm"] ** 2 / 4
+        per_e = (
+            data["mm3_per_turn"]
+            if data["e_unit"] == "turn"
+            else 3.141592653589793 * data["filament_diameter_mm"] ** 2 / 4
+        )
         volumes[name] = g.extruded_mm * per_e
     print({k: round(v) for k, v in volumes.items()})
     ref = volumes["pellet-ender5plus"]
@@ -62,19 +66,22 @@ def _bad(tmp_path, name, old, new, base="pellet-ender5plus"):
     return path
 
 
-@pytest.mark.parametrize("case, old, new, message", [
-    ("negative_bed", r"^x_mm = .*$", "x_mm = -350.0", r"build_x_mm must be a positive"),
-    ("zero_nozzle", r"^diameter_mm = .*$", "diameter_mm = 0.0", r"nozzle_mm must be a positive"),
-    ("zero_layer", r"^bulk_layer_mm = .*$", "bulk_layer_mm = 0", r"bulk_layer_mm must be a positive"),
-    ("hot", r"^hotend_c = .*$", "hotend_c = 250.0", r"hotend 250 C outside the ctpe range 180-230 C"),
-    ("cold", r"^hotend_c = .*$", "hotend_c = 150.0", r"hotend 150 C outside the ctpe range"),
-    ("above_heater", r"^hotend_c = .*$", "hotend_c = 270.0", r"above its limit 260 C"),
-    ("screw_constant", r"^mm3_per_turn = .*$", "mm3_per_turn = -2.0", r"mm3_per_turn must be a positive"),
-    ("unit", r'^e_unit = .*$', 'e_unit = "inch"', r"e_unit 'inch' is not one of"),
-    ("typo", r"^z_mm = .*$", "zz_mm = 400.0", r"\[build\] has unknown key\(s\) zz_mm"),
-    ("text", r"^y_mm = .*$", 'y_mm = "wide"', r"\[build\] y_mm must be a number"),
-    ("toml", r"^\[speeds\].*$", "[speeds", r"not valid TOML"),
-])
+@pytest.mark.parametrize(
+    "case, old, new, message",
+    [
+        ("negative_bed", r"^x_mm = .*$", "x_mm = -350.0", r"build_x_mm must be a positive"),
+        ("zero_nozzle", r"^diameter_mm = .*$", "diameter_mm = 0.0", r"nozzle_mm must be a positive"),
+        ("zero_layer", r"^bulk_layer_mm = .*$", "bulk_layer_mm = 0", r"bulk_layer_mm must be a positive"),
+        ("hot", r"^hotend_c = .*$", "hotend_c = 250.0", r"hotend 250 C outside the ctpe range 180-230 C"),
+        ("cold", r"^hotend_c = .*$", "hotend_c = 150.0", r"hotend 150 C outside the ctpe range"),
+        ("above_heater", r"^hotend_c = .*$", "hotend_c = 270.0", r"above its limit 260 C"),
+        ("screw_constant", r"^mm3_per_turn = .*$", "mm3_per_turn = -2.0", r"mm3_per_turn must be a positive"),
+        ("unit", r"^e_unit = .*$", 'e_unit = "inch"', r"e_unit 'inch' is not one of"),
+        ("typo", r"^z_mm = .*$", "zz_mm = 400.0", r"\[build\] has unknown key\(s\) zz_mm"),
+        ("text", r"^y_mm = .*$", 'y_mm = "wide"', r"\[build\] y_mm must be a number"),
+        ("toml", r"^\[speeds\].*$", "[speeds", r"not valid TOML"),
+    ],
+)
 def test_bad_profile_is_refused_with_one_line(tmp_path, capsys, case, old, new, message):
     path = _bad(tmp_path, case, old, new)
     with pytest.raises(InputError, match=message):
@@ -106,7 +113,7 @@ def test_unknown_machine_and_material_mismatch(tmp_path):
         load_machine("ender9")
     with pytest.raises(InputError, match="no such machine profile"):
         load_machine(str(tmp_path / "absent.toml"))
-    path = _bad(tmp_path, "nylon", r'^material = .*$', 'material = "nylon"')
+    path = _bad(tmp_path, "nylon", r"^material = .*$", 'material = "nylon"')
     with pytest.raises(InputError, match="unknown material 'nylon'"):
         load_machine(str(path))
 

@@ -16,8 +16,9 @@ from porosense.firmware import files, hostlib
 
 def _cli(args, env=None, cwd=None):
     full = {**os.environ, **(env or {})}
-    return subprocess.run([sys.executable, "-m", "porosense", *args], capture_output=True, text=True,
-                          env=full, cwd=cwd, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "porosense", *args], capture_output=True, text=True, env=full, cwd=cwd, timeout=300
+    )
 
 
 def test_package_finds_its_files_without_the_repository_layout():
@@ -39,8 +40,10 @@ def test_library_digest_follows_the_sources(tmp_path):
 
 
 def test_missing_compiler_is_one_clear_line(tmp_path):
-    proc = _cli(["emulator", "--listen", "tcp://127.0.0.1:0", "--duration", "0.1"],
-                env={"CXX": str(tmp_path / "no-such-c++"), "POROSENSE_CACHE": str(tmp_path / "cache")})
+    proc = _cli(
+        ["emulator", "--listen", "tcp://127.0.0.1:0", "--duration", "0.1"],
+        env={"CXX": str(tmp_path / "no-such-c++"), "POROSENSE_CACHE": str(tmp_path / "cache")},
+    )
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 3, proc.stderr
     assert len(lines) == 1 and "C++ compiler" in lines[0] and "apt-get install g++" in lines[0]
@@ -50,7 +53,7 @@ def _fake_avrdude(tmp_path: Path, exit_code: int, message: str) -> Path:
     tool = tmp_path / "avrdude"
     log, said = tmp_path / "avrdude.args", tmp_path / "avrdude.says"
     said.write_text(message + "\n")
-    tool.write_text(f"#!/bin/sh\necho \"$@\" > {log}\ncat {said} >&2\nexit {exit_code}\n")
+    tool.write_text(f'#!/bin/sh\necho "$@" > {log}\ncat {said} >&2\nexit {exit_code}\n')
     tool.chmod(tool.stat().st_mode | stat.S_IEXEC)
     return tool
 
@@ -69,7 +72,7 @@ def test_upload_flashes_the_packaged_hex_with_avrdude(tmp_path):
 
 
 def test_upload_failures_are_one_line(tmp_path):
-    tool = _fake_avrdude(tmp_path, 1, "avrdude: ser_open(): can't open device \"/dev/ttyACM7\"")
+    tool = _fake_avrdude(tmp_path, 1, 'avrdude: ser_open(): can\'t open device "/dev/ttyACM7"')
     hex_file = tmp_path / "fw.hex"
     hex_file.write_text(":00000001FF\n")
     proc = _cli(["firmware", "upload", "--port", "/dev/ttyACM7", "--avrdude", str(tool), "--hex", str(hex_file)])

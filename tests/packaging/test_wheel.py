@@ -75,10 +75,18 @@ def installed(tmp_path_factory):
     # A copy with the firmware links resolved: nothing is written into the checkout, and no
     # stale build/ folder of an earlier build can slip old modules into the wheel.
     src = tmp / "host_sdk"
-    shutil.copytree(ROOT / "host_sdk", src, symlinks=False,
-                    ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__", "*.o", "*.d"))
-    build = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(wheels), str(src)],
-                           capture_output=True, text=True, timeout=900)
+    shutil.copytree(
+        ROOT / "host_sdk",
+        src,
+        symlinks=False,
+        ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__", "*.o", "*.d"),
+    )
+    build = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(wheels), str(src)],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     if build.returncode != 0 and "setuptools" in build.stderr and "No matching distribution" in build.stderr:
         pytest.skip("the wheel's build requirements (setuptools, wheel) cannot be fetched here")
     assert build.returncode == 0, build.stderr[-3000:]
@@ -86,8 +94,11 @@ def installed(tmp_path_factory):
     env_dir = tmp / "venv"
     venv.EnvBuilder(with_pip=False).create(env_dir)
     py = env_dir / "bin" / "python"
-    site = Path(subprocess.check_output([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
-                                        text=True).strip())
+    site = Path(
+        subprocess.check_output(
+            [str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], text=True
+        ).strip()
+    )
     # Third-party dependencies from this environment; porosense itself only from the wheel.
     (site / "_deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
     _run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q", "--no-deps", str(wheel)], tmp, None)
@@ -102,12 +113,35 @@ def installed(tmp_path_factory):
 def test_installed_wheel_identifies_quantizes_and_talks_to_the_emulator(installed):
     py, work, env = installed
     cli = str(py.parent / "porosense")
-    _run([cli, "simulate", "contractor", "-e", "step_20", "-e", "step_40", "--rate", "100", "--out", "data",
-          "--json"], work, env)
+    _run(
+        [cli, "simulate", "contractor", "-e", "step_20", "-e", "step_40", "--rate", "100", "--out", "data", "--json"],
+        work,
+        env,
+    )
     data = sorted(str(p) for p in (work / "data").glob("*.csv"))
     assert len(data) == 2
-    _run([cli, "identify", "--data", *data, "--input", "dR_0", "--output", "strain_0", "--ts", "0.01",
-          "--max-poles", "2", "--save", "model.json", "--json", "ident.json"], work, env)
+    _run(
+        [
+            cli,
+            "identify",
+            "--data",
+            *data,
+            "--input",
+            "dR_0",
+            "--output",
+            "strain_0",
+            "--ts",
+            "0.01",
+            "--max-poles",
+            "2",
+            "--save",
+            "model.json",
+            "--json",
+            "ident.json",
+        ],
+        work,
+        env,
+    )
     _run([cli, "quantize", "model.json", "--out", "model.bin", "--report", "quant.json"], work, env)
     blob = (work / "model.bin").read_bytes()
     assert len(blob) > 26

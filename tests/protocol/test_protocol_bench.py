@@ -30,8 +30,12 @@ def test_sample_rate_that_115200_baud_carries():
 
 
 def test_cli_prints_the_figures_as_json():
-    proc = subprocess.run([sys.executable, "-m", "porosense", "bench", "protocol", "--json", "--size", "small"],
-                          capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-m", "porosense", "bench", "protocol", "--json", "--size", "small"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr
     figures = json.loads(proc.stdout)
     assert figures["sample_frame_bytes"] == 39 and len(figures["summary"]) == 5

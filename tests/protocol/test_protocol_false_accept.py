@@ -13,10 +13,9 @@ from __future__ import annotations
 import random
 
 import pytest
+from protocol_testing import IN_CI, catalogue, flip_burst, plausible_except_crc, vector_builder
 
 from porosense.protocol import FrameError, decode_frame
-
-from protocol_testing import IN_CI, catalogue, flip_burst, plausible_except_crc, vector_builder
 
 CRC_PASS = 2.0**-16
 BOUND = 1e-6  # per chunk; measured 3.0e-7 (garbage then frame) and 1.5e-7 (damaged), spec.md 4
@@ -54,8 +53,10 @@ def _measure(n: int, seed: int) -> dict:
         bad = flip_burst(frame, rng.randrange(len(frame) * 8 - length + 1), length, rng.randrange(1 << 14))
         damaged += sum(_impostors(part) for part in bad.split(b"\x00") if part)
         noise += _impostors(bytes(rng.randrange(1, 256) for _ in range(rng.randrange(7, 129))))
-    return {kind: count / n * CRC_PASS for kind, count in
-            (("garbage_then_frame", glued), ("damaged_frame", damaged), ("noise", noise))}
+    return {
+        kind: count / n * CRC_PASS
+        for kind, count in (("garbage_then_frame", glued), ("damaged_frame", damaged), ("noise", noise))
+    }
 
 
 def test_false_accept_probability_per_chunk_is_below_1e_6():

@@ -11,10 +11,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from protocol_testing import IN_CI, ROOT, vectors
 
 from porosense.protocol import FrameDecoder
-
-from protocol_testing import IN_CI, ROOT, vectors
 
 CORE_TESTS = ROOT / "tests" / "core"
 pytestmark = pytest.mark.xdist_group("protocol-fuzz")
@@ -93,8 +92,10 @@ def _python_lines(streams: list[bytes]) -> list[str]:
         dec = FrameDecoder()
         frames = dec.feed(s)
         c = dec.counters
-        line = " ".join(str(c[k]) for k in ("frames", "bad_cobs", "bad_crc", "bad_length", "bad_version",
-                                              "unknown_type", "overlong"))
+        line = " ".join(
+            str(c[k])
+            for k in ("frames", "bad_cobs", "bad_crc", "bad_length", "bad_version", "unknown_type", "overlong")
+        )
         line += "".join(f" {f.version}:{f.type}:{f.seq}:{f.payload.hex() or '-'}" for f in frames)
         out.append(line)
     return out
@@ -102,8 +103,9 @@ def _python_lines(streams: list[bytes]) -> list[str]:
 
 def _differential(exe: Path, n: int, seed: int) -> None:
     streams = _random_streams(n, seed)
-    proc = subprocess.run([str(exe)], input="".join(s.hex() + "\n" for s in streams), capture_output=True,
-                          text=True, timeout=600)
+    proc = subprocess.run(
+        [str(exe)], input="".join(s.hex() + "\n" for s in streams), capture_output=True, text=True, timeout=600
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     cpp = proc.stdout.splitlines()
     py = _python_lines(streams)

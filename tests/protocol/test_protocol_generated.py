@@ -18,8 +18,9 @@ GENERATED = [
 
 
 def _check(root):
-    return subprocess.run([sys.executable, str(root / "protocol" / "generate.py"), "--check"],
-                          capture_output=True, text=True, timeout=120)
+    return subprocess.run(
+        [sys.executable, str(root / "protocol" / "generate.py"), "--check"], capture_output=True, text=True, timeout=120
+    )
 
 
 def test_generated_files_are_up_to_date():
@@ -29,8 +30,13 @@ def test_generated_files_are_up_to_date():
 
 def test_check_reports_a_stale_file(tmp_path):
     """In a copy of the tree: editing the catalogue makes every generated file stale."""
-    for rel in ["protocol/generate.py", "protocol/gen_spec.py", "protocol/gen_vectors.py",
-                "protocol/messages.toml", *GENERATED]:
+    for rel in [
+        "protocol/generate.py",
+        "protocol/gen_spec.py",
+        "protocol/gen_vectors.py",
+        "protocol/messages.toml",
+        *GENERATED,
+    ]:
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy(ROOT / rel, tmp_path / rel)
     assert _check(tmp_path).returncode == 0

@@ -6,21 +6,27 @@ Default runs keep the example counts small; the slow-marked twins run many more.
 from __future__ import annotations
 
 import pytest
+from cobs import cobs
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from protocol_testing import IN_CI, catalogue, flip_burst, vectors
 
 from porosense.protocol import MESSAGES, FrameDecoder, encode_frame, encode_message
 from porosense.protocol.framing import CRC_LEN, HEADER_LEN
-from cobs import cobs
 
-from protocol_testing import IN_CI, catalogue, flip_burst, vectors
-
-FAST = settings(max_examples=60, derandomize=True, database=None, deadline=None,
-                suppress_health_check=[HealthCheck.too_slow])
+FAST = settings(
+    max_examples=60, derandomize=True, database=None, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
 SLOW = settings(FAST, max_examples=600 if IN_CI else 3000)
 
-INT_RANGES = {"u8": (0, 0xFF), "i8": (-0x80, 0x7F), "u16": (0, 0xFFFF), "i16": (-0x8000, 0x7FFF),
-              "u32": (0, 0xFFFFFFFF), "i32": (-0x80000000, 0x7FFFFFFF)}
+INT_RANGES = {
+    "u8": (0, 0xFF),
+    "i8": (-0x80, 0x7F),
+    "u16": (0, 0xFFFF),
+    "i16": (-0x8000, 0x7FFF),
+    "u32": (0, 0xFFFFFFFF),
+    "i32": (-0x80000000, 0x7FFFFFFF),
+}
 SPECS = {m.type: m for m in catalogue()["messages"]}
 
 
@@ -130,8 +136,7 @@ def test_burst_errors_up_to_16_bits_are_rejected_many(frame, where, position, le
 def garbage_between(draw):
     first = draw(messages())
     second = draw(messages())
-    junk = draw(st.one_of(st.binary(max_size=600),
-                          st.binary(max_size=600).map(lambda b: b.replace(b"\x00", b"\x01"))))
+    junk = draw(st.one_of(st.binary(max_size=600), st.binary(max_size=600).map(lambda b: b.replace(b"\x00", b"\x01"))))
     return first, junk, second
 
 

@@ -4,10 +4,9 @@ same vectors in tests/core/test_frame_codec.cpp)."""
 from __future__ import annotations
 
 import pytest
+from protocol_testing import vectors
 
 from porosense.protocol import MAX_PAYLOAD, MESSAGES, FrameDecoder, decode_frame, encode_frame, frame_len
-
-from protocol_testing import vectors
 
 FRAMES = vectors()["frames"]
 STREAMS = vectors()["streams"]
@@ -36,7 +35,12 @@ def test_frame_vector_encodes_and_decodes_byte_for_byte(vec):
     dec = FrameDecoder()
     got = [f for b in frame for f in dec.feed(bytes([b]))]  # one byte at a time
     assert len(got) == 1
-    assert (got[0].version, got[0].type, got[0].seq, got[0].payload) == (vec["version"], vec["type"], vec["seq"], payload)
+    assert (got[0].version, got[0].type, got[0].seq, got[0].payload) == (
+        vec["version"],
+        vec["type"],
+        vec["seq"],
+        payload,
+    )
     assert dec.counters["frames"] == 1 and dec.dropped == 0
     msg = _message(vec)
     assert msg.pack() == payload

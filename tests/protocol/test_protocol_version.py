@@ -26,7 +26,10 @@ def test_version_byte_is_major_times_16_plus_minor():
 
 def test_other_minor_is_compatible_other_major_is_refused():
     check_compatible(VERSION_MAJOR, (VERSION_MINOR + 3) % 16)
-    with pytest.raises(ProtocolVersionError, match=rf"device speaks protocol {VERSION_MAJOR + 1}\.0, this host speaks {VERSION_MAJOR}\.{VERSION_MINOR}"):
+    with pytest.raises(
+        ProtocolVersionError,
+        match=rf"device speaks protocol {VERSION_MAJOR + 1}\.0, this host speaks {VERSION_MAJOR}\.{VERSION_MINOR}",
+    ):
         check_compatible(VERSION_MAJOR + 1, 0)
     assert issubclass(ProtocolVersionError, DeviceError)
 

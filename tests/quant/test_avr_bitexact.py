@@ -7,8 +7,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-
 import vectors
+
 from porosense.quant import FixedPointEstimator, avr_cycles
 from porosense.quant.blob import numerator_limit
 
@@ -32,10 +32,16 @@ def edge_cases(seed: int, count: int):
     for i in range(count):
         blob = vectors.fuzz_blob(rng)
         n, sb = (16, 47)[i % 2], (0, 1, 31)[i % 3]
-        outs = tuple(replace(o, h2=tuple(_pinned(s, rng, n, sb) for s in o.h2),
-                             branches=tuple(replace(br, sections=tuple(_pinned(s, rng, n, sb) for s in br.sections))
-                                            for br in o.branches))
-                     for o in blob.outputs)
+        outs = tuple(
+            replace(
+                o,
+                h2=tuple(_pinned(s, rng, n, sb) for s in o.h2),
+                branches=tuple(
+                    replace(br, sections=tuple(_pinned(s, rng, n, sb) for s in br.sections)) for br in o.branches
+                ),
+            )
+            for o in blob.outputs
+        )
         blob = replace(blob, outputs=outs)
         u = rng.integers(-32768, 32768, (N_SAMPLES, 3))
         est, flags = FixedPointEstimator(blob).run(u)

@@ -71,10 +71,10 @@ def test_sample_period_and_input_scaling_are_stored_and_checked(blob):
     the device's 0.01 % per LSB is refused even with a good CRC."""
     data = bytearray(blob.to_bytes())
     ts_at, lsb_at = HEADER_OFFSETS["ts_us"], HEADER_OFFSETS["input_lsb"]
-    assert int.from_bytes(data[ts_at:ts_at + 4], "little") == blob.ts_us == round(blob.ts * 1e6)
+    assert int.from_bytes(data[ts_at : ts_at + 4], "little") == blob.ts_us == round(blob.ts * 1e6)
     assert struct.unpack_from("<f", data, lsb_at)[0] == pytest.approx(0.01, rel=1e-7)
     bad = bytearray(data)
-    bad[ts_at:ts_at + 4] = (0).to_bytes(4, "little")
+    bad[ts_at : ts_at + 4] = (0).to_bytes(4, "little")
     with pytest.raises(ModelError, match="sample period"):
         ModelBlob.from_bytes(_recrc(bad))
     bad = bytearray(data)

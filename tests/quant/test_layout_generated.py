@@ -32,17 +32,17 @@ def test_check_fails_when_a_generated_file_is_stale(tmp_path, monkeypatch):
 
 
 def test_python_blob_follows_the_layout():
-    from porosense.quant.random_models import random_structure
     import numpy as np
 
     from porosense.quant import quantize
+    from porosense.quant.random_models import random_structure
 
     blob = quantize(random_structure(np.random.default_rng(1), 2, 2, h1_poles=2, kind="wh")).blob
     data = blob.to_bytes()
     off = layout.HEADER_OFFSETS
     assert data[off["format_version"]] == layout.FORMAT_VERSION
-    assert int.from_bytes(data[off["length"]:off["length"] + 2], "little") == len(data)
-    assert int.from_bytes(data[off["ts_us"]:off["ts_us"] + 4], "little") == blob.ts_us
+    assert int.from_bytes(data[off["length"] : off["length"] + 2], "little") == len(data)
+    assert int.from_bytes(data[off["ts_us"] : off["ts_us"] + 4], "little") == blob.ts_us
     assert layout.AREA_BASE == layout.STORE_BASE + layout.SLOTS * layout.SLOT_HEADER_LEN
     assert layout.AREA_BASE + layout.AREA_LEN == layout.STORE_BASE + layout.STORE_REGION <= layout.EEPROM_SIZE
     assert ModelBlob.from_bytes(data) == blob

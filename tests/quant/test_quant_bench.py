@@ -46,15 +46,20 @@ def test_controlled_sample_within_budget(figures):
     avr = figures["avr"]
     if "skipped" in avr:
         pytest.skip(avr["skipped"])
-    print(f"controller {avr['control_cycles']} cycles; with the estimator "
-          f"{avr['eeprom_most_sections_with_control_cycles']} of {bench.CYCLE_BUDGET}")
+    print(
+        f"controller {avr['control_cycles']} cycles; with the estimator "
+        f"{avr['eeprom_most_sections_with_control_cycles']} of {bench.CYCLE_BUDGET}"
+    )
     assert 0 < avr["control_cycles"] <= avr["eeprom_most_sections_with_control_cycles"]
     assert avr["eeprom_most_sections_with_control_cycles"] <= bench.CYCLE_BUDGET
 
 
-@pytest.mark.xfail(strict=True, reason="known gap: the nominal worst case (3x3, 10+10 poles, 16 breakpoints, a "
-                   "2.3 KB blob that cannot be stored, read from flash with memcpy_P) takes about 51,600 cycles "
-                   "(65,100 before the assembly cascade); about 13,000 of them are the blob reads")
+@pytest.mark.xfail(
+    strict=True,
+    reason="known gap: the nominal worst case (3x3, 10+10 poles, 16 breakpoints, a "
+    "2.3 KB blob that cannot be stored, read from flash with memcpy_P) takes about 51,600 cycles "
+    "(65,100 before the assembly cascade); about 13,000 of them are the blob reads",
+)
 def test_nominal_worst_case_within_budget(figures):
     avr = figures["avr"]
     if "skipped" in avr:

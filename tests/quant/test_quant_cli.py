@@ -2,7 +2,6 @@
 
 import json
 
-import numpy as np
 import pytest
 
 from porosense.cli import main
@@ -17,8 +16,9 @@ def model_file(tmp_path_factory):
 
     d = tmp_path_factory.mktemp("quant-cli")
     recs = [run_experiment("contractor", e, rate_hz=50, seed=i) for i, e in enumerate(["staircase", "step_20"])]
-    m = ident.Linear(n_poles=2, n_zeros=1).fit(u=[recs[0]["dR_0"][:, None]], y=[recs[0]["strain_0"]], ts=0.02,
-                                               inputs=["dR_0"], output="strain_0")
+    m = ident.Linear(n_poles=2, n_zeros=1).fit(
+        u=[recs[0]["dR_0"][:, None]], y=[recs[0]["strain_0"]], ts=0.02, inputs=["dR_0"], output="strain_0"
+    )
     m.save(d / "model.json")
     recs[1].to_csv(d / "step_20.csv")
     return d
@@ -26,8 +26,20 @@ def model_file(tmp_path_factory):
 
 def test_quantize_writes_blob_report_and_header(model_file, capsys):
     d = model_file
-    rc = main(["quantize", str(d / "model.json"), "--out", str(d / "m.bin"), "--report", str(d / "r.json"),
-               "--header", str(d / "m.h"), "--data", str(d / "step_20.csv")])
+    rc = main(
+        [
+            "quantize",
+            str(d / "model.json"),
+            "--out",
+            str(d / "m.bin"),
+            "--report",
+            str(d / "r.json"),
+            "--header",
+            str(d / "m.h"),
+            "--data",
+            str(d / "step_20.csv"),
+        ]
+    )
     assert rc == 0
     blob = ModelBlob.from_bytes((d / "m.bin").read_bytes())
     rep = json.loads((d / "r.json").read_text())
@@ -54,5 +66,5 @@ def test_flash_and_verify_on_the_emulator(model_file, capsys):
         assert main(["flash", "--port", emu.url, str(d / "m.bin")]) == 0
         assert main(["verify", "--port", emu.url, str(d / "m.bin"), "--data", str(d / "step_20.csv"), "--json"]) == 0
     out = capsys.readouterr().out
-    result = json.loads(out[out.index("{"):])
+    result = json.loads(out[out.index("{") :])
     assert result["identical"] and result["mismatched_values"] == 0 and result["samples"] > 1000

@@ -4,13 +4,13 @@ import os
 
 import numpy as np
 import pytest
+from scipy import signal
 
 from porosense.errors import ModelError
 from porosense.quant import FixedPointEstimator, quantize
 from porosense.quant.blob import MAX_BLOB_LEN
 from porosense.quant.random_models import random_structure, step_inputs
-from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade
-from scipy import signal
+from porosense.structure import Branch, EstimatorStructure, OutputChain, SOSCascade
 
 LOSS_BOUND = 0.5  # fit points the fixed-point model may lose against the float one (issue 7)
 
@@ -26,8 +26,9 @@ def test_random_models_lose_at_most_half_a_point(kind, seed):
     rng = np.random.default_rng(seed)
     s = random_structure(rng, 1, 1, h1_poles=int(rng.integers(2, 7)), h2_poles=2, kind=kind)
     est_u, val_u = step_inputs(rng, 6000), step_inputs(rng, 6000)
-    r = quantize(s, recordings=[("estimation", est_u, _noisy(s, est_u, rng)),
-                                ("validation", val_u, _noisy(s, val_u, rng))])
+    r = quantize(
+        s, recordings=[("estimation", est_u, _noisy(s, est_u, rng)), ("validation", val_u, _noisy(s, val_u, rng))]
+    )
     for f in r.report.fits:
         assert abs(f.loss_points) <= LOSS_BOUND, str(r.report)
         assert f.saturated_samples == 0
@@ -69,8 +70,9 @@ def test_data_outside_the_range_is_reported_as_saturation():
 
 
 def _three_dof(h1_poles, h2_poles, breakpoints, seed=1):
-    return random_structure(np.random.default_rng(seed), 3, 3, h1_poles=h1_poles, h2_poles=h2_poles,
-                            breakpoints=breakpoints, kind="wh")
+    return random_structure(
+        np.random.default_rng(seed), 3, 3, h1_poles=h1_poles, h2_poles=h2_poles, breakpoints=breakpoints, kind="wh"
+    )
 
 
 def test_worst_case_three_dof_is_refused_with_the_orders_that_fit():
@@ -102,11 +104,18 @@ def test_paper_style_models_identified_from_simulated_experiments():
     est = names[:3]
     models = [ident.Linear(n_poles=3, n_zeros=1), ident.WienerHammerstein(n_poles=3, n_zeros=1, n_breakpoints=10)]
     if not os.environ.get("CI"):
-        models += [ident.Hammerstein(n_poles=3, n_zeros=1, n_breakpoints=10),
-                   ident.Wiener(n_poles=3, n_zeros=1, n_breakpoints=10)]
+        models += [
+            ident.Hammerstein(n_poles=3, n_zeros=1, n_breakpoints=10),
+            ident.Wiener(n_poles=3, n_zeros=1, n_breakpoints=10),
+        ]
     for m in models:
-        m.fit(u=[recs[e]["dR_0"][:, None] for e in est], y=[recs[e]["strain_0"] for e in est], ts=0.02,
-              inputs=["dR_0"], output="strain_0")
+        m.fit(
+            u=[recs[e]["dR_0"][:, None] for e in est],
+            y=[recs[e]["strain_0"] for e in est],
+            ts=0.02,
+            inputs=["dR_0"],
+            output="strain_0",
+        )
         r = quantize(m.to_structure(), recordings=[recs[e] for e in names])
         for f in r.report.fits:
             assert abs(f.loss_points) <= LOSS_BOUND, f"{type(m).__name__}: {r.report}"

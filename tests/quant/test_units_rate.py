@@ -19,20 +19,28 @@ from porosense.quant.quantize import device_inputs
 def recordings():
     from porosense.sim import run_experiment
 
-    return [run_experiment("contractor", e, porosity=76, load_g=0, rate_hz=50, seed=s)
-            for e, s in (("step_60", 2), ("step_20", 4))]
+    return [
+        run_experiment("contractor", e, porosity=76, load_g=0, rate_hz=50, seed=s)
+        for e, s in (("step_60", 2), ("step_20", 4))
+    ]
 
 
 def _fit(recs, scale, unit):
     est = recs[0]
     return Linear(n_poles=2, n_zeros=1, starts=1).fit(
-        u=[est["dR_0"][:, None] * scale], y=[est["strain_0"]], ts=0.02, inputs=["dR_0"], output="strain_0",
-        input_unit=unit, output_unit="%")
+        u=[est["dR_0"][:, None] * scale],
+        y=[est["strain_0"]],
+        ts=0.02,
+        inputs=["dR_0"],
+        output="strain_0",
+        input_unit=unit,
+        output_unit="%",
+    )
 
 
 def test_fraction_and_percent_models_give_the_same_blob_and_right_estimates(recordings, tmp_path):
     frac = _fit(recordings, 0.01, "dR/100")  # the README's Python example
-    pct = _fit(recordings, 1.0, "%")        # what identify does on the CSV's dR columns
+    pct = _fit(recordings, 1.0, "%")  # what identify does on the CSV's dR columns
     frac.save(tmp_path / "frac.json")
     assert main(["quantize", str(tmp_path / "frac.json"), "--out", str(tmp_path / "frac.bin")]) == 0
     blob_cli = (tmp_path / "frac.bin").read_bytes()
@@ -94,8 +102,13 @@ def test_flash_and_verify_check_the_rate(recordings, tmp_path, capsys):
     from porosense.emulator import Emulator
 
     m = Linear(n_poles=2, n_zeros=1, starts=1).fit(
-        u=[recordings[0]["dR_0"][::2, None]], y=[recordings[0]["strain_0"][::2]], ts=0.04, inputs=["dR_0"],
-        output="strain_0", input_unit="%")  # 25 Hz
+        u=[recordings[0]["dR_0"][::2, None]],
+        y=[recordings[0]["strain_0"][::2]],
+        ts=0.04,
+        inputs=["dR_0"],
+        output="strain_0",
+        input_unit="%",
+    )  # 25 Hz
     m.save(tmp_path / "m25.json")
     assert main(["quantize", str(tmp_path / "m25.json"), "--out", str(tmp_path / "m25.bin")]) == 0
     recordings[1].to_csv(tmp_path / "val50.csv")

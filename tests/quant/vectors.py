@@ -24,11 +24,18 @@ def random_section(rng: np.random.Generator) -> SectionQ:
     wide = bool(rng.random() < 0.4)
     delta = bool(rng.random() < 0.4)
     sb = int(rng.integers(0, 32))
-    raw = rng.integers(-2**31, 2**31, 3) if wide else rng.integers(-32768, 32768, 3)
+    raw = rng.integers(-(2**31), 2**31, 3) if wide else rng.integers(-32768, 32768, 3)
     raw = np.trunc(raw * min(1.0, numerator_limit(wide, sb) / np.sum(np.abs(raw)))).astype(np.int64)
     m = (0, 0) if delta else (int(rng.integers(-2, 3)), int(rng.integers(-1, 2)))
-    return SectionQ(tuple(int(v) for v in raw), tuple(int(v) for v in rng.integers(-32768, 32768, 2)),
-                    sb, tuple(int(v) for v in rng.integers(16, 48, 2)), wide, delta, m)
+    return SectionQ(
+        tuple(int(v) for v in raw),
+        tuple(int(v) for v in rng.integers(-32768, 32768, 2)),
+        sb,
+        tuple(int(v) for v in rng.integers(16, 48, 2)),
+        wide,
+        delta,
+        m,
+    )
 
 
 def random_table(rng: np.random.Generator) -> PwlQ:
@@ -37,9 +44,12 @@ def random_table(rng: np.random.Generator) -> PwlQ:
     y = tuple(int(v) for v in rng.integers(-32768, 32768, n))
     if rng.random() < 0.5:  # compact: the slope of each segment from its breakpoints
         return PwlQ(tuple(int(v) for v in x), y, compact=True)
-    return PwlQ(tuple(int(v) for v in x), y,
-                tuple(int(v) for v in rng.integers(-32768, 32768, n - 1)),
-                tuple(int(v) for v in rng.integers(0, 31, n - 1)))
+    return PwlQ(
+        tuple(int(v) for v in x),
+        y,
+        tuple(int(v) for v in rng.integers(-32768, 32768, n - 1)),
+        tuple(int(v) for v in rng.integers(0, 31, n - 1)),
+    )
 
 
 def fuzz_blob(rng: np.random.Generator) -> ModelBlob:
@@ -48,21 +58,34 @@ def fuzz_blob(rng: np.random.Generator) -> ModelBlob:
     for _ in range(n_out):
         brs = []
         for _ in range(int(rng.integers(1, 4))):
-            brs.append(BranchQ(int(rng.integers(0, n_in)),
-                               tuple(random_section(rng) for _ in range(int(rng.integers(1, 3)))),
-                               random_table(rng) if rng.random() < 0.5 else None,
-                               int(rng.integers(0, 16)), int(rng.integers(-32768, 32768))))
+            brs.append(
+                BranchQ(
+                    int(rng.integers(0, n_in)),
+                    tuple(random_section(rng) for _ in range(int(rng.integers(1, 3)))),
+                    random_table(rng) if rng.random() < 0.5 else None,
+                    int(rng.integers(0, 16)),
+                    int(rng.integers(-32768, 32768)),
+                )
+            )
         h2 = tuple(random_section(rng) for _ in range(int(rng.integers(1, 3)))) if rng.random() < 0.5 else ()
-        outs.append(OutputQ(tuple(brs), random_table(rng) if rng.random() < 0.5 else None, h2,
-                            int(rng.integers(-32768, 32768))))
+        outs.append(
+            OutputQ(tuple(brs), random_table(rng) if rng.random() < 0.5 else None, h2, int(rng.integers(-32768, 32768)))
+        )
     return ModelBlob(n_in, tuple(outs), tuple([1.0] * n_out), int(rng.integers(0, 2**32)))
 
 
 def designed_blob(rng: np.random.Generator, i: int):
     n_in, n_out = int(rng.integers(1, 4)), int(rng.integers(1, 4))
     kind = KINDS[i % 4]
-    s = random_structure(rng, n_in, n_out, h1_poles=int(rng.integers(1, 5)), h2_poles=int(rng.integers(1, 4)),
-                         breakpoints=int(rng.integers(2, 11)), kind=kind)
+    s = random_structure(
+        rng,
+        n_in,
+        n_out,
+        h1_poles=int(rng.integers(1, 5)),
+        h2_poles=int(rng.integers(1, 4)),
+        breakpoints=int(rng.integers(2, 11)),
+        kind=kind,
+    )
     narrow = rng.random() < 0.3  # a range narrower than the data: saturation paths
     rng_in = (-30.0, 0.0) if narrow else None
     u = step_inputs(rng, 2000, n_in)
@@ -81,7 +104,7 @@ def make_cases(seed: int, n_cases: int, n_samples: int):
             u = rng.integers(-32768, 32768, (n_samples, 3))
         else:
             u = np.zeros((n_samples, 3))
-            u[:, :blob.n_inputs] = step_inputs(rng, n_samples, blob.n_inputs, hold=60) * 100
+            u[:, : blob.n_inputs] = step_inputs(rng, n_samples, blob.n_inputs, hold=60) * 100
             spikes = rng.random(n_samples) < 0.01
             u[spikes, 0] = rng.integers(-32768, 32768, int(spikes.sum()))
         u = np.clip(np.round(u), -32768, 32767).astype(np.int64)

@@ -49,12 +49,12 @@ class Scene:
     """What the renderer drew and how: the truth and the camera's parameters."""
 
     video: Path
-    board: Recording               # board samples: t, t_dev_us (device clock)
-    truth_curvature: np.ndarray    # 1/m at the board samples
-    truth_dz: np.ndarray           # mm at the board samples
+    board: Recording  # board samples: t, t_dev_us (device clock)
+    truth_curvature: np.ndarray  # 1/m at the board samples
+    truth_dz: np.ndarray  # mm at the board samples
     fps: float
-    lead_s: float                  # video start before the stream start (device s)
-    drift_ppm: float               # camera clock rate error
+    lead_s: float  # video start before the stream start (device s)
+    drift_ppm: float  # camera clock rate error
     n_frames: int
     layout: dict
     occluded: list = field(default_factory=list)  # frame indices with a hand in view
@@ -84,22 +84,21 @@ def _disc(img, c, r, colour):
     cv2.circle(img, tuple(int(round(v * SUB)) for v in c), int(round(r * SUB)), colour, -1, cv2.LINE_AA, shift=4)
 
 
-def render(path, *, seed: int = 0, schedule: Schedule | None = None, fps: float = 30.0,
-           occlusions: int = 3) -> Scene:
+def render(path, *, seed: int = 0, schedule: Schedule | None = None, fps: float = 30.0, occlusions: int = 3) -> Scene:
     """Render a video of ``schedule`` (default :func:`short_schedule`) to ``path`` (MJPEG AVI)."""
     rng = np.random.default_rng(seed)
     schedule = schedule or short_schedule()
     t_fine, kappa_fine, dz_fine = _truth(schedule, 200.0, seed)
 
-    px_mm = rng.uniform(2.6, 3.4)                 # camera scale, px per mm
-    roll = np.radians(rng.uniform(-3.0, 3.0))     # camera roll
+    px_mm = rng.uniform(2.6, 3.4)  # camera scale, px per mm
+    roll = np.radians(rng.uniform(-3.0, 3.0))  # camera roll
     drift_ppm = rng.uniform(-300.0, 300.0)
     lead_s = rng.uniform(0.5, 2.5)
-    exposure = rng.uniform(0.3, 0.9) / fps        # exposure time, s
-    blur = rng.uniform(0.6, 1.4)                  # Gaussian blur sigma, px
-    noise = rng.uniform(1.5, 5.0)                 # sensor noise, grey levels rms
+    exposure = rng.uniform(0.3, 0.9) / fps  # exposure time, s
+    blur = rng.uniform(0.6, 1.4)  # Gaussian blur sigma, px
+    noise = rng.uniform(1.5, 5.0)  # sensor noise, grey levels rms
     light_dir = rng.uniform(0, 2 * np.pi)
-    light_min = rng.uniform(0.55, 0.8)            # darkest corner's gain
+    light_min = rng.uniform(0.55, 0.8)  # darkest corner's gain
     wall, body, ink = rng.uniform(150, 185), rng.uniform(205, 225), rng.uniform(20, 50)
 
     centre = np.array([W / 2, H / 2])
@@ -164,8 +163,12 @@ def render(path, *, seed: int = 0, schedule: Schedule | None = None, fps: float 
             _poly(img, cam(np.vstack([a, b[::-1]])), ink)
         # contractor body (top fixed) and marker on its bottom cap
         bottom = c_top[1] + c_len - dz[k]
-        rect = [[c_top[0] - c_wid / 2, c_top[1]], [c_top[0] + c_wid / 2, c_top[1]],
-                [c_top[0] + c_wid / 2, bottom], [c_top[0] - c_wid / 2, bottom]]
+        rect = [
+            [c_top[0] - c_wid / 2, c_top[1]],
+            [c_top[0] + c_wid / 2, c_top[1]],
+            [c_top[0] + c_wid / 2, bottom],
+            [c_top[0] - c_wid / 2, bottom],
+        ]
         _poly(img, cam(rect), body)
         _disc(img, cam([c_top[0], bottom - 5.0]), marker_r * px_mm, ink)
         # reference ruler and its dots
@@ -181,8 +184,17 @@ def render(path, *, seed: int = 0, schedule: Schedule | None = None, fps: float 
             else:
                 c = cam([c_top[0], bottom - 5.0])
             hand = c + rng.normal(0, 8, 2)
-            cv2.ellipse(img, tuple(int(v) for v in hand), (int(30 * px_mm / 3), int(45 * px_mm / 3)),
-                        float(rng.uniform(0, 180)), 0, 360, float(rng.uniform(160, 200)), -1, cv2.LINE_AA)
+            cv2.ellipse(
+                img,
+                tuple(int(v) for v in hand),
+                (int(30 * px_mm / 3), int(45 * px_mm / 3)),
+                float(rng.uniform(0, 180)),
+                0,
+                360,
+                float(rng.uniform(160, 200)),
+                -1,
+                cv2.LINE_AA,
+            )
         img = cv2.GaussianBlur(img, (0, 0), blur) * gain
         img += rng.normal(0.0, noise, img.shape).astype(np.float32)
         frame = np.clip(img, 0, 255).astype(np.uint8)
@@ -193,8 +205,9 @@ def render(path, *, seed: int = 0, schedule: Schedule | None = None, fps: float 
     t_board = schedule.times(BOARD_RATE_HZ)
     t0_us = int(rng.integers(0, 2**31))
     t_dev_us = t0_us + np.round(t_board * 1e6).astype(np.int64)
-    board = Recording(t_board, {"t_dev_us": t_dev_us.astype(float)}, meta={"schedule": schedule.name},
-                      units={"t_dev_us": "us"})
+    board = Recording(
+        t_board, {"t_dev_us": t_dev_us.astype(float)}, meta={"schedule": schedule.name}, units={"t_dev_us": "us"}
+    )
 
     def box(points_mm, margin_mm):
         p = cam(points_mm)
@@ -202,8 +215,9 @@ def render(path, *, seed: int = 0, schedule: Schedule | None = None, fps: float 
         lo, hi = np.maximum(lo, 0), np.minimum(hi, [W - 1, H - 1])
         return [int(lo[0]), int(lo[1]), int(hi[0] - lo[0]), int(hi[1] - lo[1])]
 
-    arc_extent = np.vstack([arc(s_fine, o, kk) for o in (-width / 2, width / 2)
-                            for kk in (0.0, float(kappa_fine.max()))])
+    arc_extent = np.vstack(
+        [arc(s_fine, o, kk) for o in (-width / 2, width / 2) for kk in (0.0, float(kappa_fine.max()))]
+    )
     layout = {
         "stripes": box(arc_extent, 6.0),
         "marker": box([[c_top[0] - c_wid / 2, c_top[1] + c_len * 0.4], [c_top[0] + c_wid / 2, c_top[1] + c_len]], 2.0),
@@ -213,8 +227,24 @@ def render(path, *, seed: int = 0, schedule: Schedule | None = None, fps: float 
         "feature_px": int(np.ceil(9.0 * px_mm)),
         "marker_length_mm": c_len,
     }
-    params = {"px_per_mm": px_mm, "roll_deg": float(np.degrees(roll)), "exposure_s": exposure,
-              "blur_px": blur, "noise": noise, "light_min": light_min}
-    return Scene(path, board, np.interp(t_board, t_fine, kappa_fine, left=0.0),
-                 np.interp(t_board, t_fine, dz_fine, left=0.0), fps, lead_s, drift_ppm, n_frames,
-                 layout, sorted(occluded), params)
+    params = {
+        "px_per_mm": px_mm,
+        "roll_deg": float(np.degrees(roll)),
+        "exposure_s": exposure,
+        "blur_px": blur,
+        "noise": noise,
+        "light_min": light_min,
+    }
+    return Scene(
+        path,
+        board,
+        np.interp(t_board, t_fine, kappa_fine, left=0.0),
+        np.interp(t_board, t_fine, dz_fine, left=0.0),
+        fps,
+        lead_s,
+        drift_ppm,
+        n_frames,
+        layout,
+        sorted(occluded),
+        params,
+    )

@@ -25,8 +25,14 @@ def _view(k, dist, rvec, tvec):
     img = np.full((H, W), 235, np.uint8)
     cols, rows = PATTERN[0] + 1, PATTERN[1] + 1
     margin = SQUARE_MM
-    border = np.array([[-margin, -margin], [cols * SQUARE_MM - SQUARE_MM + margin + SQUARE_MM, -margin],
-                       [cols * SQUARE_MM + margin, rows * SQUARE_MM + margin], [-margin, rows * SQUARE_MM + margin]])
+    border = np.array(
+        [
+            [-margin, -margin],
+            [cols * SQUARE_MM - SQUARE_MM + margin + SQUARE_MM, -margin],
+            [cols * SQUARE_MM + margin, rows * SQUARE_MM + margin],
+            [-margin, rows * SQUARE_MM + margin],
+        ]
+    )
     # The board's squares start at -1 square so the inner corners are at multiples of SQUARE_MM.
     off = -SQUARE_MM
     img[:] = 90  # the scene behind the board
@@ -72,7 +78,7 @@ def test_calibration_recovers_plane_millimetres(tmp_path):
     # The homography fixes the plane's origin at the first inner corner: compare shapes.
     err = back - pts_mm
     err -= err.mean(axis=0)
-    rms = float(np.sqrt(np.mean(np.sum(err ** 2, axis=1))))
+    rms = float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
     print(f"reprojection rms {cal.rms_px:.3f} px; plane mm rms {rms:.4f} mm")
     assert cal.rms_px < 0.5
     assert rms < 0.1
@@ -95,8 +101,19 @@ def test_calibrate_command(tmp_path, capfd):
         tvec = np.array([-50.0, -30.0, rng.uniform(300, 360)])
         names.append(str(tmp_path / f"v{i}.png"))
         cv2.imwrite(names[-1], _view(k, dist, rvec, tvec))
-    code = main(["record", "--calibrate", *names, "--pattern", "9x6", "--square-mm", str(SQUARE_MM),
-                 "--out", str(tmp_path / "cal.json")])
+    code = main(
+        [
+            "record",
+            "--calibrate",
+            *names,
+            "--pattern",
+            "9x6",
+            "--square-mm",
+            str(SQUARE_MM),
+            "--out",
+            str(tmp_path / "cal.json"),
+        ]
+    )
     out, err = capfd.readouterr()
     assert code == 0, err
     assert Calibration.load(tmp_path / "cal.json").rms_px < 0.5

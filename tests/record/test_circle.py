@@ -33,10 +33,12 @@ def test_curvature_errors_match_stated_uncertainty():
         seed = int(rng.integers(1 << 30))
         fits = [fit_circle(_arc(np.random.default_rng([seed, k]), kappa, n, length, noise)) for k in range(300)]
         est = np.array([f.curvature for f in fits])
-        stated = float(np.sqrt(np.mean([f.curvature_std ** 2 for f in fits])))
+        stated = float(np.sqrt(np.mean([f.curvature_std**2 for f in fits])))
         spread = float(est.std(ddof=1))
-        print(f"kappa {kappa:+.4f}, {n} points, noise {noise:.2f}: bias {est.mean() - kappa:+.2e}, "
-              f"spread {spread:.2e}, stated {stated:.2e}")
+        print(
+            f"kappa {kappa:+.4f}, {n} points, noise {noise:.2f}: bias {est.mean() - kappa:+.2e}, "
+            f"spread {spread:.2e}, stated {stated:.2e}"
+        )
         assert abs(est.mean() - kappa) < 4 * spread / np.sqrt(len(est))
         assert 0.85 < spread / stated < 1.15
 

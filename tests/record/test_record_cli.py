@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pytest
 
 from porosense.cli import main
 from porosense.data import Recording
@@ -27,9 +26,21 @@ def _one_line_error(err: str, pattern: str):
 def test_record_from_board_recording_and_video(scene, tmp_path, capfd):
     base = scene.video.parent
     out = tmp_path / "rec.csv"
-    code, stdout, err = _run(capfd, "--board-recording", str(base / "board.csv"), "--video", str(scene.video),
-                             "--layout", str(base / "layout.json"), "--out", str(out), "--no-progress", "--json",
-                             "--preview", str(tmp_path / "preview.avi"))
+    code, stdout, err = _run(
+        capfd,
+        "--board-recording",
+        str(base / "board.csv"),
+        "--video",
+        str(scene.video),
+        "--layout",
+        str(base / "layout.json"),
+        "--out",
+        str(out),
+        "--no-progress",
+        "--json",
+        "--preview",
+        str(tmp_path / "preview.avi"),
+    )
     assert code == 0, err
     result = json.loads(stdout)
     assert result["clock"]["method"] == "blinks"
@@ -39,7 +50,7 @@ def test_record_from_board_recording_and_video(scene, tmp_path, capfd):
     ok = rec["camera_ok"] > 0
     assert ok.mean() > 0.9
     err_k = rec["curvature"][ok] - scene.truth_curvature[ok]
-    assert 100 * np.sqrt(np.mean(err_k ** 2)) / scene.truth_curvature.max() < 3.0
+    assert 100 * np.sqrt(np.mean(err_k**2)) / scene.truth_curvature.max() < 3.0
     assert rec.meta["camera"]["clock"]["method"] == "blinks"
     import cv2
 
@@ -55,9 +66,20 @@ def test_without_indicator_warns_with_expected_error(scene, tmp_path, capfd):
     layout = dict(scene.layout)
     layout.pop("indicator")
     (tmp_path / "layout.json").write_text(json.dumps(layout))
-    code, _, err = _run(capfd, "--board-recording", str(base / "board.csv"), "--video", str(scene.video),
-                        "--layout", str(tmp_path / "layout.json"), "--out", str(tmp_path / "r.csv"),
-                        "--no-progress", "--video-start", f"{scene.lead_s:.1f}")
+    code, _, err = _run(
+        capfd,
+        "--board-recording",
+        str(base / "board.csv"),
+        "--video",
+        str(scene.video),
+        "--layout",
+        str(tmp_path / "layout.json"),
+        "--out",
+        str(tmp_path / "r.csv"),
+        "--no-progress",
+        "--video-start",
+        f"{scene.lead_s:.1f}",
+    )
     assert code == 0, err
     assert "warning: no indicator region" in err and "expected error" in err
 
@@ -65,12 +87,30 @@ def test_without_indicator_warns_with_expected_error(scene, tmp_path, capfd):
 def test_missing_camera(scene, tmp_path, capfd):
     """The camera is checked before the board is touched (the port here does not exist)."""
     base = scene.video.parent
-    code, _, err = _run(capfd, "--port", "socket://127.0.0.1:9", "--camera", "97",
-                        "--layout", str(base / "layout.json"), "--out", str(tmp_path / "r.csv"))
+    code, _, err = _run(
+        capfd,
+        "--port",
+        "socket://127.0.0.1:9",
+        "--camera",
+        "97",
+        "--layout",
+        str(base / "layout.json"),
+        "--out",
+        str(tmp_path / "r.csv"),
+    )
     assert code == 3
     _one_line_error(err, "no camera at index 97")
-    code, _, err = _run(capfd, "--board-recording", str(base / "board.csv"), "--camera", "97",
-                        "--layout", str(base / "layout.json"), "--out", str(tmp_path / "r.csv"))
+    code, _, err = _run(
+        capfd,
+        "--board-recording",
+        str(base / "board.csv"),
+        "--camera",
+        "97",
+        "--layout",
+        str(base / "layout.json"),
+        "--out",
+        str(tmp_path / "r.csv"),
+    )
     assert code == 2
     _one_line_error(err, "--camera films a board run")
 
@@ -79,8 +119,17 @@ def test_unreadable_video(scene, tmp_path, capfd):
     bad = tmp_path / "broken.avi"
     bad.write_bytes(b"this is not a video\n" * 100)
     base = scene.video.parent
-    code, _, err = _run(capfd, "--board-recording", str(base / "board.csv"), "--video", str(bad),
-                        "--layout", str(base / "layout.json"), "--out", str(tmp_path / "r.csv"))
+    code, _, err = _run(
+        capfd,
+        "--board-recording",
+        str(base / "board.csv"),
+        "--video",
+        str(bad),
+        "--layout",
+        str(base / "layout.json"),
+        "--out",
+        str(tmp_path / "r.csv"),
+    )
     assert code == 2
     _one_line_error(err, "cannot read video")
 
@@ -89,9 +138,18 @@ def test_no_marker_found(scene, tmp_path, capfd):
     base = scene.video.parent
     layout = {**scene.layout, "stripes": None, "marker": [600, 300, 30, 30]}
     (tmp_path / "layout.json").write_text(json.dumps(layout))
-    code, _, err = _run(capfd, "--board-recording", str(base / "board.csv"), "--video", str(scene.video),
-                        "--layout", str(tmp_path / "layout.json"), "--out", str(tmp_path / "r.csv"),
-                        "--no-progress")
+    code, _, err = _run(
+        capfd,
+        "--board-recording",
+        str(base / "board.csv"),
+        "--video",
+        str(scene.video),
+        "--layout",
+        str(tmp_path / "layout.json"),
+        "--out",
+        str(tmp_path / "r.csv"),
+        "--no-progress",
+    )
     assert code == 2
     _one_line_error(err, "no marker found")
 
@@ -101,8 +159,18 @@ def test_video_shorter_than_recording(scene, tmp_path, capfd):
     t = np.arange(60 * 50) / 50.0  # 60 s of board samples against a ~32 s video
     t_us = scene.board["t_dev_us"][0] + t * 1e6
     Recording(t, {"t_dev_us": t_us}).to_csv(tmp_path / "long.csv")
-    code, _, err = _run(capfd, "--board-recording", str(tmp_path / "long.csv"), "--video", str(scene.video),
-                        "--layout", str(base / "layout.json"), "--out", str(tmp_path / "r.csv"), "--no-progress")
+    code, _, err = _run(
+        capfd,
+        "--board-recording",
+        str(tmp_path / "long.csv"),
+        "--video",
+        str(scene.video),
+        "--layout",
+        str(base / "layout.json"),
+        "--out",
+        str(tmp_path / "r.csv"),
+        "--no-progress",
+    )
     assert code == 2
     _one_line_error(err, "s too short")
 
@@ -114,9 +182,22 @@ def test_board_run_on_the_emulator_with_a_too_short_video(scene, tmp_path, capfd
 
     base = scene.video.parent
     with Emulator("contractor", seed=2) as emu:
-        code = main(["record", "--port", emu.url, "--video", str(scene.video), "--layout",
-                     str(base / "layout.json"), "--experiment", "step_10", "--out", str(tmp_path / "r.csv"),
-                     "--no-progress"])
+        code = main(
+            [
+                "record",
+                "--port",
+                emu.url,
+                "--video",
+                str(scene.video),
+                "--layout",
+                str(base / "layout.json"),
+                "--experiment",
+                "step_10",
+                "--out",
+                str(tmp_path / "r.csv"),
+                "--no-progress",
+            ]
+        )
     _, err = capfd.readouterr()
     assert code == 2
     _one_line_error(err, "s too short")

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from render import indicator_on_fraction
 
 from porosense.errors import InputError
 from porosense.record.sync import fit_clock
-from render import indicator_on_fraction
 
 FPS = 30.0
 

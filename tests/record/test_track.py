@@ -16,9 +16,9 @@ from porosense.record.tracker import track_video
 from porosense.record.truth import add_truth
 
 # Measured worst cases over seeds 0-4 (bench full): see test docstrings; bounds add margin.
-CURVATURE_RMS_PCT_BOUND = 1.5     # % of the maximum curvature (measured worst 0.58)
-DZ_RMS_MM_BOUND = 0.15            # mm (measured worst 0.054)
-SYNC_OFFSET_FRAMES_BOUND = 0.6    # frames at 30 fps, worst frame (measured worst 0.34)
+CURVATURE_RMS_PCT_BOUND = 1.5  # % of the maximum curvature (measured worst 0.58)
+DZ_RMS_MM_BOUND = 0.15  # mm (measured worst 0.054)
+SYNC_OFFSET_FRAMES_BOUND = 0.6  # frames at 30 fps, worst frame (measured worst 0.34)
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +35,7 @@ def test_curvature_against_truth(tracked):
     scene, _, _, rec = tracked
     ok = rec["camera_ok"] > 0
     err = rec["curvature"][ok] - scene.truth_curvature[ok]
-    rms_pct = 100 * np.sqrt(np.mean(err ** 2)) / np.abs(scene.truth_curvature).max()
+    rms_pct = 100 * np.sqrt(np.mean(err**2)) / np.abs(scene.truth_curvature).max()
     print(f"curvature RMS {rms_pct:.3f} % of max {np.abs(scene.truth_curvature).max():.2f} 1/m")
     assert rms_pct <= CURVATURE_RMS_PCT_BOUND
 
@@ -44,7 +44,7 @@ def test_dz_and_strain_against_truth(tracked):
     scene, _, _, rec = tracked
     ok = rec["camera_ok"] > 0
     err = rec["dz"][ok] - scene.truth_dz[ok]
-    rms = float(np.sqrt(np.mean(err ** 2)))
+    rms = float(np.sqrt(np.mean(err**2)))
     print(f"dz RMS {rms:.4f} mm (max dz {scene.truth_dz.max():.2f} mm)")
     assert rms <= DZ_RMS_MM_BOUND
     np.testing.assert_allclose(rec["strain_0"][ok], rec["dz"][ok] / 50.0 * 100.0)
@@ -70,7 +70,7 @@ def test_occluded_frames_are_flagged_not_filled(tracked):
     # Flags only where something was in the way (or next to it: motion blur of the hand).
     near = np.zeros(track.n_frames, bool)
     for k in scene.occluded:
-        near[max(k - 1, 0):k + 2] = True
+        near[max(k - 1, 0) : k + 2] = True
     assert not np.any(bad & ~near), f"frames flagged without an occlusion: {np.flatnonzero(bad & ~near)}"
     assert np.all(np.isnan(rec["curvature"][rec["camera_ok"] == 0]) | np.isnan(rec["dz"][rec["camera_ok"] == 0]))
 

@@ -7,8 +7,16 @@ import subprocess
 
 import pytest
 
-CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+CHROMIUM_FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
 
 
 def render(page, profile, screenshot=None, size="1200,6000") -> str:
@@ -17,9 +25,13 @@ def render(page, profile, screenshot=None, size="1200,6000") -> str:
     if browser is None:
         pytest.skip("chromium is not installed (tools/bootstrap.sh installs it)")
     flags = CHROMIUM_FLAGS + [f"--user-data-dir={profile}"]
-    dom = subprocess.run([browser, *flags, "--dump-dom", page.as_uri()], capture_output=True, text=True,
-                         timeout=120).stdout
+    dom = subprocess.run(
+        [browser, *flags, "--dump-dom", page.as_uri()], capture_output=True, text=True, timeout=120
+    ).stdout
     if screenshot is not None:
-        subprocess.run([browser, *flags, f"--screenshot={screenshot}", f"--window-size={size}", page.as_uri()],
-                       capture_output=True, timeout=120)
+        subprocess.run(
+            [browser, *flags, f"--screenshot={screenshot}", f"--window-size={size}", page.as_uri()],
+            capture_output=True,
+            timeout=120,
+        )
     return dom

@@ -34,8 +34,12 @@ def test_report_page_embeds_every_figure(tmp_path):
         plot_reconstruction(t, y, {"linear": 0.9 * y, "wh": y + 0.01}, path=tmp_path / "reconstruction.png"),
         plot_hysteresis(-80 * np.abs(np.sin(t)), 20 * np.abs(np.sin(t + 0.2)), path=tmp_path / "loop.png"),
         plot_fit_bars({"linear": {"a": 70, "b": 72}, "wh": {"a": 85, "b": 83}}, path=tmp_path / "bars.png"),
-        plot_power_law([68, 76, 82, 86], {"strain (%)": [10, 15, 20, 24]}, {"strain (%)": (50, -0.9, 0.9)},
-                       path=tmp_path / "law.png"),
+        plot_power_law(
+            [68, 76, 82, 86],
+            {"strain (%)": [10, 15, 20, 24]},
+            {"strain (%)": (50, -0.9, 0.9)},
+            path=tmp_path / "law.png",
+        ),
     ]
     assert len(figs) == 4
     pngs = sorted(tmp_path.glob("*.png"))

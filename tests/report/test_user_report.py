@@ -21,17 +21,58 @@ def user_files(tmp_path_factory):
     the 76 % staircase and -60 kPa steps."""
     d = tmp_path_factory.mktemp("user")
     for phi in (68, 76, 86):
-        assert main(["simulate", "contractor", "-e", "step_20", "-e", "step_60", "--porosity", str(phi),
-                     "--rate", "20", "--seed", str(phi), "--out", str(d)]) == 0
-    assert main(["simulate", "contractor", "-e", "staircase", "--porosity", "76", "--rate", "20",
-                 "--out", str(d)]) == 0
-    est = sorted(str(p) for p in d.glob("contractor_staircase_p76_*.csv")) + \
-        sorted(str(p) for p in d.glob("contractor_step_60_p76_*.csv"))
+        assert (
+            main(
+                [
+                    "simulate",
+                    "contractor",
+                    "-e",
+                    "step_20",
+                    "-e",
+                    "step_60",
+                    "--porosity",
+                    str(phi),
+                    "--rate",
+                    "20",
+                    "--seed",
+                    str(phi),
+                    "--out",
+                    str(d),
+                ]
+            )
+            == 0
+        )
+    assert main(["simulate", "contractor", "-e", "staircase", "--porosity", "76", "--rate", "20", "--out", str(d)]) == 0
+    est = sorted(str(p) for p in d.glob("contractor_staircase_p76_*.csv")) + sorted(
+        str(p) for p in d.glob("contractor_step_60_p76_*.csv")
+    )
     assert len(est) == 2
     for kind in ("linear", "wh"):
-        assert main(["identify", "--data", *est, "--input", "dR_0", "--output", "strain_0", "--structure", kind,
-                     "--poles", "2", "--zeros", "1", "--starts", "1", "--quiet", "--save",
-                     str(d / f"{kind}.json")]) == 0
+        assert (
+            main(
+                [
+                    "identify",
+                    "--data",
+                    *est,
+                    "--input",
+                    "dR_0",
+                    "--output",
+                    "strain_0",
+                    "--structure",
+                    kind,
+                    "--poles",
+                    "2",
+                    "--zeros",
+                    "1",
+                    "--starts",
+                    "1",
+                    "--quiet",
+                    "--save",
+                    str(d / f"{kind}.json"),
+                ]
+            )
+            == 0
+        )
     return d
 
 
@@ -40,8 +81,22 @@ def test_report_renders_every_figure_and_table(user_files, tmp_path, capsys):
     d = user_files
     data = sorted(str(p) for p in d.glob("contractor_*.csv"))
     out = tmp_path / "rep"
-    assert main(["report", "--data", *data, "--model", str(d / "linear.json"), str(d / "wh.json"),
-                 "--out", str(out), "--json"]) == 0
+    assert (
+        main(
+            [
+                "report",
+                "--data",
+                *data,
+                "--model",
+                str(d / "linear.json"),
+                str(d / "wh.json"),
+                "--out",
+                str(out),
+                "--json",
+            ]
+        )
+        == 0
+    )
     doc = json.loads(capsys.readouterr().out)
     page = out / "report.html"
     assert doc["html"] == str(page)
@@ -71,9 +126,14 @@ def test_report_renders_every_figure_and_table(user_files, tmp_path, capsys):
         assert len(fits) == 2  # one per model, in the legend
     # Table 1's numbers are the models' mean fits: WH beats linear on these recordings on average.
     t1 = re.search(r"<caption>Table 1.*?</table>", dom).group(0)
-    means = {m.group(1): float(m.group(2))
-             for m in re.finditer(r'<td class="txt">([^<]+)</td><td class="txt">strain_0</td>'
-                                  r'<td class="txt">(-?[\d.]+) ±', t1)}
+    means = {
+        m.group(1): float(m.group(2))
+        for m in re.finditer(
+            r'<td class="txt">([^<]+)</td><td class="txt">strain_0</td>'
+            r'<td class="txt">(-?[\d.]+) ±',
+            t1,
+        )
+    }
     print("Table 1 mean fits:", means)
     assert means["wh"] > means["linear"]
     # Table S1: the power law over porosity explains the hold averages of strain at -60 kPa.
@@ -94,8 +154,10 @@ def test_report_renders_every_figure_and_table(user_files, tmp_path, capsys):
 def test_compare_scores_per_file_with_mean_and_standard_error(user_files, tmp_path, capsys):
     d = user_files
     files = sorted(str(p) for p in d.glob("contractor_step_*_p76_*.csv"))
-    assert main(["compare", "--model", str(d / "wh.json"), "--data", *files, "--json",
-                 "--plot", str(tmp_path / "c.png")]) == 0
+    assert (
+        main(["compare", "--model", str(d / "wh.json"), "--data", *files, "--json", "--plot", str(tmp_path / "c.png")])
+        == 0
+    )
     doc = json.loads(capsys.readouterr().out)
     fits = [row["strain_0"]["fit"] for row in doc["per_file"]]
     s = doc["summary"]["strain_0"]

@@ -10,9 +10,30 @@ from porosense.data import Recording
 
 
 def test_simulate_writes_recordings(tmp_path, capsys):
-    code = main(["simulate", "contractor", "--experiment", "step_40", "--porosity", "86", "--load", "200",
-                 "--rate", "50", "--seed", "3", "--repeats", "2", "--format", "both",
-                 "--effect", "time_delay:delay_s=0.2", "--out", str(tmp_path)])
+    code = main(
+        [
+            "simulate",
+            "contractor",
+            "--experiment",
+            "step_40",
+            "--porosity",
+            "86",
+            "--load",
+            "200",
+            "--rate",
+            "50",
+            "--seed",
+            "3",
+            "--repeats",
+            "2",
+            "--format",
+            "both",
+            "--effect",
+            "time_delay:delay_s=0.2",
+            "--out",
+            str(tmp_path),
+        ]
+    )
     assert code == 0
     csvs = sorted(tmp_path.glob("*.csv"))
     assert [p.name for p in csvs] == ["contractor_step_40_p86_l200_s3.csv", "contractor_step_40_p86_l200_s4.csv"]
@@ -30,11 +51,14 @@ def test_simulate_paper_set_for_the_bending_actuator(tmp_path):
     assert names.count("bending_step_60") == 2 and "bending_staircase" in names and len(names) == 9
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["simulate", "contractor", "-e", "step_30"], "unknown experiment"),
-    (["simulate", "contractor", "-e", "step_10", "--porosity", "99"], "outside 60-90"),
-    (["simulate", "contractor", "-e", "step_10", "--effect", "drift:fast"], "expected NAME:param=number"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["simulate", "contractor", "-e", "step_30"], "unknown experiment"),
+        (["simulate", "contractor", "-e", "step_10", "--porosity", "99"], "outside 60-90"),
+        (["simulate", "contractor", "-e", "step_10", "--effect", "drift:fast"], "expected NAME:param=number"),
+    ],
+)
 def test_simulate_user_errors_are_one_line(tmp_path, capsys, argv, message):
     assert main(argv + ["--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err

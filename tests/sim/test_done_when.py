@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from porosense.sim import run_experiment
-from porosense.sim.analysis import (fit_power_law, hold_mean, normalised_loop_area,
-                                    release_overshoots)
+from porosense.sim.analysis import fit_power_law, hold_mean, normalised_loop_area, release_overshoots
 
 POROSITIES = (68, 76, 82, 86)
 
@@ -31,8 +30,8 @@ def test_contractor_ranges_at_minus_60(at_60, phi):
 def test_lower_porosity_gives_less_strain_and_dr(at_60):
     strains = [at_60[phi, 0.0][0] for phi in POROSITIES]
     drs = [at_60[phi, 0.0][1] for phi in POROSITIES]
-    assert np.all(np.diff(strains) > 0.5)   # % strain
-    assert np.all(np.diff(drs) < -1.0)      # % dR (more negative)
+    assert np.all(np.diff(strains) > 0.5)  # % strain
+    assert np.all(np.diff(drs) < -1.0)  # % dR (more negative)
 
 
 def test_porosity_power_law(at_60):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from porosense.errors import InputError
-from porosense.sim import EFFECT_NAMES, make_plant, run_experiment, resolve_effects
+from porosense.sim import EFFECT_NAMES, make_plant, resolve_effects, run_experiment
 
 
 def contractor(effects=None, experiment="step_40"):
@@ -22,8 +22,16 @@ def window(rec, name, t0, t1):
 
 
 def test_names_match_the_diagnosis_causes_and_default_off():
-    assert set(EFFECT_NAMES) == {"drift", "time_delay", "periodic_disturbance", "saturation",
-                                 "load_dependence", "slow_relaxation", "cross_coupling", "outliers"}
+    assert set(EFFECT_NAMES) == {
+        "drift",
+        "time_delay",
+        "periodic_disturbance",
+        "saturation",
+        "load_dependence",
+        "slow_relaxation",
+        "cross_coupling",
+        "outliers",
+    }
     assert make_plant("contractor").effects == {}
     assert resolve_effects({"drift": {"rate_pct_per_min": 3}})["drift"]["rate_pct_per_min"] == 3.0
     with pytest.raises(InputError):
@@ -38,9 +46,11 @@ def test_drift(clean):
 
 def test_time_delay(clean):
     rec = contractor({"time_delay": {"delay_s": 0.3}})
+
     def crossing(r):
         m = r.t > 5.0
         return r.t[m][np.argmax(r["dR_0"][m] < -20.0)]
+
     assert crossing(rec) - crossing(clean) == pytest.approx(0.3, abs=0.03)
 
 
@@ -52,6 +62,7 @@ def test_periodic_disturbance(clean):
         basis = np.column_stack([np.ones_like(t), x, x**2, np.sin(w), np.cos(w)])
         coef = np.linalg.lstsq(basis, y, rcond=None)[0]
         return float(np.hypot(coef[3], coef[4]))
+
     assert amplitude(contractor(["periodic_disturbance"])) == pytest.approx(1.5, rel=0.15)
     assert amplitude(clean) < 0.1
 

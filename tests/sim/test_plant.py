@@ -4,12 +4,19 @@ import numpy as np
 import pytest
 
 from porosense.errors import InputError
-from porosense.sim import make_plant, run_experiment, schedule, steady_state
-from porosense.sim.electronics import divider_voltage, resistance_from_voltage
+from porosense.sim import make_plant, run_experiment, steady_state
 from porosense.sim.analysis import hold_mean
+from porosense.sim.electronics import divider_voltage, resistance_from_voltage
 
-DETERMINISTIC_EFFECTS = ["drift", "time_delay", "periodic_disturbance", "saturation",
-                         "load_dependence", "slow_relaxation", "cross_coupling"]
+DETERMINISTIC_EFFECTS = [
+    "drift",
+    "time_delay",
+    "periodic_disturbance",
+    "saturation",
+    "load_dependence",
+    "slow_relaxation",
+    "cross_coupling",
+]
 
 
 def actuation(n=1500, seed=0):
@@ -56,13 +63,16 @@ def test_reset_reproduces_the_same_noise():
     assert np.array_equal(first, again)
 
 
-@pytest.mark.parametrize("kwargs, pattern", [
-    ({"actuator": "gripper"}, "unknown actuator"),
-    ({"actuator": "contractor", "porosity": 95}, "outside 60-90"),
-    ({"actuator": "contractor", "load_g": 800}, "outside 0-500"),
-    ({"actuator": "contractor", "effects": ["hum"]}, "unknown effect"),
-    ({"actuator": "contractor", "effects": {"drift": {"speed": 1}}}, "no parameter"),
-])
+@pytest.mark.parametrize(
+    "kwargs, pattern",
+    [
+        ({"actuator": "gripper"}, "unknown actuator"),
+        ({"actuator": "contractor", "porosity": 95}, "outside 60-90"),
+        ({"actuator": "contractor", "load_g": 800}, "outside 0-500"),
+        ({"actuator": "contractor", "effects": ["hum"]}, "unknown effect"),
+        ({"actuator": "contractor", "effects": {"drift": {"speed": 1}}}, "no parameter"),
+    ],
+)
 def test_invalid_plants_raise_input_errors(kwargs, pattern):
     with pytest.raises(InputError, match=pattern):
         make_plant(**kwargs)
@@ -96,8 +106,8 @@ def test_steady_state_outputs_of_bending_and_segment():
 
 def test_segment_tilts_toward_the_active_contractor():
     rec = run_experiment("3dof", "sequential_60", seed=1)
-    alone0 = (rec.t > 12) & (rec.t < 15)   # contractor 0 (+y corner) on alone
-    alone1 = (rec.t > 32) & (rec.t < 35)   # contractor 1 (210 deg) on alone
+    alone0 = (rec.t > 12) & (rec.t < 15)  # contractor 0 (+y corner) on alone
+    alone1 = (rec.t > 32) & (rec.t < 35)  # contractor 1 (210 deg) on alone
     all3 = (rec.t > 132) & (rec.t < 135)
     assert rec["theta_x"][alone0].mean() > 10.0
     assert rec["theta_y"][alone1].mean() > 8.0

@@ -49,9 +49,9 @@ def test_plant_voltages_appear_as_counts_for_the_pga(console, pga):
 
 
 def test_differential_inputs(console):
-    code, *_ = single_shot(console, config(0, 1, dr=7))   # AIN0 - AIN1
+    code, *_ = single_shot(console, config(0, 1, dr=7))  # AIN0 - AIN1
     assert code == expected_code(VOLTS[0] - VOLTS[1], 1) == -12000
-    code, *_ = single_shot(console, config(3, 1, dr=7))   # AIN2 - AIN3 (AIN3 at 0 V)
+    code, *_ = single_shot(console, config(3, 1, dr=7))  # AIN2 - AIN3 (AIN3 at 0 V)
     assert code == expected_code(VOLTS[2], 1)
 
 
@@ -91,7 +91,7 @@ def test_absent_adc_nacks_and_comes_back(board, console):
     nacks = board.counters["twi_nacks"]
     board.set_absent(ads=True)
     assert console.ask(f"a{config(4, 1, 7):04x}") == "a ERR 2"  # Wire: address NACK
-    assert console.ask("b").startswith("b A0")                  # the IMU still answers
+    assert console.ask("b").startswith("b A0")  # the IMU still answers
     assert board.counters["twi_nacks"] > nacks
     board.set_absent(ads=False)
     assert single_shot(console, config(4, 1, 7))[0] == expected_code(VOLTS[0], 1)

@@ -24,14 +24,14 @@ def test_chip_id_and_page_switching(board, console_for):
 
 def test_mode_switch_delays_and_euler_counts(board, console_for):
     con = console_for(board)
-    assert con.ask("u") == "u 0 0 0 0 0"            # CONFIGMODE: no fusion data, idle
+    assert con.ask("u") == "u 0 0 0 0 0"  # CONFIGMODE: no fusion data, idle
     us, polls = (int(x) for x in con.ask("m0c").split()[1:])
     assert 7000 - 50 <= us <= 7000 + 300 and polls > 1, us
     heading, roll, pitch, calib, sys_status = con.ask("u").split()[1:]
     assert (int(heading), int(roll), int(pitch)) == tuple(round(a * 16) for a in EULER)
-    assert int(sys_status) == 5                      # sensor fusion running
+    assert int(sys_status) == 5  # sensor fusion running
     board.run_for(1.0)
-    assert con.ask("u").split()[4] == "FF"           # fully calibrated after a second of fusion
+    assert con.ask("u").split()[4] == "FF"  # fully calibrated after a second of fusion
     us, polls = (int(x) for x in con.ask("m00").split()[1:])
     assert 19000 - 50 <= us <= 19000 + 300, us
     assert con.ask("u").split()[1:4] == ["0", "0", "0"]
@@ -41,7 +41,7 @@ def test_absent_imu_nacks(board, console_for):
     con = console_for(board)
     board.set_absent(bno=True)
     assert con.ask("b") == "b ERR 2"
-    assert con.ask("a c383").split()[0] == "a"       # the ADC still answers
+    assert con.ask("a c383").split()[0] == "a"  # the ADC still answers
     board.set_absent(bno=False)
     assert con.ask("b").startswith("b A0")
 

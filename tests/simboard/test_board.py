@@ -8,7 +8,6 @@ import socket
 import time
 
 import pytest
-import serial
 
 from porosense.errors import DeviceError
 from porosense.simboard import BringupPlant, SimBoard, measure_speed
@@ -55,21 +54,21 @@ def test_regulator_duty_gives_the_setpoint(board, console_for):
     assert pins.regulator_duty == (128, 64, 200)
     assert pins.setpoint_kpa == pytest.approx((-80 * 128 / 255, -80 * 64 / 255, -80 * 200 / 255))
     assert board.truth[-1]["p_cmd_0"] == pytest.approx(-80 * 128 / 255)
-    assert con.ask("o5,0") == "o OK" and con.ask("o9,255") == "o OK"   # digitalWrite ends
+    assert con.ask("o5,0") == "o OK" and con.ask("o9,255") == "o OK"  # digitalWrite ends
     board.run_for(0.005)
     assert board.pins.regulator_duty == (0, 64, 255)
 
 
 def test_plant_closes_the_loop_through_the_adc(board, console_for):
     con = console_for(board)
-    rest = int(con.ask("a c383").split()[1])                # AIN0, +-4.096 V, 128 SPS
-    assert con.ask("p09") == "p OK"                          # pump 0 and valve 0 on
-    assert con.ask("o5,255") == "o OK"                       # full vacuum on channel 0
-    board.run_for(2.0)                                       # > 6 time constants
+    rest = int(con.ask("a c383").split()[1])  # AIN0, +-4.096 V, 128 SPS
+    assert con.ask("p09") == "p OK"  # pump 0 and valve 0 on
+    assert con.ask("o5,255") == "o OK"  # full vacuum on channel 0
+    board.run_for(2.0)  # > 6 time constants
     code = int(con.ask("a c383").split()[1])
     v = board.truth[-1]["v_0"]
     assert abs(code - math.floor(v / 4.096 * 32768)) <= 40, (code, v)
-    assert rest - code > 10000                               # the sensor resistance fell
+    assert rest - code > 10000  # the sensor resistance fell
     assert board.truth[-1]["p_0"] < -75.0
 
 
@@ -92,7 +91,7 @@ def test_reset_after_eeprom_writes_tears_a_write(board, console_for):
     writes = board.counters["eeprom_writes"]
     board.reset_after_eeprom_writes(3)
     con.port.write(b"W100,10,9\n")
-    assert con.read_line() == "boot 0"                       # reset before "W OK"
+    assert con.read_line() == "boot 0"  # reset before "W OK"
     image = board.eeprom_image()
     assert image[100:103] == bytes([9]) * 3 and image[103:110] == b"\xff" * 7
     assert board.counters["eeprom_writes"] - writes == 3
@@ -102,19 +101,19 @@ def test_reset_after_eeprom_writes_tears_a_write(board, console_for):
 def test_reset_at_a_chosen_time(board, console_for):
     con = console_for(board)
     con.ask("t")
-    at = board.sim_time_s + 1.0   # well ahead of the AVR, however slow this thread is
+    at = board.sim_time_s + 1.0  # well ahead of the AVR, however slow this thread is
     board.reset(at_s=at)
     tick = board.wait_for(lambda t: t.resets == 1)
     assert at <= tick.time_s <= at + 0.0021
     assert con.read_line() == "boot 0"
-    assert int(con.ask("t").split()[1]) < 100                # millis() restarted
+    assert int(con.ask("t").split()[1]) < 100  # millis() restarted
 
 
 def test_watchdog_reset_is_followed(board, console_for):
     con = console_for(board)
     before = board.sim_time_s
     con.port.write(b"z\n")
-    assert con.read_line() == "boot 8"                       # MCUSR.WDRF
+    assert con.read_line() == "boot 8"  # MCUSR.WDRF
     assert board.counters["resets"] == 1 and board.sim_time_s > before
     assert con.ask("ealive") == "ealive"
 
@@ -147,7 +146,7 @@ def test_reset_on_connect_shows_the_boot_banner(testfw):
     # harness (no bootloader delay) can reset and print the banner before that open returns.
     with SimBoard(testfw, plant=BringupPlant(), reset_on_connect=True) as b:
         b.run_for(0.05)
-        for expected_resets in (1, 2):                       # every open resets, like DTR
+        for expected_resets in (1, 2):  # every open resets, like DTR
             with socket.create_connection(("127.0.0.1", b.port), timeout=10) as conn:
                 assert conn.makefile("rb").readline() == b"boot 0\r\n"
                 assert b.counters["resets"] == expected_resets
@@ -155,17 +154,17 @@ def test_reset_on_connect_shows_the_boot_banner(testfw):
 
 def test_measure_speed_reports_avr_time(testfw):
     report = measure_speed(testfw, seconds=0.5, plant=BringupPlant())
-    assert 0.5 <= report.sim_time_s <= 0.5 + 0.0011       # one plant period of overshoot
+    assert 0.5 <= report.sim_time_s <= 0.5 + 0.0011  # one plant period of overshoot
     assert report.cycles >= 0.5 * 16e6 and report.to_dict()["ratio"] > 0
 
 
 def test_power_cycle_resets_the_sensors_too(board, console_for):
     con = console_for(board)
-    assert con.ask("c" + "c583") == "c 0"                    # ADS1115: MUX AIN0, single shot
-    assert con.ask("m0c").startswith("m ")                   # BNO055 into NDOF
+    assert con.ask("c" + "c583") == "c 0"  # ADS1115: MUX AIN0, single shot
+    assert con.ask("m0c").startswith("m ")  # BNO055 into NDOF
     board.power_cycle()
-    board.run_for(0.7)                                       # the BNO055 boots for 650 ms
+    board.run_for(0.7)  # the BNO055 boots for 650 ms
     con.sync()
-    assert con.ask("r1").split()[1] == "8583"                # ADS1115 power-on config
-    assert con.ask("u") == "u 0 0 0 0 0"                     # BNO055 back in CONFIGMODE
+    assert con.ask("r1").split()[1] == "8583"  # ADS1115 power-on config
+    assert con.ask("u") == "u 0 0 0 0 0"  # BNO055 back in CONFIGMODE
     assert board.counters["resets"] == 1

@@ -7,8 +7,17 @@ import time
 import pytest
 import serial
 
-from porosense.protocol import (Ack, FrameDecoder, Hello, HelloReply, Sample, SetOutputs, StartStream,
-                                StopStream, encode_message)
+from porosense.protocol import (
+    Ack,
+    FrameDecoder,
+    Hello,
+    HelloReply,
+    Sample,
+    SetOutputs,
+    StartStream,
+    StopStream,
+    encode_message,
+)
 from porosense.protocol._messages import VERSION_MAJOR
 from porosense.simboard import DEFAULT_ELF, ConstantPlant, SimBoard
 
@@ -45,7 +54,7 @@ def test_firmware_answers_hello(firmware_elf):
         assert reply.proto_major == VERSION_MAJOR and reply.n_channels == 3
         # uptime is AVR time: it cannot exceed the time the board has run
         assert 0 < reply.uptime_ms <= board.sim_time_s * 1000 + 1
-        assert board.counters["twi_nacks"] == 0      # both sensors found at boot
+        assert board.counters["twi_nacks"] == 0  # both sensors found at boot
 
 
 def test_firmware_answers_hello_after_reset(firmware_elf):
@@ -76,8 +85,12 @@ def test_firmware_drives_pins_and_streams_sensor_values(firmware_elf):
                         return frame.message()
             raise AssertionError(f"no reply to {msg}")
 
-        assert isinstance(reply_to(SetOutputs(setpoint_dkpa=(-400, -200, 0), pump_mask=3, valve_mask=1,
-                                           session=session, counter=1), 2), Ack)
+        assert isinstance(
+            reply_to(
+                SetOutputs(setpoint_dkpa=(-400, -200, 0), pump_mask=3, valve_mask=1, session=session, counter=1), 2
+            ),
+            Ack,
+        )
         pins = board.pins
         assert pins.pumps == (True, True, False) and pins.valves == (True, False, False)
         for duty, kpa in zip(pins.regulator_duty, (-40.0, -20.0, 0.0)):
@@ -92,10 +105,10 @@ def test_firmware_drives_pins_and_streams_sensor_values(firmware_elf):
         port.close()
     samples = [f.message() for f in frames]
     assert len(samples) >= 60
-    codes = tuple(int(v / 4.096 * 32768) for v in volts)          # PGA +-4.096 V
+    codes = tuple(int(v / 4.096 * 32768) for v in volts)  # PGA +-4.096 V
     assert all(s.adc == codes for s in samples), {s.adc for s in samples}
     assert all(s.euler_16 == tuple(round(a * 16) for a in euler) for s in samples[5:])
     steps = [b.t_us - a.t_us for a, b in zip(samples, samples[1:])]
-    assert all(abs(d - 10_000) <= 8 for d in steps), steps          # micros() ticks by 4 us
+    assert all(abs(d - 10_000) <= 8 for d in steps), steps  # micros() ticks by 4 us
     assert abs((samples[-1].t_us - samples[0].t_us) / len(steps) - 10_000) <= 1
     assert {(b.seq - a.seq) % 256 for a, b in zip(frames, frames[1:])} == {1}

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from standalone_kit import HANDSHAKE_S, STANDALONE, RawCapture, SwingPlant, configure
 
 pytestmark = [pytest.mark.simboard]
@@ -34,8 +33,11 @@ def test_autostart_streams_bit_exact_estimates_and_pwm(elf, model_blob) -> None:
     plant = SwingPlant()
     # At most 2x real time, so the wall-time polling below sees the D10 duty often enough.
     with SimBoard(elf, plant=plant, max_speed=2.0) as board:
-        configure(board, model_blob, {"AUTOSTART": 1, "PWM_PIN": 10, "PWM_SCALE_MILLI": PWM_SCALE_MILLI,
-                                      "PWM_OFFSET": PWM_OFFSET})
+        configure(
+            board,
+            model_blob,
+            {"AUTOSTART": 1, "PWM_PIN": 10, "PWM_SCALE_MILLI": PWM_SCALE_MILLI, "PWM_OFFSET": PWM_OFFSET},
+        )
         cap = RawCapture(board.url)
         try:
             board.reset()  # power-up with no host: nothing is sent to the board from here on
@@ -107,6 +109,8 @@ def test_autostart_streams_bit_exact_estimates_and_pwm(elf, model_blob) -> None:
                 with pytest.raises(Exception) as err:
                     dev.config_set(key, value)
                 assert getattr(err.value, "code", None) == m.Result.UNSUPPORTED
-            print(f"hot attach: HELLO answered at uptime {info.uptime_ms} ms, {len(got)} samples read, "
-                  f"{dev.stats.stale_replies} stale frames")
+            print(
+                f"hot attach: HELLO answered at uptime {info.uptime_ms} ms, {len(got)} samples read, "
+                f"{dev.stats.stale_replies} stale frames"
+            )
         assert board.counters["resets"] == resets  # attaching did not reset the board

@@ -103,10 +103,10 @@ def test_emulator_line_mode_matches_the_reference(model_blob) -> None:
     import time
 
     import numpy as np
+    from line_format import format_line
 
     from porosense.device import Device
     from porosense.emulator import Emulator
-    from line_format import format_line
     from porosense.protocol import _messages as m
     from porosense.protocol import encode_message
     from porosense.quant import FixedPointEstimator, ModelBlob
@@ -125,7 +125,7 @@ def test_emulator_line_mode_matches_the_reference(model_blob) -> None:
             end = time.monotonic() + 10.0
             while data.count(b"\r\n") < 60 and time.monotonic() < end:
                 data += dev.link.read(0.05)
-    text = bytes(data)[bytes(data).index(b"\x00") + 1:]  # after the ACK frame
+    text = bytes(data)[bytes(data).index(b"\x00") + 1 :]  # after the ACK frame
     lines = text.split(b"\r\n")[:-1]
     assert lines[0] == b"t_ms,dR0,dR1,dR2,est0,est1"
     rows = [ln.decode().split(",") for ln in lines[1:]]

@@ -47,10 +47,10 @@ def test_corrupt_configuration_falls_back_to_defaults(elf, tmp_path) -> None:
     # a CRC that matches, so only the range check can refuse it.
     data = bytearray(image.read_bytes())
     data[12] ^= 0x5A
-    slot1 = bytearray(data[SLOT:2 * SLOT])
+    slot1 = bytearray(data[SLOT : 2 * SLOT])
     slot1[2] = 250
     _reseal(slot1)
-    data[SLOT:2 * SLOT] = slot1
+    data[SLOT : 2 * SLOT] = slot1
     image.write_bytes(bytes(data))
 
     with SimBoard(elf, eeprom=image) as board:

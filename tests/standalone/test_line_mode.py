@@ -15,8 +15,9 @@ CAPTURE_AVR_S = 1.2
 
 
 def test_line_mode_prints_csv_matching_the_reference(elf, model_blob) -> None:
-    from porosense.device import Device
     from line_format import format_line
+
+    from porosense.device import Device
     from porosense.quant import FixedPointEstimator, ModelBlob
     from porosense.simboard import SimBoard
 

@@ -28,8 +28,20 @@ def work(tmp_path_factory):
 
 
 def test_tune_writes_gains_and_a_predicted_step(work, capsys):
-    rc = main(["control", "tune", *(str(work / f"step_{v}.csv") for v in (10, 20, 40, 60)),
-               "--out", str(work / "gains.json"), "--tau-cl", "0.5", "--plot", str(work / "step.png"), "--json"])
+    rc = main(
+        [
+            "control",
+            "tune",
+            *(str(work / f"step_{v}.csv") for v in (10, 20, 40, 60)),
+            "--out",
+            str(work / "gains.json"),
+            "--tau-cl",
+            "0.5",
+            "--plot",
+            str(work / "step.png"),
+            "--json",
+        ]
+    )
     assert rc == 0
     doc = json.loads(capsys.readouterr().out)
     g = doc["gains"]
@@ -74,8 +86,12 @@ def test_mistake_is_one_line_with_its_exit_code(work, args, code, words, capsys)
 
 
 def test_missing_port_is_a_usage_error_without_traceback():
-    proc = subprocess.run([sys.executable, "-m", "porosense", "control", "run", "--target", "10"],
-                          capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "porosense", "control", "run", "--target", "10"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 2 and "--port" in proc.stderr.splitlines()[-1] and "Traceback" not in proc.stderr
 
 

@@ -30,8 +30,10 @@ def loads(setup):
 def _print(r):
     cl = ", ".join(f"{m['target']:g}: {m['steady_error']:+.2f}" for m in r["closed_loop"])
     ol = ", ".join(f"{m['target']:g}: {m['steady_error']:+.2f}" for m in r["open_loop"])
-    print(f"{r['load_g']:g} g: closed {r['closed_steady_error']:.2f} ({cl}); open {r['open_steady_error']:.2f} ({ol}); "
-          f"ratio {r['ratio']:.2f}")
+    print(
+        f"{r['load_g']:g} g: closed {r['closed_steady_error']:.2f} ({cl}); open {r['open_steady_error']:.2f} ({ol}); "
+        f"ratio {r['ratio']:.2f}"
+    )
 
 
 def test_steps_reach_the_true_strain_at_0_g(loads):
@@ -106,7 +108,9 @@ def test_predicted_closed_loop_step_matches_the_board(setup, loads):
     n = min(int(sel.sum()), len(pred.y))
     fit = fit_percent(rec["strain_0"][sel][:n] - y0, pred.y[:n])
     settle, _ = settling_and_overshoot(rec.t[sel][:n] - t0, rec["est_strain_0"][sel][:n] - y0, step)
-    print(f"predicted vs board step: fit {fit:.1f} %, estimate settles in {settle:.2f} s (predicted {pred.settling_s:.2f} s)")
+    print(
+        f"predicted vs board step: fit {fit:.1f} %, estimate settles in {settle:.2f} s (predicted {pred.settling_s:.2f} s)"
+    )
     assert fit > 80.0
     assert abs(settle / pred.settling_s - 1.0) < 0.4
 

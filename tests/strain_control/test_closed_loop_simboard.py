@@ -25,7 +25,9 @@ def test_closed_loop_beats_the_open_loop_under_500_g_on_the_firmware(built):
     r = measure_load(setup, 500.0, TARGETS["small"], HOLD_S["small"], seed=9, port="simboard")
     cl = [round(m["steady_error"], 2) for m in r["closed_loop"]]
     ol = [round(m["steady_error"], 2) for m in r["open_loop"]]
-    print(f"simboard 500 g: closed {r['closed_steady_error']:.2f} {cl}, open {r['open_steady_error']:.2f} {ol}, "
-          f"floor {[round(f, 2) for f in r['floor']]}, ratio {r['ratio']:.2f}")
+    print(
+        f"simboard 500 g: closed {r['closed_steady_error']:.2f} {cl}, open {r['open_steady_error']:.2f} {ol}, "
+        f"floor {[round(f, 2) for f in r['floor']]}, ratio {r['ratio']:.2f}"
+    )
     assert r["closed_steady_error"] < 0.6 * r["open_steady_error"]
     assert max(abs(m["steady_error"] - f) for m, f in zip(r["closed_loop"], r["floor"])) < 0.8

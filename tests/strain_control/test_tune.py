@@ -86,8 +86,10 @@ def test_tuned_plant_predicts_the_simulator_open_loop_step():
     from porosense.ident import fit_percent
     from porosense.sim import run_experiment
 
-    recs = [run_experiment("contractor", e, rate_hz=50, seed=s) for s, e in
-            enumerate(("staircase", "step_10", "step_20", "step_60"))]
+    recs = [
+        run_experiment("contractor", e, rate_hz=50, seed=s)
+        for s, e in enumerate(("staircase", "step_10", "step_20", "step_60"))
+    ]
     p = fit_fopdt([-r["p_cmd_0"] for r in recs], [r["strain_0"] for r in recs], 0.02)
     held = run_experiment("contractor", "step_40", rate_hz=50, seed=11)
     fit = fit_percent(held["strain_0"], p.simulate(-held["p_cmd_0"]))

@@ -28,18 +28,32 @@ def fit(data, columns):
 
 
 def main() -> None:
-    loaded = [record(e, L, s) for s, (e, L) in enumerate([("staircase", 0), ("step_40", 0), ("staircase", 200),
-                                                          ("step_60", 200), ("staircase", 500), ("step_20", 500)])]
+    loaded = [
+        record(e, L, s)
+        for s, (e, L) in enumerate(
+            [
+                ("staircase", 0),
+                ("step_40", 0),
+                ("staircase", 200),
+                ("step_60", 200),
+                ("staircase", 500),
+                ("step_20", 500),
+            ]
+        )
+    ]
     unloaded = [record(e, 0, 10 + s) for s, e in enumerate(["staircase", "step_40", "step_60", "step_20"])]
     tests = {L: record("staircase", L, 100 + L) for L in (0, 200, 500)}
-    estimators = {"dR, identified at 0 g": (unloaded, [0]), "dR, identified at 0/200/500 g": (loaded, [0]),
-                  "dR + p_cmd, identified at 0/200/500 g": (loaded, [0, 1])}
+    estimators = {
+        "dR, identified at 0 g": (unloaded, [0]),
+        "dR, identified at 0/200/500 g": (loaded, [0]),
+        "dR + p_cmd, identified at 0/200/500 g": (loaded, [0, 1]),
+    }
     for name, (data, columns) in estimators.items():
         model = fit(data, columns)
         cells = []
         for L, (u, y) in tests.items():
             e = (model.predict(u=u[:, columns]) - y)[SKIP:]
-            cells.append(f"{L} g: RMS {np.sqrt(np.mean(e ** 2)):.2f}, mean {np.mean(e):+.2f}")
+            cells.append(f"{L} g: RMS {np.sqrt(np.mean(e**2)):.2f}, mean {np.mean(e):+.2f}")
         print(f"{name:40s}" + " | ".join(cells))
 
 

@@ -19,11 +19,14 @@ def main() -> None:
     for seed in range(20):
         s = random_structure(np.random.default_rng(seed), 3, 3, h1_poles=2, h2_poles=2, breakpoints=10, kind="wh")
         full.append(len(quantize(s, input_range=(-90.0, 10.0), capacity=4096, noise_lsb=0).blob.to_bytes()))
-        slot.append(len(quantize(s, input_range=(-90.0, 10.0), capacity=layout.FLASH_BLOB_MAX,
-                                 noise_lsb=0).blob.to_bytes()))
+        slot.append(
+            len(quantize(s, input_range=(-90.0, 10.0), capacity=layout.FLASH_BLOB_MAX, noise_lsb=0).blob.to_bytes())
+        )
     print(f"full tables: {min(full)}..{max(full)} B")
-    print(f"for a {layout.FLASH_BLOB_MAX}-byte flash slot: {min(slot)}..{max(slot)} B, "
-          f"{layout.FLASH_BLOB_MAX - max(slot)}..{layout.FLASH_BLOB_MAX - min(slot)} B to spare per slot")
+    print(
+        f"for a {layout.FLASH_BLOB_MAX}-byte flash slot: {min(slot)}..{max(slot)} B, "
+        f"{layout.FLASH_BLOB_MAX - max(slot)}..{layout.FLASH_BLOB_MAX - min(slot)} B to spare per slot"
+    )
     print(f"EEPROM area {layout.MAX_BLOB_LEN} B: holds {sum(n <= layout.MAX_BLOB_LEN for n in slot)} of 20 alone")
 
 

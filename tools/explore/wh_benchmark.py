@@ -16,8 +16,10 @@ def tables():
     if folder is None:
         print("benchmark data folder not found", file=sys.stderr)
         sys.exit(2)
-    return (read_table(folder / "wh_process_noise" / "WH_EstimationExample.csv"),
-            read_table(folder / "wh_process_noise" / "WH_TestDataset.csv"))
+    return (
+        read_table(folder / "wh_process_noise" / "WH_EstimationExample.csv"),
+        read_table(folder / "wh_process_noise" / "WH_TestDataset.csv"),
+    )
 
 
 def records(n):

@@ -16,10 +16,10 @@ import sys
 import time
 
 import numpy as np
+from wh_benchmark import realisations, records
 
 from porosense import ident
 from porosense.ident.search import STRUCTURES
-from wh_benchmark import realisations, records
 
 SKIP = 200
 FS = 78125.0  # Hz
@@ -33,10 +33,22 @@ def main() -> int:
     us, ys, ut, yt = records(which + [extra])
     t0 = time.perf_counter()
     structures = ("wh",) if "--wh" in sys.argv else STRUCTURES
-    res = ident.search(u=us[:n], y=ys[:n], ts=1 / FS, validation=(us[n:], ys[n:]), validation_skip=SKIP, skip=SKIP,
-                       structures=structures,
-                       n_breakpoints=10, starts=2, max_nfev=200, criterion="fit", staged=True,
-                       process_noise="--process-noise" in sys.argv, progress=False)
+    res = ident.search(
+        u=us[:n],
+        y=ys[:n],
+        ts=1 / FS,
+        validation=(us[n:], ys[n:]),
+        validation_skip=SKIP,
+        skip=SKIP,
+        structures=structures,
+        n_breakpoints=10,
+        starts=2,
+        max_nfev=200,
+        criterion="fit",
+        staged=True,
+        process_noise="--process-noise" in sys.argv,
+        progress=False,
+    )
     wall = time.perf_counter() - t0
     print(res)
     print(f"wall {wall:.1f} s on realisations {which[0]}-{which[-1]} (validation on {extra})")
@@ -46,12 +58,16 @@ def main() -> int:
 
     for s, c in res.best_per_structure("fit").items():
         noise = " (process noise)" if c.model.spec.g_noise else ""
-        print(f"{s} {c.n_poles}p{c.n_zeros}z{noise}: validation fit {c.validation_fit:.2f} %, "
-              f"test RMSE {test_mv(c.model):.2f} mV")
+        print(
+            f"{s} {c.n_poles}p{c.n_zeros}z{noise}: validation fit {c.validation_fit:.2f} %, "
+            f"test RMSE {test_mv(c.model):.2f} mV"
+        )
     for c in res.candidates:
         if c.model.spec.g_noise:
-            print(f"refitted with process noise: {c.structure} {c.n_poles}p{c.n_zeros}z, validation fit "
-                  f"{c.validation_fit:.2f} %, test RMSE {test_mv(c.model):.2f} mV")
+            print(
+                f"refitted with process noise: {c.structure} {c.n_poles}p{c.n_zeros}z, validation fit "
+                f"{c.validation_fit:.2f} %, test RMSE {test_mv(c.model):.2f} mV"
+            )
     print(f"selected: test RMSE {test_mv(res.model):.2f} mV")
     return 0
 

@@ -14,11 +14,11 @@ import time
 from dataclasses import replace
 
 import numpy as np
+from wh_benchmark import records
 
 from porosense import ident
 from porosense.ident import bla_split, estimate, noise_level
 from porosense.ident.chain import Chain
-from wh_benchmark import records
 
 SKIP = 200
 LEVEL = 0.9
@@ -28,29 +28,42 @@ def main() -> int:
     n = int(sys.argv[1]) if len(sys.argv) > 1 else 5
     us, ys, ut, yt = records(n)
     t0 = time.perf_counter()
-    wh = ident.WienerHammerstein(n_poles=6, n_zeros=3, n_breakpoints=10, skip=SKIP, starts=1,
-                                 process_noise=True).fit(u=us, y=ys)
-    selected = wh.info["sse"] / wh.y_std ** 2
-    print(f"identify --process-noise ({time.perf_counter() - t0:.0f} s): {wh.info['build']}, test RMSE "
-          f"{ident.rmse(yt[SKIP:], wh.predict(u=ut)[SKIP:]) * 1e3:.2f} mV")
+    wh = ident.WienerHammerstein(n_poles=6, n_zeros=3, n_breakpoints=10, skip=SKIP, starts=1, process_noise=True).fit(
+        u=us, y=ys
+    )
+    selected = wh.info["sse"] / wh.y_std**2
+    print(
+        f"identify --process-noise ({time.perf_counter() - t0:.0f} s): {wh.info['build']}, test RMSE "
+        f"{ident.rmse(yt[SKIP:], wh.predict(u=ut)[SKIP:]) * 1e3:.2f} mV"
+    )
     nus = [u / wh.u_scale for u in us]
     nys = [(y - wh.y_mean) / wh.y_std for y in ys]
     opts = estimate.Options(skip=SKIP)
     lin = estimate.fit_linear(nus, nys, 6, 3, 0, estimate._bla_options(opts))
     best = None
-    for sse_oe, spec, theta, _, split in bla_split.ranked_split_starts(lin.spec, lin.theta, nus, nys, 10, SKIP,
-                                                                       keep=10_000):
+    for sse_oe, spec, theta, _, split in bla_split.ranked_split_starts(
+        lin.spec, lin.theta, nus, nys, 10, SKIP, keep=10_000
+    ):
         fit = estimate.Fit(spec, theta, sse_oe)
         spread = float(np.std(np.concatenate([Chain(spec, theta).linear_sum(u)[SKIP:] for u in nus])))
-        g = estimate._at_noise_level(fit, replace(spec, g_noise=True), nus, nys, LEVEL * spread,
-                                     replace(opts, smoothness=estimate.NOISE_MIN_SMOOTHNESS), refine_blocks=False)
+        g = estimate._at_noise_level(
+            fit,
+            replace(spec, g_noise=True),
+            nus,
+            nys,
+            LEVEL * spread,
+            replace(opts, smoothness=estimate.NOISE_MIN_SMOOTHNESS),
+            refine_blocks=False,
+        )
         if best is None or g.sse < best[0]:
             best = (g.sse, fit, split)
     out = estimate._noise_from_periods(best[1], nus, nys, opts, noise_level.PeriodData(nus, nys, SKIP))
     z = Chain(out.spec, out.theta).simulate(ut / wh.u_scale, expected=False) * wh.y_std + wh.y_mean
-    print(f"split ranked by its noise-aware error ({best[2].describe()}): error / the selected build's "
-          f"{out.sse / selected:.5f}, level {out.notes['process_noise']['sigma_per_spread']:.2f} x the spread, "
-          f"test RMSE {ident.rmse(yt[SKIP:], z[SKIP:]) * 1e3:.2f} mV")
+    print(
+        f"split ranked by its noise-aware error ({best[2].describe()}): error / the selected build's "
+        f"{out.sse / selected:.5f}, level {out.notes['process_noise']['sigma_per_spread']:.2f} x the spread, "
+        f"test RMSE {ident.rmse(yt[SKIP:], z[SKIP:]) * 1e3:.2f} mV"
+    )
     return 0
 
 

@@ -11,9 +11,9 @@ Run: .venv/bin/python tools/explore/wh_noise_spectrum.py [realisations, default 
 import sys
 
 import numpy as np
+from wh_benchmark import records
 
 from porosense.ident.noise_level import repeated_period
-from wh_benchmark import records
 
 FS = 78125.0  # Hz
 EDGES = (300, 1200, 1600, 2000, 2500, 3000, 3500, 4000, 4500, 5000, 5500, 6000, 7000, 9000, 12000)  # Hz
@@ -26,9 +26,9 @@ def main() -> int:
     noise, u_pow, frfs = 0.0, 0.0, []
     for u, y in zip(us, ys):
         u = u[:, 0]
-        noise = noise + np.abs(np.fft.rfft(y[period:2 * period] - y[:period])) ** 2
-        uf = np.fft.rfft(u[period:2 * period] + u[:period])
-        yf = np.fft.rfft(y[period:2 * period] + y[:period])
+        noise = noise + np.abs(np.fft.rfft(y[period : 2 * period] - y[:period])) ** 2
+        uf = np.fft.rfft(u[period : 2 * period] + u[:period])
+        yf = np.fft.rfft(y[period : 2 * period] + y[:period])
         u_pow = u_pow + np.abs(uf) ** 2
         frfs.append(yf / np.where(np.abs(uf) > 0, uf, np.nan))
     f = np.fft.rfftfreq(period, 1 / FS)

@@ -13,11 +13,11 @@ import sys
 from dataclasses import replace
 
 import numpy as np
+from wh_benchmark import tables
 
 from porosense import ident
 from porosense.ident import estimate
 from porosense.ident.chain import Chain
-from wh_benchmark import tables
 
 SKIP = 200
 
@@ -26,8 +26,10 @@ def main() -> int:
     est, test = tables()
     ut, yt = test.columns["u_0"][:, None], test.columns["y_0"]
     oracle = ident.WienerHammerstein(n_poles=6, n_zeros=5, n_breakpoints=10, skip=SKIP, starts=1).fit(u=ut, y=yt)
-    print(f"blocks from the test multisine: {oracle.info.get('build')}, test RMSE "
-          f"{ident.rmse(yt[SKIP:], oracle.predict(u=ut)[SKIP:]) * 1e3:.2f} mV")
+    print(
+        f"blocks from the test multisine: {oracle.info.get('build')}, test RMSE "
+        f"{ident.rmse(yt[SKIP:], oracle.predict(u=ut)[SKIP:]) * 1e3:.2f} mV"
+    )
     us = [est.columns[f"u_{i}"][:, None] / oracle.u_scale for i in range(5)]
     ys = [(est.columns[f"y_{i}"] - oracle.y_mean) / oracle.y_std for i in range(5)]
     fit = estimate.Fit(oracle.spec, oracle.theta, 0.0)

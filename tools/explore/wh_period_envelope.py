@@ -14,7 +14,6 @@ import sys
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
-
 from wh_benchmark import records
 
 PERIOD = 4096
@@ -27,8 +26,8 @@ def main() -> int:
     for w in (16, 64, 256):
         ratios = []
         for y in ys:
-            d = y[PERIOD + SKIP: 2 * PERIOD] - y[SKIP:PERIOD]
-            env = uniform_filter1d(d ** 2, w)
+            d = y[PERIOD + SKIP : 2 * PERIOD] - y[SKIP:PERIOD]
+            env = uniform_filter1d(d**2, w)
             surrogate = []
             for _ in range(20):
                 spec = np.fft.rfft(d) * np.exp(2j * np.pi * rng.random(len(d) // 2 + 1))
@@ -37,11 +36,13 @@ def main() -> int:
             ratios.append((np.std(env) / np.mean(env)) / np.mean(surrogate))
         print(f"window {w:3d} samples: envelope variation / stationary {np.round(ratios, 2).tolist()}")
     for i, y in enumerate(ys[:3]):
-        d = y[PERIOD + SKIP: 2 * PERIOD] - y[SKIP:PERIOD]
-        mean = (y[PERIOD + SKIP: 2 * PERIOD] + y[SKIP:PERIOD]) / 2
-        print(f"realisation {i}: correlation of the envelope (64 samples) with the mean output "
-              f"{np.corrcoef(uniform_filter1d(d ** 2, 64), mean)[0, 1]:+.3f}; std of d {np.std(d) * 1e3:.0f} mV, "
-              f"of the mean output {np.std(mean) * 1e3:.0f} mV")
+        d = y[PERIOD + SKIP : 2 * PERIOD] - y[SKIP:PERIOD]
+        mean = (y[PERIOD + SKIP : 2 * PERIOD] + y[SKIP:PERIOD]) / 2
+        print(
+            f"realisation {i}: correlation of the envelope (64 samples) with the mean output "
+            f"{np.corrcoef(uniform_filter1d(d**2, 64), mean)[0, 1]:+.3f}; std of d {np.std(d) * 1e3:.0f} mV, "
+            f"of the mean output {np.std(mean) * 1e3:.0f} mV"
+        )
     return 0
 
 

@@ -10,7 +10,6 @@ differences between the periods (mV). Run: .venv/bin/python tools/explore/wh_per
 import sys
 
 import numpy as np
-
 from wh_benchmark import tables
 
 PERIOD = 4096
@@ -20,10 +19,12 @@ def main() -> int:
     est, _ = tables()
     for i in range(10):
         u, y = est.columns[f"u_{i}"], est.columns[f"y_{i}"]
-        du = u[PERIOD:2 * PERIOD] - u[:PERIOD]
-        dy = y[PERIOD:2 * PERIOD] - y[:PERIOD]
-        print(f"realisation {i}: input difference {np.std(du) * 1e3:.2f} mV rms, "
-              f"output difference {np.std(dy) * 1e3:.1f} mV rms (output {np.std(y) * 1e3:.0f} mV rms)")
+        du = u[PERIOD : 2 * PERIOD] - u[:PERIOD]
+        dy = y[PERIOD : 2 * PERIOD] - y[:PERIOD]
+        print(
+            f"realisation {i}: input difference {np.std(du) * 1e3:.2f} mV rms, "
+            f"output difference {np.std(dy) * 1e3:.1f} mV rms (output {np.std(y) * 1e3:.0f} mV rms)"
+        )
     return 0
 
 

@@ -20,12 +20,12 @@ import sys
 from functools import partial
 
 import numpy as np
+from wh_benchmark import realisations, records
 
 from porosense import ident
 from porosense.ident import estimate, noise_level
 from porosense.ident.chain import Chain
 from porosense.ident.metrics import relative_standard_error
-from wh_benchmark import realisations, records
 
 SKIP = 200
 
@@ -36,7 +36,7 @@ def main() -> int:
     if "--starts" in argv:
         k = argv.index("--starts")
         starts = int(argv[k + 1])
-        argv = argv[:k] + argv[k + 2:]
+        argv = argv[:k] + argv[k + 2 :]
     args = [a for a in argv if "," not in a]
     order = [tuple(map(int, a.split(","))) for a in argv if "," in a] or [(6, 3)]
     which = realisations(args[0] if args else "5")
@@ -59,26 +59,32 @@ def main() -> int:
 
     def distance_mv(f) -> float:
         d = np.concatenate([(noise_free(f, u) - noise_free(kept, u))[SKIP:] for u in us])
-        return float(np.sqrt(np.mean(d ** 2))) * 1e3
+        return float(np.sqrt(np.mean(d**2))) * 1e3
 
-    print(f"realisations {which[0]}-{which[-1]}, {order[0][0]}p{order[0][1]}z; tie: within "
-          f"{200 * relative_standard_error(n_res):.2f} % of the lowest error")
+    print(
+        f"realisations {which[0]}-{which[-1]}, {order[0][0]}p{order[0][1]}z; tie: within "
+        f"{200 * relative_standard_error(n_res):.2f} % of the lowest error"
+    )
     for f in builds:
         z = noise_free(f, ut)
         pn = f.notes["process_noise"]
-        print(f"{'*' if f is kept else ' '} {f.build}: {f.spec.n_params} parameters, error {100 * (f.sse / low - 1):+.2f} %, "
-              f"level {pn['sigma_per_spread']:.2f}{'' if pn['consistent'] else ' (period power refuted)'}, test RMSE "
-              f"{ident.rmse(yt[SKIP:], z[SKIP:]) * 1e3:.2f} mV, noise-free {distance_mv(f) if kept else np.nan:.2f} mV "
-              f"from the kept build, colour misfit {pn['colour']['statistic']:.1f} on {pn['colour']['dof']} dof "
-              f"(p = {pn['colour']['p_value']:.2g})")
+        print(
+            f"{'*' if f is kept else ' '} {f.build}: {f.spec.n_params} parameters, error {100 * (f.sse / low - 1):+.2f} %, "
+            f"level {pn['sigma_per_spread']:.2f}{'' if pn['consistent'] else ' (period power refuted)'}, test RMSE "
+            f"{ident.rmse(yt[SKIP:], z[SKIP:]) * 1e3:.2f} mV, noise-free {distance_mv(f) if kept else np.nan:.2f} mV "
+            f"from the kept build, colour misfit {pn['colour']['statistic']:.1f} on {pn['colour']['dof']} dof "
+            f"(p = {pn['colour']['p_value']:.2g})"
+        )
     for f in oe:
         print(f"  output error {f.build}: test RMSE {ident.rmse(yt[SKIP:], noise_free(f, ut)[SKIP:]) * 1e3:.2f} mV")
     if kept is not None:
         parent = oe[next(i for i, f in enumerate(builds) if f is kept)]  # by identity: Fits hold arrays
         d = estimate.deconvolution_spread(kept, parent, tied, nus, SKIP)
-        print(f"deconvolution check of the kept build: moved {d['correction'] * std * 1e3:.2f} mV from its output-error "
-              f"fit, spread {d['spread'] * std * 1e3:.2f} mV over {d['tied_builds']} tied builds: "
-              f"{'determined, kept' if d['determined'] else 'undetermined, the output-error fit stays'}")
+        print(
+            f"deconvolution check of the kept build: moved {d['correction'] * std * 1e3:.2f} mV from its output-error "
+            f"fit, spread {d['spread'] * std * 1e3:.2f} mV over {d['tied_builds']} tied builds: "
+            f"{'determined, kept' if d['determined'] else 'undetermined, the output-error fit stays'}"
+        )
     return 0
 
 

@@ -9,7 +9,7 @@ namespace r = proto::result;
 
 namespace {
 inline uint8_t magic(uint8_t kind) { return kind ? 'T' : 'G'; }
-}
+}  // namespace
 
 uint8_t ControlStore::rd(uint16_t a) const { return hal_.eeprom_read(a); }
 void ControlStore::wr(uint16_t a, uint8_t v) { hal_.eeprom_write(a, v); }

@@ -20,8 +20,8 @@
 namespace dev {
 
 constexpr uint16_t kCtlBase = 856;
-constexpr uint8_t kGainsSlot = 2 + ctl::kGainsBytes + 2;        // 26
-constexpr uint16_t kTrajBase = kCtlBase + 2 * kGainsSlot;        // 908
+constexpr uint8_t kGainsSlot = 2 + ctl::kGainsBytes + 2;   // 26
+constexpr uint16_t kTrajBase = kCtlBase + 2 * kGainsSlot;  // 908
 constexpr uint8_t kTrajSlot = 58;
 constexpr uint8_t kTrajMaxRecord = kTrajSlot - 2;  // 56: 13 points of 1 column, 6 of 3
 constexpr uint8_t kTrajRepeat = 0x80;
@@ -62,7 +62,7 @@ class ControlStore {
   // Length of the record at `rec` per its kind (trajectory: from its header, 0 if too long).
   uint8_t length(uint8_t kind, uint16_t rec) const;
   bool crc_ok(uint16_t rec, uint8_t len) const;  // trailing CRC of a record
-  bool structure_ok(uint16_t rec) const;          // trajectory times and targets
+  bool structure_ok(uint16_t rec) const;         // trajectory times and targets
 
   Hal& hal_;
   uint8_t slot_[2], seq_[2];

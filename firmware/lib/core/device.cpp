@@ -14,7 +14,9 @@ namespace f = proto::flag;
 namespace {
 
 // Out of line: inlined at its dozen call sites it costs 36 B more flash.
-__attribute__((noinline)) uint16_t sat_add16(uint16_t a, uint16_t b) { return (uint16_t)(a > 0xFFFF - b ? 0xFFFF : a + b); }
+__attribute__((noinline)) uint16_t sat_add16(uint16_t a, uint16_t b) {
+  return (uint16_t)(a > 0xFFFF - b ? 0xFFFF : a + b);
+}
 uint32_t sat_inc32(uint32_t a) { return a == 0xFFFFFFFFUL ? a : a + 1; }
 
 // Field indices named by NAK.detail for OUT_OF_RANGE (position in the catalogue's field list).
@@ -22,8 +24,7 @@ constexpr int16_t kFieldSetpoint = 0, kFieldPumpMask = 1, kFieldValveMask = 2, k
 
 }  // namespace
 
-Device::Device(Hal& hal, ModelPort& model)
-    : DeviceState(), hal_(hal), model_(model), store_(hal), cstore_(hal) {
+Device::Device(Hal& hal, ModelPort& model) : DeviceState(), hal_(hal), model_(model), store_(hal), cstore_(hal) {
   config_.set_defaults();
 }
 
@@ -50,7 +51,8 @@ void Device::begin() {
     for (uint8_t i = 0; i < ctl::kGainsBytes; ++i)
       ((uint8_t*)&gains_)[i] = hal_.eeprom_read((uint16_t)(cstore_.record(ControlStore::kGains) + i));
   if (config_.autostart && model_.estimator_loaded()) {
-    start_stream(config_.sample_rate_hz, (uint8_t)(config_.channel_mask | (config_.autostart == 2 ? proto::chan::ESTIMATES : 0)));
+    start_stream(config_.sample_rate_hz,
+                 (uint8_t)(config_.channel_mask | (config_.autostart == 2 ? proto::chan::ESTIMATES : 0)));
     sticky_flags_ |= f::STANDALONE;
     if (config_.autostart == 2) {
       // The stored trajectory with the stored gains: a 1-column one drives channel 0, a
@@ -247,23 +249,35 @@ void Device::dispatch(uint8_t type, const uint8_t* p, uint8_t len) {
       reply(proto::Pong::kType, buf, pong.encode(buf));
       return;
     }
-    case m::SET_OUTPUTS: cmd_set_outputs(p); return;
+    case m::SET_OUTPUTS:
+      cmd_set_outputs(p);
+      return;
     case m::SET_WATCHDOG: {
       const uint16_t ms = proto::get_u16(p);
       if (config_.set(proto::config::WATCHDOG_MS, ms) != r::OK) return nak(r::OUT_OF_RANGE, 0);
       link_.set_timeout(ms);
       return ack();
     }
-    case m::START_STREAM: cmd_start_stream(p); return;
+    case m::START_STREAM:
+      cmd_start_stream(p);
+      return;
     case m::STOP_STREAM:
       control_stop();  // control needs the stream
       stop_stream();
       sticky_flags_ &= (uint16_t)~f::STANDALONE;
       return ack();
-    case m::REPLAY: cmd_replay(p, len); return;
-    case m::CALIBRATE_R0: cmd_calibrate_r0(p); return;
-    case m::SET_R0: cmd_set_r0(p); return;
-    case m::STATUS: cmd_status(); return;
+    case m::REPLAY:
+      cmd_replay(p, len);
+      return;
+    case m::CALIBRATE_R0:
+      cmd_calibrate_r0(p);
+      return;
+    case m::SET_R0:
+      cmd_set_r0(p);
+      return;
+    case m::STATUS:
+      cmd_status();
+      return;
     case m::CONFIG_GET: {
       proto::ConfigValue v;
       v.key = p[0];
@@ -272,7 +286,9 @@ void Device::dispatch(uint8_t type, const uint8_t* p, uint8_t len) {
       reply(proto::ConfigValue::kType, buf, v.encode(buf));
       return;
     }
-    case m::CONFIG_SET: cmd_config_set(p); return;
+    case m::CONFIG_SET:
+      cmd_config_set(p);
+      return;
     case m::CONFIG_SAVE:
       // EEPROM writes would stall sampling and the link watchdog
       if (streaming_ || outputs_active()) return nak(r::BUSY, 0);
@@ -300,10 +316,18 @@ void Device::dispatch(uint8_t type, const uint8_t* p, uint8_t len) {
     case m::MODEL_COMMIT:
     case m::MODEL_INFO:
     case m::MODEL_ERASE:
-    case m::MODEL_READ: cmd_model(type, p, len); return;
-    case m::CONTROL_GAINS: cmd_control_gains(p); return;
-    case m::CONTROL_GAINS_GET: cmd_control_gains_get(); return;
-    case m::CONTROL_START: cmd_control_start(p); return;
+    case m::MODEL_READ:
+      cmd_model(type, p, len);
+      return;
+    case m::CONTROL_GAINS:
+      cmd_control_gains(p);
+      return;
+    case m::CONTROL_GAINS_GET:
+      cmd_control_gains_get();
+      return;
+    case m::CONTROL_START:
+      cmd_control_start(p);
+      return;
     case m::CONTROL_STOP:
       control_stop();
       return ack();
@@ -314,7 +338,9 @@ void Device::dispatch(uint8_t type, const uint8_t* p, uint8_t len) {
       const uint8_t code = cstore_.write(ControlStore::kTraj, p[0], p[1], p + 2, (uint8_t)(len - 2), &detail);
       return code == r::OK ? ack() : nak(code, detail);
     }
-    default: nak(r::UNKNOWN_TYPE, 0); return;
+    default:
+      nak(r::UNKNOWN_TYPE, 0);
+      return;
   }
 }
 
@@ -549,7 +575,8 @@ void Device::cmd_model(uint8_t type, const uint8_t* p, uint8_t len) {
       reply(proto::ModelData::kType, buf, (uint8_t)(2 + n));
       return;
     }
-    default: break;
+    default:
+      break;
   }
   // EEPROM writes (0.4 s per chunk) would hold the outputs past the link watchdog.
   if (streaming_ || outputs_active()) return nak(r::BUSY, 0);
@@ -560,9 +587,15 @@ void Device::cmd_model(uint8_t type, const uint8_t* p, uint8_t len) {
     case m::MODEL_CHUNK:
       code = model_.chunk(proto::get_u16(p), p + 2, (uint8_t)(len - 2), &detail);
       break;
-    case m::MODEL_COMMIT: code = model_.commit(&detail); break;
-    case m::MODEL_ERASE: code = model_.erase(); break;
-    default: code = r::UNKNOWN_TYPE; break;
+    case m::MODEL_COMMIT:
+      code = model_.commit(&detail);
+      break;
+    case m::MODEL_ERASE:
+      code = model_.erase();
+      break;
+    default:
+      code = r::UNKNOWN_TYPE;
+      break;
   }
   if (code != r::OK) return nak(code, detail);
   ack();
@@ -757,12 +790,10 @@ void Device::cmd_control_start(const uint8_t* p) {
   ack();
 }
 
-bool Device::gains_fit(const ctl::Gains& g) {
-  return g.rate_hz == rate_hz_ && g.model_crc == model_.crc();
-}
+bool Device::gains_fit(const ctl::Gains& g) { return g.rate_hz == rate_hz_ && g.model_crc == model_.crc(); }
 
 void Device::control_begin(uint8_t mode, uint8_t mask) {
-  sticky_flags_ &= (uint16_t)~(f::CONTROL_ABORTED | f::WATCHDOG_TRIPPED);
+  sticky_flags_ &= (uint16_t) ~(f::CONTROL_ABORTED | f::WATCHDOG_TRIPPED);
   control_mode_ = mode;
   traj_seg_ = 0;
   traj_start_us_ = hal_.micros();
@@ -785,7 +816,7 @@ void Device::control_stop() {
 void Device::trajectory_targets(uint32_t tick_us) {
   const uint16_t t_end = cstore_.duration();
   uint32_t el = (tick_us - traj_start_us_) / 10000UL;  // 10 ms ticks
-  if (el >= t_end && cstore_.repeat()) {  // next lap
+  if (el >= t_end && cstore_.repeat()) {               // next lap
     traj_start_us_ += (uint32_t)t_end * 10000UL;
     el -= t_end;
     traj_seg_ = 0;
@@ -802,8 +833,8 @@ bool Device::control_mask_ok(uint8_t mask) {
 }
 
 // Out of line: inlined into on_sample_ticks by link-time optimisation it costs ~320 B of flash.
-__attribute__((noinline)) uint16_t Device::control_step(uint16_t fl, bool estimating, const int16_t est[kChannels], uint32_t tick_us,
-                              bool* aborted) {
+__attribute__((noinline)) uint16_t Device::control_step(uint16_t fl, bool estimating, const int16_t est[kChannels],
+                                                        uint32_t tick_us, bool* aborted) {
   // Never hold a command on an estimate that cannot be trusted: vent and stop.
   if (!estimating || (fl & (f::ADC_FAULT | f::ESTIMATOR_SATURATED))) {
     control_stop();

@@ -50,10 +50,10 @@ struct DeviceState {
   bool reset_requested_;
   uint8_t stream_mask_;
   uint16_t rate_hz_;
-  uint8_t telemetry_seq_;  // SAMPLE frames, from 0 at each START_STREAM
-  uint8_t error_seq_;      // ERROR frames
-  uint16_t sticky_flags_;  // flags that persist until cleared (watchdog, config, R0, ...)
-  uint16_t sample_flags_;  // sensor flags of the latest sample
+  uint8_t telemetry_seq_;    // SAMPLE frames, from 0 at each START_STREAM
+  uint8_t error_seq_;        // ERROR frames
+  uint16_t sticky_flags_;    // flags that persist until cleared (watchdog, config, R0, ...)
+  uint16_t sample_flags_;    // sensor flags of the latest sample
   uint8_t pending_overrun_;  // an overrun happened since the previous SAMPLE
   uint8_t trip_unreported_;  // the watchdog cut the outputs; poll() sends the ERROR
   // CSV line mode of this session: on at boot when LINE_MODE is stored as 1, off after any

@@ -65,23 +65,56 @@ void Config::set_defaults() {
 bool Config::get(uint8_t key, int32_t* v) const {
   namespace k = proto::config;
   switch (key) {
-    case k::SAMPLE_RATE_HZ: *v = sample_rate_hz; return true;
-    case k::CHANNEL_MASK: *v = channel_mask; return true;
-    case k::R0_MODE: *v = r0_mode; return true;
-    case k::R0_CH0_MOHM: *v = r0_mohm[0]; return true;
-    case k::R0_CH1_MOHM: *v = r0_mohm[1]; return true;
-    case k::R0_CH2_MOHM: *v = r0_mohm[2]; return true;
-    case k::ADC_PGA: *v = adc_pga; return true;
-    case k::ADC_RATE: *v = adc_rate; return true;
-    case k::MIN_SETPOINT_DKPA: *v = min_setpoint_dkpa; return true;
-    case k::WATCHDOG_MS: *v = watchdog_ms; return true;
-    case k::AUTOSTART: *v = autostart; return true;
-    case k::PWM_PIN: *v = pwm_pin; return true;
-    case k::PWM_SCALE_MILLI: *v = pwm_scale_milli; return true;
-    case k::PWM_OFFSET: *v = pwm_offset; return true;
-    case k::LINE_MODE: *v = line_mode; return true;
-    case k::SCHEDULE_ENABLE: *v = schedule_enable; return true;
-    default: return false;
+    case k::SAMPLE_RATE_HZ:
+      *v = sample_rate_hz;
+      return true;
+    case k::CHANNEL_MASK:
+      *v = channel_mask;
+      return true;
+    case k::R0_MODE:
+      *v = r0_mode;
+      return true;
+    case k::R0_CH0_MOHM:
+      *v = r0_mohm[0];
+      return true;
+    case k::R0_CH1_MOHM:
+      *v = r0_mohm[1];
+      return true;
+    case k::R0_CH2_MOHM:
+      *v = r0_mohm[2];
+      return true;
+    case k::ADC_PGA:
+      *v = adc_pga;
+      return true;
+    case k::ADC_RATE:
+      *v = adc_rate;
+      return true;
+    case k::MIN_SETPOINT_DKPA:
+      *v = min_setpoint_dkpa;
+      return true;
+    case k::WATCHDOG_MS:
+      *v = watchdog_ms;
+      return true;
+    case k::AUTOSTART:
+      *v = autostart;
+      return true;
+    case k::PWM_PIN:
+      *v = pwm_pin;
+      return true;
+    case k::PWM_SCALE_MILLI:
+      *v = pwm_scale_milli;
+      return true;
+    case k::PWM_OFFSET:
+      *v = pwm_offset;
+      return true;
+    case k::LINE_MODE:
+      *v = line_mode;
+      return true;
+    case k::SCHEDULE_ENABLE:
+      *v = schedule_enable;
+      return true;
+    default:
+      return false;
   }
 }
 
@@ -91,23 +124,56 @@ uint8_t Config::set(uint8_t key, int32_t v) {
   if (!k::key_info(key, &info)) return proto::result::BAD_KEY;
   if (v < info.min || v > info.max) return proto::result::OUT_OF_RANGE;
   switch (key) {
-    case k::SAMPLE_RATE_HZ: sample_rate_hz = (uint8_t)v; break;
-    case k::CHANNEL_MASK: channel_mask = (uint8_t)v; break;
-    case k::R0_MODE: r0_mode = (uint8_t)v; break;
-    case k::R0_CH0_MOHM: r0_mohm[0] = v; break;
-    case k::R0_CH1_MOHM: r0_mohm[1] = v; break;
-    case k::R0_CH2_MOHM: r0_mohm[2] = v; break;
-    case k::ADC_PGA: adc_pga = (uint8_t)v; break;
-    case k::ADC_RATE: adc_rate = (uint8_t)v; break;
-    case k::MIN_SETPOINT_DKPA: min_setpoint_dkpa = (int16_t)v; break;
-    case k::WATCHDOG_MS: watchdog_ms = (uint16_t)v; break;
-    case k::AUTOSTART: autostart = (uint8_t)v; break;
-    case k::PWM_PIN: pwm_pin = (uint8_t)v; break;
-    case k::PWM_SCALE_MILLI: pwm_scale_milli = v; break;
-    case k::PWM_OFFSET: pwm_offset = (int16_t)v; break;
-    case k::LINE_MODE: line_mode = (uint8_t)v; break;
-    case k::SCHEDULE_ENABLE: schedule_enable = (uint8_t)v; break;
-    default: return proto::result::BAD_KEY;
+    case k::SAMPLE_RATE_HZ:
+      sample_rate_hz = (uint8_t)v;
+      break;
+    case k::CHANNEL_MASK:
+      channel_mask = (uint8_t)v;
+      break;
+    case k::R0_MODE:
+      r0_mode = (uint8_t)v;
+      break;
+    case k::R0_CH0_MOHM:
+      r0_mohm[0] = v;
+      break;
+    case k::R0_CH1_MOHM:
+      r0_mohm[1] = v;
+      break;
+    case k::R0_CH2_MOHM:
+      r0_mohm[2] = v;
+      break;
+    case k::ADC_PGA:
+      adc_pga = (uint8_t)v;
+      break;
+    case k::ADC_RATE:
+      adc_rate = (uint8_t)v;
+      break;
+    case k::MIN_SETPOINT_DKPA:
+      min_setpoint_dkpa = (int16_t)v;
+      break;
+    case k::WATCHDOG_MS:
+      watchdog_ms = (uint16_t)v;
+      break;
+    case k::AUTOSTART:
+      autostart = (uint8_t)v;
+      break;
+    case k::PWM_PIN:
+      pwm_pin = (uint8_t)v;
+      break;
+    case k::PWM_SCALE_MILLI:
+      pwm_scale_milli = v;
+      break;
+    case k::PWM_OFFSET:
+      pwm_offset = (int16_t)v;
+      break;
+    case k::LINE_MODE:
+      line_mode = (uint8_t)v;
+      break;
+    case k::SCHEDULE_ENABLE:
+      schedule_enable = (uint8_t)v;
+      break;
+    default:
+      return proto::result::BAD_KEY;
   }
   return proto::result::OK;
 }

@@ -12,8 +12,16 @@ using blob::kStateMin;
 
 // Little-endian fields of the blob (memcpy on little-endian targets: no shift loops on the AVR).
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
-ALWAYS_INLINE int16_t le16(const uint8_t* p) { int16_t v; memcpy(&v, p, 2); return v; }
-ALWAYS_INLINE int32_t le32(const uint8_t* p) { int32_t v; memcpy(&v, p, 4); return v; }
+ALWAYS_INLINE int16_t le16(const uint8_t* p) {
+  int16_t v;
+  memcpy(&v, p, 2);
+  return v;
+}
+ALWAYS_INLINE int32_t le32(const uint8_t* p) {
+  int32_t v;
+  memcpy(&v, p, 4);
+  return v;
+}
 #else
 ALWAYS_INLINE int16_t le16(const uint8_t* p) { return int16_t(uint16_t(p[0]) | uint16_t(p[1]) << 8); }
 ALWAYS_INLINE int32_t le32(const uint8_t* p) {
@@ -49,31 +57,56 @@ ALWAYS_INLINE int16_t q13_portable(int32_t y) { return int16_t(y >> 13); }
 // Shared (not inlined): one copy of the shift code for the tables and the output stage; byte
 // moves for 16 and 8, then at most 7 single-bit steps.
 __attribute__((noinline)) int32_t asr(int32_t v, uint8_t s) {
-  asm("sbrs %[s], 4"          "\n\t"
-      "rjmp 1f"               "\n\t"
-      "movw %A[v], %C[v]"     "\n\t"
-      "clr %C[v]"             "\n\t"
-      "sbrc %B[v], 7"         "\n\t"
-      "com %C[v]"             "\n\t"
-      "mov %D[v], %C[v]"      "\n"
-      "1:"                    "\n\t"
-      "sbrs %[s], 3"          "\n\t"
-      "rjmp 2f"               "\n\t"
-      "mov %A[v], %B[v]"      "\n\t"
-      "mov %B[v], %C[v]"      "\n\t"
-      "mov %C[v], %D[v]"      "\n\t"
-      "lsl %D[v]"             "\n\t"
-      "sbc %D[v], %D[v]"      "\n"
-      "2:"                    "\n\t"
-      "andi %[s], 7"          "\n\t"
-      "breq 4f"               "\n"
-      "3:"                    "\n\t"
-      "asr %D[v]"             "\n\t"
-      "ror %C[v]"             "\n\t"
-      "ror %B[v]"             "\n\t"
-      "ror %A[v]"             "\n\t"
-      "dec %[s]"              "\n\t"
-      "brne 3b"               "\n"
+  asm("sbrs %[s], 4"
+      "\n\t"
+      "rjmp 1f"
+      "\n\t"
+      "movw %A[v], %C[v]"
+      "\n\t"
+      "clr %C[v]"
+      "\n\t"
+      "sbrc %B[v], 7"
+      "\n\t"
+      "com %C[v]"
+      "\n\t"
+      "mov %D[v], %C[v]"
+      "\n"
+      "1:"
+      "\n\t"
+      "sbrs %[s], 3"
+      "\n\t"
+      "rjmp 2f"
+      "\n\t"
+      "mov %A[v], %B[v]"
+      "\n\t"
+      "mov %B[v], %C[v]"
+      "\n\t"
+      "mov %C[v], %D[v]"
+      "\n\t"
+      "lsl %D[v]"
+      "\n\t"
+      "sbc %D[v], %D[v]"
+      "\n"
+      "2:"
+      "\n\t"
+      "andi %[s], 7"
+      "\n\t"
+      "breq 4f"
+      "\n"
+      "3:"
+      "\n\t"
+      "asr %D[v]"
+      "\n\t"
+      "ror %C[v]"
+      "\n\t"
+      "ror %B[v]"
+      "\n\t"
+      "ror %A[v]"
+      "\n\t"
+      "dec %[s]"
+      "\n\t"
+      "brne 3b"
+      "\n"
       "4:"
       : [v] "+r"(v), [s] "+d"(s));
   return v;
@@ -83,20 +116,34 @@ __attribute__((noinline)) int32_t asr(int32_t v, uint8_t s) {
 ALWAYS_INLINE int32_t mul_su(int16_t s, uint16_t d) {
   int32_t r;
   uint8_t z;
-  asm("clr %[z]"              "\n\t"
-      "mulsu %B[s], %B[d]"    "\n\t"
-      "movw %C[r], r0"        "\n\t"
-      "mul %A[s], %A[d]"      "\n\t"
-      "movw %A[r], r0"        "\n\t"
-      "mulsu %B[s], %A[d]"    "\n\t"
-      "sbc %D[r], %[z]"       "\n\t"
-      "add %B[r], r0"         "\n\t"
-      "adc %C[r], r1"         "\n\t"
-      "adc %D[r], %[z]"       "\n\t"
-      "mul %B[d], %A[s]"      "\n\t"
-      "add %B[r], r0"         "\n\t"
-      "adc %C[r], r1"         "\n\t"
-      "adc %D[r], %[z]"       "\n\t"
+  asm("clr %[z]"
+      "\n\t"
+      "mulsu %B[s], %B[d]"
+      "\n\t"
+      "movw %C[r], r0"
+      "\n\t"
+      "mul %A[s], %A[d]"
+      "\n\t"
+      "movw %A[r], r0"
+      "\n\t"
+      "mulsu %B[s], %A[d]"
+      "\n\t"
+      "sbc %D[r], %[z]"
+      "\n\t"
+      "add %B[r], r0"
+      "\n\t"
+      "adc %C[r], r1"
+      "\n\t"
+      "adc %D[r], %[z]"
+      "\n\t"
+      "mul %B[d], %A[s]"
+      "\n\t"
+      "add %B[r], r0"
+      "\n\t"
+      "adc %C[r], r1"
+      "\n\t"
+      "adc %D[r], %[z]"
+      "\n\t"
       "clr __zero_reg__"
       : [r] "=&r"(r), [z] "=&r"(z)
       : [s] "a"(s), [d] "a"(d));
@@ -107,17 +154,28 @@ ALWAYS_INLINE int32_t mul_su(int16_t s, uint16_t d) {
 ALWAYS_INLINE int16_t q13(int32_t y) {
   int16_t r;
   uint8_t t;
-  asm("mov %[t], %B[y]"       "\n\t"
-      "mov %A[r], %C[y]"      "\n\t"
-      "mov %B[r], %D[y]"      "\n\t"
-      "lsl %[t]"              "\n\t"
-      "rol %A[r]"             "\n\t"
-      "rol %B[r]"             "\n\t"
-      "lsl %[t]"              "\n\t"
-      "rol %A[r]"             "\n\t"
-      "rol %B[r]"             "\n\t"
-      "lsl %[t]"              "\n\t"
-      "rol %A[r]"             "\n\t"
+  asm("mov %[t], %B[y]"
+      "\n\t"
+      "mov %A[r], %C[y]"
+      "\n\t"
+      "mov %B[r], %D[y]"
+      "\n\t"
+      "lsl %[t]"
+      "\n\t"
+      "rol %A[r]"
+      "\n\t"
+      "rol %B[r]"
+      "\n\t"
+      "lsl %[t]"
+      "\n\t"
+      "rol %A[r]"
+      "\n\t"
+      "rol %B[r]"
+      "\n\t"
+      "lsl %[t]"
+      "\n\t"
+      "rol %A[r]"
+      "\n\t"
       "rol %B[r]"
       : [r] "=&r"(r), [t] "=&r"(t)
       : [y] "r"(y));
@@ -139,8 +197,14 @@ ALWAYS_INLINE int32_t round_shift(int32_t v, uint8_t s) {
 }
 
 ALWAYS_INLINE int16_t sat16(int32_t v, uint8_t* flags) {
-  if (v > 32767) { *flags |= Estimator::kSaturated; return 32767; }
-  if (v < -32768) { *flags |= Estimator::kSaturated; return -32768; }
+  if (v > 32767) {
+    *flags |= Estimator::kSaturated;
+    return 32767;
+  }
+  if (v < -32768) {
+    *flags |= Estimator::kSaturated;
+    return -32768;
+  }
   return int16_t(v);
 }
 
@@ -183,16 +247,30 @@ ALWAYS_INLINE int32_t run_section(const uint8_t* rec, int16_t x[3], int32_t ys[2
   } else {
     // Direct form with integer base weights m1, m2 and residues |k| <= 1/2.
     switch ((fl >> 2) & 7) {
-      case 0: acc -= 2 * y1; break;
-      case 1: acc -= y1; break;
-      case 3: acc += y1; break;
-      case 4: acc += 2 * y1; break;
-      default: break;
+      case 0:
+        acc -= 2 * y1;
+        break;
+      case 1:
+        acc -= y1;
+        break;
+      case 3:
+        acc += y1;
+        break;
+      case 4:
+        acc += 2 * y1;
+        break;
+      default:
+        break;
     }
     switch ((fl >> 5) & 3) {
-      case 0: acc -= y2; break;
-      case 2: acc += y2; break;
-      default: break;
+      case 0:
+        acc -= y2;
+        break;
+      case 2:
+        acc += y2;
+        break;
+      default:
+        break;
     }
   }
   acc += mul_round_portable(p1, le16(c), rec[2]);
@@ -217,8 +295,7 @@ ALWAYS_INLINE int32_t run_section(const uint8_t* rec, int16_t x[3], int32_t ys[2
 //   r6-r9 accumulator, r10-r15 section inputs x0 x1 x2 (then y1 in r10-r13, n1 n2 in r14 r15),
 //   r16-r19 product operand p (32 bit), r20-r21 operand k (16 bit) / shift count,
 //   r22-r25 product >> 16 / rounding shift, X the flags pointer, Y states, Z records.
-extern "C" int32_t est_avr_cascade(const uint8_t* recs, uint8_t n, int16_t* xh, int32_t* ys,
-                                   int16_t x, uint8_t* flags);
+extern "C" int32_t est_avr_cascade(const uint8_t* recs, uint8_t n, int16_t* xh, int32_t* ys, int16_t x, uint8_t* flags);
 asm(R"AVR(
   ; r22-r25 = round(v / 2^s), ties up, for 1 <= s (r20) <= 31: u = floor(v / 2^(s-1)) by byte
   ; moves and 4-2-1 bit steps, then (u + 1) / 2 = (u >> 1) + the bit shifted out
@@ -751,9 +828,15 @@ int16_t Estimator::pwl(uint8_t count, int16_t x) {
     if (t > last) continue;
     blob_->read(uint16_t(xs + 2 * t), b, 2);
     const int16_t xt = le16(b);
-    if (xt <= x) { k = t; xk = xt; }
+    if (xt <= x) {
+      k = t;
+      xk = xt;
+    }
   }
-  if (k == 0) { blob_->read(xs, b, 2); xk = le16(b); }
+  if (k == 0) {
+    blob_->read(xs, b, 2);
+    xk = le16(b);
+  }
   if (count & layout::kTableCompact) {
     uint8_t c[6];
     blob_->read(uint16_t(xs + 2 * k + 2), c, 2);          // x[k+1]

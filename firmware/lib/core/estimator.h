@@ -27,7 +27,7 @@ struct EstimatorState {
   int16_t* xh_;
   int32_t* ys_;
   int16_t delay_[blob::kMaxInputs][kDelayLen];
-  int16_t xhist_[blob::kMaxCascades][2];       // inputs k-1, k-2 of each cascade
+  int16_t xhist_[blob::kMaxCascades][2];        // inputs k-1, k-2 of each cascade
   int32_t ystate_[blob::kMaxTotalSections][2];  // outputs k-1, k-2 of each section (Q13)
 };
 

@@ -7,7 +7,7 @@ namespace dev {
 // Out of line: one copy serves every caller.
 __attribute__((noinline)) uint32_t muldiv(uint32_t x, uint32_t m, uint32_t d, uint32_t* rem) {
   const uint64_t p = (uint64_t)x * m;  // one widening multiply
-  uint32_t lo, hi;  // halves by copy, not by a 64-bit shift (a library call on the AVR)
+  uint32_t lo, hi;                     // halves by copy, not by a 64-bit shift (a library call on the AVR)
   memcpy(&lo, &p, 4);
   memcpy(&hi, reinterpret_cast<const uint8_t*>(&p) + 4, 4);
   *rem = 0;
@@ -42,7 +42,7 @@ bool f32_scaled(uint32_t bits, int32_t factor, int32_t limit, int32_t* out) {
   bool ok = !(e == 0xFF && (bits & 0x7FFFFFUL));  // NaN: 0
   if (ok) {
     if (k >= 56) m = 0;  // m |factor| < 2^55: below half a unit
-    if (k <= 0) {  // whole: m |factor| 2^-k, doubled until past the limit
+    if (k <= 0) {        // whole: m |factor| 2^-k, doubled until past the limit
       mag = muldiv(m, f, 1, &rem);
       for (; k < 0 && mag <= (uint32_t)limit; ++k) mag <<= 1;
     } else {

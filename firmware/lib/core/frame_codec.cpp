@@ -63,8 +63,7 @@ uint16_t crc16_update(uint16_t crc, uint8_t byte) {
   // Byte-wise form of the reflected CCITT polynomial (x^16 + x^12 + x^5 + 1).
   byte ^= (uint8_t)crc;
   byte ^= (uint8_t)(byte << 4);
-  return (uint16_t)((((uint16_t)byte << 8) | (crc >> 8)) ^ (uint8_t)(byte >> 4) ^
-                    ((uint16_t)byte << 3));
+  return (uint16_t)((((uint16_t)byte << 8) | (crc >> 8)) ^ (uint8_t)(byte >> 4) ^ ((uint16_t)byte << 3));
 #endif
 }
 
@@ -74,8 +73,7 @@ uint16_t crc16(const uint8_t* data, uint16_t len) {
   return crc;
 }
 
-uint8_t encode_frame(uint8_t type, uint8_t seq, const uint8_t* payload, uint8_t len,
-                     uint8_t* out, uint8_t version) {
+uint8_t encode_frame(uint8_t type, uint8_t seq, const uint8_t* payload, uint8_t len, uint8_t* out, uint8_t version) {
   if (len > kMaxPayload || (len > 0 && payload == nullptr) || out == nullptr) return 0;
   const uint8_t header[kHeaderLen] = {version, type, seq, len};
   CobsWriter w = {out, 0, 1};
@@ -251,12 +249,23 @@ void FrameDecoder::accept(uint8_t start) {
 
 void FrameDecoder::count(Check reason) {
   switch (reason) {
-    case kBadCobs: bump(&counters_.bad_cobs); break;
-    case kBadCrc: bump(&counters_.bad_crc); break;
-    case kBadLength: bump(&counters_.bad_length); break;
-    case kBadVersion: bump(&counters_.bad_version); break;
-    case kUnknownType: bump(&counters_.unknown_type); break;
-    case kOk: break;
+    case kBadCobs:
+      bump(&counters_.bad_cobs);
+      break;
+    case kBadCrc:
+      bump(&counters_.bad_crc);
+      break;
+    case kBadLength:
+      bump(&counters_.bad_length);
+      break;
+    case kBadVersion:
+      bump(&counters_.bad_version);
+      break;
+    case kUnknownType:
+      bump(&counters_.unknown_type);
+      break;
+    case kOk:
+      break;
   }
 }
 

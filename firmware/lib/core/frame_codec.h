@@ -24,8 +24,8 @@ uint16_t crc16(const uint8_t* data, uint16_t len);
 // Writes COBS(header|payload|crc) + 0x00 into out (at least kMaxFrameLen bytes; must not
 // overlap payload). Returns the frame length including the delimiter, 0 when len exceeds
 // kMaxPayload or payload is null with len > 0.
-uint8_t encode_frame(uint8_t type, uint8_t seq, const uint8_t* payload, uint8_t len,
-                     uint8_t* out, uint8_t version = kVersionByte);
+uint8_t encode_frame(uint8_t type, uint8_t seq, const uint8_t* payload, uint8_t len, uint8_t* out,
+                     uint8_t version = kVersionByte);
 
 // Why frames were dropped. Every counter saturates at 0xFFFF.
 struct DecoderCounters {
@@ -73,8 +73,8 @@ class FrameDecoder {
   void unwrap();  // rotate the ring so its oldest byte is at buf_[0]
 
   uint8_t buf_[kMaxFrameLen];
-  uint8_t fill_;      // bytes of the current chunk held in buf_
-  uint8_t head_;      // oldest byte once the chunk has wrapped (overlong)
+  uint8_t fill_;  // bytes of the current chunk held in buf_
+  uint8_t head_;  // oldest byte once the chunk has wrapped (overlong)
   bool overlong_;
   DecoderCounters counters_;
 };

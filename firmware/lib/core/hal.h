@@ -38,9 +38,9 @@ class Hal {
   virtual uint8_t serial_tx_free() = 0;
   virtual uint8_t eeprom_read(uint16_t addr) = 0;
   virtual void eeprom_write(uint16_t addr, uint8_t value) = 0;  // skips unchanged bytes
-  virtual void request_reset() = 0;      // after the reply has been sent
-  virtual uint16_t free_stack() = 0;     // never-touched stack bytes
-  virtual uint8_t reset_cause() = 0;     // MCUSR at boot
+  virtual void request_reset() = 0;                             // after the reply has been sent
+  virtual uint16_t free_stack() = 0;                            // never-touched stack bytes
+  virtual uint8_t reset_cause() = 0;                            // MCUSR at boot
   // PWM duty 0..255 on an Arduino pin (the analogue estimate output); duty 0 drives it low.
   virtual void analog_out(uint8_t pin, uint8_t duty) {
     (void)pin;

@@ -11,8 +11,7 @@
 #include "model_link.h"
 #include "rate_divider.h"
 
-static_assert(PS_FLASH_STORE_BASE == est::layout::kFlashBase &&
-                  PS_FLASH_STORE_BYTES == host::HostFlash::kBytes,
+static_assert(PS_FLASH_STORE_BASE == est::layout::kFlashBase && PS_FLASH_STORE_BYTES == host::HostFlash::kBytes,
               "host_api.h's flash store constants follow model_layout.h");
 
 namespace host {
@@ -31,10 +30,26 @@ int16_t saturate16(double v) {
 }  // namespace
 
 HostHal::HostHal()
-    : now_us_(0), reset_cause_(PS_RESET_POWER_ON), adc_present_(true), imu_present_(true),
-      pga_(0), rate_(0), pending_ch_(-1), fresh_(0), refresh_(0), refresh_ctx_(0), rx_pos_(0),
-      tx_room_(255), fail_after_(-1), fail_from_(0), power_lost_(false), reset_requested_(false),
-      outputs_(), analog_pin_(0), analog_duty_(0), eeprom_writes_(0) {
+    : now_us_(0),
+      reset_cause_(PS_RESET_POWER_ON),
+      adc_present_(true),
+      imu_present_(true),
+      pga_(0),
+      rate_(0),
+      pending_ch_(-1),
+      fresh_(0),
+      refresh_(0),
+      refresh_ctx_(0),
+      rx_pos_(0),
+      tx_room_(255),
+      fail_after_(-1),
+      fail_from_(0),
+      power_lost_(false),
+      reset_requested_(false),
+      outputs_(),
+      analog_pin_(0),
+      analog_duty_(0),
+      eeprom_writes_(0) {
   memset(eeprom_, 0xFF, sizeof eeprom_);
   for (int i = 0; i < 3; ++i) volts_[i] = euler_deg_[i] = 0.0;
 }
@@ -56,9 +71,8 @@ void HostHal::power_on(uint8_t reset_cause, uint64_t clock_offset_us) {
 bool HostHal::adc_start(uint8_t ch) {
   pending_ch_ = -1;
   if (!adc_present_ || ch >= 3) return false;
-  if (!(fresh_ & (1u << ch)) && refresh_)
-    refresh_(refresh_ctx_, 1000000u / kDataRateSps[rate_ < 8 ? rate_ : 7]);
-  fresh_ &= (uint8_t)~(1u << ch);
+  if (!(fresh_ & (1u << ch)) && refresh_) refresh_(refresh_ctx_, 1000000u / kDataRateSps[rate_ < 8 ? rate_ : 7]);
+  fresh_ &= (uint8_t) ~(1u << ch);
   pending_ch_ = ch;
   return true;
 }
@@ -238,7 +252,7 @@ uint32_t ps_run_to(ps_core* c, uint64_t t_us) {
   if (b.clock_rate == 0) {
     b.last_ms = now_ms;
   } else {
-    for (; b.last_ms < now_ms; ) {
+    for (; b.last_ms < now_ms;) {
       ++b.last_ms;
       if (b.divider.tick()) {
         ++ticks;
@@ -253,8 +267,8 @@ uint32_t ps_run_to(ps_core* c, uint64_t t_us) {
   return ticks;
 }
 
-uint32_t ps_step(ps_core* c, uint64_t t_us, const double volts[3], const double euler_deg[3],
-                 uint32_t tx_room, uint8_t* dst, uint32_t max, uint32_t* n_sent, ps_state* st) {
+uint32_t ps_step(ps_core* c, uint64_t t_us, const double volts[3], const double euler_deg[3], uint32_t tx_room,
+                 uint8_t* dst, uint32_t max, uint32_t* n_sent, ps_state* st) {
   c->hal.set_inputs(volts, euler_deg);
   c->hal.set_tx_room(tx_room);
   const uint32_t ticks = ps_run_to(c, t_us);

@@ -42,10 +42,10 @@ typedef struct {
   uint8_t analog_pin;       // pin of the latest analog_out(), 0 when never driven
   uint8_t analog_duty;
   uint16_t rate_hz;
-  uint16_t flags;           // Device::flags()
+  uint16_t flags;  // Device::flags()
   uint32_t rx_frames;
   uint32_t tx_frames;
-  uint32_t eeprom_writes;   // bytes written to the EEPROM since power-on (all regions)
+  uint32_t eeprom_writes;  // bytes written to the EEPROM since power-on (all regions)
 } ps_state;
 
 #define PS_EEPROM_BYTES 1024
@@ -94,8 +94,8 @@ PS_API uint32_t ps_run_to(ps_core* c, uint64_t t_us);
 // One pass of the host's sample loop in one call: present the inputs and the transmit room,
 // run the clock to t_us (ps_run_to), run the main loop (ps_poll), then take at most max
 // bytes sent (*n_sent) and the state. Returns the sample ticks taken.
-PS_API uint32_t ps_step(ps_core* c, uint64_t t_us, const double volts[3], const double euler_deg[3],
-                        uint32_t tx_room, uint8_t* dst, uint32_t max, uint32_t* n_sent, ps_state* st);
+PS_API uint32_t ps_step(ps_core* c, uint64_t t_us, const double volts[3], const double euler_deg[3], uint32_t tx_room,
+                        uint8_t* dst, uint32_t max, uint32_t* n_sent, ps_state* st);
 // Bytes the firmware wrote to the UART since the last call (at most max).
 PS_API uint32_t ps_take(ps_core* c, uint8_t* dst, uint32_t max);
 PS_API void ps_state_get(ps_core* c, ps_state* out);

@@ -20,7 +20,9 @@ typedef void (*RefreshFn)(void* ctx, uint32_t conversion_us);
 class HostFlash : public est::FlashRom {
  public:
   static constexpr uint16_t kBytes = est::layout::kFlashSlots * est::layout::kFlashSlotSize;
-  HostFlash() { for (uint16_t i = 0; i < kBytes; ++i) mem[i] = 0xFF; }
+  HostFlash() {
+    for (uint16_t i = 0; i < kBytes; ++i) mem[i] = 0xFF;
+  }
   void read_block(uint16_t addr, uint8_t* dst, uint8_t n) override {
     for (uint8_t i = 0; i < n; ++i) dst[i] = uint16_t(addr + i) < kBytes ? mem[addr + i] : 0xFF;
   }
@@ -63,12 +65,23 @@ class HostHal : public dev::Hal, public est::Eeprom {
   void write(uint16_t addr, uint8_t value) override;
 
   // ---- host side
-  void set_refresh(RefreshFn fn, void* ctx) { refresh_ = fn; refresh_ctx_ = ctx; }
-  void set_present(bool adc, bool imu) { adc_present_ = adc; imu_present_ = imu; }
+  void set_refresh(RefreshFn fn, void* ctx) {
+    refresh_ = fn;
+    refresh_ctx_ = ctx;
+  }
+  void set_present(bool adc, bool imu) {
+    adc_present_ = adc;
+    imu_present_ = imu;
+  }
   void set_inputs(const double volts[3], const double euler_deg[3]);
   void set_tx_room(uint32_t room) { tx_room_ = room; }
-  void fail_after_writes(int32_t n, uint16_t first_addr) { fail_after_ = n; fail_from_ = first_addr; }
-  void set_time(uint64_t t_us) { if (t_us > now_us_) now_us_ = t_us; }
+  void fail_after_writes(int32_t n, uint16_t first_addr) {
+    fail_after_ = n;
+    fail_from_ = first_addr;
+  }
+  void set_time(uint64_t t_us) {
+    if (t_us > now_us_) now_us_ = t_us;
+  }
   uint64_t now_us() const { return now_us_; }
   uint32_t feed(const uint8_t* data, uint32_t n);
   bool rx_pending() const { return rx_pos_ < rx_.size(); }

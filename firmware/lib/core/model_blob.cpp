@@ -110,9 +110,7 @@ uint16_t crc(const BlobReader& r, uint16_t n) {
   return c;
 }
 
-uint16_t stored_crc(const BlobReader& r, uint16_t length) {
-  return uint16_t(rd16(r, uint16_t(length - kCrcLen)));
-}
+uint16_t stored_crc(const BlobReader& r, uint16_t length) { return uint16_t(rd16(r, uint16_t(length - kCrcLen))); }
 
 bool read_header(const BlobReader& r, uint16_t length, Header* out, uint16_t max_length) {
   if (length < kHeaderLen + kCrcLen || length > max_length) return false;
@@ -127,23 +125,22 @@ bool read_header(const BlobReader& r, uint16_t length, Header* out, uint16_t max
   // Sample period and input scaling (compared as bits: no float code on the AVR).
   uint32_t ts = uint32_t(h[kOffTsUs]) | uint32_t(h[kOffTsUs + 1]) << 8 | uint32_t(h[kOffTsUs + 2]) << 16 |
                 uint32_t(h[kOffTsUs + 3]) << 24;
-  uint32_t lsb = uint32_t(h[kOffInputLsb]) | uint32_t(h[kOffInputLsb + 1]) << 8 |
-                 uint32_t(h[kOffInputLsb + 2]) << 16 | uint32_t(h[kOffInputLsb + 3]) << 24;
+  uint32_t lsb = uint32_t(h[kOffInputLsb]) | uint32_t(h[kOffInputLsb + 1]) << 8 | uint32_t(h[kOffInputLsb + 2]) << 16 |
+                 uint32_t(h[kOffInputLsb + 3]) << 24;
   if (ts == 0 || ts > layout::kMaxTsUs || lsb != layout::kInputLsbBits) return false;
   if (out) {
     out->format_version = h[kOffVersion];
     out->n_inputs = ni;
     out->n_outputs = no;
     out->length = len;
-    out->model_id = uint32_t(h[kOffModelId]) | uint32_t(h[kOffModelId + 1]) << 8 |
-                    uint32_t(h[kOffModelId + 2]) << 16 | uint32_t(h[kOffModelId + 3]) << 24;
+    out->model_id = uint32_t(h[kOffModelId]) | uint32_t(h[kOffModelId + 1]) << 8 | uint32_t(h[kOffModelId + 2]) << 16 |
+                    uint32_t(h[kOffModelId + 3]) << 24;
     memcpy(out->out_scale, h + kOffOutScale, sizeof(out->out_scale));  // little-endian float32
   }
   return true;
 }
 
-bool validate(const BlobReader& r, uint16_t length, uint16_t max_length, uint8_t* n_cascades,
-              uint8_t* n_sections) {
+bool validate(const BlobReader& r, uint16_t length, uint16_t max_length, uint8_t* n_cascades, uint8_t* n_sections) {
   Header h;
   if (!read_header(r, length, &h, max_length)) return false;
   uint16_t end = uint16_t(length - kCrcLen);

@@ -40,16 +40,16 @@ constexpr uint16_t kMaxLength = layout::kMaxBlobLength;  // one model in an empt
 constexpr uint8_t kOffMagic = layout::kOffMagic, kOffVersion = layout::kOffFormatVersion,
                   kOffInputs = layout::kOffNInputs, kOffOutputs = layout::kOffNOutputs,
                   kOffReserved = layout::kOffReserved, kOffLength = layout::kOffLength,
-                  kOffModelId = layout::kOffModelId, kOffOutScale = layout::kOffOutScale,
-                  kOffTsUs = layout::kOffTsUs, kOffInputLsb = layout::kOffInputLsb;
+                  kOffModelId = layout::kOffModelId, kOffOutScale = layout::kOffOutScale, kOffTsUs = layout::kOffTsUs,
+                  kOffInputLsb = layout::kOffInputLsb;
 
 // Limits of the structure (docs/design.md): 3 inputs, 3 outputs, 16 breakpoints, 5 sections
 // (10 poles) per linear block, delays of at most 15 samples.
 constexpr uint8_t kMaxInputs = layout::kMaxInputs, kMaxOutputs = layout::kMaxOutputs,
                   kMaxBranches = layout::kMaxBranches, kMaxBreakpoints = layout::kMaxBreakpoints,
                   kMaxSections = layout::kMaxSections, kMaxDelay = layout::kMaxDelay;
-constexpr uint8_t kMaxCascades = kMaxOutputs * (kMaxBranches + 1);            // 12
-constexpr uint8_t kMaxTotalSections = kMaxCascades * kMaxSections;            // 60
+constexpr uint8_t kMaxCascades = kMaxOutputs * (kMaxBranches + 1);  // 12
+constexpr uint8_t kMaxTotalSections = kMaxCascades * kMaxSections;  // 60
 
 // Output record flags.
 constexpr uint8_t kOutHasG = layout::kOutHasG, kOutHasH2 = layout::kOutHasH2;
@@ -58,8 +58,8 @@ constexpr uint8_t kBranchHasF = layout::kBranchHasF;
 // Section flags byte: bit0 32-bit numerator, bit1 delta form, bits 2-4 m1 + 2, bits 5-6 m2 + 1.
 constexpr uint8_t kSecWide = layout::kSecWide, kSecDelta = layout::kSecDelta;
 constexpr uint8_t kSecFixedLen = layout::kSecRecLen;  // flags, sb, n1, n2
-constexpr uint8_t kSecLen16 = kSecFixedLen + 6 + 4;  // 14
-constexpr uint8_t kSecLen32 = kSecFixedLen + 12 + 4; // 20
+constexpr uint8_t kSecLen16 = kSecFixedLen + 6 + 4;   // 14
+constexpr uint8_t kSecLen32 = kSecFixedLen + 12 + 4;  // 20
 constexpr uint8_t kOutputRecLen = layout::kOutputRecLen, kBranchRecLen = layout::kBranchRecLen;
 
 // Section states are int32 in Q13 of the section's int16 output and saturate here.
@@ -91,14 +91,13 @@ uint16_t stored_crc(const BlobReader& r, uint16_t length);
 // Parses the header without checking the body; false when magic, version or counts are bad,
 // the length field disagrees with `length`, the sample period is 0 or too long, or the input
 // scaling is not the device's (dR in 0.01 % per LSB).
-bool read_header(const BlobReader& r, uint16_t length, Header* out,
-                 uint16_t max_length = kMaxLength);
+bool read_header(const BlobReader& r, uint16_t length, Header* out, uint16_t max_length = kMaxLength);
 
 // Full check: header, CRC and a walk of every record against the limits and the number
 // formats' bounds (so the step can never overflow). Counts cascades and sections.
 // max_length: the EEPROM limit by default; larger only for blobs held in RAM or flash.
-bool validate(const BlobReader& r, uint16_t length, uint16_t max_length = kMaxLength,
-              uint8_t* n_cascades = 0, uint8_t* n_sections = 0);
+bool validate(const BlobReader& r, uint16_t length, uint16_t max_length = kMaxLength, uint8_t* n_cascades = 0,
+              uint8_t* n_sections = 0);
 
 }  // namespace blob
 }  // namespace est

@@ -10,8 +10,10 @@ namespace res = proto::result;
 namespace L = layout;
 
 void ModelStore::Reader::read(uint16_t offset, void* dst, uint8_t n) const {
-  if (flash_) flash_->read_block(uint16_t(base_ + offset), static_cast<uint8_t*>(dst), n);
-  else ee_->read_block(uint16_t(base_ + offset), static_cast<uint8_t*>(dst), n);
+  if (flash_)
+    flash_->read_block(uint16_t(base_ + offset), static_cast<uint8_t*>(dst), n);
+  else
+    ee_->read_block(uint16_t(base_ + offset), static_cast<uint8_t*>(dst), n);
 }
 
 ModelStore::ModelStore(Eeprom& ee, Estimator& estimator, FlashRom* flash)
@@ -26,8 +28,10 @@ uint16_t ModelStore::read16(uint16_t addr) {
 }
 
 void ModelStore::read_header(uint8_t slot, uint8_t* b) {
-  if (slot < kFlashSlot0) ee_.read_block(header_addr(slot), b, L::kSlotHeaderLen);
-  else flash_->read_block(uint16_t(flash_addr(slot) + L::kFlashBlobMax), b, L::kSlotHeaderLen);
+  if (slot < kFlashSlot0)
+    ee_.read_block(header_addr(slot), b, L::kSlotHeaderLen);
+  else
+    flash_->read_block(uint16_t(flash_addr(slot) + L::kFlashBlobMax), b, L::kSlotHeaderLen);
 }
 
 bool ModelStore::read_slot(uint8_t slot, SlotHeader* h) {

@@ -47,10 +47,10 @@ class FlashRom {
 // ModelStore's plain state, value-initialised as one block (one clearing loop in flash).
 struct ModelStoreState {
   uint8_t run_;
-  uint8_t status_, active_, seq_;   // seq_: of the running model
+  uint8_t status_, active_, seq_;  // seq_: of the running model
   bool writing_;
-  uint16_t length_, crc_;           // of the running model
-  uint8_t target_;                  // slot of the write in progress
+  uint16_t length_, crc_;  // of the running model
+  uint8_t target_;         // slot of the write in progress
   uint16_t expect_len_, expect_crc_, next_offset_;
 };
 
@@ -84,9 +84,7 @@ class ModelStore : private ModelStoreState {
   bool writing() const { return writing_; }
   // Bytes a new blob may have in the EEPROM beside the running model (all of it when the
   // running model is in flash).
-  uint16_t room() const {
-    return status_ == kValid && active_ < kFlashSlot0 ? uint16_t(kAreaLen - length_) : kAreaLen;
-  }
+  uint16_t room() const { return status_ == kValid && active_ < kFlashSlot0 ? uint16_t(kAreaLen - length_) : kAreaLen; }
   const BlobReader& reader() const { return readers_[run_]; }
 
  private:

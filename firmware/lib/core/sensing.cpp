@@ -37,7 +37,7 @@ int16_t counts_to_dr_centi(int16_t counts, uint8_t pga_code, int32_t r0_mohm) {
   const bool up = r >= r0_mohm;
   const uint32_t q = muldiv_round((uint32_t)(up ? r - r0_mohm : r0_mohm - r), 10000UL, (uint32_t)r0_mohm);
   if (up) return q > 32767 ? 32767 : (int16_t)q;
-  return (int16_t)-(int32_t)q;
+  return (int16_t) - (int32_t)q;
 }
 
 int32_t counts_to_mohm(int32_t sum, uint8_t n, uint8_t pga_code) {

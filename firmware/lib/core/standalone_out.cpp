@@ -28,8 +28,7 @@ uint8_t format_fixed(char* out, int32_t v, uint8_t decimals) {
 namespace {
 // Four characters packed in a word: a constant in the code, not a string in RAM.
 constexpr uint32_t chars4(char a, char b, char c, char d) {
-  return (uint32_t)(uint8_t)a | (uint32_t)(uint8_t)b << 8 | (uint32_t)(uint8_t)c << 16 |
-         (uint32_t)(uint8_t)d << 24;
+  return (uint32_t)(uint8_t)a | (uint32_t)(uint8_t)b << 8 | (uint32_t)(uint8_t)c << 16 | (uint32_t)(uint8_t)d << 24;
 }
 // Appends the characters of w up to its first zero byte.
 uint8_t put_chars(char* out, uint32_t w) {
@@ -53,8 +52,8 @@ uint8_t format_header(char* out, uint8_t dr_mask, uint8_t n_est) {
   return (uint8_t)(n + put_chars(out + n, chars4('\r', '\n', 0, 0)));
 }
 
-uint8_t format_line(char* out, uint32_t t_ms, uint8_t dr_mask, const int16_t dr_centi[3],
-                    uint8_t n_est, const int32_t est_milli[3]) {
+uint8_t format_line(char* out, uint32_t t_ms, uint8_t dr_mask, const int16_t dr_centi[3], uint8_t n_est,
+                    const int32_t est_milli[3]) {
   uint8_t n = 0;
   n = format_magnitude(out, t_ms, false, 0);
   for (uint8_t ch = 0; ch < 3; ++ch) {

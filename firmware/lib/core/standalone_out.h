@@ -39,7 +39,7 @@ uint8_t format_header(char* out, uint8_t dr_mask, uint8_t n_est);
 constexpr uint8_t kLineMax = 10 + 3 * 8 + 3 * 13 + 2;
 // Free bytes of the Uno's empty serial transmit buffer (64-byte ring, one slot unused).
 constexpr uint8_t kTxBufferFree = 63;
-uint8_t format_line(char* out, uint32_t t_ms, uint8_t dr_mask, const int16_t dr_centi[3],
-                    uint8_t n_est, const int32_t est_milli[3]);
+uint8_t format_line(char* out, uint32_t t_ms, uint8_t dr_mask, const int16_t dr_centi[3], uint8_t n_est,
+                    const int32_t est_milli[3]);
 
 }  // namespace dev

@@ -14,8 +14,12 @@ from __future__ import annotations
 import statistics
 import time
 
-SIZES = {"small": {"samples": 4000, "pings": 200, "sim_s": 2.0}, "full": {"samples": 40000, "pings": 2000, "sim_s": 10.0}}
 from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
+
+SIZES = {
+    "small": {"samples": 4000, "pings": 200, "sim_s": 2.0},
+    "full": {"samples": 40000, "pings": 2000, "sim_s": 10.0},
+}
 
 RATE_HZ = CONFIG_SPECS[ConfigKey.SAMPLE_RATE_HZ].max  # the highest rate the firmware accepts
 
@@ -25,7 +29,7 @@ def _stream(dev, n: int, rate_hz: int) -> dict:
     lost0 = dev.stats.samples_lost
     t0 = time.perf_counter()
     first = last = None
-    for i, s in enumerate(dev.samples(n)):
+    for _i, s in enumerate(dev.samples(n)):
         if first is None:
             first = s.t_us
         last = s.t_us
@@ -66,7 +70,7 @@ def board_cpu_figures(size: str) -> dict:
     for _ in range(3):
         board = BoardCore(make_plant("contractor", seed=0), send=lambda data, t_us=None: None)
         msgs = [m.ModelBegin(length=len(blob), crc=int.from_bytes(blob[-2:], "little"), format_version=blob[2])]
-        msgs += [m.ModelChunk(offset=o, data=blob[o:o + 100]) for o in range(0, len(blob), 100)]
+        msgs += [m.ModelChunk(offset=o, data=blob[o : o + 100]) for o in range(0, len(blob), 100)]
         msgs += [m.ModelCommit(), m.StartStream(rate_hz=RATE_HZ, channel_mask=0x1F)]
         for seq, msg in enumerate(msgs):
             board.receive(encode_message(msg, seq + 1))
@@ -87,8 +91,12 @@ def _one_output_blob() -> bytes:
 
     f = PiecewiseLinear(np.array([-1.0, -0.5, 0.0, 0.5]), np.array([-0.8, -0.45, 0.0, 0.4]))
     g = PiecewiseLinear(np.array([-2.0, -0.5, 0.0, 1.0]), np.array([40.0, 12.0, 0.0, -5.0]))
-    chain = OutputChain(name="strain_0", g=g, h2=SOSCascade(signal.zpk2sos([], [0.7, 0.2], 0.24)),
-                        branches=(Branch(input=0, f=f, h1=SOSCascade(signal.zpk2sos([-0.5], [0.9, 0.5], 0.05))),))
+    chain = OutputChain(
+        name="strain_0",
+        g=g,
+        h2=SOSCascade(signal.zpk2sos([], [0.7, 0.2], 0.24)),
+        branches=(Branch(input=0, f=f, h1=SOSCascade(signal.zpk2sos([-0.5], [0.9, 0.5], 0.05))),),
+    )
     structure = EstimatorStructure(inputs=("dR_0",), outputs=(chain,), ts=1.0 / RATE_HZ, input_units=("dR/100",))
     return quantize(structure, input_range=(-1.0, 0.5)).blob.to_bytes()
 

@@ -146,12 +146,16 @@ def run(size: str, seed: int = BENCH_SEED, kinds=KINDS) -> dict:
         "seconds_per_trial": round((time.perf_counter() - t0) / max(len(results), 1), 2),
     }
     out["summary"] = (
-        [f"{c:<21} top-1 {100 * top1[c]:5.1f} %  mean gain {gains[c]:+6.2f} fit points (simulation, vs nominal + G0)"
-         for c in causes]
-        + [f"all causes: top-1 {100 * overall:.1f} % of {len(hits)} trials",
-           f"clean data: top is not none in {100 * false_alarm:.1f} % of {len(clean_runs)} trials "
-           + ", ".join(f"{k} {100 * v:.0f} %" for k, v in out["false_alarm_by_kind"].items()),
-           f"seeds {out['seeds']}; {out['seconds_per_trial']} s per trial"]
+        [
+            f"{c:<21} top-1 {100 * top1[c]:5.1f} %  mean gain {gains[c]:+6.2f} fit points (simulation, vs nominal + G0)"
+            for c in causes
+        ]
+        + [
+            f"all causes: top-1 {100 * overall:.1f} % of {len(hits)} trials",
+            f"clean data: top is not none in {100 * false_alarm:.1f} % of {len(clean_runs)} trials "
+            + ", ".join(f"{k} {100 * v:.0f} %" for k, v in out["false_alarm_by_kind"].items()),
+            f"seeds {out['seeds']}; {out['seconds_per_trial']} s per trial",
+        ]
         + [f"miss: {m}" for m in misses]
     )
     return out

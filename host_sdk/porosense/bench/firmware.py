@@ -30,14 +30,14 @@ FIRMWARE_DIR = _TREE / "firmware" if _TREE else None  # None: installed, nothing
 ELF = elf_path()
 
 
-FLASH_BUDGET = 30208             # bytes: below the flash model store (30,208..32,255)
-RAM_BUDGET = 1440                 # bytes, .data + .bss (firmware/Makefile: measured stack margin)
-RAM_TOTAL = 2048                  # ATmega328P SRAM
-CYCLE_BUDGET = 48_000             # estimator step, cycles at 16 MHz
+FLASH_BUDGET = 30208  # bytes: below the flash model store (30,208..32,255)
+RAM_BUDGET = 1440  # bytes, .data + .bss (firmware/Makefile: measured stack margin)
+RAM_TOTAL = 2048  # ATmega328P SRAM
+CYCLE_BUDGET = 48_000  # estimator step, cycles at 16 MHz
 OVERRUN_RATE_HZ = 100
-ESTIMATOR_OFF = 1 << 3            # status flag: no model loaded
+ESTIMATOR_OFF = 1 << 3  # status flag: no model loaded
 MODEL_REGION_BYTES = MAX_BLOB_LEN  # the EEPROM model area (one model alone)
-FLASH_SLOT_BYTES = 1016           # blob bytes of one flash store slot (layout.FLASH_BLOB_MAX)
+FLASH_SLOT_BYTES = 1016  # blob bytes of one flash store slot (layout.FLASH_BLOB_MAX)
 # Candidates for the heaviest model a flash slot holds, most expensive first (3 x 3 WH; poles in
 # H1, poles in H2, breakpoints); measured from flash (porosense.quant.avr_cycles, seed 1) when
 # the slots held 1,144 B: 10/10/3 (compact tables, 60 sections) 56,392 cycles, 10/8/4 55,207,
@@ -75,8 +75,10 @@ class SizeReport:
         return d
 
     def __str__(self) -> str:
-        return (f"flash {self.flash} B (<= {FLASH_BUDGET}), static RAM {self.static_ram} B "
-                f"(<= {RAM_BUDGET}), {self.stack_room} B left for the stack")
+        return (
+            f"flash {self.flash} B (<= {FLASH_BUDGET}), static RAM {self.static_ram} B "
+            f"(<= {RAM_BUDGET}), {self.stack_room} B left for the stack"
+        )
 
 
 def toolchain_missing() -> str | None:
@@ -105,15 +107,15 @@ def build(quiet: bool = True) -> subprocess.CompletedProcess:
 
 def measure_size(elf: Path = ELF) -> SizeReport:
     """Parse ``avr-size -A`` of the ELF into a SizeReport (bytes)."""
-    out = subprocess.run(["avr-size", "-A", str(elf)], capture_output=True, text=True,
-                         check=True).stdout
+    out = subprocess.run(["avr-size", "-A", str(elf)], capture_output=True, text=True, check=True).stdout
     sizes = {}
     for line in out.splitlines():
         m = re.match(r"^\.(\w+)\s+(\d+)\s+\d+", line.strip())
         if m:
             sizes[m.group(1)] = int(m.group(2))
-    return SizeReport(text=sizes.get("text", 0), data=sizes.get("data", 0),
-                      bss=sizes.get("bss", 0), noinit=sizes.get("noinit", 0))
+    return SizeReport(
+        text=sizes.get("text", 0), data=sizes.get("data", 0), bss=sizes.get("bss", 0), noinit=sizes.get("noinit", 0)
+    )
 
 
 def estimator_cycles() -> dict:
@@ -137,13 +139,22 @@ def estimator_cycles() -> dict:
         fr = avr_cycles.measure(fblob, in_eeprom=False)
     except Exception as exc:  # a toolchain problem is reported, not raised
         return {"status": "pending", "reason": f"{type(exc).__name__}: {exc}"}
-    return {"status": "measured", "model_bytes": len(blob), "cycles": int(r.max_cycles),
-            "flash_model_bytes": len(fblob), "flash_model_cycles": int(fr.max_cycles),
-            "flash_model_mean_cycles": int(fr.mean_cycles), "flash_model_bit_exact": bool(fr.bit_exact),
-            "flash_model_ok": fr.max_cycles <= CYCLE_BUDGET,
-            "mean_cycles": int(r.mean_cycles), "us_at_16mhz": r.max_cycles / 16.0,
-            "worst_case_cycles": int(w.max_cycles), "worst_case_us": w.max_cycles / 16.0,
-            "worst_case_ok": w.max_cycles <= CYCLE_BUDGET, "estimator_ram": int(r.estimator_ram)}
+    return {
+        "status": "measured",
+        "model_bytes": len(blob),
+        "cycles": int(r.max_cycles),
+        "flash_model_bytes": len(fblob),
+        "flash_model_cycles": int(fr.max_cycles),
+        "flash_model_mean_cycles": int(fr.mean_cycles),
+        "flash_model_bit_exact": bool(fr.bit_exact),
+        "flash_model_ok": fr.max_cycles <= CYCLE_BUDGET,
+        "mean_cycles": int(r.mean_cycles),
+        "us_at_16mhz": r.max_cycles / 16.0,
+        "worst_case_cycles": int(w.max_cycles),
+        "worst_case_us": w.max_cycles / 16.0,
+        "worst_case_ok": w.max_cycles <= CYCLE_BUDGET,
+        "estimator_ram": int(r.estimator_ram),
+    }
 
 
 def worst_case_blob():
@@ -154,8 +165,7 @@ def worst_case_blob():
     from porosense.quant.design import design_blob
     from porosense.quant.random_models import random_structure
 
-    s = random_structure(np.random.default_rng(1), 3, 3, h1_poles=10, h2_poles=10, breakpoints=16,
-                         kind="wh")
+    s = random_structure(np.random.default_rng(1), 3, 3, h1_poles=10, h2_poles=10, breakpoints=16, kind="wh")
     blob, _ = design_blob(s, [(-100.0, 100.0)] * 3, 0.01, 1, [])
     return blob
 
@@ -198,8 +208,7 @@ def heavy_model_blob(seed: int = 1) -> bytes:
 
     blob = b""
     for h1, h2, bp in ((4, 4, 6), (4, 2, 6), (2, 2, 6)):
-        s = random_structure(np.random.default_rng(seed), 3, 3, h1_poles=h1, h2_poles=h2,
-                             breakpoints=bp, kind="wh")
+        s = random_structure(np.random.default_rng(seed), 3, 3, h1_poles=h1, h2_poles=h2, breakpoints=bp, kind="wh")
         try:
             blob = quantize(s, input_range=(-90.0, 10.0)).blob.to_bytes()
         except Exception:  # too large for the EEPROM: try the next candidate
@@ -235,19 +244,31 @@ def simboard_overruns(seconds: float, rate_hz: int = OVERRUN_RATE_HZ) -> dict:
                     break
             dev.stop_stream()
             st = dev.status()
-        return {"status": "measured", "rate_hz": rate_hz, "seconds": seconds, "samples": n,
-                "samples_lost": int(dev.stats.samples_lost), "model_bytes": len(blob),
-                "estimator_on": not (flags & ESTIMATOR_OFF), "sample_flags_seen": flags,
-                "overruns": int(st.overruns), "free_stack": int(st.free_ram),
-                "dropped_telemetry": int(st.dropped_telemetry),
-                "span_us": int((last - first) % (1 << 32)) if n > 1 else 0}
+        return {
+            "status": "measured",
+            "rate_hz": rate_hz,
+            "seconds": seconds,
+            "samples": n,
+            "samples_lost": int(dev.stats.samples_lost),
+            "model_bytes": len(blob),
+            "estimator_on": not (flags & ESTIMATOR_OFF),
+            "sample_flags_seen": flags,
+            "overruns": int(st.overruns),
+            "free_stack": int(st.free_ram),
+            "dropped_telemetry": int(st.dropped_telemetry),
+            "span_us": int((last - first) % (1 << 32)) if n > 1 else 0,
+        }
     except Exception as exc:
         return {"status": "pending", "reason": f"{type(exc).__name__}: {exc}"}
 
 
 # Channel configurations of the rate search: (name, START_STREAM channel mask).
-RATE_CONFIGS = (("1 ADC channel", 0x01), ("3 ADC channels", 0x07), ("3 ADC + IMU", 0x0F),
-                ("3 ADC + IMU + estimator", 0x1F))
+RATE_CONFIGS = (
+    ("1 ADC channel", 0x01),
+    ("3 ADC channels", 0x07),
+    ("3 ADC + IMU", 0x0F),
+    ("3 ADC + IMU + estimator", 0x1F),
+)
 
 
 def advertised_max_rate_hz() -> int:
@@ -272,9 +293,19 @@ def build_rate_variant() -> subprocess.CompletedProcess:
     BENCH_BUILD.mkdir(parents=True, exist_ok=True)
     with open(FIRMWARE_DIR / "build" / ".build.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
-        return subprocess.run(["make", "-s", "-C", str(FIRMWARE_DIR), "BUILD=build/bench",
-                               f"OPT_EXTRA=-DPOROSENSE_RATE_LIMIT_HZ={BENCH_RATE_LIMIT_HZ}"],
-                              capture_output=True, text=True, timeout=900)
+        return subprocess.run(
+            [
+                "make",
+                "-s",
+                "-C",
+                str(FIRMWARE_DIR),
+                "BUILD=build/bench",
+                f"OPT_EXTRA=-DPOROSENSE_RATE_LIMIT_HZ={BENCH_RATE_LIMIT_HZ}",
+            ],
+            capture_output=True,
+            text=True,
+            timeout=900,
+        )
 
 
 def _lost_at(dev, rate_hz: int, mask: int, seconds: float) -> dict:
@@ -291,17 +322,24 @@ def _lost_at(dev, rate_hz: int, mask: int, seconds: float) -> dict:
             break
     dev.stop_stream()
     st = dev.status()
-    return {"overruns": int(st.overruns - st0.overruns),
-            "dropped": int(st.dropped_telemetry - st0.dropped_telemetry),
-            "lost": int(dev.stats.samples_lost - lost0)}
+    return {
+        "overruns": int(st.overruns - st0.overruns),
+        "dropped": int(st.dropped_telemetry - st0.dropped_telemetry),
+        "lost": int(dev.stats.samples_lost - lost0),
+    }
 
 
 def _clean(r: dict) -> bool:
     return r["overruns"] == 0 and r["dropped"] == 0
 
 
-def max_clean_rates(probe_s: float = 3.0, confirm_s: float = 60.0, upper_hz: int = BENCH_RATE_LIMIT_HZ,
-                    configs=RATE_CONFIGS, elf: Path | None = None) -> dict:
+def max_clean_rates(
+    probe_s: float = 3.0,
+    confirm_s: float = 60.0,
+    upper_hz: int = BENCH_RATE_LIMIT_HZ,
+    configs=RATE_CONFIGS,
+    elf: Path | None = None,
+) -> dict:
     """For each channel configuration, the highest whole rate (Hz) at which every sample
     reaches the host: no skipped tick, no SAMPLE dropped. A binary search over
     10 Hz .. ``upper_hz`` with ``probe_s`` of simulated streaming per step, then
@@ -337,15 +375,31 @@ def max_clean_rates(probe_s: float = 3.0, confirm_s: float = 60.0, upper_hz: int
                     rate -= 1
                     confirm = _lost_at(dev, rate, mask, confirm_s)
                 above = _lost_at(dev, rate + 1, mask, probe_s) if rate < upper_hz else None
-                rows.append({"config": name, "channel_mask": mask, "max_clean_hz": rate,
-                             "confirm_s": confirm_s, **confirm, "above": above})
+                rows.append(
+                    {
+                        "config": name,
+                        "channel_mask": mask,
+                        "max_clean_hz": rate,
+                        "confirm_s": confirm_s,
+                        **confirm,
+                        "above": above,
+                    }
+                )
     except Exception as exc:
         return {"status": "pending", "reason": f"{type(exc).__name__}: {exc}"}
     full = [r for r in rows if r["channel_mask"] == 0x1F]
     measured = full[0]["max_clean_hz"] if full else None
-    return {"status": "measured", "advertised_max_hz": advertised_max_rate_hz(), "model_bytes": len(blob),
-            "probe_s": probe_s, "confirm_s": confirm_s, "upper_hz": upper_hz, "configs": rows,
-            "measured_max_hz": measured, "advertised_equals_measured": measured == advertised_max_rate_hz()}
+    return {
+        "status": "measured",
+        "advertised_max_hz": advertised_max_rate_hz(),
+        "model_bytes": len(blob),
+        "probe_s": probe_s,
+        "confirm_s": confirm_s,
+        "upper_hz": upper_hz,
+        "configs": rows,
+        "measured_max_hz": measured,
+        "advertised_equals_measured": measured == advertised_max_rate_hz(),
+    }
 
 
 class RateMismatch(RuntimeError):
@@ -363,17 +417,23 @@ def run(size: str = "small") -> dict:
         if proc.returncode != 0:
             raise RuntimeError(f"firmware build failed:\n{proc.stdout}\n{proc.stderr}")
     elif not ELF.is_file():
-        return {"status": "skipped", "reason": "no firmware ELF in this installation",
-                "summary": ["firmware: skipped (no firmware ELF in this installation)"]}
+        return {
+            "status": "skipped",
+            "reason": "no firmware ELF in this installation",
+            "summary": ["firmware: skipped (no firmware ELF in this installation)"],
+        }
     sz = measure_size()
     seconds = 60.0 if size == "full" else 5.0
     cyc = estimator_cycles()
     sim = simboard_overruns(seconds)
     at_limit = simboard_overruns(seconds, advertised_max_rate_hz())
     full = size == "full"
-    rates = max_clean_rates(probe_s=3.0 if full else 1.0, confirm_s=60.0 if full else 3.0,
-                            upper_hz=BENCH_RATE_LIMIT_HZ if full else 300,
-                            configs=RATE_CONFIGS if full else RATE_CONFIGS[1::2])
+    rates = max_clean_rates(
+        probe_s=3.0 if full else 1.0,
+        confirm_s=60.0 if full else 3.0,
+        upper_hz=BENCH_RATE_LIMIT_HZ if full else 300,
+        configs=RATE_CONFIGS if full else RATE_CONFIGS[1::2],
+    )
     result = {
         "elf": str(ELF),
         "size": sz.to_dict(),
@@ -396,46 +456,67 @@ def run(size: str = "small") -> dict:
         f"stack room: {sz.stack_room} B (2048 - data - bss - noinit)",
     ]
     if cyc.get("status") == "measured":
-        summary.append(f"estimator step, worst case (3x3, 10 poles per block, 16 breakpoints, "
-                       f"from flash): {cyc['worst_case_cycles']} cycles (budget {CYCLE_BUDGET})")
-        summary.append(f"estimator step, heaviest EEPROM model ({cyc['model_bytes']} B): "
-                       f"{cyc['cycles']} cycles = {cyc['us_at_16mhz']:.0f} us")
-        summary.append(f"estimator step, heaviest flash-slot model ({cyc['flash_model_bytes']} B, 3x3 WH, from "
-                       f"flash): {cyc['flash_model_cycles']} cycles (budget {CYCLE_BUDGET}: "
-                       f"{'within' if cyc['flash_model_ok'] else 'OVER'}; 100 Hz period 160,000), bit-exact "
-                       f"{cyc['flash_model_bit_exact']}")
+        summary.append(
+            f"estimator step, worst case (3x3, 10 poles per block, 16 breakpoints, "
+            f"from flash): {cyc['worst_case_cycles']} cycles (budget {CYCLE_BUDGET})"
+        )
+        summary.append(
+            f"estimator step, heaviest EEPROM model ({cyc['model_bytes']} B): "
+            f"{cyc['cycles']} cycles = {cyc['us_at_16mhz']:.0f} us"
+        )
+        summary.append(
+            f"estimator step, heaviest flash-slot model ({cyc['flash_model_bytes']} B, 3x3 WH, from "
+            f"flash): {cyc['flash_model_cycles']} cycles (budget {CYCLE_BUDGET}: "
+            f"{'within' if cyc['flash_model_ok'] else 'OVER'}; 100 Hz period 160,000), bit-exact "
+            f"{cyc['flash_model_bit_exact']}"
+        )
     else:
         summary.append(f"estimator step: pending ({cyc.get('reason')})")
     if sim.get("status") == "measured":
-        summary.append(f"100 Hz, 3 ADC + IMU + estimator ({sim['model_bytes']} B model, "
-                       f"{'on' if sim['estimator_on'] else 'OFF'}) + telemetry, {seconds:g} s "
-                       f"simulated: {sim['overruns']} overruns, {sim['samples']} samples, "
-                       f"free stack {sim['free_stack']} B")
+        summary.append(
+            f"100 Hz, 3 ADC + IMU + estimator ({sim['model_bytes']} B model, "
+            f"{'on' if sim['estimator_on'] else 'OFF'}) + telemetry, {seconds:g} s "
+            f"simulated: {sim['overruns']} overruns, {sim['samples']} samples, "
+            f"free stack {sim['free_stack']} B"
+        )
     else:
         summary.append(f"overruns at 100 Hz: pending ({sim.get('reason')})")
     if at_limit.get("status") == "measured":
-        summary.append(f"advertised maximum {at_limit['rate_hz']} Hz, 3 ADC + IMU + estimator, {seconds:g} s "
-                       f"simulated (release build): {at_limit['overruns']} overruns, "
-                       f"{at_limit['samples_lost']} samples lost, {at_limit['samples']} samples")
+        summary.append(
+            f"advertised maximum {at_limit['rate_hz']} Hz, 3 ADC + IMU + estimator, {seconds:g} s "
+            f"simulated (release build): {at_limit['overruns']} overruns, "
+            f"{at_limit['samples_lost']} samples lost, {at_limit['samples']} samples"
+        )
     if rates.get("status") == "measured":
         for row in rates["configs"]:
             a = row["above"]
-            above = (f"; at {row['max_clean_hz'] + 1} Hz: {a['overruns']} skipped ticks, {a['dropped']} "
-                     f"dropped, {a['lost']} counted lost by the host in {rates['probe_s']:g} s") if a else ""
-            summary.append(f"max clean rate, {row['config']}: {row['max_clean_hz']} Hz (0 lost in "
-                           f"{row['confirm_s']:g} s simulated){above}")
+            above = (
+                (
+                    f"; at {row['max_clean_hz'] + 1} Hz: {a['overruns']} skipped ticks, {a['dropped']} "
+                    f"dropped, {a['lost']} counted lost by the host in {rates['probe_s']:g} s"
+                )
+                if a
+                else ""
+            )
+            summary.append(
+                f"max clean rate, {row['config']}: {row['max_clean_hz']} Hz (0 lost in "
+                f"{row['confirm_s']:g} s simulated){above}"
+            )
     else:
         summary.append(f"max clean rates: pending ({rates.get('reason')})")
     if rates.get("status") == "measured" and rates["measured_max_hz"] is not None:
         m, a = rates["measured_max_hz"], rates["advertised_max_hz"]
         verdict = "equal" if m == a else "DIFFERENT"
-        summary.append(f"every channel + IMU + heaviest storable model ({rates['model_bytes']} B, flash): measured "
-                       f"{m} Hz clean over {rates['confirm_s']:g} s"
-                       + ("" if full else " (CI size: the full run confirms over 60 s)")
-                       + f"; advertised {a} Hz: {verdict}")
+        summary.append(
+            f"every channel + IMU + heaviest storable model ({rates['model_bytes']} B, flash): measured "
+            f"{m} Hz clean over {rates['confirm_s']:g} s"
+            + ("" if full else " (CI size: the full run confirms over 60 s)")
+            + f"; advertised {a} Hz: {verdict}"
+        )
         if m != a and full:
-            summary.append(f"*** set SAMPLE_RATE_HZ max = {m} in protocol/messages.toml and run "
-                           "python protocol/generate.py ***")
+            summary.append(
+                f"*** set SAMPLE_RATE_HZ max = {m} in protocol/messages.toml and run python protocol/generate.py ***"
+            )
     result["summary"] = summary
     result["advertised_equals_measured"] = rates.get("advertised_equals_measured")
     return result

@@ -73,7 +73,7 @@ STRENGTHS = {
     "cross_coupling": "u_aux through a first-order filter 1-4x slower, 12-35 % of the main gain",
     "outliers": "0.2-1 % of samples hit by glitches of 20-80 % of span, bursts of 1-3 samples",
     "unmodelled_dynamics": "true order 2-3 with the extra poles within 1.5-6x of the dominant one; "
-                           "nominal order one less",
+    "nominal order one less",
     "clean": "no effect",
     "clean_quantised": "output quantised in steps of 0.5-2 % of the span",
     "clean_coloured_noise": "AR(1) output noise, pole 0.6-0.95, same variance range",
@@ -108,20 +108,23 @@ class Trial:
     condition_columns: tuple = ("u_aux", "load")
 
     def __repr__(self) -> str:
-        return (f"Trial({self.kind}, seed={self.seed}, ts={self.ts:.4g} s, order {self.true_order} "
-                f"(nominal {self.nominal_order}), effect/noise {self.effect_to_noise:.2f}, {self.params})")
+        return (
+            f"Trial({self.kind}, seed={self.seed}, ts={self.ts:.4g} s, order {self.true_order} "
+            f"(nominal {self.nominal_order}), effect/noise {self.effect_to_noise:.2f}, {self.params})"
+        )
 
 
 # --- the nominal system ------------------------------------------------------------------------
+
 
 @dataclass
 class _System:
     num: np.ndarray  # discrete transfer function from u to the noiseless output
     den: np.ndarray
     ts: float
-    tau: float       # dominant time constant, s
+    tau: float  # dominant time constant, s
     order: int
-    gain: float      # static gain
+    gain: float  # static gain
 
     def response(self, u: np.ndarray) -> np.ndarray:
         # start at rest with the input's first value held before t = 0
@@ -135,7 +138,7 @@ def _continuous_poles(rng, order: int, tau: float, spread=(1.5, 6.0)) -> list[co
     if order >= 2 and rng.random() < 0.4:
         # a complex dominant pair, damping 0.45-0.9
         zeta, wn = rng.uniform(0.45, 0.9), 1.0 / (tau * rng.uniform(0.45, 0.9))
-        wd = wn * np.sqrt(1 - zeta ** 2)
+        wd = wn * np.sqrt(1 - zeta**2)
         poles += [complex(-zeta * wn, wd), complex(-zeta * wn, -wd)]
     else:
         poles.append(complex(-1.0 / tau, 0))
@@ -166,6 +169,7 @@ def _filter_from_rest(b, a, x):
 
 # --- signals ------------------------------------------------------------------------------------
 
+
 def _programme(rng, n: int, ts: float, tau: float, amp: float) -> np.ndarray:
     """A level programme in [0, amp]: holds of 1-8 tau, some ramps, an occasional chirp."""
     out = np.empty(n)
@@ -180,8 +184,8 @@ def _programme(rng, n: int, ts: float, tau: float, amp: float) -> np.ndarray:
         elif shape < 0.32:  # chirp around the middle
             t = np.arange(m) * ts
             f0, f1 = 0.05 / tau, 0.6 / tau
-            seg = amp * (0.5 + 0.4 * np.sin(2 * np.pi * (f0 * t + (f1 - f0) * t ** 2 / (2 * t[-1] + ts))))
-        out[k:k + m] = seg[: n - k]
+            seg = amp * (0.5 + 0.4 * np.sin(2 * np.pi * (f0 * t + (f1 - f0) * t**2 / (2 * t[-1] + ts))))
+        out[k : k + m] = seg[: n - k]
         level = out[min(k + m, n) - 1]
         k += m
     return out
@@ -199,6 +203,7 @@ def _load(rng, n: int) -> np.ndarray:
 
 
 # --- effect shapes ------------------------------------------------------------------------------
+
 
 def _exp_map(x: np.ndarray, lo: float, hi: float, b: float, log: bool) -> np.ndarray:
     """Monotone exp (or its inverse, log) map of [lo, hi] onto itself, curvature b."""
@@ -248,6 +253,7 @@ def _triangle(t, f, phase):
 
 # --- trials -------------------------------------------------------------------------------------
 
+
 def draw_trial(kind: str, seed: int) -> Trial:
     """One trial of ``kind`` (a cause in :data:`CAUSES` or a :data:`FALSE_ALARM_KINDS` entry).
 
@@ -275,8 +281,18 @@ def draw_trial(kind: str, seed: int) -> Trial:
     nominal = order - 1 if kind == "unmodelled_dynamics" else order
     expected = "none" if kind in FALSE_ALARM_KINDS else kind
     params.update({"order": order, "tau_s": round(tau, 4), "gain": round(gain, 4), "noise_frac": round(noise_frac, 4)})
-    return Trial(kind, expected, seed, ts, est, val, order, nominal, params,
-                 float(np.sqrt(np.mean(v_eff ** 2)) / (np.sqrt(np.mean(v_noise ** 2)) or 1.0)))
+    return Trial(
+        kind,
+        expected,
+        seed,
+        ts,
+        est,
+        val,
+        order,
+        nominal,
+        params,
+        float(np.sqrt(np.mean(v_eff**2)) / (np.sqrt(np.mean(v_noise**2)) or 1.0)),
+    )
 
 
 def _draw_params(rng, kind, ts, tau, span, amp) -> dict:
@@ -295,8 +311,12 @@ def _draw_params(rng, kind, ts, tau, span, amp) -> dict:
     if kind == "drift":
         return {"reach": u(0.04, 0.12), "trend_share": u(0.0, 0.6)}
     if kind == "periodic_disturbance":
-        return {"shape": str(rng.choice(["square", "triangle"])), "amp": u(0.02, 0.07),
-                "f_hz": u(0.02, 0.25) / ts, "duty": u(0.3, 0.7)}
+        return {
+            "shape": str(rng.choice(["square", "triangle"])),
+            "amp": u(0.02, 0.07),
+            "f_hz": u(0.02, 0.25) / ts,
+            "duty": u(0.3, 0.7),
+        }
     if kind == "load_dependence":
         return {"drop": u(0.12, 0.35), "offset": u(-0.03, 0.03)}
     if kind == "saturation":
@@ -372,7 +392,7 @@ def _record(rng, kind, p, sys_: _System, n, amp, span, noise_frac):
         hits = np.flatnonzero(rng.random(n) < p["rate"])
         for k in hits:
             width = int(rng.integers(1, 4))
-            meas[k:k + width] += rng.choice([-1, 1]) * rng.uniform(*p["size"]) * span
+            meas[k : k + width] += rng.choice([-1, 1]) * rng.uniform(*p["size"]) * span
         effect = meas - (y + noise)
     if kind == "clean_quantised":
         step = p["step"] * span

@@ -67,18 +67,31 @@ def grid_benchmark(size: str) -> dict:
     est, val = recs[:3], recs[3:]
     poles = range(1, 11) if size == "full" else range(1, 3)
     t0, c0 = time.perf_counter(), _cpu()
-    result = search(u=[r[0] for r in est], y=[r[1] for r in est], ts=1 / FS_HZ,
-                    validation=([r[0] for r in val], [r[1] for r in val]), poles=poles, starts=2, progress=False)
+    result = search(
+        u=[r[0] for r in est],
+        y=[r[1] for r in est],
+        ts=1 / FS_HZ,
+        validation=([r[0] for r in val], [r[1] for r in val]),
+        poles=poles,
+        starts=2,
+        progress=False,
+    )
     seconds = time.perf_counter() - t0
     best = result.best
     per = {k: round(v.mean_fit, 3) for k, v in result.best_per_structure().items()}
     cpu = _cpu() - c0
-    return {"grid_models": len(result.candidates), "grid_seconds": seconds, "grid_cores": os.cpu_count(),
-            "grid_cpu_seconds": cpu, "grid_seconds_each": seconds_each,
-            "load_average_1min": os.getloadavg()[0],
-            "grid_samples": int(sum(len(r[1]) for r in recs)),
-            "grid_best": f"{best.structure} {best.n_poles}p{best.n_zeros}z", "grid_best_fit": best.mean_fit,
-            "grid_best_fit_per_structure": per}
+    return {
+        "grid_models": len(result.candidates),
+        "grid_seconds": seconds,
+        "grid_cores": os.cpu_count(),
+        "grid_cpu_seconds": cpu,
+        "grid_seconds_each": seconds_each,
+        "load_average_1min": os.getloadavg()[0],
+        "grid_samples": int(sum(len(r[1]) for r in recs)),
+        "grid_best": f"{best.structure} {best.n_poles}p{best.n_zeros}z",
+        "grid_best_fit": best.mean_fit,
+        "grid_best_fit_per_structure": per,
+    }
 
 
 def oe_problem(n: int, seed: int = 0):
@@ -96,8 +109,12 @@ def oe_benchmark(size: str) -> dict:
     model = Linear(n_poles=2, n_zeros=1, delay=1).fit(u=u[:, None], y=y, ts=1.0)
     ours_s = time.perf_counter() - t0
     ours_fit = fit_percent(y, model.predict(u=u[:, None]))
-    out = {"oe_samples": n, "oe_porosense_seconds": ours_s, "oe_porosense_fit": ours_fit,
-           "oe_porosense_fit_noise_free": fit_percent(y0, model.predict(u=u[:, None]))}
+    out = {
+        "oe_samples": n,
+        "oe_porosense_seconds": ours_s,
+        "oe_porosense_fit": ours_fit,
+        "oe_porosense_fit_noise_free": fit_percent(y0, model.predict(u=u[:, None])),
+    }
     try:
         from sippy_unipi import system_identification
     except ImportError:
@@ -112,8 +129,14 @@ def oe_benchmark(size: str) -> dict:
     import control
 
     yhat = control.forced_response(sip.G, U=u).outputs
-    out.update({"oe_sippy_seconds": sippy_s, "oe_sippy_fit": fit_percent(y, yhat),
-                "oe_sippy_fit_noise_free": fit_percent(y0, yhat), "oe_speedup": sippy_s / ours_s})
+    out.update(
+        {
+            "oe_sippy_seconds": sippy_s,
+            "oe_sippy_fit": fit_percent(y, yhat),
+            "oe_sippy_fit_noise_free": fit_percent(y0, yhat),
+            "oe_speedup": sippy_s / ours_s,
+        }
+    )
     return out
 
 
@@ -140,12 +163,25 @@ def scaling_benchmark(size: str) -> dict:
     for n in counts:
         recs = [step_recording(seed, n / 4 / FS_HZ) for seed in range(4)]
         t0, c0 = time.perf_counter(), _cpu()
-        res = search(u=[r[0] for r in recs[:3]], y=[r[1] for r in recs[:3]], ts=1 / FS_HZ,
-                     validation=([recs[3][0]], [recs[3][1]]), criterion="fit", staged=True,
-                     max_nfev=200, progress=False)
-        rows.append({"samples": n, "wall_s": time.perf_counter() - t0, "cpu_s": _cpu() - c0,
-                     "selected": f"{res.best.structure} {res.best.n_poles}p{res.best.n_zeros}z",
-                     "validation_fit": res.best.validation_fit})
+        res = search(
+            u=[r[0] for r in recs[:3]],
+            y=[r[1] for r in recs[:3]],
+            ts=1 / FS_HZ,
+            validation=([recs[3][0]], [recs[3][1]]),
+            criterion="fit",
+            staged=True,
+            max_nfev=200,
+            progress=False,
+        )
+        rows.append(
+            {
+                "samples": n,
+                "wall_s": time.perf_counter() - t0,
+                "cpu_s": _cpu() - c0,
+                "selected": f"{res.best.structure} {res.best.n_poles}p{res.best.n_zeros}z",
+                "validation_fit": res.best.validation_fit,
+            }
+        )
     return {"scaling": rows}
 
 
@@ -160,8 +196,18 @@ def _test_rmse(model, u, y, skip=0, periodic=False):
 
 def _real_search(us, ys, vus, vys, ts, skip):
     t0, c0 = time.perf_counter(), _cpu()
-    res = search(u=us, y=ys, ts=ts, validation=(vus, vys), validation_skip=skip, skip=skip, criterion="fit",
-                 staged=True, max_nfev=200, progress=False)
+    res = search(
+        u=us,
+        y=ys,
+        ts=ts,
+        validation=(vus, vys),
+        validation_skip=skip,
+        skip=skip,
+        criterion="fit",
+        staged=True,
+        max_nfev=200,
+        progress=False,
+    )
     return res, time.perf_counter() - t0, _cpu() - c0
 
 
@@ -172,13 +218,20 @@ def _noise_level_benchmark(us, ys, ts, skip, tu, ty) -> dict:
 
     t0, c0 = time.perf_counter(), _cpu()
     lin = Linear(n_poles=6, n_zeros=5, skip=skip).fit(u=us, y=ys, ts=ts)
-    wh = WienerHammerstein(n_poles=6, n_zeros=3, n_breakpoints=10, skip=skip, starts=1,
-                           process_noise=True).fit(u=us, y=ys, ts=ts)
+    wh = WienerHammerstein(n_poles=6, n_zeros=3, n_breakpoints=10, skip=skip, starts=1, process_noise=True).fit(
+        u=us, y=ys, ts=ts
+    )
     info = wh.info.get("process_noise", {})
-    return {"realisations": len(us), "wall_s": time.perf_counter() - t0, "cpu_s": _cpu() - c0,
-            "build": wh.info.get("build"), "noise_level_per_spread": info.get("sigma_per_spread"),
-            "period_power_ratio": info.get("power_ratio"),
-            "wh_test_rmse_mV": 1e3 * _test_rmse(wh, tu, ty, skip), "linear_test_rmse_mV": 1e3 * _test_rmse(lin, tu, ty, skip)}
+    return {
+        "realisations": len(us),
+        "wall_s": time.perf_counter() - t0,
+        "cpu_s": _cpu() - c0,
+        "build": wh.info.get("build"),
+        "noise_level_per_spread": info.get("sigma_per_spread"),
+        "period_power_ratio": info.get("power_ratio"),
+        "wh_test_rmse_mV": 1e3 * _test_rmse(wh, tu, ty, skip),
+        "linear_test_rmse_mV": 1e3 * _test_rmse(lin, tu, ty, skip),
+    }
 
 
 def real_data_benchmark() -> dict:
@@ -199,40 +252,51 @@ def real_data_benchmark() -> dict:
         tu, ty = test.columns["u_0"][:, None], test.columns["y_0"]
         lin = res.best_per_structure("fit")["linear"]
         out["wh_process_noise"] = {
-            "samples": int(sum(len(y) for y in ys)), "wall_s": wall, "cpu_s": cpu,
+            "samples": int(sum(len(y) for y in ys)),
+            "wall_s": wall,
+            "cpu_s": cpu,
             "selected": f"{res.best.structure} {res.best.n_poles}p{res.best.n_zeros}z",
             "selected_test_rmse_mV": 1e3 * _test_rmse(res.best.model, tu, ty, skip),
             "linear_test_rmse_mV": 1e3 * _test_rmse(lin.model, tu, ty, skip),
-            "per_structure_test_rmse_mV": {k: 1e3 * _test_rmse(c.model, tu, ty, skip)
-                                           for k, c in res.best_per_structure("fit").items()},
-            "rule": res.rule}
+            "per_structure_test_rmse_mV": {
+                k: 1e3 * _test_rmse(c.model, tu, ty, skip) for k, c in res.best_per_structure("fit").items()
+            },
+            "rule": res.rule,
+        }
         out["wh_process_noise_level"] = _noise_level_benchmark(us[:5], ys[:5], ts, skip, tu, ty)
     bw = folder / "boucwen"
     if bw.is_dir():
         tr, te = read_table(bw / "train_multisine_5periods.csv"), read_table(bw / "test_multisine.csv")
         u, y, period = tr.columns["u_N"], tr.columns["y_m"], 8192
-        res, wall, cpu = _real_search([u[: 4 * period, None]], [y[: 4 * period]], [u[:, None]], [y], 1 / 750.0,
-                                      [4 * period])
+        res, wall, cpu = _real_search(
+            [u[: 4 * period, None]], [y[: 4 * period]], [u[:, None]], [y], 1 / 750.0, [4 * period]
+        )
         tu, ty = te.columns["u_N"][:, None], te.columns["y_m"]
         lin = res.best_per_structure("fit")["linear"]
         out["boucwen"] = {
-            "samples": len(y), "wall_s": wall, "cpu_s": cpu,
+            "samples": len(y),
+            "wall_s": wall,
+            "cpu_s": cpu,
             "selected": f"{res.best.structure} {res.best.n_poles}p{res.best.n_zeros}z",
             "selected_test_rmse_m": _test_rmse(res.best.model, tu, ty, periodic=True),
             "linear_test_rmse_m": _test_rmse(lin.model, tu, ty, periodic=True),
-            "per_structure_test_rmse_m": {k: _test_rmse(c.model, tu, ty, periodic=True)
-                                          for k, c in res.best_per_structure("fit").items()},
-            "rule": res.rule}
+            "per_structure_test_rmse_m": {
+                k: _test_rmse(c.model, tu, ty, periodic=True) for k, c in res.best_per_structure("fit").items()
+            },
+            "rule": res.rule,
+        }
     return out
 
 
 def grid_line(out: dict, size: str) -> str:
     """The paper-grid figure: wall time, CPU time of all workers and its half (2 dedicated cores)."""
-    return (f"paper order grid: {out['grid_models']} models (4 structures, poles <= {10 if size == 'full' else 2}, "
-            f"zeros < poles, 2 starts), 5 x {out['grid_seconds_each']:.0f} s at 50 Hz: {out['grid_seconds']:.1f} s wall "
-            f"on {out['grid_cores']} cores at load average {out['load_average_1min']:.1f}, CPU time of all workers "
-            f"{out['grid_cpu_seconds']:.1f} s (about {out['grid_cpu_seconds'] / 2:.0f} s on 2 dedicated cores; "
-            f"goal <= 120 s); best {out['grid_best']} mean fit {out['grid_best_fit']:.2f} %")
+    return (
+        f"paper order grid: {out['grid_models']} models (4 structures, poles <= {10 if size == 'full' else 2}, "
+        f"zeros < poles, 2 starts), 5 x {out['grid_seconds_each']:.0f} s at 50 Hz: {out['grid_seconds']:.1f} s wall "
+        f"on {out['grid_cores']} cores at load average {out['load_average_1min']:.1f}, CPU time of all workers "
+        f"{out['grid_cpu_seconds']:.1f} s (about {out['grid_cpu_seconds'] / 2:.0f} s on 2 dedicated cores; "
+        f"goal <= 120 s); best {out['grid_best']} mean fit {out['grid_best_fit']:.2f} %"
+    )
 
 
 def run(size: str = "full") -> dict:
@@ -243,32 +307,44 @@ def run(size: str = "full") -> dict:
     out.update(scaling_benchmark(size))
     if size == "full":
         out.update(real_data_benchmark())
-    s = [f"linear OE, {out['oe_samples']} samples: porosense {out['oe_porosense_seconds'] * 1e3:.1f} ms, "
-         f"fit {out['oe_porosense_fit']:.2f} %"]
+    s = [
+        f"linear OE, {out['oe_samples']} samples: porosense {out['oe_porosense_seconds'] * 1e3:.1f} ms, "
+        f"fit {out['oe_porosense_fit']:.2f} %"
+    ]
     for r in out["scaling"]:
-        s.append(f"default staged search, {r['samples']:,} samples: {r['wall_s']:.1f} s wall, {r['cpu_s']:.1f} s CPU "
-                 f"(about {r['cpu_s'] / 2:.0f} s on 2 dedicated cores; goal at 100,000: <= 300 s), "
-                 f"selected {r['selected']}")
+        s.append(
+            f"default staged search, {r['samples']:,} samples: {r['wall_s']:.1f} s wall, {r['cpu_s']:.1f} s CPU "
+            f"(about {r['cpu_s'] / 2:.0f} s on 2 dedicated cores; goal at 100,000: <= 300 s), "
+            f"selected {r['selected']}"
+        )
     s.append(grid_line(out, size))
     if "wh_process_noise" in out:
         r = out["wh_process_noise"]
-        s.append(f"WH process-noise benchmark ({r['samples']} samples): selected {r['selected']} test RMSE "
-                 f"{r['selected_test_rmse_mV']:.2f} mV, linear {r['linear_test_rmse_mV']:.2f} mV "
-                 f"(ratio {r['linear_test_rmse_mV'] / r['selected_test_rmse_mV']:.2f}); {r['wall_s']:.0f} s wall, "
-                 f"{r['cpu_s']:.0f} s CPU")
+        s.append(
+            f"WH process-noise benchmark ({r['samples']} samples): selected {r['selected']} test RMSE "
+            f"{r['selected_test_rmse_mV']:.2f} mV, linear {r['linear_test_rmse_mV']:.2f} mV "
+            f"(ratio {r['linear_test_rmse_mV'] / r['selected_test_rmse_mV']:.2f}); {r['wall_s']:.0f} s wall, "
+            f"{r['cpu_s']:.0f} s CPU"
+        )
     if "wh_process_noise_level" in out:
         r = out["wh_process_noise_level"]
-        s.append(f"WH process-noise benchmark, noise level from repeated periods ({r['realisations']} realisations, "
-                 f"WH 6p3z with process noise, linear 6p5z): WH test RMSE {r['wh_test_rmse_mV']:.2f} mV, linear "
-                 f"{r['linear_test_rmse_mV']:.2f} mV (ratio {r['linear_test_rmse_mV'] / r['wh_test_rmse_mV']:.2f}; "
-                 f"goal >= 2); level {r['noise_level_per_spread']:.2f} x g's input spread; {r['wall_s']:.0f} s wall, "
-                 f"{r['cpu_s']:.0f} s CPU")
+        s.append(
+            f"WH process-noise benchmark, noise level from repeated periods ({r['realisations']} realisations, "
+            f"WH 6p3z with process noise, linear 6p5z): WH test RMSE {r['wh_test_rmse_mV']:.2f} mV, linear "
+            f"{r['linear_test_rmse_mV']:.2f} mV (ratio {r['linear_test_rmse_mV'] / r['wh_test_rmse_mV']:.2f}; "
+            f"goal >= 2); level {r['noise_level_per_spread']:.2f} x g's input spread; {r['wall_s']:.0f} s wall, "
+            f"{r['cpu_s']:.0f} s CPU"
+        )
     if "boucwen" in out:
         r = out["boucwen"]
-        s.append(f"Bouc-Wen benchmark: selected {r['selected']} test RMSE {r['selected_test_rmse_m']:.3e} m, "
-                 f"linear {r['linear_test_rmse_m']:.3e} m; {r['wall_s']:.0f} s wall, {r['cpu_s']:.0f} s CPU")
+        s.append(
+            f"Bouc-Wen benchmark: selected {r['selected']} test RMSE {r['selected_test_rmse_m']:.3e} m, "
+            f"linear {r['linear_test_rmse_m']:.3e} m; {r['wall_s']:.0f} s wall, {r['cpu_s']:.0f} s CPU"
+        )
     if "oe_sippy_seconds" in out:
-        s.append(f"SIPPY OE: {out['oe_sippy_seconds'] * 1e3:.1f} ms, fit {out['oe_sippy_fit']:.2f} %; "
-                 f"porosense is {out['oe_speedup']:.1f}x faster")
+        s.append(
+            f"SIPPY OE: {out['oe_sippy_seconds'] * 1e3:.1f} ms, fit {out['oe_sippy_fit']:.2f} %; "
+            f"porosense is {out['oe_speedup']:.1f}x faster"
+        )
     out["summary"] = s
     return out

@@ -68,8 +68,15 @@ def sample_frame_bytes() -> int:
 
     cases = [
         Sample(),
-        Sample(t_us=0xFFFFFFFF, channel_mask=0xFF, status=0xFFFF, adc=(-1,) * 3, dr_centi=(-1,) * 3,
-               euler_16=(-1,) * 3, estimate=(-1,) * 3),
+        Sample(
+            t_us=0xFFFFFFFF,
+            channel_mask=0xFF,
+            status=0xFFFF,
+            adc=(-1,) * 3,
+            dr_centi=(-1,) * 3,
+            euler_16=(-1,) * 3,
+            estimate=(-1,) * 3,
+        ),
         *_samples(64),
     ]
     return max(len(encode_message(s, seq)) for seq, s in enumerate(cases))
@@ -102,8 +109,9 @@ def _cpp_rates(n: int) -> tuple[float | None, float | None, str]:
     build = subprocess.run(["make", "-s", "-C", str(CPP_BENCH_DIR)], capture_output=True, text=True)
     if build.returncode != 0:
         return None, None, f"C++ benchmark build failed: {build.stderr.strip()[-300:]}"
-    proc = subprocess.run([str(CPP_BENCH_DIR / "build" / "codec_bench"), str(n)], capture_output=True,
-                          text=True, timeout=300)
+    proc = subprocess.run(
+        [str(CPP_BENCH_DIR / "build" / "codec_bench"), str(n)], capture_output=True, text=True, timeout=300
+    )
     if proc.returncode != 0:
         return None, None, f"C++ benchmark failed: {proc.stderr.strip()[-300:]}"
     figures = json.loads(proc.stdout)
@@ -119,8 +127,12 @@ def _avr_cycles() -> tuple[dict | None, str]:
     build = subprocess.run(["make", "-s", "-C", str(CPP_BENCH_DIR), "avr"], capture_output=True, text=True)
     if build.returncode != 0:
         return None, f"AVR benchmark build failed: {build.stderr.strip()[-300:]}"
-    proc = subprocess.run([str(CPP_BENCH_DIR / "build" / "avr_cycles"), str(CPP_BENCH_DIR / "build" / "avr_decode.elf")],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [str(CPP_BENCH_DIR / "build" / "avr_cycles"), str(CPP_BENCH_DIR / "build" / "avr_decode.elf")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     if proc.returncode != 0:
         return None, f"simavr run failed: {proc.stderr.strip()[-300:]}"
     figures = json.loads(proc.stdout.strip().splitlines()[-1])
@@ -158,8 +170,7 @@ def run(size: str = "small") -> dict:
         return f"{x:,.0f} frames/s" if x is not None else f"n/a ({note})"
 
     result.summary = [
-        f"SAMPLE frame (3 channels, IMU, 3 estimates): {Sample.MIN_LEN}-byte payload, "
-        f"{frame_bytes} bytes on the wire",
+        f"SAMPLE frame (3 channels, IMU, 3 estimates): {Sample.MIN_LEN}-byte payload, {frame_bytes} bytes on the wire",
         f"highest SAMPLE rate at {BAUD} baud 8N1: {max_rate:.1f} Hz (200 Hz uses {200 / max_rate:.0%} of the link)",
         f"Python codec: encode {rate(py_enc)}, decode {rate(py_dec)} (SAMPLE frames, {n_py:,} each)",
         f"C++ codec on this host: encode {rate(cpp_enc)}, decode {rate(cpp_dec)} ({n_cpp:,} each, byte by byte)",

@@ -33,8 +33,13 @@ def _fit_figures(n_models: int, n_samples: int) -> dict:
             if f.loss_points is not None:
                 losses.append(abs(f.loss_points))
             sats += f.saturated_samples
-    return {"models": n_models, "samples_per_recording": n_samples, "max_fit_loss_points": max(losses),
-            "min_fit_fixed_vs_float": min(fixed_vs_float), "saturated_samples": sats}
+    return {
+        "models": n_models,
+        "samples_per_recording": n_samples,
+        "max_fit_loss_points": max(losses),
+        "min_fit_fixed_vs_float": min(fixed_vs_float),
+        "saturated_samples": sats,
+    }
 
 
 def _worst_case_structure():
@@ -53,11 +58,17 @@ def _largest_fitting(structure):
     def cut(s1, s2, bp):
         outs = []
         for o in structure.outputs:
-            brs = tuple(replace(b, h1=SOSCascade(b.h1.sos[-s1:]),
-                                f=PiecewiseLinear(b.f.x[:bp], b.f.y[:bp]) if b.f is not None else None)
-                        for b in o.branches)
-            outs.append(replace(o, branches=brs, h2=SOSCascade(o.h2.sos[-s2:]),
-                                g=PiecewiseLinear(o.g.x[:bp], o.g.y[:bp])))
+            brs = tuple(
+                replace(
+                    b,
+                    h1=SOSCascade(b.h1.sos[-s1:]),
+                    f=PiecewiseLinear(b.f.x[:bp], b.f.y[:bp]) if b.f is not None else None,
+                )
+                for b in o.branches
+            )
+            outs.append(
+                replace(o, branches=brs, h2=SOSCascade(o.h2.sos[-s2:]), g=PiecewiseLinear(o.g.x[:bp], o.g.y[:bp]))
+            )
         return replace(structure, outputs=tuple(outs))
 
     for s1, s2, bp in ((3, 3, 10), (3, 2, 10), (2, 2, 10), (2, 2, 8), (2, 1, 8), (1, 1, 8)):
@@ -80,8 +91,12 @@ def _most_sections_that_fit():
     # gains and trajectory took the top of the EEPROM).
     for h1, h2 in ((10, 10), (10, 8), (10, 6), (10, 4), (10, 2), (8, 2), (6, 2)):
         s = random_structure(np.random.default_rng(1), 3, 3, h1_poles=h1, h2_poles=h2, kind="wh")
-        s = replace(s, outputs=tuple(replace(o, g=None, branches=tuple(replace(b, f=None) for b in o.branches))
-                                     for o in s.outputs))
+        s = replace(
+            s,
+            outputs=tuple(
+                replace(o, g=None, branches=tuple(replace(b, f=None) for b in o.branches)) for o in s.outputs
+            ),
+        )
         try:
             return quantize(s, input_range=(-100, 100))
         except ModelError:
@@ -90,8 +105,7 @@ def _most_sections_that_fit():
 
 
 def run(size: str = "small") -> dict:
-    from porosense.quant import FixedPointEstimator, quantize
-    from porosense.quant import avr_cycles
+    from porosense.quant import FixedPointEstimator, avr_cycles, quantize
     from porosense.quant.blob import MAX_BLOB_LEN
     from porosense.quant.design import design_blob
 
@@ -109,15 +123,22 @@ def run(size: str = "small") -> dict:
     worst_blob, _ = design_blob(worst, [(-100.0, 100.0)] * 3, 0.01, 1, notes)
     out["worst_case_blob_bytes"] = worst_blob.length
     fitting, orders = _largest_fitting(worst)
-    out["largest_fitting_3dof"] = {"h1_poles": orders[0], "h2_poles": orders[1], "breakpoints": orders[2],
-                                   "blob_bytes": fitting.blob.length, "capacity": MAX_BLOB_LEN}
+    out["largest_fitting_3dof"] = {
+        "h1_poles": orders[0],
+        "h2_poles": orders[1],
+        "breakpoints": orders[2],
+        "blob_bytes": fitting.blob.length,
+        "capacity": MAX_BLOB_LEN,
+    }
 
     # Python reference speed on a one-output WH model and on the 3x3 worst case.
     n = 100_000 if full else 10_000
     rng = np.random.default_rng(5)
     u = rng.integers(-9000, 500, (n, 3))
-    for name, blob in (("wh_1x1", quantize(_one_output(), input_range=(-100, 100)).blob),
-                       ("fitting_3x3", fitting.blob)):
+    for name, blob in (
+        ("wh_1x1", quantize(_one_output(), input_range=(-100, 100)).blob),
+        ("fitting_3x3", fitting.blob),
+    ):
         est = FixedPointEstimator(blob)
         t0 = time.perf_counter()
         est.run(u)
@@ -133,14 +154,20 @@ def run(size: str = "small") -> dict:
         most = _most_sections_that_fit().blob
         m = avr_cycles.measure(most, steps=steps, in_eeprom=True)
         out["avr"] = {
-            "worst_case_cycles": w.max_cycles, "worst_case_mean_cycles": w.mean_cycles,
-            "worst_case_from": "flash (the blob exceeds the EEPROM)", "worst_case_bit_exact": w.bit_exact,
-            "eeprom_model_cycles": e.max_cycles, "eeprom_model_bit_exact": e.bit_exact,
-            "eeprom_most_sections": most.n_sections, "eeprom_most_sections_bytes": most.length,
-            "eeprom_most_sections_cycles": m.max_cycles, "eeprom_most_sections_bit_exact": m.bit_exact,
+            "worst_case_cycles": w.max_cycles,
+            "worst_case_mean_cycles": w.mean_cycles,
+            "worst_case_from": "flash (the blob exceeds the EEPROM)",
+            "worst_case_bit_exact": w.bit_exact,
+            "eeprom_model_cycles": e.max_cycles,
+            "eeprom_model_bit_exact": e.bit_exact,
+            "eeprom_most_sections": most.n_sections,
+            "eeprom_most_sections_bytes": most.length,
+            "eeprom_most_sections_cycles": m.max_cycles,
+            "eeprom_most_sections_bit_exact": m.bit_exact,
             "control_cycles": m.control_cycles,
             "eeprom_most_sections_with_control_cycles": m.sample_cycles,
-            "estimator_ram_bytes": w.estimator_ram, "budget_cycles": CYCLE_BUDGET,
+            "estimator_ram_bytes": w.estimator_ram,
+            "budget_cycles": CYCLE_BUDGET,
         }
     out["summary"] = _summary(out)
     return out
@@ -168,14 +195,22 @@ def _summary(r: dict) -> list[str]:
     if "skipped" in avr:
         lines.append(f"AVR cycles: skipped ({avr['skipped']})")
     else:
-        lines.append(f"AVR step, worst case (from flash): {avr['worst_case_cycles']} cycles (budget "
-                     f"{avr['budget_cycles']}), bit-exact {avr['worst_case_bit_exact']}")
-        lines.append(f"AVR step, largest EEPROM WH model: {avr['eeprom_model_cycles']} cycles, bit-exact "
-                     f"{avr['eeprom_model_bit_exact']}; estimator RAM {avr['estimator_ram_bytes']} bytes")
-        lines.append(f"AVR step, most sections in the EEPROM ({avr['eeprom_most_sections']} sections, "
-                     f"{avr['eeprom_most_sections_bytes']} bytes): {avr['eeprom_most_sections_cycles']} cycles, "
-                     f"bit-exact {avr['eeprom_most_sections_bit_exact']}")
-        lines.append(f"AVR strain controller step, 3 channels: {avr['control_cycles']} cycles; with the most "
-                     f"sections: {avr['eeprom_most_sections_with_control_cycles']} cycles (budget "
-                     f"{avr['budget_cycles']})")
+        lines.append(
+            f"AVR step, worst case (from flash): {avr['worst_case_cycles']} cycles (budget "
+            f"{avr['budget_cycles']}), bit-exact {avr['worst_case_bit_exact']}"
+        )
+        lines.append(
+            f"AVR step, largest EEPROM WH model: {avr['eeprom_model_cycles']} cycles, bit-exact "
+            f"{avr['eeprom_model_bit_exact']}; estimator RAM {avr['estimator_ram_bytes']} bytes"
+        )
+        lines.append(
+            f"AVR step, most sections in the EEPROM ({avr['eeprom_most_sections']} sections, "
+            f"{avr['eeprom_most_sections_bytes']} bytes): {avr['eeprom_most_sections_cycles']} cycles, "
+            f"bit-exact {avr['eeprom_most_sections_bit_exact']}"
+        )
+        lines.append(
+            f"AVR strain controller step, 3 channels: {avr['control_cycles']} cycles; with the most "
+            f"sections: {avr['eeprom_most_sections_with_control_cycles']} cycles (budget "
+            f"{avr['budget_cycles']})"
+        )
     return lines

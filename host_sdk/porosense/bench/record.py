@@ -49,9 +49,9 @@ def measure(scene) -> dict:
     t_frames = track.t_cam
     offset_frames = np.abs(clock.to_dev(t_frames) - scene.true_dev_time(t_frames)) * scene.fps
     return {
-        "curvature_rms_pct_of_max": float(100.0 * np.sqrt(np.mean(k_err ** 2)) / np.max(np.abs(scene.truth_curvature))),
+        "curvature_rms_pct_of_max": float(100.0 * np.sqrt(np.mean(k_err**2)) / np.max(np.abs(scene.truth_curvature))),
         "curvature_max_1_per_m": float(np.max(np.abs(scene.truth_curvature))),
-        "dz_rms_mm": float(np.sqrt(np.mean(dz_err ** 2))),
+        "dz_rms_mm": float(np.sqrt(np.mean(dz_err**2))),
         "dz_max_mm": float(np.max(np.abs(scene.truth_dz))),
         "sync_offset_frames_max": float(offset_frames.max()),
         "sync_offset_frames_mean": float(offset_frames.mean()),

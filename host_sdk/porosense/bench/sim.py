@@ -38,14 +38,18 @@ def _speed(repeats: int) -> dict:
     for _ in range(n):
         plant3.step(0.01, sp, on3, on3)
     step3_us = (time.perf_counter() - t0) / n * 1e6
-    return {"simulated_s": simulated, "wall_s": elapsed, "realtime_ratio": simulated / elapsed,
-            "step_us_contractor": step_us, "step_us_3dof": step3_us}
+    return {
+        "simulated_s": simulated,
+        "wall_s": elapsed,
+        "realtime_ratio": simulated / elapsed,
+        "step_us_contractor": step_us,
+        "step_us_3dof": step3_us,
+    }
 
 
 def _figures() -> dict:
     from porosense.sim import run_experiment
-    from porosense.sim.analysis import (fit_power_law, hold_mean, normalised_loop_area,
-                                        release_overshoots)
+    from porosense.sim.analysis import fit_power_law, hold_mean, normalised_loop_area, release_overshoots
 
     porosities = [68, 76, 82, 86]
     strain, dr, strain_500 = [], [], []
@@ -59,12 +63,19 @@ def _figures() -> dict:
     stairs = run_experiment("contractor", "staircase", porosity=82, seed=2)
     step60 = run_experiment("contractor", "step_60", porosity=82, seed=3)
     cycle = (step.t >= 5.0) & (step.t < 25.0)
-    shots = [s for lv in (10, 20, 40, 60)
-             for s in release_overshoots(run_experiment("contractor", f"step_{lv}", porosity=82, seed=lv))]
-    ss_gap = {name: abs(hold_mean(step60, name, -60) - hold_mean(stairs, name, -60))
-              / np.max(np.abs(stairs[name])) * 100.0 for name in ("strain_0", "dR_0")}
+    shots = [
+        s
+        for lv in (10, 20, 40, 60)
+        for s in release_overshoots(run_experiment("contractor", f"step_{lv}", porosity=82, seed=lv))
+    ]
+    ss_gap = {
+        name: abs(hold_mean(step60, name, -60) - hold_mean(stairs, name, -60)) / np.max(np.abs(stairs[name])) * 100.0
+        for name in ("strain_0", "dR_0")
+    }
     return {
-        "porosity": porosities, "strain_60_pct": strain, "dR_60_pct": dr,
+        "porosity": porosities,
+        "strain_60_pct": strain,
+        "dR_60_pct": dr,
         "strain_60_500g_pct": strain_500,
         "load_drop_pct": [a - b for a, b in zip(strain, strain_500)],
         "power_law_strain": fit_power_law(porosities, strain).to_dict(),
@@ -86,8 +97,11 @@ def run(size: str = "small") -> dict:
         f"contractor at 100 Hz: {speed['realtime_ratio']:.0f}x real time "
         f"({speed['simulated_s']:.0f} s simulated in {speed['wall_s'] * 1e3:.0f} ms, one core)",
         f"plant.step: {speed['step_us_contractor']:.1f} us (contractor), {speed['step_us_3dof']:.1f} us (3dof)",
-        "at -60 kPa, porosity " + ", ".join(
-            f"{p}%: strain {s:.1f} %, dR {d:.1f} %" for p, s, d in zip(fig["porosity"], fig["strain_60_pct"], fig["dR_60_pct"])),
+        "at -60 kPa, porosity "
+        + ", ".join(
+            f"{p}%: strain {s:.1f} %, dR {d:.1f} %"
+            for p, s, d in zip(fig["porosity"], fig["strain_60_pct"], fig["dR_60_pct"])
+        ),
         f"power law strain: n = {pl_s['n']:.2f}, R^2 = {pl_s['r2']:.3f}; dR: n = {pl_d['n']:.2f}, R^2 = {pl_d['r2']:.3f}",
         f"500 g load: strain drop {fig['load_drop_pct'][0]:.1f} % (68 %) vs {fig['load_drop_pct'][-1]:.1f} % (86 %)",
         f"loop area (normalised): step -20 kPa {fig['loop_area_step20']:.3f} vs staircase {fig['loop_area_staircase']:.3f}; "

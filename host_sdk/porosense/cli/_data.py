@@ -22,10 +22,12 @@ from porosense.errors import InputError, ModelError
 def add_data_options(p, *, ts_help: str = "sample period in s (default: from the t column, sidecar or Ts)") -> None:
     """--ts, --ts-override, --separator, --decimal."""
     p.add_argument("--ts", type=float, metavar="SECONDS", help=ts_help)
-    p.add_argument("--ts-override", action="store_true",
-                   help="use --ts even where it disagrees with the data's own time column or Ts")
-    p.add_argument("--separator", choices=(",", ";", "tab", "space"),
-                   help="CSV separator (default: detected)")
+    p.add_argument(
+        "--ts-override",
+        action="store_true",
+        help="use --ts even where it disagrees with the data's own time column or Ts",
+    )
+    p.add_argument("--separator", choices=(",", ";", "tab", "space"), help="CSV separator (default: detected)")
     p.add_argument("--decimal", choices=(".", ","), help="CSV decimal mark (default: detected)")
 
 
@@ -36,8 +38,14 @@ def add_json_options(p, what: str = "the result", *, legacy_path: bool = False) 
     writes there (as --json-out), so existing scripts keep working.
     """
     if legacy_path:
-        p.add_argument("--json", nargs="?", const=True, default=False, metavar="FILE",
-                       help=f"print {what} as JSON on stdout (--json FILE: same as --json-out FILE)")
+        p.add_argument(
+            "--json",
+            nargs="?",
+            const=True,
+            default=False,
+            metavar="FILE",
+            help=f"print {what} as JSON on stdout (--json FILE: same as --json-out FILE)",
+        )
     else:
         p.add_argument("--json", action="store_true", help=f"print {what} as JSON on stdout")
     p.add_argument("--json-out", metavar="FILE.json", help=f"write {what} as JSON to this file")
@@ -79,17 +87,21 @@ def model_period(tables, model, args) -> float:
         return model.ts
     ts = sample_period(tables, args)
     if abs(ts - model.ts) > 0.01 * model.ts and not getattr(args, "ts_override", False):
-        raise InputError(f"the data's sample period {ts:g} s differs from the model's {model.ts:g} s: "
-                         "resample the data, or add --ts-override")
+        raise InputError(
+            f"the data's sample period {ts:g} s differs from the model's {model.ts:g} s: "
+            "resample the data, or add --ts-override"
+        )
     return ts
 
 
 def require_columns(table, names) -> None:
     missing = [n for n in names if n not in table.columns]
     if missing:
-        raise InputError(f"{table.path}: no column{'s' if len(missing) > 1 else ''} "
-                         f"{', '.join(repr(m) for m in missing)} "
-                         f"(columns: {', '.join(table.names)}; read as {table.dialect})")
+        raise InputError(
+            f"{table.path}: no column{'s' if len(missing) > 1 else ''} "
+            f"{', '.join(repr(m) for m in missing)} "
+            f"(columns: {', '.join(table.names)}; read as {table.dialect})"
+        )
 
 
 def load_model_checked(path):
@@ -124,8 +136,9 @@ def _check_blocks_finite(path, model) -> None:
         raise ModelError(f"{path}: the model's blocks cannot be built ({exc})") from None
     for out in structure.outputs:
         blocks = [out.g, out.h2] + [b for br in out.branches for b in (br.f, br.h1)]
-        values = [np.asarray(getattr(b, a)) for b in blocks if b is not None
-                  for a in ("x", "y", "sos") if hasattr(b, a)]
+        values = [
+            np.asarray(getattr(b, a)) for b in blocks if b is not None for a in ("x", "y", "sos") if hasattr(b, a)
+        ]
         if not all(np.all(np.isfinite(v)) for v in values) or not math.isfinite(out.offset):
             raise ModelError(f"{path}: output '{out.name}' has non-finite (NaN or inf) coefficients")
 

@@ -50,7 +50,9 @@ def run(args) -> int:
         from porosense.errors import DeviceError
 
         rates = result["max_clean_rates"]
-        raise DeviceError(f"the firmware advertises {rates['advertised_max_hz']} Hz but sustains "
-                          f"{rates['measured_max_hz']} Hz with every channel, the IMU and the heaviest storable "
-                          "model: set SAMPLE_RATE_HZ max in protocol/messages.toml and run protocol/generate.py")
+        raise DeviceError(
+            f"the firmware advertises {rates['advertised_max_hz']} Hz but sustains "
+            f"{rates['measured_max_hz']} Hz with every channel, the IMU and the heaviest storable "
+            "model: set SAMPLE_RATE_HZ max in protocol/messages.toml and run protocol/generate.py"
+        )
     return 0

@@ -57,9 +57,15 @@ def run(args) -> int:
         t0 = tables[0]
         time = t0.columns["t"] if "t" in t0.columns else np.arange(len(t0)) * model.ts
         pred = result.predictions[str(t0.path)]
-        plot_compare(time, {o: t0.columns[o] for o in result.outputs},
-                     {o: pred[:, j] for j, o in enumerate(result.outputs)}, label=model_label(model),
-                     units=t0.units, title=f"{args.model} on {t0.path}", path=args.plot)
+        plot_compare(
+            time,
+            {o: t0.columns[o] for o in result.outputs},
+            {o: pred[:, j] for j, o in enumerate(result.outputs)},
+            label=model_label(model),
+            units=t0.units,
+            title=f"{args.model} on {t0.path}",
+            path=args.plot,
+        )
         say(args, f"figure written to {args.plot}")
     say(args, str(result))
     emit_json(result.to_dict(), args)

@@ -53,8 +53,13 @@ def register(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--port", required=True, metavar="URL", help="serial port or pyserial URL")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    p.add_argument("action", nargs="?", default="show", choices=("show", "get", "set", "reset"),
-                   help="show (default), get KEY, set KEY VALUE, or reset")
+    p.add_argument(
+        "action",
+        nargs="?",
+        default="show",
+        choices=("show", "get", "set", "reset"),
+        help="show (default), get KEY, set KEY VALUE, or reset",
+    )
     p.add_argument("key", nargs="?", metavar="KEY", help="configuration key (name, any case), for get and set")
     p.add_argument("value", nargs="?", metavar="VALUE", help="integer value in the key's unit, for set")
     p.set_defaults(func=run)
@@ -87,8 +92,17 @@ def config_table(values: dict[str, int]) -> list[dict]:
 
     rows = []
     for key, spec in CONFIG_SPECS.items():
-        rows.append({"key": key.name, "value": values.get(key.name), "unit": UNITS.get(key.name, ""),
-                     "default": spec.default, "min": spec.min, "max": spec.max, "doc": spec.doc})
+        rows.append(
+            {
+                "key": key.name,
+                "value": values.get(key.name),
+                "unit": UNITS.get(key.name, ""),
+                "default": spec.default,
+                "min": spec.min,
+                "max": spec.max,
+                "doc": spec.doc,
+            }
+        )
     return rows
 
 
@@ -144,13 +158,25 @@ def run(args) -> int:
     if only is not None:
         rows = [r for r in rows if str(r.get("key", "")).upper() == only]
     if args.json:
-        print(json.dumps({"port": args.port, "action": args.action, "config_defaults": defaults_in_use,
-                          "notes": note, "keys": rows}, indent=2))
+        print(
+            json.dumps(
+                {
+                    "port": args.port,
+                    "action": args.action,
+                    "config_defaults": defaults_in_use,
+                    "notes": note,
+                    "keys": rows,
+                },
+                indent=2,
+            )
+        )
         return 0
     print(format_table(rows))
     if defaults_in_use:
-        print("note: the stored configuration was missing or corrupt; documented defaults are in use "
-              "(CONFIG_DEFAULTS) until it is saved")
+        print(
+            "note: the stored configuration was missing or corrupt; documented defaults are in use "
+            "(CONFIG_DEFAULTS) until it is saved"
+        )
     for n in note:
         print(n)
     return 0
@@ -183,7 +209,6 @@ def _explain(exc, setting) -> str:
         if key == "SCHEDULE_ENABLE":
             return "stored schedules are not available in this firmware (no EEPROM room): SCHEDULE_ENABLE stays 0"
         if key == "PWM_PIN":
-            return (f"pin {value} cannot carry the analogue output: its timer is in use; "
-                    "use PWM_PIN 10 (or 0 for off)")
+            return f"pin {value} cannot carry the analogue output: its timer is in use; use PWM_PIN 10 (or 0 for off)"
         return f"{key} = {value} is not supported by this firmware"
     return f"the device refused {key} = {value}: {code}"

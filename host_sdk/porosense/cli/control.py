@@ -13,7 +13,8 @@ from porosense.errors import InputError
 TUNE_RULE_HELP = (
     "Rule: lambda (IMC) tuning of a PI on a first-order-plus-dead-time (FOPDT) model of commanded "
     "vacuum -> output, kp = T / (K (tau_cl + theta + Ts/2)), ki = kp / T, with K (output units per kPa), "
-    "T (s) and theta (s) fitted to the recordings by output-error least squares.")
+    "T (s) and theta (s) fitted to the recordings by output-error least squares."
+)
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -65,23 +66,45 @@ def _register_tune(csub) -> None:
             "the estimate the board controls."
         ),
         epilog="example: porosense control tune step_10.csv step_20.csv step_40.csv step_60.csv --model model.bin "
-               "--out gains.json --tau-cl 0.5 --plot step.png",
+        "--out gains.json --tau-cl 0.5 --plot step.png",
     )
     t.add_argument("data", nargs="+", metavar="DATA", help="recordings (CSV or .mat) with the command and the output")
-    t.add_argument("--command", default="p_cmd_0",
-                   help="commanded regulator pressure column, kPa gauge (vacuum negative; default p_cmd_0)")
-    t.add_argument("--output", default=None,
-                   help="output column (default: strain_0, else the on-device estimate est_strain_0)")
-    t.add_argument("--tau-cl", type=float, default=DEFAULT_TAU_CL_S, metavar="SECONDS",
-                   help=f"desired closed-loop time constant, s (default {DEFAULT_TAU_CL_S:g}: about the contractor's "
-                        "open-loop time constant, and within the board's fixed-point integral gain range)")
-    t.add_argument("--slew", type=float, default=20.0, metavar="UNITS_PER_S",
-                   help="target slew limit, output units per s (default 20)")
-    t.add_argument("--step", type=float, default=None, metavar="UNITS",
-                   help="size of the predicted step, output units (default: half the recordings' output span)")
-    t.add_argument("--model", metavar="MODEL.bin",
-                   help="the model blob the board will run: tau_cl is raised, if needed, to the smallest whose gains "
-                        "the board's fixed point holds for this model and rate (the integral gain is 16-bit)")
+    t.add_argument(
+        "--command",
+        default="p_cmd_0",
+        help="commanded regulator pressure column, kPa gauge (vacuum negative; default p_cmd_0)",
+    )
+    t.add_argument(
+        "--output", default=None, help="output column (default: strain_0, else the on-device estimate est_strain_0)"
+    )
+    t.add_argument(
+        "--tau-cl",
+        type=float,
+        default=DEFAULT_TAU_CL_S,
+        metavar="SECONDS",
+        help=f"desired closed-loop time constant, s (default {DEFAULT_TAU_CL_S:g}: about the contractor's "
+        "open-loop time constant, and within the board's fixed-point integral gain range)",
+    )
+    t.add_argument(
+        "--slew",
+        type=float,
+        default=20.0,
+        metavar="UNITS_PER_S",
+        help="target slew limit, output units per s (default 20)",
+    )
+    t.add_argument(
+        "--step",
+        type=float,
+        default=None,
+        metavar="UNITS",
+        help="size of the predicted step, output units (default: half the recordings' output span)",
+    )
+    t.add_argument(
+        "--model",
+        metavar="MODEL.bin",
+        help="the model blob the board will run: tau_cl is raised, if needed, to the smallest whose gains "
+        "the board's fixed point holds for this model and rate (the integral gain is 16-bit)",
+    )
     t.add_argument("--out", default="gains.json", metavar="FILE.json", help="gains file (default gains.json)")
     t.add_argument("--plot", metavar="FILE.png", help="figure of the predicted closed-loop step")
     add_data_options(t)
@@ -101,8 +124,10 @@ def _tune_columns(tables, args) -> tuple[str, str]:
                 output = name
                 break
         else:
-            raise InputError(f"{tables[0].path}: no output column strain_0 or est_strain_0; name it with --output "
-                             f"(columns: {', '.join(tables[0].names)})")
+            raise InputError(
+                f"{tables[0].path}: no output column strain_0 or est_strain_0; name it with --output "
+                f"(columns: {', '.join(tables[0].names)})"
+            )
     for tb in tables:
         require_columns(tb, [output])
     return args.command, output
@@ -144,24 +169,34 @@ def run_tune(args) -> int:
         blob = ModelBlob.from_bytes(Path(args.model).read_bytes())
         fitted = board_tau_cl(plant, tau_cl, args.slew, float(blob.out_scale[0]), blob.rate_hz)
         if fitted > tau_cl:
-            say(args, f"tau_cl raised from {tau_cl:g} to {fitted:.3g} s: the board's fixed point holds no larger "
-                      f"integral gain for {args.model} at {blob.rate_hz:g} Hz")
+            say(
+                args,
+                f"tau_cl raised from {tau_cl:g} to {fitted:.3g} s: the board's fixed point holds no larger "
+                f"integral gain for {args.model} at {blob.rate_hz:g} Hz",
+            )
         tau_cl = fitted
     gains = lambda_pi(plant, tau_cl, args.slew)
     span = max(float(np.ptp(np.concatenate(ys))), 1e-9)
     step = float(args.step) if args.step is not None else round(span / 2.0, 1) or span / 2.0
     pred = predict_step(plant, gains, step)
     predicted = {**pred.summary(), "note": "linear loop around the FOPDT, target slew-limited"}
-    doc = save_gains(out_path, gains, plant=plant, rule=RULE, tau_cl_s=tau_cl, output=output, predicted=predicted,
-                     sources=args.data)
+    doc = save_gains(
+        out_path, gains, plant=plant, rule=RULE, tau_cl_s=tau_cl, output=output, predicted=predicted, sources=args.data
+    )
     if plot:
         pred.plot(plot, title=f"predicted step of {step:g} ({output}), tau_cl {tau_cl:g} s")
     say(args, f"plant ({cmd} -> {output}, {len(tables)} recordings, Ts {ts:g} s): {plant}")
-    say(args, f"gains (tau_cl {tau_cl:.3g} s): kp {gains.kp_kpa:.4g} kPa per unit, ki {gains.ki_kpa_per_s:.4g} "
-              f"kPa per unit s, slew {gains.slew_per_s:g} units/s")
+    say(
+        args,
+        f"gains (tau_cl {tau_cl:.3g} s): kp {gains.kp_kpa:.4g} kPa per unit, ki {gains.ki_kpa_per_s:.4g} "
+        f"kPa per unit s, slew {gains.slew_per_s:g} units/s",
+    )
     settle = "does not settle" if math.isnan(pred.settling_s) else f"settles in {pred.settling_s:.2f} s"
-    say(args, f"predicted step of {step:g}: {settle} (2 % band), overshoot {pred.overshoot_pct:.1f} %, "
-              f"peak vacuum {pred.peak_vacuum_kpa:.1f} kPa")
+    say(
+        args,
+        f"predicted step of {step:g}: {settle} (2 % band), overshoot {pred.overshoot_pct:.1f} %, "
+        f"peak vacuum {pred.peak_vacuum_kpa:.1f} kPa",
+    )
     say(args, f"wrote {out_path}" + (f" and {plot}" if plot else ""))
     emit_json({**doc, "gains_file": str(out_path), "plot": str(plot) if plot else None}, args)
     return 0
@@ -185,17 +220,26 @@ def _register_run(csub) -> None:
             "strain; --load sets its hanging load); any other value is a serial URL."
         ),
         epilog="example: porosense control run --port emulator --model model.bin --gains gains.json --target 15 "
-               "--hold 10 --out ctl_run.csv --plot ctl_run.png",
+        "--hold 10 --out ctl_run.csv --plot ctl_run.png",
     )
-    r.add_argument("--port", required=True, metavar="URL|emulator|simboard",
-                   help="serial port or pyserial URL, or emulator[:ACTUATOR] / simboard[:ACTUATOR]")
+    r.add_argument(
+        "--port",
+        required=True,
+        metavar="URL|emulator|simboard",
+        help="serial port or pyserial URL, or emulator[:ACTUATOR] / simboard[:ACTUATOR]",
+    )
     r.add_argument("--target", type=float, help="constant target, output units (e.g. 15 for 15 %% strain)")
     r.add_argument("--hold", type=float, default=10.0, metavar="SECONDS", help="how long to hold it, s (default 10)")
     r.add_argument("--trajectory", metavar="FILE.csv", help="targets over time: t_s,target (or target0..2)")
     r.add_argument("--gains", metavar="FILE.json", help="gains file from 'porosense control tune'")
     r.add_argument("--model", metavar="MODEL.bin", help="flash this model first (the board's rate is set to it)")
-    r.add_argument("--load", type=float, default=0.0, metavar="GRAMS",
-                   help="hanging load of a simulated board, g (0..500; default 0)")
+    r.add_argument(
+        "--load",
+        type=float,
+        default=0.0,
+        metavar="GRAMS",
+        help="hanging load of a simulated board, g (0..500; default 0)",
+    )
     r.add_argument("--seed", type=int, default=0, help="seed of a simulated board (default 0)")
     r.add_argument("--out", metavar="FILE.csv", help="write the run (target, estimate, truth, command) as CSV")
     r.add_argument("--plot", metavar="FILE.png", help="figure: target, estimate and true output against time")
@@ -252,8 +296,16 @@ def run_run(args) -> int:
         if not Path(args.model).is_file():
             raise InputError(f"model blob {args.model} not found")
         model = Path(args.model).read_bytes()
-    req = RunRequest(port=args.port, target=args.target, hold_s=args.hold, trajectory=trajectory, gains=gains,
-                     model=model, load_g=args.load, seed=args.seed)
+    req = RunRequest(
+        port=args.port,
+        target=args.target,
+        hold_s=args.hold,
+        trajectory=trajectory,
+        gains=gains,
+        model=model,
+        load_g=args.load,
+        seed=args.seed,
+    )
     result = execute_run(req, log=lambda text: say(args, text))
     if out:
         result.recording.to_csv(out)

@@ -27,17 +27,33 @@ def register(sub) -> argparse.ArgumentParser:
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--actuator", default="contractor", choices=("bending", "contractor", "3dof", "all"),
-                   help="which actuator (default: contractor)")
-    p.add_argument("--board", default="emulator", metavar="emulator|simboard|URL",
-                   help="the emulator (default; the firmware core on this computer), the firmware in simavr, or a serial URL of a real board "
-                        "(a real board gives no ground truth: the demo records and stops)")
+    p.add_argument(
+        "--actuator",
+        default="contractor",
+        choices=("bending", "contractor", "3dof", "all"),
+        help="which actuator (default: contractor)",
+    )
+    p.add_argument(
+        "--board",
+        default="emulator",
+        metavar="emulator|simboard|URL",
+        help="the emulator (default; the firmware core on this computer), the firmware in simavr, or a serial URL of a real board "
+        "(a real board gives no ground truth: the demo records and stops)",
+    )
     p.add_argument("--out", default="out/demo", help="report folder (default: out/demo)")
-    p.add_argument("--rate", type=int, default=50,
-                   help=f"sample rate in Hz, {_rate_limits()[0]}..{_rate_limits()[1]} (the board's SAMPLE_RATE_HZ "
-                        "limits; default 50)")
-    p.add_argument("--max-poles", type=int, default=3,
-                   help="largest number of poles in the order search, 1..10 (default 3; the paper's grid is 10)")
+    p.add_argument(
+        "--rate",
+        type=int,
+        default=50,
+        help=f"sample rate in Hz, {_rate_limits()[0]}..{_rate_limits()[1]} (the board's SAMPLE_RATE_HZ "
+        "limits; default 50)",
+    )
+    p.add_argument(
+        "--max-poles",
+        type=int,
+        default=3,
+        help="largest number of poles in the order search, 1..10 (default 3; the paper's grid is 10)",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated actuator (default 0)")
     p.add_argument("--json", action="store_true", help="print the results as JSON at the end")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
@@ -64,8 +80,19 @@ def run(args) -> int:
         raise InputError(f"--max-poles {args.max_poles} outside 1..10")
     actuators = ACTUATORS if args.actuator == "all" else (args.actuator,)
     log = (lambda *a, **k: None) if args.json else print
-    results = [run_demo(a, args.board, out_dir=args.out, rate_hz=args.rate, max_poles=args.max_poles,
-                        seed=args.seed, progress=not args.no_progress, log=log) for a in actuators]
+    results = [
+        run_demo(
+            a,
+            args.board,
+            out_dir=args.out,
+            rate_hz=args.rate,
+            max_poles=args.max_poles,
+            seed=args.seed,
+            progress=not args.no_progress,
+            log=log,
+        )
+        for a in actuators
+    ]
     if args.json:
         print(json.dumps([r.to_dict() for r in results], indent=2, default=float))
     return 0

@@ -47,30 +47,52 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--input", required=True, metavar="COL[,COL...]", help="input column(s) the model uses")
     p.add_argument("--output", required=True, metavar="COL", help="the measured output column")
     what = p.add_mutually_exclusive_group(required=True)
-    what.add_argument("--sim", metavar="ACTUATOR", help="calibrate this simulator (contractor, bending, 3dof) "
-                      "to the estimation range (inputs: commanded vacuum in kPa) and diagnose it")
+    what.add_argument(
+        "--sim",
+        metavar="ACTUATOR",
+        help="calibrate this simulator (contractor, bending, 3dof) "
+        "to the estimation range (inputs: commanded vacuum in kPa) and diagnose it",
+    )
     what.add_argument("--model", metavar="MODEL.json", help="diagnose a model saved by 'porosense identify'")
-    what.add_argument("--baseline", choices=STRUCTURES, metavar="STRUCTURE",
-                      help="identify a baseline of this structure (linear, hammerstein, wiener, wh) first")
-    p.add_argument("--condition", nargs="*", default=[], metavar="COL",
-                   help="extra measured columns the model does not use (a load, other channels)")
+    what.add_argument(
+        "--baseline",
+        choices=STRUCTURES,
+        metavar="STRUCTURE",
+        help="identify a baseline of this structure (linear, hammerstein, wiener, wh) first",
+    )
+    p.add_argument(
+        "--condition",
+        nargs="*",
+        default=[],
+        metavar="COL",
+        help="extra measured columns the model does not use (a load, other channels)",
+    )
     p.add_argument("--estimation", metavar="A:B", help="sample range of every file used for estimation")
     p.add_argument("--validation", metavar="A:B", help="sample range of every file used for validation")
-    p.add_argument("--validation-data", nargs="+", metavar="FILE",
-                   help="separate validation files (then --data is estimation only)")
+    p.add_argument(
+        "--validation-data",
+        nargs="+",
+        metavar="FILE",
+        help="separate validation files (then --data is estimation only)",
+    )
     p.add_argument("--poles", type=int, default=2, help="baseline poles per input (default 2)")
     p.add_argument("--zeros", type=int, default=1, help="baseline zeros per input (default 1)")
-    p.add_argument("--alpha", type=float, default=0.01,
-                   help="family-wise false-alarm level over the catalogue (default 0.01)")
+    p.add_argument(
+        "--alpha", type=float, default=0.01, help="family-wise false-alarm level over the catalogue (default 0.01)"
+    )
     add_data_options(p)
     add_json_options(p, "the findings", legacy_path=True)
     p.add_argument("--report", metavar="DIR", help="write figures and a Markdown summary into DIR")
-    p.add_argument("--unit", metavar="UNIT", help="the output's unit on the figures (default: from the "
-                   "recording's sidecar)")
-    p.add_argument("--save-extended", metavar="EXT.json",
-                   help="write the top cause's extended model here (with --model or --baseline): a model file "
-                        "that 'porosense predict' runs and, where the device structure carries it, 'quantize' "
-                        "and 'flash' take")
+    p.add_argument(
+        "--unit", metavar="UNIT", help="the output's unit on the figures (default: from the recording's sidecar)"
+    )
+    p.add_argument(
+        "--save-extended",
+        metavar="EXT.json",
+        help="write the top cause's extended model here (with --model or --baseline): a model file "
+        "that 'porosense predict' runs and, where the device structure carries it, 'quantize' "
+        "and 'flash' take",
+    )
     p.set_defaults(func=run)
     return p
 
@@ -131,9 +153,12 @@ def _predictor(args, inputs, est):
         from porosense.diagnose.calibrate import calibrate
 
         cal = calibrate(args.sim, args.output, us, ys, args.ts)
-        return (lambda u: cal.predict(u, args.ts), None,
-                f"{args.sim} simulator calibrated on estimation: porosity {cal.porosity:.1f} %, scale "
-                f"{cal.scale:.4g}, offset {cal.offset:.4g} (fit {cal.fit_estimation:.1f} %)")
+        return (
+            lambda u: cal.predict(u, args.ts),
+            None,
+            f"{args.sim} simulator calibrated on estimation: porosity {cal.porosity:.1f} %, scale "
+            f"{cal.scale:.4g}, offset {cal.offset:.4g} (fit {cal.fit_estimation:.1f} %)",
+        )
     if args.model:
         from porosense import ident
 
@@ -156,8 +181,11 @@ def _predictor(args, inputs, est):
     model.fit(u=us, y=ys, ts=args.ts, inputs=inputs, output=args.output)
     from porosense.ident.extended import predict_settled
 
-    return (lambda u: predict_settled(model, u), model,
-            f"{args.baseline} baseline with {args.poles} poles and {args.zeros} zeros identified on estimation")
+    return (
+        lambda u: predict_settled(model, u),
+        model,
+        f"{args.baseline} baseline with {args.poles} poles and {args.zeros} zeros identified on estimation",
+    )
 
 
 def run(args) -> int:

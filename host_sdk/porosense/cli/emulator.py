@@ -22,31 +22,46 @@ def register(sub) -> argparse.ArgumentParser:
         ),
         epilog=(
             "example: porosense emulator --listen tcp://127.0.0.1:5000 --actuator 3dof --realtime\n"
-            "         then: python -c \"from porosense.device import Device; "
+            '         then: python -c "from porosense.device import Device; '
             "print(Device.open('socket://127.0.0.1:5000').hello())\""
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--listen", default="tcp://127.0.0.1:5000",
-                   help="tcp://HOST:PORT (PORT 0 picks a free one) or pty (default: %(default)s)")
-    p.add_argument("--actuator", default="contractor", choices=("contractor", "bending", "3dof"),
-                   help="simulated actuator (default: %(default)s)")
+    p.add_argument(
+        "--listen",
+        default="tcp://127.0.0.1:5000",
+        help="tcp://HOST:PORT (PORT 0 picks a free one) or pty (default: %(default)s)",
+    )
+    p.add_argument(
+        "--actuator",
+        default="contractor",
+        choices=("contractor", "bending", "3dof"),
+        help="simulated actuator (default: %(default)s)",
+    )
     p.add_argument("--porosity", type=float, default=None, help="porosity in %% (default: the actuator's)")
     p.add_argument("--load-g", type=float, default=0.0, help="hanging load in g (default: 0)")
     p.add_argument("--seed", type=int, default=0, help="noise seed of the plant and the faults")
     p.add_argument("--realtime", action="store_true", help="pace the board and its UART by the wall clock")
     p.add_argument("--speed", type=float, default=1.0, help="with --realtime: time factor (default 1)")
-    p.add_argument("--corrupt", type=float, default=0.0, metavar="RATE",
-                   help="corrupt this fraction of bytes in both directions")
-    p.add_argument("--drop", type=float, default=0.0, metavar="RATE",
-                   help="drop this fraction of bytes in both directions")
+    p.add_argument(
+        "--corrupt", type=float, default=0.0, metavar="RATE", help="corrupt this fraction of bytes in both directions"
+    )
+    p.add_argument(
+        "--drop", type=float, default=0.0, metavar="RATE", help="drop this fraction of bytes in both directions"
+    )
     p.add_argument("--no-adc", action="store_true", help="boot with the ADS1115 disconnected")
     p.add_argument("--no-imu", action="store_true", help="boot with the BNO055 disconnected")
-    p.add_argument("--reset-after-model-bytes", type=int, default=None, metavar="N",
-                   help="cut the power after N bytes of a model write reach the EEPROM")
+    p.add_argument(
+        "--reset-after-model-bytes",
+        type=int,
+        default=None,
+        metavar="N",
+        help="cut the power after N bytes of a model write reach the EEPROM",
+    )
     p.add_argument("--json", action="store_true", help="announce the board's URL as one JSON line")
-    p.add_argument("--duration", type=float, default=None, metavar="S",
-                   help="stop after S seconds (default: run until Ctrl-C)")
+    p.add_argument(
+        "--duration", type=float, default=None, metavar="S", help="stop after S seconds (default: run until Ctrl-C)"
+    )
     p.set_defaults(func=run)
     return p
 
@@ -66,15 +81,26 @@ def run(args) -> int:
         raise InputError(f"--listen {args.listen}: the TCP port must be 0..65535")
     try:
         faults = Faults(
-            rx_corrupt=args.corrupt, tx_corrupt=args.corrupt, rx_drop=args.drop, tx_drop=args.drop,
-            seed=args.seed, adc_disconnect=args.no_adc, imu_disconnect=args.no_imu,
+            rx_corrupt=args.corrupt,
+            tx_corrupt=args.corrupt,
+            rx_drop=args.drop,
+            tx_drop=args.drop,
+            seed=args.seed,
+            adc_disconnect=args.no_adc,
+            imu_disconnect=args.no_imu,
             reset_after_model_bytes=args.reset_after_model_bytes,
         )
     except ValueError as exc:
         raise InputError(str(exc)) from None
     emu = Emulator(
-        args.actuator, porosity=args.porosity, load_g=args.load_g, seed=args.seed, listen=args.listen,
-        realtime=args.realtime, speed=args.speed, faults=faults,
+        args.actuator,
+        porosity=args.porosity,
+        load_g=args.load_g,
+        seed=args.seed,
+        listen=args.listen,
+        realtime=args.realtime,
+        speed=args.speed,
+        faults=faults,
     )
     mode = f"real time x{args.speed:g}" if args.realtime else "lockstep (as fast as the host reads)"
     if args.json:  # one line that scripts can read before connecting
@@ -91,7 +117,7 @@ def run(args) -> int:
         time.sleep(args.duration)
     finally:
         emu.stop()
-        if emu.error is not None:
-            print(f"porosense emulator: stopped by {emu.error!r}", file=sys.stderr)
-            return 1
+    if emu.error is not None:
+        print(f"porosense emulator: stopped by {emu.error!r}", file=sys.stderr)
+        return 1
     return 0

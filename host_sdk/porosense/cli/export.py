@@ -28,8 +28,11 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--c-out", metavar="FILE.c", help="C file name (default: MODEL.c beside the model)")
     p.add_argument("--name", help="prefix of the C functions (default: porosense_<model file stem>)")
     p.add_argument("--python-control", action="store_true", help="write the transfer functions")
-    p.add_argument("--control-out", metavar="FILE.json|FILE.pkl",
-                   help="transfer-function file (default: MODEL_tf.json beside the model)")
+    p.add_argument(
+        "--control-out",
+        metavar="FILE.json|FILE.pkl",
+        help="transfer-function file (default: MODEL_tf.json beside the model)",
+    )
     add_json_options(p, "what was written")
     p.set_defaults(func=run)
     return p
@@ -50,8 +53,7 @@ def run(args) -> int:
         if not re.fullmatch(r"[A-Za-z_]\w*", name):
             raise InputError(f"--name {name!r} is not a C identifier")
         path.write_text(c_source(model.to_structure(), name))
-        written["c"] = {"path": str(path), "init": f"{name}_init", "step": f"{name}_step",
-                        "state": f"{name}_state"}
+        written["c"] = {"path": str(path), "init": f"{name}_init", "step": f"{name}_step", "state": f"{name}_state"}
         say(args, f"C source written to {path}: {name}_init(&state), then {name}_step(&state, u, y) per sample")
     if args.python_control or args.control_out:
         path = output_file(args.control_out or f"{stem}_tf.json", "--control-out")

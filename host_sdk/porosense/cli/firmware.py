@@ -10,9 +10,11 @@ def register(sub) -> argparse.ArgumentParser:
     p = sub.add_parser(
         "firmware",
         help="flash the packaged Uno firmware or show where its files are",
-        description=("The Uno firmware built with this package (HEX and ELF). 'upload' flashes it "
-                     "with avrdude through the Uno's bootloader (115200 baud, ATmega328P); 'where' "
-                     "prints the packaged files (firmware, core sources, simboard harness)."),
+        description=(
+            "The Uno firmware built with this package (HEX and ELF). 'upload' flashes it "
+            "with avrdude through the Uno's bootloader (115200 baud, ATmega328P); 'where' "
+            "prints the packaged files (firmware, core sources, simboard harness)."
+        ),
         epilog="example: porosense firmware upload --port /dev/ttyACM0",
     )
     p.add_argument("action", choices=("upload", "where"), help="what to do")
@@ -36,8 +38,12 @@ def run(args) -> int:
         result = upload(args.port, args.hex, args.avrdude)
         print(json.dumps(result.to_dict()) if args.json else result)
         return 0
-    paths = {"hex": files.hex_path(), "elf": files.elf_path(), "core": files.core_dir(),
-             "simboard": files.harness_path()}
+    paths = {
+        "hex": files.hex_path(),
+        "elf": files.elf_path(),
+        "core": files.core_dir(),
+        "simboard": files.harness_path(),
+    }
     info = {k: {"path": str(v), "present": v.exists()} for k, v in paths.items()}
     if args.json:
         print(json.dumps(info))

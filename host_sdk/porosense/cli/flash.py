@@ -32,12 +32,20 @@ def register(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--port", required=True, metavar="URL", help="serial port or pyserial URL")
     p.add_argument("blob", metavar="MODEL.bin", help="model blob")
-    p.add_argument("--set-rate", action="store_true",
-                   help="set (and save) the board's SAMPLE_RATE_HZ to the model's rate when they differ")
-    p.add_argument("--replace", action="store_true",
-                   help="erase the running model first when the new one does not fit beside it")
-    p.add_argument("--store", choices=("eeprom", "flash"), default="eeprom",
-                   help="eeprom (default): over the protocol; flash: the flash model store, by upload")
+    p.add_argument(
+        "--set-rate",
+        action="store_true",
+        help="set (and save) the board's SAMPLE_RATE_HZ to the model's rate when they differ",
+    )
+    p.add_argument(
+        "--replace", action="store_true", help="erase the running model first when the new one does not fit beside it"
+    )
+    p.add_argument(
+        "--store",
+        choices=("eeprom", "flash"),
+        default="eeprom",
+        help="eeprom (default): over the protocol; flash: the flash model store, by upload",
+    )
     p.add_argument("--hex-out", metavar="FILE.hex", help="--store flash: write the slot's Intel HEX here, no upload")
     p.add_argument("--avrdude", default=None, help="--store flash: path of avrdude (default: found on PATH)")
     p.add_argument("--json", action="store_true", help="print the stored model's info as JSON")
@@ -66,9 +74,11 @@ def run(args) -> int:
 
         print(json.dumps({"port": args.port, "bytes": len(data), "rate_hz": rate, **info.to_dict()}, default=float))
         return 0
-    print(f"flashed {len(data)} bytes to {args.port}: model 0x{info.model_id:08X}, CRC 0x{info.crc:04X}, "
-          f"{blob.n_inputs} inputs, {blob.n_outputs} outputs, {rate} Hz, out_scale "
-          + ", ".join(f"{s:.6g}" for s in info.out_scale[: blob.n_outputs]))
+    print(
+        f"flashed {len(data)} bytes to {args.port}: model 0x{info.model_id:08X}, CRC 0x{info.crc:04X}, "
+        f"{blob.n_inputs} inputs, {blob.n_outputs} outputs, {rate} Hz, out_scale "
+        + ", ".join(f"{s:.6g}" for s in info.out_scale[: blob.n_outputs])
+    )
     return 0
 
 
@@ -98,12 +108,16 @@ def _run_flash_store(args, data: bytes) -> int:
         if args.json:
             print(json.dumps(result))
         else:
-            print(f"wrote {out}: {len(data)}-byte model into flash slot {plan.slot} (counter {plan.seq}, "
-                  f"{plan.to_dict()['pages']} pages at 0x{plan.address:04X}); upload with avrdude -D")
+            print(
+                f"wrote {out}: {len(data)}-byte model into flash slot {plan.slot} (counter {plan.seq}, "
+                f"{plan.to_dict()['pages']} pages at 0x{plan.address:04X}); upload with avrdude -D"
+            )
         return 0
     if args.port.startswith(("socket://", "loop://", "rfc2217://")):
-        raise InputError(f"{args.port} has no bootloader to upload to: write the HEX with --hex-out "
-                         "(the simboard and the emulator take uploads through their Python API)")
+        raise InputError(
+            f"{args.port} has no bootloader to upload to: write the HEX with --hex-out "
+            "(the simboard and the emulator take uploads through their Python API)"
+        )
     with tempfile.TemporaryDirectory(prefix="porosense-flash-") as tmp:
         hex_file = Path(tmp) / "model_slot.hex"
         hex_file.write_text(hex_text)
@@ -113,9 +127,15 @@ def _run_flash_store(args, data: bytes) -> int:
     if not info.valid or info.crc != blob.crc or info.slot != 2 + plan.slot:
         raise DeviceError(f"uploaded flash slot {plan.slot} but the board runs: {info}")
     if args.json:
-        print(json.dumps({"port": args.port, "bytes": len(data), "rate_hz": rate, **plan.to_dict(),
-                          **info.to_dict()}, default=float))
+        print(
+            json.dumps(
+                {"port": args.port, "bytes": len(data), "rate_hz": rate, **plan.to_dict(), **info.to_dict()},
+                default=float,
+            )
+        )
         return 0
-    print(f"flashed {len(data)} bytes to flash slot {plan.slot} of {args.port} (counter {plan.seq}): "
-          f"model 0x{info.model_id:08X}, CRC 0x{info.crc:04X}, {rate} Hz")
+    print(
+        f"flashed {len(data)} bytes to flash slot {plan.slot} of {args.port} (counter {plan.seq}): "
+        f"model 0x{info.model_id:08X}, CRC 0x{info.crc:04X}, {rate} Hz"
+    )
     return 0

@@ -5,8 +5,17 @@ from __future__ import annotations
 import argparse
 
 from porosense.cli._args import parse_columns, parse_range
-from porosense.cli._data import add_data_options, add_json_options, emit_json, normalise_json_args, \
-    output_file, read_tables, require_columns, sample_period, say
+from porosense.cli._data import (
+    add_data_options,
+    add_json_options,
+    emit_json,
+    normalise_json_args,
+    output_file,
+    read_tables,
+    require_columns,
+    sample_period,
+    say,
+)
 from porosense.errors import InputError
 
 MAX_POLES_UNFORCED = 20  # the paper searches up to 10; beyond 20 the grid takes hours
@@ -34,62 +43,101 @@ def register(sub) -> argparse.ArgumentParser:
             "--ts is the sample period in seconds, taken from the data's t column, sidecar or Ts when "
             "they state it."
         ),
-        epilog=("example: porosense identify --data step_10.csv step_60.csv --input dR_0 --output strain_0 "
-                "--structure wh --poles 4 --zeros 2 --estimation 0:2000 --validation 2000: "
-                "--save model.json --json-out report.json"),
+        epilog=(
+            "example: porosense identify --data step_10.csv step_60.csv --input dR_0 --output strain_0 "
+            "--structure wh --poles 4 --zeros 2 --estimation 0:2000 --validation 2000: "
+            "--save model.json --json-out report.json"
+        ),
     )
-    p.add_argument("--data", nargs="+", required=True, metavar="FILE",
-                   help="recordings, one per file: CSV (any common dialect) or MATLAB .mat")
+    p.add_argument(
+        "--data",
+        nargs="+",
+        required=True,
+        metavar="FILE",
+        help="recordings, one per file: CSV (any common dialect) or MATLAB .mat",
+    )
     p.add_argument("--input", required=True, metavar="COL[,COL...]", help="input column names (1 to 3)")
     p.add_argument("--output", required=True, metavar="COL[,COL...]", help="output column name(s)")
     p.add_argument("--structure", choices=STRUCTURE_CHOICES, default="all", help="model structure (default all)")
     p.add_argument("--poles", type=int, metavar="N", help="number of poles (default: search 1..--max-poles)")
     p.add_argument("--zeros", type=int, metavar="N", help="number of zeros, < poles (default: search)")
-    p.add_argument("--max-poles", type=int, default=10, metavar="N",
-                   help=f"largest pole count searched (default 10; above {MAX_POLES_UNFORCED} needs --force)")
+    p.add_argument(
+        "--max-poles",
+        type=int,
+        default=10,
+        metavar="N",
+        help=f"largest pole count searched (default 10; above {MAX_POLES_UNFORCED} needs --force)",
+    )
     p.add_argument("--force", action="store_true", help="allow searches beyond the stated limits")
     p.add_argument("--breakpoints", type=int, default=10, metavar="N", help="PWL breakpoints (2..64, default 10)")
     p.add_argument("--delay", type=int, default=0, metavar="SAMPLES", help="input delay in samples (default 0)")
     p.add_argument("--starts", type=int, default=2, metavar="N", help="starts per nonlinear model (default 2)")
     p.add_argument("--estimation", metavar="A:B", help="sample range of every file used for estimation")
     p.add_argument("--validation", metavar="A:B", help="sample range of every file used for validation")
-    p.add_argument("--validation-data", nargs="+", metavar="FILE",
-                   help="separate CSV files used for validation only (like MATLAB's compare(val, m))")
-    p.add_argument("--criterion", default="fit", metavar="|".join(CRITERION_CHOICES),
-                   help="selection criterion: fit (validation NRMSE fit, default), aic or bic")
-    p.add_argument("--full-grid", action="store_true",
-                   help="estimate every structure at every order (default: linear orders first, then the "
-                        "nonlinear structures at the 2 best linear orders)")
-    p.add_argument("--smoothness", default="auto", metavar="auto|WEIGHT",
-                   help="smoothness penalty on the breakpoint values: auto (default) refits the selected "
-                        "nonlinear model with weights 1e-4, 1e-3, 1e-2 and keeps the best on validation; "
-                        "a number fixes the weight (0: none)")
-    p.add_argument("--monotone", action="store_true",
-                   help="constrain the static nonlinearities to be monotone (the paper's maps all are)")
-    p.add_argument("--process-noise", action="store_true",
-                   help="after the search, the best Wiener and WH candidates are refitted with a Gaussian "
-                        "noise entering before the static nonlinearity (g learnt noise-free, not "
-                        "noise-smoothed); they are scored by their output averaged over that noise and each "
-                        "keeps the noise unless its output-error fit validates better by more than one "
-                        "standard error; the saved model predicts and quantizes as the "
-                        "noise-free system (predict --expected gives the averaged output). The noise level is "
-                        "measured from the differences between periods when a file repeats its input (at least "
-                        "2 whole periods of a periodic excitation), and a model that reproduces the measured "
-                        "period power at no level (beyond 2.58 standard errors, 1 %% two-sided) is "
-                        "rejected for its output-error fit, and so is one whose noise-free system the records "
-                        "do not determine (builds that fit them within the noise differ on it by more than the "
-                        "chosen one moved from its output-error fit); without repeats only the averaged output is fitted, which cannot "
-                        "tell the level (the report says which). When at least 4 files are realisations of one "
-                        "periodic excitation (random-phase multisines), the orders are ranked by their "
-                        "nonparametric best linear approximation instead of the validation data, which carry "
-                        "the same noise: linear orders by number of parameters until one is not refuted at "
-                        "1 %%, "
-                        "the nonlinear structures at that order")
-    p.add_argument("--max-iter", type=int, default=200, metavar="N",
-                   help="function evaluations per refinement (default 200, as in the paper)")
+    p.add_argument(
+        "--validation-data",
+        nargs="+",
+        metavar="FILE",
+        help="separate CSV files used for validation only (like MATLAB's compare(val, m))",
+    )
+    p.add_argument(
+        "--criterion",
+        default="fit",
+        metavar="|".join(CRITERION_CHOICES),
+        help="selection criterion: fit (validation NRMSE fit, default), aic or bic",
+    )
+    p.add_argument(
+        "--full-grid",
+        action="store_true",
+        help="estimate every structure at every order (default: linear orders first, then the "
+        "nonlinear structures at the 2 best linear orders)",
+    )
+    p.add_argument(
+        "--smoothness",
+        default="auto",
+        metavar="auto|WEIGHT",
+        help="smoothness penalty on the breakpoint values: auto (default) refits the selected "
+        "nonlinear model with weights 1e-4, 1e-3, 1e-2 and keeps the best on validation; "
+        "a number fixes the weight (0: none)",
+    )
+    p.add_argument(
+        "--monotone",
+        action="store_true",
+        help="constrain the static nonlinearities to be monotone (the paper's maps all are)",
+    )
+    p.add_argument(
+        "--process-noise",
+        action="store_true",
+        help="after the search, the best Wiener and WH candidates are refitted with a Gaussian "
+        "noise entering before the static nonlinearity (g learnt noise-free, not "
+        "noise-smoothed); they are scored by their output averaged over that noise and each "
+        "keeps the noise unless its output-error fit validates better by more than one "
+        "standard error; the saved model predicts and quantizes as the "
+        "noise-free system (predict --expected gives the averaged output). The noise level is "
+        "measured from the differences between periods when a file repeats its input (at least "
+        "2 whole periods of a periodic excitation), and a model that reproduces the measured "
+        "period power at no level (beyond 2.58 standard errors, 1 %% two-sided) is "
+        "rejected for its output-error fit, and so is one whose noise-free system the records "
+        "do not determine (builds that fit them within the noise differ on it by more than the "
+        "chosen one moved from its output-error fit); without repeats only the averaged output is fitted, which cannot "
+        "tell the level (the report says which). When at least 4 files are realisations of one "
+        "periodic excitation (random-phase multisines), the orders are ranked by their "
+        "nonparametric best linear approximation instead of the validation data, which carry "
+        "the same noise: linear orders by number of parameters until one is not refuted at "
+        "1 %%, "
+        "the nonlinear structures at that order",
+    )
+    p.add_argument(
+        "--max-iter",
+        type=int,
+        default=200,
+        metavar="N",
+        help="function evaluations per refinement (default 200, as in the paper)",
+    )
     p.add_argument("--jobs", type=int, metavar="N", help="worker processes of the order search (default: all cores)")
-    p.add_argument("--save", default="model.json", metavar="MODEL.json",
-                   help="where to write the model (default model.json)")
+    p.add_argument(
+        "--save", default="model.json", metavar="MODEL.json", help="where to write the model (default model.json)"
+    )
     add_data_options(p)
     add_json_options(p, "the search report", legacy_path=True)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -113,8 +161,9 @@ def load_recordings(tables, inputs, outputs, rng: slice):
         n = len(table)
         start, stop, _ = rng.indices(n)
         if stop - start < 10:
-            raise InputError(f"{f}: the range {rng.start}:{rng.stop} leaves {max(stop - start, 0)} samples "
-                             f"of {n} (need >= 10)")
+            raise InputError(
+                f"{f}: the range {rng.start}:{rng.stop} leaves {max(stop - start, 0)} samples of {n} (need >= 10)"
+            )
         table.require_finite(inputs + outputs, slice(0, stop), "selected range")
         u = np.column_stack([table.columns[c] for c in inputs])[:stop]
         y = np.column_stack([table.columns[c] for c in outputs])[:stop]
@@ -141,8 +190,10 @@ def load_with_tail_holdout(tables, inputs, outputs, rng: slice):
         start, stop, _ = rng.indices(len(table))
         cut = start + int(round((1.0 - HOLDOUT_FRACTION) * (stop - start)))
         if stop - cut < MIN_SCORED or cut - start < 10:
-            raise InputError(f"{f}: the hold-out (last 25 % of {max(stop - start, 0)} samples) is too short to "
-                             f"score (need >= {MIN_SCORED} samples); give --validation or --validation-data")
+            raise InputError(
+                f"{f}: the hold-out (last 25 % of {max(stop - start, 0)} samples) is too short to "
+                f"score (need >= {MIN_SCORED} samples); give --validation or --validation-data"
+            )
         table.require_finite(inputs + outputs, slice(0, stop), "selected range")
         u = np.column_stack([table.columns[c] for c in inputs])[:stop]
         y = np.column_stack([table.columns[c] for c in outputs])[:stop]
@@ -179,8 +230,10 @@ def run(args) -> int:
     if len(inputs) > 3:
         raise InputError(f"{len(inputs)} input columns; at most 3")
     if args.max_poles > MAX_POLES_UNFORCED and not args.force:
-        raise InputError(f"--max-poles {args.max_poles} searches beyond {MAX_POLES_UNFORCED} poles (hours of work); "
-                         "add --force to run it")
+        raise InputError(
+            f"--max-poles {args.max_poles} searches beyond {MAX_POLES_UNFORCED} poles (hours of work); "
+            "add --force to run it"
+        )
     if args.max_poles < 1:
         raise InputError("--max-poles must be >= 1")
     output_file(args.save, "--save")
@@ -242,13 +295,30 @@ def run(args) -> int:
     try:
         for j, name in enumerate(outputs):
             result = ident.search(
-                u=est_u, y=[y[:, j] for y in est_y], ts=args.ts,
+                u=est_u,
+                y=[y[:, j] for y in est_y],
+                ts=args.ts,
                 validation=(val[0], [y[:, j] for y in val[1]]) if val else None,
-                grid=grid, n_breakpoints=args.breakpoints, delay=args.delay, starts=args.starts,
-                skip=est_skip, validation_skip=val[2] if val else 0, max_nfev=args.max_iter,
-                criterion=args.criterion, holdout=holdout, staged=args.poles is None and not args.full_grid,
-                smoothness=smooth or 0.0, monotone=args.monotone, process_noise=args.process_noise,
-                input_unit=input_units, output_unit=output_units[j], inputs=inputs, output=name, executor=executor, progress=not (args.quiet or args.json))
+                grid=grid,
+                n_breakpoints=args.breakpoints,
+                delay=args.delay,
+                starts=args.starts,
+                skip=est_skip,
+                validation_skip=val[2] if val else 0,
+                max_nfev=args.max_iter,
+                criterion=args.criterion,
+                holdout=holdout,
+                staged=args.poles is None and not args.full_grid,
+                smoothness=smooth or 0.0,
+                monotone=args.monotone,
+                process_noise=args.process_noise,
+                input_unit=input_units,
+                output_unit=output_units[j],
+                inputs=inputs,
+                output=name,
+                executor=executor,
+                progress=not (args.quiet or args.json),
+            )
             say(args, f"{name}:")
             say(args, str(result))
             model_j, choice = result.model, None
@@ -256,32 +326,56 @@ def run(args) -> int:
             if measured_noise.get("method") == "repeated periods":
                 # Validation data carry the same process noise: they cannot choose g's smoothness
                 # (a smoother g validates alike), so the noise fit's own weight stays.
-                say(args, f"smoothness weight {measured_noise['smoothness']:g} kept: the process-noise level was "
-                          "measured, and validation data carrying the same noise cannot choose the weight")
+                say(
+                    args,
+                    f"smoothness weight {measured_noise['smoothness']:g} kept: the process-noise level was "
+                    "measured, and validation data carrying the same noise cannot choose the weight",
+                )
             elif smooth is None and val is not None and result.best.structure != "linear":
                 choice = ident.choose_smoothness(
-                    result, u=est_u, y=[y[:, j] for y in est_y], ts=args.ts,
-                    validation=(val[0], [y[:, j] for y in val[1]]), validation_skip=val[2],
-                    monotone=args.monotone, inputs=inputs, output=name)
+                    result,
+                    u=est_u,
+                    y=[y[:, j] for y in est_y],
+                    ts=args.ts,
+                    validation=(val[0], [y[:, j] for y in val[1]]),
+                    validation_skip=val[2],
+                    monotone=args.monotone,
+                    inputs=inputs,
+                    output=name,
+                )
                 model_j = choice.model
                 say(args, str(choice))
             models.append(model_j)
             noise = _process_noise_line(model_j) if args.process_noise else None
             if noise:
                 say(args, noise)
-            reports.append({"output": name, **result.to_dict(),
-                            "smoothness": {"weight": choice.weight, "validation_fit": choice.fits} if choice else None,
-                            "process_noise": model_j.info.get("process_noise")})
+            reports.append(
+                {
+                    "output": name,
+                    **result.to_dict(),
+                    "smoothness": {"weight": choice.weight, "validation_fit": choice.fits} if choice else None,
+                    "process_noise": model_j.info.get("process_noise"),
+                }
+            )
     finally:
         if executor is not None:
             executor.shutdown()
     model = models[0] if len(models) == 1 else ident.ModelSet(models)
     model.save(args.save)
     say(args, f"model saved to {args.save}")
-    report = {"files": list(args.data), "inputs": inputs, "outputs": outputs, "ts": args.ts,
-              "estimation": args.estimation, "validation": args.validation,
-              "validation_data": args.validation_data, "holdout": holdout, "criterion": args.criterion,
-              "model": str(args.save), "results": reports}
+    report = {
+        "files": list(args.data),
+        "inputs": inputs,
+        "outputs": outputs,
+        "ts": args.ts,
+        "estimation": args.estimation,
+        "validation": args.validation,
+        "validation_data": args.validation_data,
+        "holdout": holdout,
+        "criterion": args.criterion,
+        "model": str(args.save),
+        "results": reports,
+    }
     emit_json(report, args)
     return 0
 
@@ -297,29 +391,42 @@ def _process_noise_line(model) -> str | None:
 
     info = model.info.get("process_noise")
     if info and info.get("method", "").endswith("rejected"):
-        return (f"process noise: rejected; at no level tried does the model reproduce the measured period "
-                f"differences (simulated/measured power {info['power_ratio']:.3f}, standard error "
-                f"{info['power_ratio_error']:.3f}; beyond {CONSISTENCY_Z:.2f} standard errors, 1 % two-sided), so the "
-                "output-error fit is kept")
+        return (
+            f"process noise: rejected; at no level tried does the model reproduce the measured period "
+            f"differences (simulated/measured power {info['power_ratio']:.3f}, standard error "
+            f"{info['power_ratio_error']:.3f}; beyond {CONSISTENCY_Z:.2f} standard errors, 1 % two-sided), so the "
+            "output-error fit is kept"
+        )
     deconvolution = (info or {}).get("deconvolution")
     unit = f" {model.output_unit}" if getattr(model, "output_unit", None) else ""
     if info and info.get("method", "").endswith("undetermined"):
         d = deconvolution
-        return (f"process noise: {info['sigma_per_spread']:.2f} x the spread of g's input, measured from {info['periods']}, "
-                f"but the records do not determine the noise-free system: {d['tied_builds']} builds fit them within the "
-                f"noise and their noise-free outputs differ by up to {d['spread'] * model.y_std:.3g}{unit} RMS, more than "
-                f"the {d['correction'] * model.y_std:.3g}{unit} the chosen one moved from its output-error fit; the "
-                "output-error fit is kept")
+        return (
+            f"process noise: {info['sigma_per_spread']:.2f} x the spread of g's input, measured from {info['periods']}, "
+            f"but the records do not determine the noise-free system: {d['tied_builds']} builds fit them within the "
+            f"noise and their noise-free outputs differ by up to {d['spread'] * model.y_std:.3g}{unit} RMS, more than "
+            f"the {d['correction'] * model.y_std:.3g}{unit} the chosen one moved from its output-error fit; the "
+            "output-error fit is kept"
+        )
     if info:
         colour = info.get("colour")
-        tail = (f"; white noise at g's input {'does not explain' if colour['refuted'] else 'explains'} the colour of "
-                f"the differences: misfit {colour['statistic']:.1f} on {colour['dof']} dof, p = {colour['p_value']:.2g}"
-                if colour else "")
+        tail = (
+            f"; white noise at g's input {'does not explain' if colour['refuted'] else 'explains'} the colour of "
+            f"the differences: misfit {colour['statistic']:.1f} on {colour['dof']} dof, p = {colour['p_value']:.2g}"
+            if colour
+            else ""
+        )
         if deconvolution:
-            tail += (f"; noise-free system determined: it moved {deconvolution['correction'] * model.y_std:.3g}{unit} RMS "
-                     f"from its output-error fit, more than the {deconvolution['spread'] * model.y_std:.3g}{unit} "
-                     f"between the {deconvolution['tied_builds']} builds that fit within the noise")
-        return (f"process noise: {info['sigma_per_spread']:.2f} x the spread of g's input, measured from "
-                f"{info['periods']} (simulated/measured period power {info['power_ratio']:.3f}{tail})")
-    return (f"process noise: {model.process_noise_std:.3g} at g's input, from the averaged output only "
-            "(no file repeats its input, so the level is not identifiable; see --help)")
+            tail += (
+                f"; noise-free system determined: it moved {deconvolution['correction'] * model.y_std:.3g}{unit} RMS "
+                f"from its output-error fit, more than the {deconvolution['spread'] * model.y_std:.3g}{unit} "
+                f"between the {deconvolution['tied_builds']} builds that fit within the noise"
+            )
+        return (
+            f"process noise: {info['sigma_per_spread']:.2f} x the spread of g's input, measured from "
+            f"{info['periods']} (simulated/measured period power {info['power_ratio']:.3f}{tail})"
+        )
+    return (
+        f"process noise: {model.process_noise_std:.3g} at g's input, from the averaged output only "
+        "(no file repeats its input, so the level is not identifiable; see --help)"
+    )

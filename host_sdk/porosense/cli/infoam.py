@@ -36,13 +36,17 @@ def register(sub) -> argparse.ArgumentParser:
     )
     s = p.add_subparsers(dest="infoam_command", metavar="STEP", required=True)
 
-    c = s.add_parser("calibrate", help="fit Rc = a H + b and the porosity model",
-                     description="Fit the coil-radius line and the porosity model. Without files, the paper's "
-                                 "cTPE values are used (Rc = 0.40 H - 0.3 mm; H = 4, 6, 8, 10 mm at N = 3 "
-                                 "gave 68, 76, 82, 86 %).")
+    c = s.add_parser(
+        "calibrate",
+        help="fit Rc = a H + b and the porosity model",
+        description="Fit the coil-radius line and the porosity model. Without files, the paper's "
+        "cTPE values are used (Rc = 0.40 H - 0.3 mm; H = 4, 6, 8, 10 mm at N = 3 "
+        "gave 68, 76, 82, 86 %).",
+    )
     c.add_argument("--coil-radii", metavar="CSV", help="columns height_mm, radius_mm (measured coil radii)")
-    c.add_argument("--cubes", metavar="CSV",
-                   help="columns height_mm, coil_density, and either porosity_pct or mass_g + volume_mm3")
+    c.add_argument(
+        "--cubes", metavar="CSV", help="columns height_mm, coil_density, and either porosity_pct or mass_g + volume_mm3"
+    )
     c.add_argument("--bulk-density", type=float, default=0.97, help="g/cm^3 (default 0.97, cTPE)")
     c.add_argument("--nozzle", type=float, default=0.6, help="nozzle diameter in mm (default 0.6)")
     c.add_argument("--save", metavar="CAL.json", help="write the calibration for 'infoam gcode --calibration'")
@@ -51,57 +55,86 @@ def register(sub) -> argparse.ArgumentParser:
 
     d = s.add_parser("design", help="write a built-in example design as editable JSON")
     d.add_argument("example", choices=("contractor", "bending", "segment"))
-    d.add_argument("--foam-porosity", type=float, help="porosity of the foam sections in %% "
-                   "(default 76 for the contractor, 84 for the bending actuator)")
+    d.add_argument(
+        "--foam-porosity",
+        type=float,
+        help="porosity of the foam sections in %% (default 76 for the contractor, 84 for the bending actuator)",
+    )
     d.add_argument("--out", required=True, help="design JSON to write")
     d.set_defaults(func=run_design)
 
-    g = s.add_parser("gcode", help="plan a design and write its G-code",
-                     description="Plan every region and write G-code (absolute XYZ, relative E, mm). "
-                                 "Foam regions are coiled at the nozzle height that gives their porosity.")
+    g = s.add_parser(
+        "gcode",
+        help="plan a design and write its G-code",
+        description="Plan every region and write G-code (absolute XYZ, relative E, mm). "
+        "Foam regions are coiled at the nozzle height that gives their porosity.",
+    )
     g.add_argument("design", help="design JSON, or a built-in example: contractor, bending, segment")
     g.add_argument("--out", required=True, help="G-code file to write")
-    g.add_argument("--machine", default="pellet-ender5plus",
-                   help="machine profile: a built-in name (see 'infoam machines') or a TOML file "
-                        "(default pellet-ender5plus, the paper's printer)")
+    g.add_argument(
+        "--machine",
+        default="pellet-ender5plus",
+        help="machine profile: a built-in name (see 'infoam machines') or a TOML file "
+        "(default pellet-ender5plus, the paper's printer)",
+    )
     g.add_argument("--preview", metavar="PNG", help="also draw the toolpath coloured by porosity")
     g.add_argument("--calibration", metavar="CAL.json", help="calibration from 'infoam calibrate --save'")
     g.add_argument("--coil-density", type=float, default=3.0, help="coils per coil diameter of travel (default 3)")
     g.add_argument("--json", action="store_true", help="print the plan as JSON")
     g.set_defaults(func=run_gcode)
 
-    m = s.add_parser("machines", help="list the built-in machine profiles, or check a profile file",
-                     description="List the built-in machine profiles. With a name or TOML file, validate it and "
-                                 "print it (exit 2 with one line naming the problem when it is wrong).")
+    m = s.add_parser(
+        "machines",
+        help="list the built-in machine profiles, or check a profile file",
+        description="List the built-in machine profiles. With a name or TOML file, validate it and "
+        "print it (exit 2 with one line naming the problem when it is wrong).",
+    )
     m.add_argument("profile", nargs="?", help="profile name or TOML file to check")
     m.add_argument("--json", action="store_true", help="print as JSON")
     m.set_defaults(func=run_machines)
 
-    pa = s.add_parser("parts", help="write the PLA holders and frames as STL",
-                      description="Write the printable fixtures as STL (mm): the bending actuator's holder, "
-                                  "the contractor's hanger and load hook, and the 3-DoF segment's base and stage "
-                                  "(with the BNO055 mount). Each is checked to be watertight and to fit the machine.")
+    pa = s.add_parser(
+        "parts",
+        help="write the PLA holders and frames as STL",
+        description="Write the printable fixtures as STL (mm): the bending actuator's holder, "
+        "the contractor's hanger and load hook, and the 3-DoF segment's base and stage "
+        "(with the BNO055 mount). Each is checked to be watertight and to fit the machine.",
+    )
     pa.add_argument("--out", required=True, help="folder to write the STL files into (created if absent)")
-    pa.add_argument("--machine", default="filament-ender5plus",
-                    help="machine the PLA parts are printed on, for the bed-size check (default filament-ender5plus)")
+    pa.add_argument(
+        "--machine",
+        default="filament-ender5plus",
+        help="machine the PLA parts are printed on, for the bed-size check (default filament-ender5plus)",
+    )
     pa.add_argument("--only", nargs="+", metavar="PART", help="write only these parts")
     pa.add_argument("--json", action="store_true", help="print the part list as JSON")
     pa.set_defaults(func=run_parts)
 
-    pl = s.add_parser("plan", help="the full build of an actuator: its G-code, its fixtures and a plan.json",
-                      description="Write everything an actuator needs: the cTPE G-code for the pellet printer, "
-                                  "the PLA fixtures as STL, previews, and plan.json listing every item with its "
-                                  "material, machine, mass and what it is for.")
+    pl = s.add_parser(
+        "plan",
+        help="the full build of an actuator: its G-code, its fixtures and a plan.json",
+        description="Write everything an actuator needs: the cTPE G-code for the pellet printer, "
+        "the PLA fixtures as STL, previews, and plan.json listing every item with its "
+        "material, machine, mass and what it is for.",
+    )
     pl.add_argument("actuator", choices=("contractor", "bending", "segment"))
     pl.add_argument("--out", required=True, help="folder to write into (created if absent)")
-    pl.add_argument("--machine", default="pellet-ender5plus", help="machine for the cTPE print (default pellet-ender5plus)")
-    pl.add_argument("--fixture-machine", default="filament-ender5plus",
-                    help="printer for the PLA fixtures, for the bed-size check (default filament-ender5plus)")
+    pl.add_argument(
+        "--machine", default="pellet-ender5plus", help="machine for the cTPE print (default pellet-ender5plus)"
+    )
+    pl.add_argument(
+        "--fixture-machine",
+        default="filament-ender5plus",
+        help="printer for the PLA fixtures, for the bed-size check (default filament-ender5plus)",
+    )
     pl.add_argument("--json", action="store_true", help="print plan.json")
     pl.set_defaults(func=run_plan)
 
-    f = s.add_parser("figures", help="draw the assembly guide's figures (docs/assembly.md)",
-                     description="Draw the figures of docs/assembly.md from the designs, plans and meshes.")
+    f = s.add_parser(
+        "figures",
+        help="draw the assembly guide's figures (docs/assembly.md)",
+        description="Draw the figures of docs/assembly.md from the designs, plans and meshes.",
+    )
     f.add_argument("--out", required=True, help="folder for the PNG files (created if absent)")
     f.set_defaults(func=run_figures)
 
@@ -141,7 +174,9 @@ def _calibration(args):
         return PorosityModel.fit(h, phi, n, nozzle_mm=args.nozzle, coil=coil)
     if coil is PAPER_COIL_RADIUS and args.nozzle == 0.6:
         return paper_calibration()
-    return PorosityModel.fit(PAPER_HEIGHTS_MM, PAPER_POROSITIES_PCT, PAPER_COIL_DENSITY, nozzle_mm=args.nozzle, coil=coil)
+    return PorosityModel.fit(
+        PAPER_HEIGHTS_MM, PAPER_POROSITIES_PCT, PAPER_COIL_DENSITY, nozzle_mm=args.nozzle, coil=coil
+    )
 
 
 def run_calibrate(args) -> int:
@@ -151,8 +186,10 @@ def run_calibrate(args) -> int:
     data = model.to_dict()
     data["porosity_at_paper_heights"] = {f"{h:g}": float(model.porosity(h)) for h in PAPER_HEIGHTS_MM}
     if args.save:
-        text = json.dumps({"format": "porosense-infoam-calibration", "version": 1, "model": model.to_dict()},
-                          indent=2) + "\n"
+        text = (
+            json.dumps({"format": "porosense-infoam-calibration", "version": 1, "model": model.to_dict()}, indent=2)
+            + "\n"
+        )
         _write(args.save, lambda path: Path(path).write_text(text))
     if args.json:
         print(json.dumps(data, indent=2))
@@ -236,8 +273,10 @@ def run_machines(args) -> int:
         else:
             e = m.extruder
             print(f"{m.name}: {m.description}")
-            print(f"  build {m.build_x_mm:g} x {m.build_y_mm:g} x {m.build_z_mm:g} mm, nozzle {m.nozzle_mm:g} mm, "
-                  f"hotend {m.hotend_c:g} C, bed {m.bed_c:g} C, material {m.material}")
+            print(
+                f"  build {m.build_x_mm:g} x {m.build_y_mm:g} x {m.build_z_mm:g} mm, nozzle {m.nozzle_mm:g} mm, "
+                f"hotend {m.hotend_c:g} C, bed {m.bed_c:g} C, material {m.material}"
+            )
             print(f"  extruder {e.kind}, E unit {e.e_unit} = {m.mm3_per_e:.4g} mm^3 of melt")
         return 0
     names = list_machines()
@@ -266,8 +305,10 @@ def run_parts(args) -> int:
     else:
         for r in rows:
             x, y, z = r["size_mm"]
-            print(f"{r['file']:28s} {x:6.1f} x {y:6.1f} x {z:6.1f} mm, {r['volume_cm3']:6.2f} cm^3 PLA, "
-                  f"watertight {r['watertight']}")
+            print(
+                f"{r['file']:28s} {x:6.1f} x {y:6.1f} x {z:6.1f} mm, {r['volume_cm3']:6.2f} cm^3 PLA, "
+                f"watertight {r['watertight']}"
+            )
         print(f"wrote {len(rows)} STL files to {out}")
     return 0
 
@@ -276,8 +317,12 @@ def run_plan(args) -> int:
     from porosense.infoam import load_machine
     from porosense.infoam.build import build_plan
 
-    plan = build_plan(args.actuator, load_machine(args.machine), _out_dir(args.out),
-                      fixture_machine=load_machine(args.fixture_machine))
+    plan = build_plan(
+        args.actuator,
+        load_machine(args.machine),
+        _out_dir(args.out),
+        fixture_machine=load_machine(args.fixture_machine),
+    )
     if args.json:
         print(json.dumps(plan.to_dict(), indent=2))
     else:

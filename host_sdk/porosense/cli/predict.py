@@ -41,8 +41,11 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--data", required=True, metavar="FILE", help="CSV or .mat file with the model's input columns")
     p.add_argument("--out", metavar="PRED.csv", help="write the predictions here (default: not written)")
     p.add_argument("--plot", metavar="FILE.png", help="plot measured and predicted output against time")
-    p.add_argument("--expected", action="store_true",
-                   help="for a model with process noise: the output averaged over the noise (default: noise-free)")
+    p.add_argument(
+        "--expected",
+        action="store_true",
+        help="for a model with process noise: the output averaged over the noise (default: noise-free)",
+    )
     add_data_options(p, ts_help="sample period in s for the plot's time axis (default: the data's, else the model's)")
     add_json_options(p, "the scores and what was written")
     p.set_defaults(func=run)
@@ -69,15 +72,19 @@ def run(args) -> int:
     u = np.column_stack([table.columns[c] for c in model.inputs])
     from porosense.ident import ModelSet
 
-    if args.expected and not any(getattr(m, "spec", None) is not None and m.spec.g_noise
-                                 for m in (model.models if isinstance(model, ModelSet) else [model])):
+    if args.expected and not any(
+        getattr(m, "spec", None) is not None and m.spec.g_noise
+        for m in (model.models if isinstance(model, ModelSet) else [model])
+    ):
         raise InputError(f"--expected: {args.model} has no process noise (identify --process-noise)")
     with np.errstate(all="ignore"):
         yhat = model.predict(u=u, expected=True) if args.expected else model.predict(u=u)
     yhat = yhat[:, None] if yhat.ndim == 1 else yhat
     if not np.all(np.isfinite(yhat)):
-        raise ModelError(f"{args.model}: the simulation diverges on {args.data} "
-                         f"({int(np.sum(~np.isfinite(yhat)))} non-finite values)")
+        raise ModelError(
+            f"{args.model}: the simulation diverges on {args.data} "
+            f"({int(np.sum(~np.isfinite(yhat)))} non-finite values)"
+        )
     outputs = [model.output] if hasattr(model, "output") else list(model.outputs)
     scores = {}
     for j, o in enumerate(outputs):
@@ -100,9 +107,15 @@ def run(args) -> int:
     if args.plot:
         from porosense.report.figures import plot_compare
 
-        plot_compare(t, {o: table.columns[o] for o in scores},
-                     {o: yhat[:, j] for j, o in enumerate(outputs)}, label=model_label(model),
-                     units=table.units, title=f"{args.model} on {args.data}", path=args.plot)
+        plot_compare(
+            t,
+            {o: table.columns[o] for o in scores},
+            {o: yhat[:, j] for j, o in enumerate(outputs)},
+            label=model_label(model),
+            units=table.units,
+            title=f"{args.model} on {args.data}",
+            path=args.plot,
+        )
         written.append(str(args.plot))
         say(args, f"figure written to {args.plot}")
     for o, s in scores.items():
@@ -111,8 +124,17 @@ def run(args) -> int:
         say(args, f"{args.data} holds no measured {', '.join(outputs)}: no fit to report")
     if not written and not scores:
         say(args, "nothing written: give --out PRED.csv or --plot FILE.png")
-    emit_json({"model": str(args.model), "data": str(args.data), "samples": int(len(table)),
-               "outputs": outputs, "scores": scores, "written": written}, args)
+    emit_json(
+        {
+            "model": str(args.model),
+            "data": str(args.data),
+            "samples": int(len(table)),
+            "outputs": outputs,
+            "scores": scores,
+            "written": written,
+        },
+        args,
+    )
     return 0
 
 

@@ -26,32 +26,45 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--out", metavar="MODEL.bin", help="where to write the blob (default: MODEL.bin beside the model)")
     p.add_argument("--report", metavar="R.json", help="write the quantization report as JSON")
     p.add_argument("--header", metavar="MODEL.h", help="also write a C header with the coefficients")
-    p.add_argument("--data", nargs="*", default=[], metavar="FILE",
-                   help="recordings (CSV or .mat with the model's columns) for the range and the fit report")
-    p.add_argument("--input-range", nargs=2, type=float, metavar=("LO", "HI"),
-                   help="input range in %% dR that must never overflow (default: data range + 25 %%, "
-                        "or -100..100 without data)")
-    p.add_argument("--input-unit", choices=["%", "dR/100"],
-                   help="unit of the model's inputs when its file does not say (dR in %% or dR/100)")
+    p.add_argument(
+        "--data",
+        nargs="*",
+        default=[],
+        metavar="FILE",
+        help="recordings (CSV or .mat with the model's columns) for the range and the fit report",
+    )
+    p.add_argument(
+        "--input-range",
+        nargs=2,
+        type=float,
+        metavar=("LO", "HI"),
+        help="input range in %% dR that must never overflow (default: data range + 25 %%, or -100..100 without data)",
+    )
+    p.add_argument(
+        "--input-unit",
+        choices=["%", "dR/100"],
+        help="unit of the model's inputs when its file does not say (dR in %% or dR/100)",
+    )
     p.add_argument("--model-id", type=lambda v: int(v, 0), help="32-bit tag stored in the blob")
-    p.add_argument("--store", choices=("eeprom", "flash"), default="eeprom",
-                   help="model store the blob is for: eeprom (776 B, shared by two models) or flash "
-                        "(1,016 B per slot; flash --store flash)")
+    p.add_argument(
+        "--store",
+        choices=("eeprom", "flash"),
+        default="eeprom",
+        help="model store the blob is for: eeprom (776 B, shared by two models) or flash "
+        "(1,016 B per slot; flash --store flash)",
+    )
     p.add_argument("--json", action="store_true", help="print the quantization report as JSON")
     p.set_defaults(func=run)
     return p
 
 
 def run(args) -> int:
+    import dataclasses
     import math
 
     from porosense.cli._data import load_model_checked, output_file, read_tables, require_columns
-    from porosense.errors import InputError
+    from porosense.errors import InputError, ModelError
     from porosense.quant import c_header, quantize
-
-    import dataclasses
-
-    from porosense.errors import ModelError
 
     args.out = args.out or str(Path(args.model).with_suffix(".bin"))
     for opt in ("out", "report", "header"):
@@ -67,8 +80,9 @@ def run(args) -> int:
     if args.input_unit:
         declared = {u for u in structure.input_units if u is not None}
         if declared and declared != {args.input_unit}:
-            raise ModelError(f"{args.model} declares its inputs in {', '.join(sorted(declared))}, "
-                             f"not {args.input_unit}")
+            raise ModelError(
+                f"{args.model} declares its inputs in {', '.join(sorted(declared))}, not {args.input_unit}"
+            )
         structure = dataclasses.replace(structure, input_units=(args.input_unit,) * len(structure.inputs))
     tables = read_tables(args.data, args)
     for table in tables:
@@ -80,8 +94,13 @@ def run(args) -> int:
     recs = [_scaled(t, structure, per_percent) for t in tables]
     from porosense.quant.layout import FLASH_BLOB_MAX, MAX_BLOB_LEN
 
-    result = quantize(structure, recordings=recs, input_range=input_range, model_id=args.model_id,
-                      capacity=FLASH_BLOB_MAX if args.store == "flash" else MAX_BLOB_LEN)
+    result = quantize(
+        structure,
+        recordings=recs,
+        input_range=input_range,
+        model_id=args.model_id,
+        capacity=FLASH_BLOB_MAX if args.store == "flash" else MAX_BLOB_LEN,
+    )
     Path(args.out).write_bytes(result.to_bytes())
     if args.report:
         result.report.to_json(args.report)
@@ -90,15 +109,28 @@ def run(args) -> int:
     if args.json:
         import json
 
-        print(json.dumps({"out": str(args.out), "bytes": result.blob.length, "crc": result.blob.crc,
-                          "ts_us": result.blob.ts_us, "input_lsb_percent": result.blob.input_lsb,
-                          "model_id": result.blob.model_id, "report": result.report.to_dict()}, indent=2,
-                         default=float))
+        print(
+            json.dumps(
+                {
+                    "out": str(args.out),
+                    "bytes": result.blob.length,
+                    "crc": result.blob.crc,
+                    "ts_us": result.blob.ts_us,
+                    "input_lsb_percent": result.blob.input_lsb,
+                    "model_id": result.blob.model_id,
+                    "report": result.report.to_dict(),
+                },
+                indent=2,
+                default=float,
+            )
+        )
         return 0
     for line in result.report.lines():
         print(line)
-    print(f"blob written to {args.out} ({result.blob.length} bytes, CRC 0x{result.blob.crc:04X}, "
-          f"id 0x{result.blob.model_id:08X}, {result.blob.rate_hz:g} Hz)")
+    print(
+        f"blob written to {args.out} ({result.blob.length} bytes, CRC 0x{result.blob.crc:04X}, "
+        f"id 0x{result.blob.model_id:08X}, {result.blob.rate_hz:g} Hz)"
+    )
     return 0
 
 

@@ -30,13 +30,18 @@ def register(sub) -> argparse.ArgumentParser:
             "drift); without it the host clocks are used, with a warning. Writes one recording (CSV + JSON) "
             "with the board's samples and the truth resampled at the sample times. See docs/camera.md."
         ),
-        epilog=("example: porosense record --port /dev/ttyACM0 --camera 0 --layout layout.json "
-                "--experiment step_60 --out runs/bending_step60.csv"),
+        epilog=(
+            "example: porosense record --port /dev/ttyACM0 --camera 0 --layout layout.json "
+            "--experiment step_60 --out runs/bending_step60.csv"
+        ),
     )
     board = p.add_mutually_exclusive_group()
     board.add_argument("--port", metavar="URL", help="the board: serial port or pyserial URL")
-    board.add_argument("--board-recording", metavar="CSV",
-                       help="an earlier board recording (with t_dev_us) instead of running the schedule")
+    board.add_argument(
+        "--board-recording",
+        metavar="CSV",
+        help="an earlier board recording (with t_dev_us) instead of running the schedule",
+    )
     cam = p.add_mutually_exclusive_group()
     cam.add_argument("--camera", type=int, metavar="N", help="OpenCV camera index (live capture)")
     cam.add_argument("--video", metavar="FILE", help="a video filmed during the board's run")
@@ -45,14 +50,23 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--experiment", "-e", default="step_60", help="schedule name (default: step_60)")
     p.add_argument("--channels", type=int, default=1, choices=(1, 2, 3), help="pressure channels (default 1)")
     p.add_argument("--rate", type=int, default=50, help="sample rate in Hz (default 50)")
-    p.add_argument("--video-start", type=float, default=0.0, metavar="S",
-                   help="without sync blinks: seconds into --video at which the stream started (default 0)")
+    p.add_argument(
+        "--video-start",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="without sync blinks: seconds into --video at which the stream started (default 0)",
+    )
     p.add_argument("--preview", metavar="AVI", help="write a copy of the video with the detections drawn")
     p.add_argument("--out", required=True, metavar="CSV", help="the recording to write (CSV + JSON)")
     cal = p.add_argument_group("camera calibration (instead of a recording)")
-    cal.add_argument("--calibrate", nargs="+", metavar="IMAGE",
-                     help="checkerboard images; the last one with the board in the actuator's plane. "
-                          "Writes the calibration JSON to --out")
+    cal.add_argument(
+        "--calibrate",
+        nargs="+",
+        metavar="IMAGE",
+        help="checkerboard images; the last one with the board in the actuator's plane. "
+        "Writes the calibration JSON to --out",
+    )
     cal.add_argument("--pattern", default="9x6", metavar="CxR", help="inner corners (default 9x6)")
     cal.add_argument("--square-mm", type=float, default=None, help="checkerboard square size in mm")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
@@ -75,9 +89,11 @@ def run(args) -> int:
 
     if args.calibrate:
         return _calibrate(args)
-    for option, given in (("--port or --board-recording", args.port or args.board_recording),
-                          ("--camera or --video", args.camera is not None or args.video),
-                          ("--layout", args.layout)):
+    for option, given in (
+        ("--port or --board-recording", args.port or args.board_recording),
+        ("--camera or --video", args.camera is not None or args.video),
+        ("--layout", args.layout),
+    ):
         if not given:
             raise InputError(f"{option} is required to record")
     if args.camera is not None and not args.port:
@@ -110,8 +126,7 @@ def run(args) -> int:
     timestamps = None
     if host_times is not None:
         timestamps = [t - host_times[0] for t in host_times]
-    track = track_video(video_path, layout, calibration, timestamps=timestamps, progress=progress,
-                        preview=args.preview)
+    track = track_video(video_path, layout, calibration, timestamps=timestamps, progress=progress, preview=args.preview)
     clock = None
     if layout.indicator is not None:
         clock = fit_clock(track.t_cam, track.indicator, board["t_dev_us"], track.fps)
@@ -119,29 +134,43 @@ def run(args) -> int:
         why = "no indicator region in the layout" if layout.indicator is None else "no sync blinks seen"
         if host_times is not None:
             clock = host_clock(t_host_start - host_times[0], HOST_CLOCK_ERROR_MS)
-            _warn(f"{why}: frames aligned by host timestamps; expected error up to "
-                  f"{HOST_CLOCK_ERROR_MS:.0f} ms ({HOST_CLOCK_ERROR_MS * track.fps / 1000:.1f} frames)")
+            _warn(
+                f"{why}: frames aligned by host timestamps; expected error up to "
+                f"{HOST_CLOCK_ERROR_MS:.0f} ms ({HOST_CLOCK_ERROR_MS * track.fps / 1000:.1f} frames)"
+            )
         else:
             clock = ClockFit(-args.video_start, 0.0, float("nan"), 0, "video start", 1000.0)
-            _warn(f"{why}: the stream is taken to start {args.video_start:g} s into the video; expected "
-                  f"error is how well that start is known (typically 0.2-1 s by hand, 6-30 frames)")
+            _warn(
+                f"{why}: the stream is taken to start {args.video_start:g} s into the video; expected "
+                f"error is how well that start is known (typically 0.2-1 s by hand, 6-30 frames)"
+            )
     rec = add_truth(board, track, clock, marker_length_mm=layout.marker_length_mm)
     rec.meta["camera"]["video"] = str(video_path)
     path = rec.to_csv(out)
     frames = frame_table(track, clock).to_csv(out.with_name(out.stem + "_frames.csv"))
     missing = rec.meta["camera"]["samples_without_truth"]
-    result = {"recording": str(path), "frames": str(frames), "samples": len(rec), "clock": clock.to_dict(),
-              "track": track.to_dict(), "samples_without_truth": missing}
+    result = {
+        "recording": str(path),
+        "frames": str(frames),
+        "samples": len(rec),
+        "clock": clock.to_dict(),
+        "track": track.to_dict(),
+        "samples_without_truth": missing,
+    }
     if args.json:
         print(json.dumps(result, indent=2, default=float))
     else:
         print(f"{track!r}")
         print(str(clock))
         if missing:
-            print(f"{missing} samples without truth (NaN, camera_ok = 0): samples "
-                  f"{rec.meta['camera']['sample_ranges_without_truth']}")
-        print(f"wrote {path} ({len(rec)} samples, truth: {', '.join(rec.meta['camera']['truth_columns'])}) "
-              f"and the per-frame values to {frames}")
+            print(
+                f"{missing} samples without truth (NaN, camera_ok = 0): samples "
+                f"{rec.meta['camera']['sample_ranges_without_truth']}"
+            )
+        print(
+            f"wrote {path} ({len(rec)} samples, truth: {', '.join(rec.meta['camera']['truth_columns'])}) "
+            f"and the per-frame values to {frames}"
+        )
     return 0
 
 
@@ -183,8 +212,7 @@ def _run_board(args, camera, video_path: Path, progress: bool):
     with Device.open(args.port) as dev:
         if camera is None:
             t0 = time.monotonic()
-            return run_schedule(dev, sched, rate_hz=args.rate, n_channels=args.channels,
-                                progress=progress), None, t0
+            return run_schedule(dev, sched, rate_hz=args.rate, n_channels=args.channels, progress=progress), None, t0
         with Capture(camera, video_path) as cap:
             time.sleep(1.0)  # the video starts before the stream: the start code is in view
             t0 = time.monotonic() + 1.0 / args.rate  # host time of the first sample, roughly

@@ -32,12 +32,22 @@ def register(sub) -> argparse.ArgumentParser:
         epilog="example: porosense report --data step_20.csv step_40.csv --model model.json --out report/",
     )
     p.add_argument("--data", nargs="+", required=True, metavar="FILE", help="recordings (CSV or .mat)")
-    p.add_argument("--model", nargs="+", required=True, metavar="MODEL.json",
-                   help="saved models, compared with each other (NAME=FILE names one)")
+    p.add_argument(
+        "--model",
+        nargs="+",
+        required=True,
+        metavar="MODEL.json",
+        help="saved models, compared with each other (NAME=FILE names one)",
+    )
     p.add_argument("--out", default="report", metavar="DIR", help="output folder (default report/)")
     p.add_argument("--pressure", metavar="COL", help="commanded pressure column in kPa (default p_cmd_0 if present)")
-    p.add_argument("--units", nargs="*", default=[], metavar="COL=UNIT",
-                   help="units of columns the recordings do not state, e.g. strain_0=%%")
+    p.add_argument(
+        "--units",
+        nargs="*",
+        default=[],
+        metavar="COL=UNIT",
+        help="units of columns the recordings do not state, e.g. strain_0=%%",
+    )
     p.add_argument("--title", default="porosense report", help="page title")
     add_data_options(p)
     add_json_options(p, "the scores and the files written")
@@ -74,6 +84,13 @@ def run(args) -> int:
         resolve_ts(tables, args.ts, args.ts_override)
     page = write_user_report(tables, models, args.out, units=units, pressure=args.pressure, title=args.title)
     say(args, f"report written to {page}")
-    emit_json({"html": str(page), "markdown": str(Path(page).with_suffix(".md")), "models": list(models),
-               "files": [str(t.path) for t in tables]}, args)
+    emit_json(
+        {
+            "html": str(page),
+            "markdown": str(Path(page).with_suffix(".md")),
+            "models": list(models),
+            "files": [str(t.path) for t in tables],
+        },
+        args,
+    )
     return 0

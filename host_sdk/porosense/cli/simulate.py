@@ -27,21 +27,37 @@ def register(sub) -> argparse.ArgumentParser:
         ),
     )
     p.add_argument("actuator", choices=ACTUATOR_CHOICES, help="which actuator to simulate")
-    p.add_argument("--experiment", "-e", required=True, action="append",
-                   help="schedule name (step_10..step_60, staircase, sequential_L, parallel_L, "
-                        "two_level) or 'paper'; repeat for several")
-    p.add_argument("--porosity", type=float, default=None,
-                   help="porosity in %% (60-90; default 82 contractor, 84 bending, 76 3dof)")
+    p.add_argument(
+        "--experiment",
+        "-e",
+        required=True,
+        action="append",
+        help="schedule name (step_10..step_60, staircase, sequential_L, parallel_L, "
+        "two_level) or 'paper'; repeat for several",
+    )
+    p.add_argument(
+        "--porosity",
+        type=float,
+        default=None,
+        help="porosity in %% (60-90; default 82 contractor, 84 bending, 76 3dof)",
+    )
     p.add_argument("--load", type=float, default=0.0, help="hanging load in g (0-500, default 0)")
     p.add_argument("--rate", type=float, default=100.0, help="sample rate in Hz (default 100)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    p.add_argument("--repeats", type=int, default=1,
-                   help="recordings per experiment with seeds seed, seed+1, ... (default 1)")
-    p.add_argument("--effect", action="append", default=[], metavar="NAME[:k=v,...]",
-                   help="switch on a named effect (drift, time_delay, periodic_disturbance, "
-                        "saturation, load_dependence, slow_relaxation, cross_coupling, outliers)")
-    p.add_argument("--format", choices=("csv", "mat", "both"), default="csv",
-                   help="file format (default csv with a JSON sidecar)")
+    p.add_argument(
+        "--repeats", type=int, default=1, help="recordings per experiment with seeds seed, seed+1, ... (default 1)"
+    )
+    p.add_argument(
+        "--effect",
+        action="append",
+        default=[],
+        metavar="NAME[:k=v,...]",
+        help="switch on a named effect (drift, time_delay, periodic_disturbance, "
+        "saturation, load_dependence, slow_relaxation, cross_coupling, outliers)",
+    )
+    p.add_argument(
+        "--format", choices=("csv", "mat", "both"), default="csv", help="file format (default csv with a JSON sidecar)"
+    )
     p.add_argument("--no-noise", action="store_true", help="noiseless sensors (for checks)")
     p.add_argument("--out", default="recordings", help="output directory (created if needed; default recordings/)")
     p.add_argument("--json", action="store_true", help="print the files written as JSON")
@@ -104,8 +120,16 @@ def run(args) -> int:
     listing = []
     for name, k in jobs:
         seed = args.seed + k
-        rec = run_experiment(args.actuator, name, porosity=args.porosity, load_g=args.load,
-                             rate_hz=args.rate, seed=seed, effects=effects, noise=not args.no_noise)
+        rec = run_experiment(
+            args.actuator,
+            name,
+            porosity=args.porosity,
+            load_g=args.load,
+            rate_hz=args.rate,
+            seed=seed,
+            effects=effects,
+            noise=not args.no_noise,
+        )
         stem = f"{args.actuator}_{name}_p{rec.meta['porosity']:g}_l{rec.meta['load_g']:g}_s{seed}"
         written = []
         if args.format in ("csv", "both"):
@@ -113,8 +137,9 @@ def run(args) -> int:
         if args.format in ("mat", "both"):
             written.append(rec.to_mat(out / f"{stem}.mat"))
         for path in written:
-            listing.append({"path": str(path), "experiment": name, "seed": seed, "samples": len(rec),
-                            "duration_s": rec.duration})
+            listing.append(
+                {"path": str(path), "experiment": name, "seed": seed, "samples": len(rec), "duration_s": rec.duration}
+            )
             if not args.json:
                 print(f"{path}  ({len(rec)} samples, {rec.duration:.1f} s)")
     if args.json:

@@ -63,8 +63,10 @@ def run(args) -> int:
     with Device.open(args.port) as dev:
         info = dev.model_info()
         if not info.valid or info.crc != blob.crc:
-            raise DeviceError(f"the device holds model CRC 0x{info.crc:04X} ({info.status}), not this blob's "
-                              f"0x{blob.crc:04X}: run porosense flash first")
+            raise DeviceError(
+                f"the device holds model CRC 0x{info.crc:04X} ({info.status}), not this blob's "
+                f"0x{blob.crc:04X}: run porosense flash first"
+            )
         _check_stored_header(dev, blob)
         dev.check_model_rate(data)
         got = dev.replay(counts)
@@ -73,9 +75,16 @@ def run(args) -> int:
     diff = np.asarray(got[:, :n_out], dtype=np.int64) != ref[:, :n_out].astype(np.int64)
     mismatches = int(np.count_nonzero(diff))
     first = int(np.argmax(np.any(diff, axis=1))) if mismatches else None
-    result = {"samples": len(counts), "outputs": n_out, "mismatched_values": mismatches,
-              "first_mismatch_sample": first, "identical": mismatches == 0, "store": info.store,
-              "slot": info.slot, "seq": info.seq}
+    result = {
+        "samples": len(counts),
+        "outputs": n_out,
+        "mismatched_values": mismatches,
+        "first_mismatch_sample": first,
+        "identical": mismatches == 0,
+        "store": info.store,
+        "slot": info.slot,
+        "seq": info.seq,
+    }
     if args.json:
         print(json.dumps(result, indent=2))
     else:
@@ -95,8 +104,10 @@ def _check_data_rate(table, blob, name) -> None:
         return
     ts = float(np.median(np.diff(np.asarray(t, dtype=float))))
     if not abs(ts - blob.ts) <= 0.01 * blob.ts:
-        raise ModelError(f"{name} is sampled every {ts * 1000:.4g} ms but the model at {blob.ts * 1000:.4g} ms "
-                         f"({blob.rate_hz:g} Hz): replaying it would not test what the board computes")
+        raise ModelError(
+            f"{name} is sampled every {ts * 1000:.4g} ms but the model at {blob.ts * 1000:.4g} ms "
+            f"({blob.rate_hz:g} Hz): replaying it would not test what the board computes"
+        )
 
 
 def _check_stored_header(dev, blob) -> None:
@@ -110,5 +121,7 @@ def _check_stored_header(dev, blob) -> None:
     ts_us = struct.unpack_from("<I", head, HEADER_OFFSETS["ts_us"])[0]
     lsb = struct.unpack_from("<f", head, HEADER_OFFSETS["input_lsb"])[0]
     if ts_us != blob.ts_us or lsb != blob.input_lsb:
-        raise ModelError(f"the device's model has Ts {ts_us} us and input scaling {lsb:g} %/LSB, this blob "
-                         f"{blob.ts_us} us and {blob.input_lsb:g} %/LSB")
+        raise ModelError(
+            f"the device's model has Ts {ts_us} us and input scaling {lsb:g} %/LSB, this blob "
+            f"{blob.ts_us} us and {blob.input_lsb:g} %/LSB"
+        )

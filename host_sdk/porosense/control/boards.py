@@ -53,8 +53,16 @@ def open_control_board(port: str, *, load_g: float = 0.0, seed: int = 0, porosit
         from porosense.emulator import Emulator
 
         # A busy host computer delays samples but never skips them: the run stays regular.
-        with Emulator(actuator, load_g=load_g, seed=seed, porosity=porosity, truth_log=True, realtime=True,
-                      speed=EMULATOR_SPEED, max_catch_up_s=3600.0) as emu:
+        with Emulator(
+            actuator,
+            load_g=load_g,
+            seed=seed,
+            porosity=porosity,
+            truth_log=True,
+            realtime=True,
+            speed=EMULATOR_SPEED,
+            max_catch_up_s=3600.0,
+        ) as emu:
             with Device.open(emu.url, timeout_scale=4.0) as dev:
                 yield dev, emu.truth
     elif kind == "simboard":

@@ -48,25 +48,27 @@ class DemoControl:
 
     def summary(self) -> str:
         errs = ", ".join(f"{s['target']:.3g}: {s['steady_error']:+.3f}" for s in self.steps)
-        return (f"closed loop on {self.output}: kp {self.gains['kp_kpa']:.3g}, ki {self.gains['ki_kpa_per_s']:.3g}; "
-                f"steady-state error per target ({errs}); tracking RMS {self.tracking['rms']:.3f}")
+        return (
+            f"closed loop on {self.output}: kp {self.gains['kp_kpa']:.3g}, ki {self.gains['ki_kpa_per_s']:.3g}; "
+            f"steady-state error per target ({errs}); tracking RMS {self.tracking['rms']:.3f}"
+        )
 
 
 def run_segment(dev, truth, recs: dict, output: str, out_scale: float, rate_hz: int, log=print):
     """Tune on ``recs`` (name -> Recording with p_cmd_0 and ``output``), set the gains on ``dev``
     and run the steps; returns (DemoControl, run Recording)."""
-    from porosense.control.session import run_closed_loop
-    from porosense.device import ControlGains
-
     # Recordings in which the board cut the outputs (its link watchdog, on a busy computer) do
     # not show what the command did: tune on the others.
-    from porosense.control.session import VENT_FLAGS
+    from porosense.control.session import VENT_FLAGS, run_closed_loop
+    from porosense.device import ControlGains
 
     clean = [n for n in recs if not np.any(np.asarray(recs[n]["status"], dtype=int) & VENT_FLAGS)]
     names = clean or list(recs)
     if len(clean) < len(recs):
-        log(f"  control: tuning on {len(clean)} of {len(recs)} recordings (the others have outputs cut by the "
-            "board's watchdog)")
+        log(
+            f"  control: tuning on {len(clean)} of {len(recs)} recordings (the others have outputs cut by the "
+            "board's watchdog)"
+        )
     ts = 1.0 / rate_hz
     vac, ys = zip(*(_regular(recs[n], output, ts) for n in names))
     plant = fit_fopdt(vac, ys, ts, output_unit="%" if "strain" in output else "")
@@ -76,22 +78,32 @@ def run_segment(dev, truth, recs: dict, output: str, out_scale: float, rate_hz: 
     gains = lambda_pi(plant, tau, slew)
     targets = [round(f * top, 2) for f in FRACTIONS]
     pred = predict_step(plant, gains, targets[0])
-    log(f"  control: {plant}; kp {gains.kp_kpa:.3g} kPa/unit, ki {gains.ki_kpa_per_s:.3g} kPa/(unit s) "
-        f"(lambda rule, tau_cl {tau:.3g} s); predicted step settles in {pred.settling_s:.2f} s")
+    log(
+        f"  control: {plant}; kp {gains.kp_kpa:.3g} kPa/unit, ki {gains.ki_kpa_per_s:.3g} kPa/(unit s) "
+        f"(lambda rule, tau_cl {tau:.3g} s); predicted step settles in {pred.settling_s:.2f} s"
+    )
     if truth is not None:  # a simulated board: its clock runs faster than this computer's
         from porosense.control.runner import SIM_WATCHDOG_MS
 
         dev.set_watchdog(SIM_WATCHDOG_MS)
     dev.set_control_gains(ControlGains(gains.kp_kpa, gains.ki_kpa_per_s, gains.slew_per_s))
     segs = [(LEAD_S + i * HOLD_S, v) for i, v in enumerate(targets)]
-    rec = run_closed_loop(dev, segs, rate_hz=rate_hz, out_scale=out_scale, output=output, truth=truth,
-                          duration_s=LEAD_S + len(targets) * HOLD_S)
+    rec = run_closed_loop(
+        dev,
+        segs,
+        rate_hz=rate_hz,
+        out_scale=out_scale,
+        output=output,
+        truth=truth,
+        duration_s=LEAD_S + len(targets) * HOLD_S,
+    )
     y = rec[output] if output in rec else rec[f"est_{output}"]
     steps, prev = [], float(np.mean(y[rec.t < LEAD_S]))
     for t0, v in segs:
         steps.append(step_metrics(rec.t, v, y, t0, HOLD_S, prev).to_dict())
         prev = v
-    result = DemoControl(plant.to_dict(), gains.to_dict(), pred.summary(), steps,
-                         tracking_metrics(rec["target_0"], y).to_dict(), output)
+    result = DemoControl(
+        plant.to_dict(), gains.to_dict(), pred.summary(), steps, tracking_metrics(rec["target_0"], y).to_dict(), output
+    )
     log(f"  {result.summary()}")
     return result, rec

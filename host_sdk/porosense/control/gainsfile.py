@@ -18,12 +18,29 @@ FORMAT = "porosense-control-gains"
 VERSION = 1
 
 
-def save_gains(path, gains: PiGains, *, plant: Fopdt | None = None, rule: str = "", tau_cl_s=None,
-               output: str = "", predicted: dict | None = None, sources=()) -> dict:
+def save_gains(
+    path,
+    gains: PiGains,
+    *,
+    plant: Fopdt | None = None,
+    rule: str = "",
+    tau_cl_s=None,
+    output: str = "",
+    predicted: dict | None = None,
+    sources=(),
+) -> dict:
     """Write the gains file; returns the document written."""
-    doc = {"format": FORMAT, "version": VERSION, "gains": gains.to_dict(), "rule": rule, "tau_cl_s": tau_cl_s,
-           "output": output, "plant": plant.to_dict() if plant else None, "predicted": predicted or {},
-           "sources": [str(s) for s in sources]}
+    doc = {
+        "format": FORMAT,
+        "version": VERSION,
+        "gains": gains.to_dict(),
+        "rule": rule,
+        "tau_cl_s": tau_cl_s,
+        "output": output,
+        "plant": plant.to_dict() if plant else None,
+        "predicted": predicted or {},
+        "sources": [str(s) for s in sources],
+    }
     Path(path).write_text(json.dumps(doc, indent=1) + "\n")
     return doc
 

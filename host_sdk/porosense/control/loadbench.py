@@ -24,7 +24,7 @@ import numpy as np
 from porosense.control.metrics import step_metrics
 from porosense.control.plant import Fopdt, fit_fopdt
 from porosense.control.staticmap import StaticMap, static_map
-from porosense.control.tuning import DEFAULT_TAU_CL_S, board_tau_cl, PiGains, lambda_pi
+from porosense.control.tuning import DEFAULT_TAU_CL_S, PiGains, board_tau_cl, lambda_pi
 
 OUTPUT = "strain_0"
 LOADS_G = (0.0, 200.0, 500.0)
@@ -50,8 +50,9 @@ class Setup:
     seconds: float
 
 
-def identify_setup(rate_hz: int = 50, seed: int = 100, tau_cl_s: float | None = None,
-                   slew_per_s: float = 20.0, model_loads=(0.0,)) -> Setup:
+def identify_setup(
+    rate_hz: int = 50, seed: int = 100, tau_cl_s: float | None = None, slew_per_s: float = 20.0, model_loads=(0.0,)
+) -> Setup:
     """Everything the controller and the baseline need, from simulations (see module doc).
 
     ``model_loads`` (g): the loads of the recordings the on-board estimator is identified on
@@ -66,17 +67,24 @@ def identify_setup(rate_hz: int = 50, seed: int = 100, tau_cl_s: float | None = 
     names = ("staircase", "step_10", "step_60", "step_20", "step_40")
     recs = [run_experiment("contractor", e, load_g=0.0, rate_hz=rate_hz, seed=seed + i) for i, e in enumerate(names)]
     est, val = recs[:3], recs[3:]
-    est = est + [run_experiment("contractor", e, load_g=float(L), rate_hz=rate_hz, seed=seed + 50 + 10 * j + i)
-                 for j, L in enumerate(model_loads) if L != 0.0 for i, e in enumerate(names[:3])]
+    est = est + [
+        run_experiment("contractor", e, load_g=float(L), rate_hz=rate_hz, seed=seed + 50 + 10 * j + i)
+        for j, L in enumerate(model_loads)
+        if L != 0.0
+        for i, e in enumerate(names[:3])
+    ]
     model = WienerHammerstein(n_poles=2, n_zeros=1, n_breakpoints=10)
     model.fit(u=[r["dR_0"][:, None] / 100 for r in est], y=[r[OUTPUT] for r in est], ts=ts, input_unit="dR/100")
     fit = float(np.mean([fit_percent(r[OUTPUT], model.predict(u=r["dR_0"][:, None] / 100)) for r in val]))
-    q = quantize(model.to_structure(), recordings=[(f"v{i}", r["dR_0"][:, None] / 100, r[OUTPUT][:, None])
-                                                   for i, r in enumerate(val)])
+    q = quantize(
+        model.to_structure(),
+        recordings=[(f"v{i}", r["dR_0"][:, None] / 100, r[OUTPUT][:, None]) for i, r in enumerate(val)],
+    )
     plant = fit_fopdt([-r["p_cmd_0"] for r in recs], [r[OUTPUT] for r in recs], ts, output_unit="%")
     blob = q.blob
-    tau = board_tau_cl(plant, DEFAULT_TAU_CL_S if tau_cl_s is None else tau_cl_s, slew_per_s,
-                       float(blob.out_scale[0]), rate_hz)
+    tau = board_tau_cl(
+        plant, DEFAULT_TAU_CL_S if tau_cl_s is None else tau_cl_s, slew_per_s, float(blob.out_scale[0]), rate_hz
+    )
     gains = lambda_pi(plant, tau, slew_per_s)
     smap = measure_static_map(rate_hz, seed=seed + 10)
     return Setup(q.blob.to_bytes(), plant, gains, smap, rate_hz, fit, time.perf_counter() - t0)
@@ -123,8 +131,7 @@ def steady_errors(rec, segments, hold_s, lead_s=1.0, *, board_timed: bool = Fals
     return out
 
 
-def measure_load(setup: Setup, load_g: float, targets, hold_s: float, *, seed: int = 0,
-                 port: str = "emulator") -> dict:
+def measure_load(setup: Setup, load_g: float, targets, hold_s: float, *, seed: int = 0, port: str = "emulator") -> dict:
     """Closed and open loop for one load on a fresh simulated board; errors against the truth."""
     from porosense.control.boards import open_control_board
     from porosense.control.runner import prepare_board
@@ -136,13 +143,28 @@ def measure_load(setup: Setup, load_g: float, targets, hold_s: float, *, seed: i
     with open_control_board(port, load_g=load_g, seed=seed) as (dev, truth):
         rate, scale = prepare_board(dev, simulated=True, model=setup.blob, gains=setup.gains)
         duration = segs[-1][0] + hold_s
-        closed = run_closed_loop(dev, segs, rate_hz=rate, out_scale=scale, output=OUTPUT, truth=truth,
-                                 duration_s=duration, meta={"load_g": load_g})
+        closed = run_closed_loop(
+            dev,
+            segs,
+            rate_hz=rate,
+            out_scale=scale,
+            output=OUTPUT,
+            truth=truth,
+            duration_s=duration,
+            meta={"load_g": load_g},
+        )
         # back to rest before the baseline (the foam's creep and the network relaxation)
         run_open_loop(dev, [(0.0, 0.0)], rate_hz=rate, out_scale=scale, truth=truth, duration_s=5.0)
-        opened = run_open_loop(dev, [(0.0, 0.0)] + [(t, p) for (t, _), p in zip(segs, vac)], rate_hz=rate,
-                               out_scale=scale, truth=truth, duration_s=duration, targets=[np.nan, *targets],
-                               meta={"load_g": load_g})
+        opened = run_open_loop(
+            dev,
+            [(0.0, 0.0)] + [(t, p) for (t, _), p in zip(segs, vac)],
+            rate_hz=rate,
+            out_scale=scale,
+            truth=truth,
+            duration_s=duration,
+            targets=[np.nan, *targets],
+            meta={"load_g": load_g},
+        )
     for rec in (closed, opened):
         check_not_vented(rec)
     cl = steady_errors(closed, segs, hold_s, board_timed=True)
@@ -151,14 +173,23 @@ def measure_load(setup: Setup, load_g: float, targets, hold_s: float, *, seed: i
     ol_err = float(np.mean([abs(m["steady_error"]) for m in ol]))
     est_bias = float(np.nanmean(closed[f"est_{OUTPUT}"] - closed[OUTPUT]))
     floor = load_floor(targets, load_g)
-    return {"load_g": load_g, "floor": floor, "floor_steady_error": float(np.mean(np.abs(floor))), "closed_loop": cl, "open_loop": ol, "vacuum_open_loop_kpa": vac,
-            "closed_steady_error": cl_err, "open_steady_error": ol_err,
-            "ratio": cl_err / ol_err if ol_err > 0 else float("nan"), "estimate_bias": est_bias,
-            "seconds": time.perf_counter() - t0, "recordings": {"closed": closed, "open": opened}}
+    return {
+        "load_g": load_g,
+        "floor": floor,
+        "floor_steady_error": float(np.mean(np.abs(floor))),
+        "closed_loop": cl,
+        "open_loop": ol,
+        "vacuum_open_loop_kpa": vac,
+        "closed_steady_error": cl_err,
+        "open_steady_error": ol_err,
+        "ratio": cl_err / ol_err if ol_err > 0 else float("nan"),
+        "estimate_bias": est_bias,
+        "seconds": time.perf_counter() - t0,
+        "recordings": {"closed": closed, "open": opened},
+    }
 
 
-def run_loads(size: str = "small", loads=LOADS_G, *, rate_hz: int = 50, seed: int = 100,
-              model_loads=(0.0,)) -> dict:
+def run_loads(size: str = "small", loads=LOADS_G, *, rate_hz: int = 50, seed: int = 100, model_loads=(0.0,)) -> dict:
     """The whole comparison; figures in % strain (see the module docstring). ``model_loads``:
     the loads (g) of the estimator's identification recordings (see identify_setup)."""
     setup = identify_setup(rate_hz, seed=seed, model_loads=model_loads)
@@ -177,8 +208,9 @@ def load_floor(targets, load_g: float, *, step_kpa: float = 0.25) -> list[float]
 
     ps = np.arange(0.0, 80.0 + 1e-9, step_kpa)
     m0 = np.array([[steady_state("contractor", vacuum_kpa=-p)[k] for k in ("strain_pct", "dR_pct")] for p in ps])
-    ml = np.array([[steady_state("contractor", load_g=load_g, vacuum_kpa=-p)[k] for k in ("strain_pct", "dR_pct")]
-                   for p in ps])
+    ml = np.array(
+        [[steady_state("contractor", load_g=load_g, vacuum_kpa=-p)[k] for k in ("strain_pct", "dR_pct")] for p in ps]
+    )
     # dR falls monotonically with vacuum: read the 0 g map at the loaded dR
     est = np.interp(-ml[:, 1], -m0[:, 1], m0[:, 0])
     out = []

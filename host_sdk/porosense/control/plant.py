@@ -72,16 +72,24 @@ class Fopdt:
     @classmethod
     def from_dict(cls, d: dict) -> Fopdt:
         try:
-            return cls(float(d["K"]), float(d["T"]), float(d["theta"]), float(d["ts"]),
-                       float(d.get("fit_percent", "nan")), tuple(d.get("gain_range", (math.nan, math.nan))),
-                       str(d.get("output_unit", "")))
+            return cls(
+                float(d["K"]),
+                float(d["T"]),
+                float(d["theta"]),
+                float(d["ts"]),
+                float(d.get("fit_percent", "nan")),
+                tuple(d.get("gain_range", (math.nan, math.nan))),
+                str(d.get("output_unit", "")),
+            )
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"malformed plant model: {exc}") from None
 
     def __str__(self) -> str:
-        return (f"FOPDT K = {self.K:.4g} {self.output_unit or 'units'}/kPa (per recording "
-                f"{self.gain_range[0]:.3g}..{self.gain_range[1]:.3g}), T = {self.T:.3f} s, "
-                f"dead time {self.theta:.3f} s; fit {self.fit_percent:.1f} %")
+        return (
+            f"FOPDT K = {self.K:.4g} {self.output_unit or 'units'}/kPa (per recording "
+            f"{self.gain_range[0]:.3g}..{self.gain_range[1]:.3g}), T = {self.T:.3f} s, "
+            f"dead time {self.theta:.3f} s; fit {self.fit_percent:.1f} %"
+        )
 
 
 def _unit_response(v: np.ndarray, T: float, d: int, ts: float) -> np.ndarray:
@@ -94,8 +102,10 @@ def _unit_response(v: np.ndarray, T: float, d: int, ts: float) -> np.ndarray:
 def _solve(vs, ys, T, d, ts):
     """Least squares of K and per-recording offsets for fixed (T, d): (K, offsets, sse)."""
     n = len(vs)
-    rows = [np.column_stack([_unit_response(v, T, d, ts)] + [np.full(len(v), float(i == j)) for j in range(n)])
-            for i, v in enumerate(vs)]
+    rows = [
+        np.column_stack([_unit_response(v, T, d, ts)] + [np.full(len(v), float(i == j)) for j in range(n)])
+        for i, v in enumerate(vs)
+    ]
     A = np.vstack(rows)
     b = np.concatenate(ys)
     coef, *_ = np.linalg.lstsq(A, b, rcond=None)
@@ -106,9 +116,12 @@ def _solve(vs, ys, T, d, ts):
 def _fit_one(vs, ys, ts):
     best = None
     for d in range(int(MAX_DEAD_TIME_S / ts) + 1):
-        res = minimize_scalar(lambda lt: _solve(vs, ys, math.exp(lt), d, ts)[2],
-                              bounds=tuple(math.log(x) for x in T_RANGE_S), method="bounded",
-                              options={"xatol": 1e-3})
+        res = minimize_scalar(
+            lambda lt: _solve(vs, ys, math.exp(lt), d, ts)[2],
+            bounds=tuple(math.log(x) for x in T_RANGE_S),
+            method="bounded",
+            options={"xatol": 1e-3},
+        )
         T = math.exp(res.x)
         K, off, sse = _solve(vs, ys, T, d, ts)
         if best is None or sse < best[3]:
@@ -140,7 +153,17 @@ def fit_fopdt(vacuum_kpa, outputs, ts: float, *, output_unit: str = "") -> Fopdt
     dev = float(np.sum((y_all - y_all.mean()) ** 2))
     fit = 100.0 * (1.0 - math.sqrt(sse / dev)) if dev > 0 else float("nan")
     if not K > 0:
-        raise InputError(f"the fitted gain {K:.3g} is not positive: more vacuum must give more output "
-                         "(check the command column and its sign)")
-    return Fopdt(float(K), float(T), d * ts, float(ts), fit, (float(min(gains)), float(max(gains))), output_unit,
-                 {"offsets": [float(o) for o in offsets]})
+        raise InputError(
+            f"the fitted gain {K:.3g} is not positive: more vacuum must give more output "
+            "(check the command column and its sign)"
+        )
+    return Fopdt(
+        float(K),
+        float(T),
+        d * ts,
+        float(ts),
+        fit,
+        (float(min(gains)), float(max(gains))),
+        output_unit,
+        {"offsets": [float(o) for o in offsets]},
+    )

@@ -53,25 +53,37 @@ class RunResult:
     rate_hz: int = 0
 
     def to_dict(self) -> dict:
-        return {"tracking": self.tracking.to_dict(), "step": self.step.to_dict() if self.step else None,
-                "against": self.against, "output": self.output, "gains_on_board": self.gains_on_board,
-                "rate_hz": self.rate_hz, "samples": len(self.recording),
-                "vented_samples": self.recording.meta.get("vented_samples", 0)}
+        return {
+            "tracking": self.tracking.to_dict(),
+            "step": self.step.to_dict() if self.step else None,
+            "against": self.against,
+            "output": self.output,
+            "gains_on_board": self.gains_on_board,
+            "rate_hz": self.rate_hz,
+            "samples": len(self.recording),
+            "vented_samples": self.recording.meta.get("vented_samples", 0),
+        }
 
     def summary_lines(self) -> list[str]:
         tr = self.tracking
         lines = []
         vented = self.recording.meta.get("vented_samples", 0)
         if vented:
-            lines.append(f"warning: the board vented during the run ({vented} samples flagged WATCHDOG_TRIPPED or "
-                         "CONTROL_ABORTED)")
-        lines += [f"tracking error against the {self.against} ({tr.n} samples): RMS {tr.rms:.3f}, peak {tr.peak:.3f} "
-                 f"({tr.rms_pct_of_target:.1f} % / {tr.peak_pct_of_target:.1f} % of the target)"]
+            lines.append(
+                f"warning: the board vented during the run ({vented} samples flagged WATCHDOG_TRIPPED or "
+                "CONTROL_ABORTED)"
+            )
+        lines += [
+            f"tracking error against the {self.against} ({tr.n} samples): RMS {tr.rms:.3f}, peak {tr.peak:.3f} "
+            f"({tr.rms_pct_of_target:.1f} % / {tr.peak_pct_of_target:.1f} % of the target)"
+        ]
         if self.step is not None:
             s = self.step
             settle = "did not settle" if math.isnan(s.settling_s) else f"settled in {s.settling_s:.2f} s"
-            lines.append(f"step {s.start:.2f} -> {s.target:g}: {settle} (2 % band), overshoot {s.overshoot_pct:.1f} %, "
-                         f"steady-state error {s.steady_error:+.3f}")
+            lines.append(
+                f"step {s.start:.2f} -> {s.target:g}: {settle} (2 % band), overshoot {s.overshoot_pct:.1f} %, "
+                f"steady-state error {s.steady_error:+.3f}"
+            )
         return lines
 
     def plot(self, path) -> None:
@@ -124,8 +136,10 @@ def prepare_board(dev, *, simulated: bool, model: bytes | None, gains: PiGains |
         try:
             dev.set_control_gains(ControlGains(gains.kp_kpa, gains.ki_kpa_per_s, gains.slew_per_s))
         except InputError as exc:
-            raise InputError(f"{exc}: re-tune with 'porosense control tune ... --model MODEL.bin' (it picks the "
-                             "smallest tau_cl the board holds) or a larger --tau-cl") from None
+            raise InputError(
+                f"{exc}: re-tune with 'porosense control tune ... --model MODEL.bin' (it picks the "
+                "smallest tau_cl the board holds) or a larger --tau-cl"
+            ) from None
     return dev.sample_rate_hz(), float(info.out_scale[0])
 
 
@@ -141,12 +155,27 @@ def execute_run(req: RunRequest, log=print) -> RunResult:
         if req.trajectory is not None:
             t_s, targets = req.trajectory
             log(f"running a trajectory of {len(t_s)} points over {t_s[-1]:g} s at {rate} Hz")
-            rec = run_closed_loop(dev, [], rate_hz=rate, out_scale=scale, output=req.output, truth=truth,
-                                  trajectory=(t_s, targets), duration_s=float(t_s[-1]))
+            rec = run_closed_loop(
+                dev,
+                [],
+                rate_hz=rate,
+                out_scale=scale,
+                output=req.output,
+                truth=truth,
+                trajectory=(t_s, targets),
+                duration_s=float(t_s[-1]),
+            )
         else:
             log(f"holding {req.target:g} for {req.hold_s:g} s at {rate} Hz")
-            rec = run_closed_loop(dev, [(LEAD_S, req.target)], rate_hz=rate, out_scale=scale, output=req.output,
-                                  truth=truth, duration_s=LEAD_S + req.hold_s)
+            rec = run_closed_loop(
+                dev,
+                [(LEAD_S, req.target)],
+                rate_hz=rate,
+                out_scale=scale,
+                output=req.output,
+                truth=truth,
+                duration_s=LEAD_S + req.hold_s,
+            )
     return measure(rec, req, on_board, rate)
 
 

@@ -52,8 +52,7 @@ def _stream(dev, duration_s: float, rate_hz: int, events, keepalive_s: float = K
     return rows
 
 
-def _recording(rows, *, out_scale, output, truth, host_target=None, host_cmd=None, meta=None,
-               t=None) -> Recording:
+def _recording(rows, *, out_scale, output, truth, host_target=None, host_cmd=None, meta=None, t=None) -> Recording:
     if not rows:
         raise DeviceError("no samples recorded")
     t_us = np.array([s.t_us for s in rows], dtype=np.int64)
@@ -88,8 +87,10 @@ def check_not_vented(rec) -> None:
     a saturated estimator): the run did not measure what it was meant to."""
     n = rec.meta.get("vented_samples", 0)
     if n:
-        raise DeviceError(f"the board vented during the run ({n} samples flagged WATCHDOG_TRIPPED or "
-                          "CONTROL_ABORTED: host link lost, sensor fault or estimator saturated)")
+        raise DeviceError(
+            f"the board vented during the run ({n} samples flagged WATCHDOG_TRIPPED or "
+            "CONTROL_ABORTED: host link lost, sensor fault or estimator saturated)"
+        )
 
 
 def _first(v):
@@ -123,9 +124,19 @@ def step_trajectory(segments, end_s: float) -> tuple[np.ndarray, np.ndarray]:
     return np.round(np.array(ts), 2), np.array(ys)
 
 
-def run_closed_loop(dev, segments, *, rate_hz: int, out_scale: float, output: str = "strain_0", truth=None,
-                    channels: int = 0b001, duration_s: float | None = None, trajectory=None,
-                    meta: dict | None = None) -> Recording:
+def run_closed_loop(
+    dev,
+    segments,
+    *,
+    rate_hz: int,
+    out_scale: float,
+    output: str = "strain_0",
+    truth=None,
+    channels: int = 0b001,
+    duration_s: float | None = None,
+    trajectory=None,
+    meta: dict | None = None,
+) -> Recording:
     """Closed loop on the board, on device time (s from the first streamed sample):
 
     - one segment [(t_s, target)]: a constant target (output units) from t_s;
@@ -156,14 +167,28 @@ def run_closed_loop(dev, segments, *, rate_hz: int, out_scale: float, output: st
         rows = _stream(dev, duration_s, rate_hz, events)
     finally:
         _vent(dev, control=True)
-    info = {"mode": "closed_loop", "rate_hz": rate_hz, "device": getattr(dev, "url", ""),
-            "segments": [list(map(float, s)) for s in segments] if segments else []}
+    info = {
+        "mode": "closed_loop",
+        "rate_hz": rate_hz,
+        "device": getattr(dev, "url", ""),
+        "segments": [list(map(float, s)) for s in segments] if segments else [],
+    }
     info.update(meta or {})
     return _recording(rows, out_scale=out_scale, output=output, truth=truth, meta=info)
 
 
-def run_open_loop(dev, segments, *, rate_hz: int, out_scale: float = 1.0, output: str = "strain_0", truth=None,
-                  duration_s: float | None = None, targets=None, meta: dict | None = None) -> Recording:
+def run_open_loop(
+    dev,
+    segments,
+    *,
+    rate_hz: int,
+    out_scale: float = 1.0,
+    output: str = "strain_0",
+    truth=None,
+    duration_s: float | None = None,
+    targets=None,
+    meta: dict | None = None,
+) -> Recording:
     """Open loop: ``segments`` [(t_s, vacuum_kpa >= 0), ...] each held until the next (the last
     until ``duration_s``, default + 10 s); 0 vents. ``targets`` (one per segment, output units)
     are recorded in ``target_0`` for the metrics.
@@ -189,12 +214,23 @@ def run_open_loop(dev, segments, *, rate_hz: int, out_scale: float = 1.0, output
             tgt += [float(targets[i]) if targets is not None else np.nan] * len(part)
     finally:
         _vent(dev, control=False)
-    info = {"mode": "open_loop", "rate_hz": rate_hz, "device": getattr(dev, "url", ""),
-            "segments": [list(map(float, s)) for s in segments]}
+    info = {
+        "mode": "open_loop",
+        "rate_hz": rate_hz,
+        "device": getattr(dev, "url", ""),
+        "segments": [list(map(float, s)) for s in segments],
+    }
     info.update(meta or {})
-    return _recording(rows, out_scale=out_scale, output=output, truth=truth,
-                      host_target=tgt if targets is not None else None, host_cmd=-np.asarray(vac), meta=info,
-                      t=times)
+    return _recording(
+        rows,
+        out_scale=out_scale,
+        output=output,
+        truth=truth,
+        host_target=tgt if targets is not None else None,
+        host_cmd=-np.asarray(vac),
+        meta=info,
+        t=times,
+    )
 
 
 def _vent(dev, *, control: bool) -> None:

@@ -64,10 +64,9 @@ def static_map(recordings, *, min_hold_s: float = MIN_HOLD_S) -> StaticMap:
     within 0.5 kPa are pooled (mean)."""
     pts = [p for t, v, y in recordings for p in hold_levels(t, v, y, min_hold_s=min_hold_s)]
     if len({round(v * 2) for v, _ in pts}) < 2:
-        raise InputError(f"the recordings hold fewer than two vacuum levels for {min_hold_s:g} s: "
-                         "no static map")
+        raise InputError(f"the recordings hold fewer than two vacuum levels for {min_hold_s:g} s: no static map")
     pts.sort()
-    levels, outs = [], []
+    levels, _outs = [], []
     for v, y in pts:
         if levels and abs(v - levels[-1][0]) < 0.5:
             levels[-1][1].append(y)

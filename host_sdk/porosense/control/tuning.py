@@ -24,8 +24,10 @@ import numpy as np
 from porosense.control.plant import Fopdt
 from porosense.errors import InputError
 
-RULE = ("lambda (IMC) tuning of a PI on the FOPDT: kp = T / (K (tau_cl + theta + Ts/2)), "
-        "ki = kp / T; kp in kPa per output unit, ki in kPa per (output unit s)")
+RULE = (
+    "lambda (IMC) tuning of a PI on the FOPDT: kp = T / (K (tau_cl + theta + Ts/2)), "
+    "ki = kp / T; kp in kPa per output unit, ki in kPa per (output unit s)"
+)
 
 #: Default closed-loop time constant (s). The contractor's open-loop time constant is about
 #: 0.3 s; 0.5 s keeps the integral gain inside the board's fixed-point range (CONTROL_GAINS'
@@ -84,8 +86,12 @@ class StepPrediction:
     peak_vacuum_kpa: float
 
     def summary(self) -> dict:
-        return {"step": self.step, "settling_s": self.settling_s, "overshoot_pct": self.overshoot_pct,
-                "peak_vacuum_kpa": self.peak_vacuum_kpa}
+        return {
+            "step": self.step,
+            "settling_s": self.settling_s,
+            "overshoot_pct": self.overshoot_pct,
+            "peak_vacuum_kpa": self.peak_vacuum_kpa,
+        }
 
     def plot(self, path, title: str = "predicted closed-loop step") -> None:
         import matplotlib
@@ -95,8 +101,11 @@ class StepPrediction:
 
         fig, (ax, ax2) = plt.subplots(2, 1, sharex=True, figsize=(7, 5), height_ratios=(2, 1))
         ax.plot(self.t, self.target, "k--", label="target (slew-limited)")
-        ax.plot(self.t, self.y, label=f"predicted output (settles in {self.settling_s:.2f} s, "
-                                       f"overshoot {self.overshoot_pct:.1f} %)")
+        ax.plot(
+            self.t,
+            self.y,
+            label=f"predicted output (settles in {self.settling_s:.2f} s, overshoot {self.overshoot_pct:.1f} %)",
+        )
         ax.axhspan(self.step * (1 - SETTLE_BAND), self.step * (1 + SETTLE_BAND), color="0.9")
         ax.set_ylabel("output")
         ax.legend(loc="lower right", fontsize=8)
@@ -126,8 +135,9 @@ def settling_and_overshoot(t, y, step: float, t_final_target: float = 0.0) -> tu
     return settling, over
 
 
-def predict_step(plant: Fopdt, gains: PiGains, step: float, *, duration_s: float | None = None,
-                 max_vacuum_kpa: float | None = None) -> StepPrediction:
+def predict_step(
+    plant: Fopdt, gains: PiGains, step: float, *, duration_s: float | None = None, max_vacuum_kpa: float | None = None
+) -> StepPrediction:
     """Closed-loop response (linear; the board's command limits are applied only when
     ``max_vacuum_kpa`` is given) of ``plant`` under ``gains`` to a target step of ``step``
     output units, slew-limited at ``gains.slew_per_s``."""

@@ -12,5 +12,4 @@ from porosense.data.load import load_data, resolve_ts, time_column
 from porosense.data.recording import Recording
 from porosense.data.table import Dialect, Table, read_table, sniff_dialect
 
-__all__ = ["Dialect", "Recording", "Table", "load_data", "read_table", "resolve_ts", "sniff_dialect",
-           "time_column"]
+__all__ = ["Dialect", "Recording", "Table", "load_data", "read_table", "resolve_ts", "sniff_dialect", "time_column"]

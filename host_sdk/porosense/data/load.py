@@ -100,8 +100,10 @@ def _sidecar_units_meta(path: Path) -> tuple[dict, dict]:
     if not isinstance(doc, dict):
         return {}, {}
     units, meta = doc.get("units", {}), doc.get("meta", {})
-    return ({str(k): str(v) for k, v in units.items()} if isinstance(units, dict) else {},
-            meta if isinstance(meta, dict) else {})
+    return (
+        {str(k): str(v) for k, v in units.items()} if isinstance(units, dict) else {},
+        meta if isinstance(meta, dict) else {},
+    )
 
 
 def resolve_ts(tables, ts: float | None, override: bool = False) -> float:
@@ -120,11 +122,14 @@ def resolve_ts(tables, ts: float | None, override: bool = False) -> float:
         ref, where = stated[0]
         for other, source in stated[1:]:
             if abs(other - ref) > TS_TOLERANCE * ref:
-                raise InputError(f"the files disagree on the sample period: {ref:g} s from {where}, "
-                                 f"{other:g} s from {source}")
+                raise InputError(
+                    f"the files disagree on the sample period: {ref:g} s from {where}, {other:g} s from {source}"
+                )
         if ts is not None and abs(ts - ref) > TS_TOLERANCE * ref:
-            raise InputError(f"--ts {ts:g} s disagrees with {ref:g} s from {where} ({1 / ref:g} Hz); "
-                             "drop --ts, or add --ts-override to use it anyway")
+            raise InputError(
+                f"--ts {ts:g} s disagrees with {ref:g} s from {where} ({1 / ref:g} Hz); "
+                "drop --ts, or add --ts-override to use it anyway"
+            )
         return float(ts if ts is not None else ref)
     if ts is None:
         names = ", ".join(str(t.path) for t in tables)

@@ -115,9 +115,11 @@ def read_mat(path) -> Table:
         elif v.ndim == 2:
             vectors[name] = v
     if not vectors:
-        raise InputError(f"{path}: no numeric vectors found (variables: {', '.join(content) or 'none'}); "
-                         "save the signals as vectors or a struct of vectors (MATLAB tables, timetables and "
-                         "iddata objects cannot be read: save(f, '-struct', 's') of their columns)")
+        raise InputError(
+            f"{path}: no numeric vectors found (variables: {', '.join(content) or 'none'}); "
+            "save the signals as vectors or a struct of vectors (MATLAB tables, timetables and "
+            "iddata objects cannot be read: save(f, '-struct', 's') of their columns)"
+        )
     lengths = [max(v.shape) for v in vectors.values()]
     n = max(set(lengths), key=lambda L: (lengths.count(L), L))
     # Signals stored as rows (k x N) read as columns.
@@ -141,6 +143,14 @@ def read_mat(path) -> Table:
             columns[m] = np.ascontiguousarray(v[:, i], dtype=float)
             names.append(m)
     version = "v7.3 (HDF5)" if _is_hdf5(path) else "v5/v7"
-    table = Table(path=path, names=names, columns=columns, groups=groups, lines=None,
-                  dialect=f"MATLAB {version} file", ts=ts, ts_source=f"variable Ts in {path.name}" if ts else "")
+    table = Table(
+        path=path,
+        names=names,
+        columns=columns,
+        groups=groups,
+        lines=None,
+        dialect=f"MATLAB {version} file",
+        ts=ts,
+        ts_source=f"variable Ts in {path.name}" if ts else "",
+    )
     return table

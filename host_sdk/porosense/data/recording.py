@@ -63,9 +63,7 @@ class Recording:
                 raise InputError("'t' is the time axis, not a column")
             arr = np.asarray(values).ravel()
             if arr.shape != self.t.shape:
-                raise InputError(
-                    f"column '{name}' has {arr.size} samples, the time axis has {self.t.size}"
-                )
+                raise InputError(f"column '{name}' has {arr.size} samples, the time axis has {self.t.size}")
             cols[str(name)] = arr
         self.columns = cols
         self.meta = _jsonable(dict(self.meta))
@@ -79,9 +77,7 @@ class Recording:
         try:
             return self.columns[name]
         except KeyError:
-            raise InputError(
-                f"recording has no column '{name}' (columns: {', '.join(self.names)})"
-            ) from None
+            raise InputError(f"recording has no column '{name}' (columns: {', '.join(self.names)})") from None
 
     def __contains__(self, name: str) -> bool:
         return name == "t" or name in self.columns
@@ -115,7 +111,7 @@ class Recording:
         """Columns ``names`` stacked as an (N, k) float array."""
         return np.column_stack([np.asarray(self[n], dtype=float) for n in names])
 
-    def slice(self, t0: float, t1: float) -> "Recording":
+    def slice(self, t0: float, t1: float) -> Recording:
         """The samples with ``t0 <= t < t1`` (s); times are kept, metadata copied."""
         keep = (self.t >= t0) & (self.t < t1)
         return Recording(
@@ -125,20 +121,26 @@ class Recording:
             dict(self.units),
         )
 
-    def with_columns(self, **columns) -> "Recording":
+    def with_columns(self, **columns) -> Recording:
         """A copy with columns added or replaced."""
         return Recording(self.t, {**self.columns, **columns}, dict(self.meta), dict(self.units))
 
     def __repr__(self) -> str:
-        what = ", ".join(f"{k}={self.meta[k]}" for k in ("actuator", "experiment", "porosity", "load_g")
-                         if k in self.meta)
-        return (f"Recording({what + ', ' if what else ''}{len(self)} samples, "
-                f"{self.duration:.1f} s, columns={self.names})")
+        what = ", ".join(
+            f"{k}={self.meta[k]}" for k in ("actuator", "experiment", "porosity", "load_g") if k in self.meta
+        )
+        return (
+            f"Recording({what + ', ' if what else ''}{len(self)} samples, {self.duration:.1f} s, columns={self.names})"
+        )
 
     def to_dict(self) -> dict:
         """Plain-JSON form (lists), e.g. for reports."""
-        return {"t": self.t.tolist(), "columns": {k: v.tolist() for k, v in self.columns.items()},
-                "meta": self.meta, "units": self.units}
+        return {
+            "t": self.t.tolist(),
+            "columns": {k: v.tolist() for k, v in self.columns.items()},
+            "meta": self.meta,
+            "units": self.units,
+        }
 
     def plot(self, names=None, ax=None):
         """Plot columns ``names`` (default: all but pressure commands) against time; returns ax."""
@@ -152,9 +154,13 @@ class Recording:
         return ax
 
     def _sidecar(self) -> dict:
-        return {"format": FORMAT, "meta": self.meta, "units": self.units,
-                "columns": self.names,
-                "dtypes": {k: v.dtype.str for k, v in self.columns.items()}}
+        return {
+            "format": FORMAT,
+            "meta": self.meta,
+            "units": self.units,
+            "columns": self.names,
+            "dtypes": {k: v.dtype.str for k, v in self.columns.items()},
+        }
 
     # --- CSV + JSON sidecar --------------------------------------------------------------
     def to_csv(self, path) -> Path:
@@ -164,8 +170,10 @@ class Recording:
         names = ["t"] + self.names
         cols = [self.t] + [self.columns[n] for n in self.names]
         # repr of a Python float is the shortest text that reads back bit-identical.
-        as_text = [list(map(repr, c.astype(float).tolist())) if c.dtype.kind == "f"
-                   else list(map(str, c.astype(int).tolist())) for c in cols]
+        as_text = [
+            list(map(repr, c.astype(float).tolist())) if c.dtype.kind == "f" else list(map(str, c.astype(int).tolist()))
+            for c in cols
+        ]
         lines = [",".join(names)]
         lines.extend(",".join(row) for row in zip(*as_text))
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
@@ -173,7 +181,7 @@ class Recording:
         return path
 
     @classmethod
-    def from_csv(cls, path) -> "Recording":
+    def from_csv(cls, path) -> Recording:
         """Read a CSV (and its JSON sidecar when present: meta, units, dtypes, order)."""
         path = Path(path)
         table = read_table(path)
@@ -215,14 +223,13 @@ class Recording:
         for name, values in self.columns.items():
             content[name] = values.reshape(-1, 1)
         content["units"] = {k.replace(".", "_"): v for k, v in self.units.items()}
-        content["meta"] = {k: v for k, v in self.meta.items()
-                           if isinstance(v, (int, float, str)) and k.isidentifier()}
+        content["meta"] = {k: v for k, v in self.meta.items() if isinstance(v, (int, float, str)) and k.isidentifier()}
         content["recording_json"] = json.dumps(self._sidecar())
         savemat(path, content, do_compression=True, oned_as="column")
         return path
 
     @classmethod
-    def from_mat(cls, path, ts: float | None = None) -> "Recording":
+    def from_mat(cls, path, ts: float | None = None) -> Recording:
         """Read a .mat file written by :meth:`to_mat`, or any MATLAB file of named vectors or a
         struct (v5 or v7.3, see :mod:`porosense.data.matfile`). Without a ``t`` variable the
         time axis is k * Ts, with Ts from a ``Ts`` variable or the ``ts`` argument (s)."""
@@ -253,9 +260,9 @@ class Recording:
         sidecar = {}
         if "recording_json" in content:
             sidecar = json.loads(str(np.asarray(content["recording_json"]).ravel()[0]))
-        order = sidecar.get("columns") or [k for k in content
-                                           if not k.startswith("__") and k not in
-                                           ("t", "units", "meta", "recording_json")]
+        order = sidecar.get("columns") or [
+            k for k in content if not k.startswith("__") and k not in ("t", "units", "meta", "recording_json")
+        ]
         dtypes = sidecar.get("dtypes", {})
         columns = {}
         for name in order:
@@ -265,5 +272,6 @@ class Recording:
             if name in dtypes:  # MATLAB has no bool: logical columns come back as uint8
                 values = values.astype(np.dtype(dtypes[name]))
             columns[name] = values
-        return cls(np.asarray(content["t"], dtype=float).ravel(), columns,
-                   sidecar.get("meta", {}), sidecar.get("units", {}))
+        return cls(
+            np.asarray(content["t"], dtype=float).ravel(), columns, sidecar.get("meta", {}), sidecar.get("units", {})
+        )

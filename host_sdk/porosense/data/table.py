@@ -80,8 +80,10 @@ class Table:
             bad = index[~np.isfinite(np.asarray(self[name], dtype=float)[rows])]
             if bad.size:
                 cell = "empty or NaN" if np.isnan(self[name][bad[0]]) else "infinite"
-                raise InputError(f"{self.path}: {self.line_of(int(bad[0]))}, column '{name}': {cell} cell"
-                                 f"{' in the ' + what if what else ''} ({bad.size} such cells in this column)")
+                raise InputError(
+                    f"{self.path}: {self.line_of(int(bad[0]))}, column '{name}': {cell} cell"
+                    f"{' in the ' + what if what else ''} ({bad.size} such cells in this column)"
+                )
 
 
 def _header_names(cells: list[str], path: Path) -> tuple[list[str], dict[str, list[str]]]:
@@ -124,8 +126,10 @@ class Dialect:
     header: bool = True
 
     def describe(self) -> str:
-        return (f"{_SEPARATOR_NAMES.get(self.separator, repr(self.separator))}-separated, decimal "
-                f"{'comma' if self.decimal == ',' else 'point'}, {'a' if self.header else 'no'} header row")
+        return (
+            f"{_SEPARATOR_NAMES.get(self.separator, repr(self.separator))}-separated, decimal "
+            f"{'comma' if self.decimal == ',' else 'point'}, {'a' if self.header else 'no'} header row"
+        )
 
 
 def sniff_dialect(lines: list[str]) -> Dialect:
@@ -205,11 +209,15 @@ def read_table(path, *, separator: str | None = None, decimal: str | None = None
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read as text (a binary file? MATLAB files need the .mat suffix): "
-                         f"{type(exc).__name__}") from None
+        raise InputError(
+            f"{path}: cannot read as text (a binary file? MATLAB files need the .mat suffix): {type(exc).__name__}"
+        ) from None
     guess = sniff_dialect(text.splitlines()[:51])
-    dialect = Dialect(separator if separator is not None else guess.separator,
-                      decimal if decimal is not None else guess.decimal, guess.header)
+    dialect = Dialect(
+        separator if separator is not None else guess.separator,
+        decimal if decimal is not None else guess.decimal,
+        guess.header,
+    )
     if dialect.decimal == "," and dialect.separator == ",":
         raise InputError(f"{path}: decimal commas need another separator (';' or tab); pass --separator")
     seen = dialect.describe()
@@ -259,9 +267,7 @@ def read_table(path, *, separator: str | None = None, decimal: str | None = None
                         ) from None
                 raise
             if trailing_empty and len(row) == width and row[-1].strip():
-                raise InputError(
-                    f"{path}: line {line}, column {width}: value in a column without a header name"
-                )
+                raise InputError(f"{path}: line {line}, column {width}: value in a column without a header name")
             data.append(values)
             lines.append(line)
     except csv.Error as exc:
@@ -269,5 +275,4 @@ def read_table(path, *, separator: str | None = None, decimal: str | None = None
 
     array = np.array(data, dtype=float).reshape(len(data), n_named)
     columns = {name: np.ascontiguousarray(array[:, k]) for k, name in enumerate(names)}
-    return Table(path=path, names=names, columns=columns, groups=groups, lines=np.array(lines, dtype=int),
-                 dialect=seen)
+    return Table(path=path, names=names, columns=columns, groups=groups, lines=np.array(lines, dtype=int), dialect=seen)

@@ -218,8 +218,15 @@ class Device:
         dkpa = tuple(int(round(v * 10)) for v in sp)
         pump_mask, valve_mask = _mask(pumps), _mask(valves)
         self._out_counter = (self._out_counter + 1) & 0xFFFF
-        self._exchange(m.SetOutputs(setpoint_dkpa=dkpa, pump_mask=pump_mask, valve_mask=valve_mask,
-                                    session=self._session, counter=self._out_counter))
+        self._exchange(
+            m.SetOutputs(
+                setpoint_dkpa=dkpa,
+                pump_mask=pump_mask,
+                valve_mask=valve_mask,
+                session=self._session,
+                counter=self._out_counter,
+            )
+        )
         self._outputs_active = bool(pump_mask or valve_mask)
 
     def set_watchdog(self, timeout_ms: int) -> None:
@@ -288,8 +295,9 @@ class Device:
         samples = list(self.samples(n, timeout_s=timeout_s))
         return SampleBlock.from_samples(samples, lost=self.stats.samples_lost - lost0)
 
-    def write_model(self, blob: bytes, *, replace: bool | None = None, validate: bool = True,
-                    format_version: int | None = None) -> ModelInfo:
+    def write_model(
+        self, blob: bytes, *, replace: bool | None = None, validate: bool = True, format_version: int | None = None
+    ) -> ModelInfo:
         """MODEL_BEGIN, MODEL_CHUNKs of 112 bytes, MODEL_COMMIT, then MODEL_INFO; checks the CRC.
 
         The blob is checked first exactly as the firmware checks it (porosense.quant.ModelBlob:
@@ -317,13 +325,18 @@ class Device:
             if exc.code != Result.TOO_LARGE or replace or not self.model_info().valid:
                 raise
             if replace is False:
-                raise ModelError(f"the model ({len(blob)} bytes) does not fit beside the running one "
-                                 f"({exc.detail} bytes too many); replace it (flash --replace) to erase it "
-                                 "first") from None
+                raise ModelError(
+                    f"the model ({len(blob)} bytes) does not fit beside the running one "
+                    f"({exc.detail} bytes too many); replace it (flash --replace) to erase it "
+                    "first"
+                ) from None
             import warnings
 
-            warnings.warn(f"the model ({len(blob)} bytes) does not fit beside the running one: erasing it "
-                          "first (no model on the board until the write completes)", stacklevel=2)
+            warnings.warn(
+                f"the model ({len(blob)} bytes) does not fit beside the running one: erasing it "
+                "first (no model on the board until the write completes)",
+                stacklevel=2,
+            )
             self.erase_model()
             self._exchange(m.ModelBegin(length=len(blob), crc=crc, format_version=format_version))
         for offset in range(0, len(blob), MODEL_CHUNK_BYTES):
@@ -353,13 +366,16 @@ class Device:
             return board
         model_hz = model.rate_hz
         if not set_rate:
-            raise ModelError(f"the model was identified at {model_hz:g} Hz (Ts {model.ts_us / 1000:g} ms) but the "
-                             f"board samples at {board} Hz: re-identify at {board} Hz, or flash with --set-rate "
-                             f"to run the board at {model_hz:g} Hz")
+            raise ModelError(
+                f"the model was identified at {model_hz:g} Hz (Ts {model.ts_us / 1000:g} ms) but the "
+                f"board samples at {board} Hz: re-identify at {board} Hz, or flash with --set-rate "
+                f"to run the board at {model_hz:g} Hz"
+            )
         whole_hz = max(int(round(model_hz)), 1)
         if round(1e6 / whole_hz) != model.ts_us:  # the blob keeps Ts in whole microseconds
-            raise ModelError(f"the model's rate {model_hz:g} Hz is not a whole number of Hz; the board cannot "
-                             "sample at it")
+            raise ModelError(
+                f"the model's rate {model_hz:g} Hz is not a whole number of Hz; the board cannot sample at it"
+            )
         self.config_set("SAMPLE_RATE_HZ", whole_hz)
         self.config_save()
         return self.sample_rate_hz()
@@ -376,7 +392,9 @@ class Device:
         """``n`` bytes (at most 112) of the stored blob from ``offset``."""
         reply = self._exchange(m.ModelRead(offset=int(offset), length=int(n)))
         if reply.offset != offset or len(reply.data) != n:
-            raise DeviceError(f"MODEL_DATA at offset {reply.offset} with {len(reply.data)} bytes, expected {offset}, {n}")
+            raise DeviceError(
+                f"MODEL_DATA at offset {reply.offset} with {len(reply.data)} bytes, expected {offset}, {n}"
+            )
         return bytes(reply.data)
 
     def read_model(self) -> bytes:
@@ -409,9 +427,7 @@ class Device:
         flags = []
         for k in range(0, len(x), REPLAY_SAMPLES):
             chunk = x[k : k + REPLAY_SAMPLES]
-            reply = self._exchange(
-                m.Replay(reset=int(reset and k == 0), dr_centi=tuple(int(v) for v in chunk.ravel()))
-            )
+            reply = self._exchange(m.Replay(reset=int(reset and k == 0), dr_centi=tuple(int(v) for v in chunk.ravel())))
             est = np.asarray(reply.estimate, dtype=np.int16)
             if est.size != chunk.size:
                 raise DeviceError(f"REPLAY_RESULT holds {est.size} values for {chunk.size} inputs")
@@ -511,8 +527,10 @@ class Device:
         r = self._exchange(m.ControlGainsGet())
         scale, crc = self._control_model()
         if r.rate_hz and r.model_crc != crc:
-            raise DeviceError(f"the board's control gains were made for another model (crc 0x{r.model_crc:04X}, "
-                              f"running 0x{crc:04X}): set them again")
+            raise DeviceError(
+                f"the board's control gains were made for another model (crc 0x{r.model_crc:04X}, "
+                f"running 0x{crc:04X}): set them again"
+            )
         return control.from_fixed(r.kp_q16, r.ki_q22, r.slew_q4, scale, r.rate_hz)
 
     def _refresh_gains(self) -> tuple[float, ...]:
@@ -529,8 +547,15 @@ class Device:
 
     def _control_start(self, mode: int, targets_lsb, channels: int) -> None:
         self._out_counter = (self._out_counter + 1) & 0xFFFF
-        self._exchange(m.ControlStart(mode=mode, channel_mask=int(channels), target=tuple(targets_lsb),
-                                      session=self._session, counter=self._out_counter))
+        self._exchange(
+            m.ControlStart(
+                mode=mode,
+                channel_mask=int(channels),
+                target=tuple(targets_lsb),
+                session=self._session,
+                counter=self._out_counter,
+            )
+        )
         self._outputs_active = True
 
     def start_control(self, targets, *, channels: int = 0b001) -> None:
@@ -556,7 +581,7 @@ class Device:
             raise DeviceError("no valid model on the board: trajectory targets are in its output units")
         rec = control.trajectory_record(t_s, targets, scale, repeat=repeat)
         for off in range(0, len(rec), TRAJECTORY_CHUNK_BYTES):
-            self._exchange(m.TrajectoryChunk(total=len(rec), offset=off, data=rec[off:off + TRAJECTORY_CHUNK_BYTES]))
+            self._exchange(m.TrajectoryChunk(total=len(rec), offset=off, data=rec[off : off + TRAJECTORY_CHUNK_BYTES]))
 
     def start_trajectory(self, *, channels: int = 0b001) -> None:
         """Run the stored trajectory on ``channels`` (a 1-column trajectory drives each of them,
@@ -575,8 +600,15 @@ class Device:
         """Write bytes as they are (tests of the device's frame checks)."""
         self.link.write(data)
 
-    def exchange_raw(self, msg_type: int, payload: bytes = b"", *, seq: int | None = None,
-                     version: int | None = None, timeout_s: float = 0.3):
+    def exchange_raw(
+        self,
+        msg_type: int,
+        payload: bytes = b"",
+        *,
+        seq: int | None = None,
+        version: int | None = None,
+        timeout_s: float = 0.3,
+    ):
         """Send one hand-built frame (any type, payload, sequence, version byte) once; return
         the answering Frame (its reply, ACK or NAK with the same sequence number) or None."""
         seq = self._next_seq() if seq is None else seq & 0xFF
@@ -659,8 +691,10 @@ class Device:
     @staticmethod
     def _answers(frame, cmd_type: int, reply_type: int) -> bool:
         if frame.type in (MsgType.ACK, MsgType.NAK):
-            return len(frame.payload) >= 1 and frame.payload[0] == cmd_type and (
-                frame.type == MsgType.NAK or reply_type == MsgType.ACK
+            return (
+                len(frame.payload) >= 1
+                and frame.payload[0] == cmd_type
+                and (frame.type == MsgType.NAK or reply_type == MsgType.ACK)
             )
         return frame.type == reply_type
 
@@ -718,8 +752,7 @@ class Device:
 
     def _target_units(self, target_lsb) -> tuple[float, ...]:
         scale = self._out_scale or ()
-        return tuple(math.nan if v == _NO_TARGET or i >= len(scale) else v * scale[i]
-                     for i, v in enumerate(target_lsb))
+        return tuple(math.nan if v == _NO_TARGET or i >= len(scale) else v * scale[i] for i, v in enumerate(target_lsb))
 
     @property
     def decoder_counters(self) -> dict[str, int]:

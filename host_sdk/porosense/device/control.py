@@ -43,8 +43,11 @@ class ControlGains:
     def __post_init__(self):
         for name in ("kp_kpa", "ki_kpa_per_s", "slew_per_s"):
             v = getattr(self, name)
-            if not isinstance(v, (int, float, np.floating, np.integer)) or math.isnan(float(v)) or (
-                    name != "slew_per_s" and not math.isfinite(float(v))):
+            if (
+                not isinstance(v, (int, float, np.floating, np.integer))
+                or math.isnan(float(v))
+                or (name != "slew_per_s" and not math.isfinite(float(v)))
+            ):
                 raise InputError(f"control gain {name} must be a finite number, got {v!r}")
         if self.kp_kpa < 0 or self.ki_kpa_per_s < 0:
             raise InputError(f"control gains must be >= 0 (kp {self.kp_kpa}, ki {self.ki_kpa_per_s})")
@@ -77,11 +80,15 @@ def to_fixed(gains, out_scale: Sequence[float], rate_hz: float) -> dict[str, tup
         i = round(g.ki_kpa_per_s * 10 * s * ts * 2**22)  # dkPa/LSB/sample, Q22
         w = max(1, min(U16, round(g.slew_per_s / s * ts * 16)))  # LSB/sample, Q4
         if k > MAX_KP_Q16:
-            raise InputError(f"kp {g.kp_kpa:g} kPa/unit on channel {ch} exceeds the board's limit "
-                             f"{MAX_KP_Q16 / (10 * s * 65536):.4g} kPa/unit for this model")
+            raise InputError(
+                f"kp {g.kp_kpa:g} kPa/unit on channel {ch} exceeds the board's limit "
+                f"{MAX_KP_Q16 / (10 * s * 65536):.4g} kPa/unit for this model"
+            )
         if i > U16:
-            raise InputError(f"ki {g.ki_kpa_per_s:g} kPa/(unit s) on channel {ch} exceeds the board's limit "
-                             f"{U16 / (10 * s * ts * 2**22):.4g} at {rate_hz:g} Hz")
+            raise InputError(
+                f"ki {g.ki_kpa_per_s:g} kPa/(unit s) on channel {ch} exceeds the board's limit "
+                f"{U16 / (10 * s * ts * 2**22):.4g} at {rate_hz:g} Hz"
+            )
         kp.append(k), ki.append(i), sl.append(w)
     return {"kp_q16": tuple(kp), "ki_q22": tuple(ki), "slew_q4": tuple(sl)}
 
@@ -97,8 +104,9 @@ def from_fixed(kp_q16, ki_q22, slew_q4, out_scale: Sequence[float], rate_hz: flo
             out.append(ControlGains(0.0, 0.0, float("inf")))
             continue
         ts = 1.0 / float(rate_hz)
-        out.append(ControlGains(kp_q16[ch] / (10 * s * 65536), ki_q22[ch] / (10 * s * ts * 2**22),
-                                slew_q4[ch] * s / (ts * 16)))
+        out.append(
+            ControlGains(kp_q16[ch] / (10 * s * 65536), ki_q22[ch] / (10 * s * ts * 2**22), slew_q4[ch] * s / (ts * 16))
+        )
     return tuple(out)
 
 
@@ -153,8 +161,10 @@ def trajectory_record(t_s, targets, out_scale: Sequence[float], *, repeat: bool 
         s = out_scale[c] if c < len(out_scale) and out_scale[c] > 0 else out_scale[0]
         lsb[:, c] = np.round(y2[:, c] / s)
     if np.any(np.abs(lsb) > TARGET_LIMIT_LSB):
-        raise InputError("a trajectory target lies outside what the model can estimate "
-                         f"(+-{TARGET_LIMIT_LSB} LSB, +-{TARGET_LIMIT_LSB * out_scale[0]:.4g} units)")
+        raise InputError(
+            "a trajectory target lies outside what the model can estimate "
+            f"(+-{TARGET_LIMIT_LSB} LSB, +-{TARGET_LIMIT_LSB * out_scale[0]:.4g} units)"
+        )
     body = bytearray((len(t), cols | (TRAJ_REPEAT if repeat else 0)))
     for k in range(len(t)):
         body += struct.pack(f"<H{cols}h", int(ticks[k]), *(int(v) for v in lsb[k]))

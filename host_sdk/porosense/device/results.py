@@ -136,8 +136,8 @@ class ModelInfo(_Dictable):
     n_outputs: int
     model_id: int
     out_scale: tuple[float, ...]
-    slot: int = 0xFF      # running slot: 0, 1 EEPROM; 2, 3 flash store; 255 none
-    seq: int = 0          # its commit counter (modulo 256)
+    slot: int = 0xFF  # running slot: 0, 1 EEPROM; 2, 3 flash store; 255 none
+    seq: int = 0  # its commit counter (modulo 256)
 
     @property
     def valid(self) -> bool:

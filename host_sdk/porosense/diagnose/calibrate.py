@@ -57,8 +57,10 @@ def _simulate(actuator: str, output: str, porosity: float, p_cmd: np.ndarray, ts
     plant = sim.make_plant(actuator, porosity=porosity, noise=False)
     out = plant.run(ts, sp, on, on.copy())
     if output not in out:
-        raise InputError(f"the {actuator} simulator has no output '{output}' "
-                         f"(it has {', '.join(k for k in out if not k.startswith(('voltage', 'euler', 't_')))})")
+        raise InputError(
+            f"the {actuator} simulator has no output '{output}' "
+            f"(it has {', '.join(k for k in out if not k.startswith(('voltage', 'euler', 't_')))})"
+        )
     return np.asarray(out[output], float)  # sample k as a recording stores it
 
 

@@ -103,14 +103,28 @@ class Finding:
 
     def to_dict(self) -> dict:
         """The JSON form: exactly the keys of the diagnosis report."""
-        keys = ("cause", "confidence", "statistic", "evidence", "extension", "fit_before", "fit_after", "gain",
-                "significant", "effect_to_noise", "predictor_gain", "on_device")
+        keys = (
+            "cause",
+            "confidence",
+            "statistic",
+            "evidence",
+            "extension",
+            "fit_before",
+            "fit_after",
+            "gain",
+            "significant",
+            "effect_to_noise",
+            "predictor_gain",
+            "on_device",
+        )
         d = asdict(self)
         return {k: (round(d[k], 4) if isinstance(d[k], float) else d[k]) for k in keys}
 
     def __str__(self) -> str:
-        return (f"{self.cause:<21} conf {self.confidence:.2f}  fit {self.fit_before:6.2f} -> "
-                f"{self.fit_after:6.2f} % (gain {self.gain:+.2f})  {self.statistic}")
+        return (
+            f"{self.cause:<21} conf {self.confidence:.2f}  fit {self.fit_before:6.2f} -> "
+            f"{self.fit_after:6.2f} % (gain {self.gain:+.2f})  {self.statistic}"
+        )
 
 
 @dataclass
@@ -218,10 +232,10 @@ def _predictor_gain(ctx, res, keep):
     y_est = np.concatenate([r.y for r in ctx.est])
     ar = signals.fit_ar(y_est - g0_est, 10)
     r_val = ctx.y_val - g0_val
-    parts, start, pred = [], 0, []
+    _parts, start, pred = [], 0, []
     for rec in ctx.val:
         n = len(rec.y)
-        rv = r_val[start:start + n]
+        rv = r_val[start : start + n]
         # one-step prediction of the residual from its past: r[k] ~ -sum a_j r[k-j]
         pred.append(sps.lfilter(np.concatenate([[0.0], -ar[1:]]), [1.0], rv))
         start += n
@@ -229,8 +243,9 @@ def _predictor_gain(ctx, res, keep):
     return float(fit_percent(ctx.y_val[keep], trk[keep]) - fit_percent(ctx.y_val[keep], base[keep])), trk, base
 
 
-def diagnose(estimation: list, validation: list, *, alpha: float = stats.DEFAULT_ALPHA, nominal=None,
-             refit: bool = True) -> Diagnosis:
+def diagnose(
+    estimation: list, validation: list, *, alpha: float = stats.DEFAULT_ALPHA, nominal=None, refit: bool = True
+) -> Diagnosis:
     """Diagnose predictions against measurements.
 
     estimation, validation: lists of :class:`Record` (validation may repeat estimation if no
@@ -273,17 +288,38 @@ def diagnose(estimation: list, validation: list, *, alpha: float = stats.DEFAULT
             refuted = confirm.refuted
         found[cause] = bool(res.gate and res.test.significant and np.isfinite(bic) and not refuted)
         dropped = int((~keep).sum())
-        sentence = (f"{res.test.sentence()}: {res.meaning}. Effect {eff:.3g} x the residual's noise. "
-                    f"Simulation on validation: nominal {fit_nom:.1f} %, nominal + G0 {fit0:.1f} %, extension "
-                    f"({res.extension}) {fit1:.1f} % (gain {fit1 - fit0:+.2f} points, RMS {rms0:.2f} -> {rms1:.2f} %"
-                    + (f", {dropped} rejected samples left out of both" if dropped else "") + ")."
-                    + (f" As a one-step predictor: {pgain:+.2f} points against the one-step predictor of "
-                       "nominal + G0 (not comparable with the simulation figures)." if pgain is not None else "")
-                    + f" {confirm.sentence()}.")
-        findings[cause] = Finding(cause, 0.0, f"{res.test.name} = {res.test.value:.4g}", sentence, res.extension,
-                                  float(fit0), float(fit1), float(fit1 - fit0), float(rms0), float(rms1),
-                                  res.test.strength, found[cause], float(bic), float(eff), pgain,
-                                  "expressible" if cause in EXPRESSIBLE else "not expressible")
+        sentence = (
+            f"{res.test.sentence()}: {res.meaning}. Effect {eff:.3g} x the residual's noise. "
+            f"Simulation on validation: nominal {fit_nom:.1f} %, nominal + G0 {fit0:.1f} %, extension "
+            f"({res.extension}) {fit1:.1f} % (gain {fit1 - fit0:+.2f} points, RMS {rms0:.2f} -> {rms1:.2f} %"
+            + (f", {dropped} rejected samples left out of both" if dropped else "")
+            + ")."
+            + (
+                f" As a one-step predictor: {pgain:+.2f} points against the one-step predictor of "
+                "nominal + G0 (not comparable with the simulation figures)."
+                if pgain is not None
+                else ""
+            )
+            + f" {confirm.sentence()}."
+        )
+        findings[cause] = Finding(
+            cause,
+            0.0,
+            f"{res.test.name} = {res.test.value:.4g}",
+            sentence,
+            res.extension,
+            float(fit0),
+            float(fit1),
+            float(fit1 - fit0),
+            float(rms0),
+            float(rms1),
+            res.test.strength,
+            found[cause],
+            float(bic),
+            float(eff),
+            pgain,
+            "expressible" if cause in EXPRESSIBLE else "not expressible",
+        )
     # confidences: BIC weights among the found causes, times (1 - p)
     hits = sorted((c for c in CAUSES if found[c]), key=lambda c: (findings[c].bic, c))
     if hits:
@@ -296,19 +332,29 @@ def diagnose(estimation: list, validation: list, *, alpha: float = stats.DEFAULT
     p_none = min((results[c].test.p for c in hits), default=1.0)
     threshold = -np.log10(per_cause_alpha)
     findings[NONE] = Finding(
-        NONE, float(min(p_none, min((findings[c].confidence for c in hits), default=1.0))),
+        NONE,
+        float(min(p_none, min((findings[c].confidence for c in hits), default=1.0))),
         f"largest test strength -log10 p = {worst.strength:.3g}",
         f"largest test strength -log10 p = {worst.strength:.3g} ({worst.name}), threshold "
         f"{threshold:.3g} (each cause at {100 * per_cause_alpha:.3g} %, {100 * alpha:g} % family-wise).",
-        "none", float(fit_percent(y_val, g0_val)), float(fit_percent(y_val, g0_val)), 0.0,
-        bic=float(bic_none))
+        "none",
+        float(fit_percent(y_val, g0_val)),
+        float(fit_percent(y_val, g0_val)),
+        0.0,
+        bic=float(bic_none),
+    )
     rest = sorted((c for c in CAUSES if not found[c]), key=lambda c: (-findings[c].strength, c))
     order = [findings[c] for c in hits] + [findings[NONE]] + [findings[c] for c in rest]
     ties = []
     for c in hits[1:]:
         if findings[c].bic - findings[hits[0]].bic < TIE_BIC:
-            ties.append({"causes": [hits[0], c], "delta_bic": round(findings[c].bic - findings[hits[0]].bic, 3),
-                         "evidence": _tie_evidence(ctx, hits[0], c, results, per_cause_alpha)})
+            ties.append(
+                {
+                    "causes": [hits[0], c],
+                    "delta_bic": round(findings[c].bic - findings[hits[0]].bic, 3),
+                    "evidence": _tie_evidence(ctx, hits[0], c, results, per_cause_alpha),
+                }
+            )
     diag = Diagnosis(order[0].cause, order, ctx.residual_tests(per_cause_alpha), ctx.curves(results), ties)
     if nominal is not None and refit and hits:
         from porosense.diagnose import extend

@@ -31,19 +31,19 @@ from porosense.ident.extended import ExtendedModel, design, predict_settled, set
 #: Why a cause's extension cannot run on the device, and what the user can do instead.
 ADVICE = {
     "hysteresis": "the estimator structure has no memory operator (play/backlash); keep the extended model on "
-                  "the host, or identify a Wiener-Hammerstein model on data that covers both directions so that "
-                  "the device model averages the loop",
+    "the host, or identify a Wiener-Hammerstein model on data that covers both directions so that "
+    "the device model averages the loop",
     "load_dependence": "the estimator sums its branches and cannot scale them by a measured load; identify one model "
-                       "per load (200 g, 500 g) and flash the one that matches, or keep the extended model on the host",
+    "per load (200 g, 500 g) and flash the one that matches, or keep the extended model on the host",
     "drift": "a drift that no input explains cannot be simulated; re-zero R0 at the start of every run or high-pass "
-             "the measured output before identification (the one-step predictor figure shows what tracking the "
-             "measured output would give on the host)",
+    "the measured output before identification (the one-step predictor figure shows what tracking the "
+    "measured output would give on the host)",
     "periodic_disturbance": "an additive disturbance is not part of the input-to-output map; remove its source (pump "
-                            "PWM, mains pick-up) or notch-filter the measured output at its frequency before "
-                            "identification; the on-device estimate runs on the inputs and does not carry it",
+    "PWM, mains pick-up) or notch-filter the measured output at its frequency before "
+    "identification; the on-device estimate runs on the inputs and does not carry it",
     "outliers": "glitches in the measured output are not behaviour to model; the extended model is the robust refit "
-                "(the on-device estimate runs on the inputs and never sees them); reject them in the data before "
-                "identification",
+    "(the on-device estimate runs on the inputs and never sees them); reject them in the data before "
+    "identification",
 }
 FRACTIONS = (0.01, 0.03, 0.1, 0.3)
 
@@ -61,8 +61,12 @@ def refit(kind: str, nominal, us, ys, ts, inputs, **orders):
     """Re-identify a model of ``kind`` with the nominal's orders changed by ``orders``."""
     from porosense import ident
 
-    base = {"n_poles": nominal.n_poles, "n_zeros": nominal.n_zeros, "n_breakpoints": nominal.n_breakpoints,
-            "delay": nominal.delay}
+    base = {
+        "n_poles": nominal.n_poles,
+        "n_zeros": nominal.n_zeros,
+        "n_breakpoints": nominal.n_breakpoints,
+        "delay": nominal.delay,
+    }
     base.update(orders)
     skip = max(settle_samples(nominal), 50)
     m = ident.make_model(kind, skip=skip, **base)
@@ -83,8 +87,10 @@ def _structural(cause: str, res, ctx, nominal):
         # the residual's shift estimates the missing delay only roughly (the nominal model has
         # bent its dynamics to fit it): re-identify around it, keep the least estimation error
         d0 = int(res.detail["delay"])
-        fits = [refit(nominal.kind, nominal, us, ys, ctx.ts, inputs, delay=nominal.delay + d)
-                for d in range(max(1, d0 - 3), d0 + 4)]
+        fits = [
+            refit(nominal.kind, nominal, us, ys, ctx.ts, inputs, delay=nominal.delay + d)
+            for d in range(max(1, d0 - 3), d0 + 4)
+        ]
         return min(fits, key=lambda m: m.info["sse"]), [r.u for r in ctx.val]
     if cause in ("slow_relaxation", "unmodelled_dynamics"):
         more = {"n_poles": nominal.n_poles + 1, "n_zeros": min(nominal.n_zeros + 1, nominal.n_poles)}
@@ -112,17 +118,28 @@ def _terms(cause: str, res, ctx, nominal, yhat_est):
         terms += [{"type": "play_output", "radius": f * span} for f in FRACTIONS]
         for i in range(n_in):
             su = float(np.ptp(ctx.u_est[:, i])) or 1.0
-            terms += [{"type": "play_input", "input": i, "radius": f * su, "pole": float(ctx.pole), "order": 2}
-                      for f in FRACTIONS]
+            terms += [
+                {"type": "play_input", "input": i, "radius": f * su, "pole": float(ctx.pole), "order": 2}
+                for f in FRACTIONS
+            ]
     elif cause == "load_dependence":
         col = res.detail["column"]
         x = np.concatenate([r.conditions[col] for r in ctx.est])
         lo, sd = float(np.min(x)), float(np.std(x)) or 1.0
         knots = [float(k) for k in np.unique(np.quantile(yhat_est, np.linspace(0, 1, 7)[1:-1]))]
         columns = [col]
-        terms += [{"type": "column", "input": n_in, "lo": lo, "scale": sd},
-                  {"type": "column_times_output", "input": n_in, "lo": lo, "scale": sd,
-                   "mean": float(np.mean(yhat_est)), "sd": float(np.std(yhat_est)) or 1.0, "knots": knots}]
+        terms += [
+            {"type": "column", "input": n_in, "lo": lo, "scale": sd},
+            {
+                "type": "column_times_output",
+                "input": n_in,
+                "lo": lo,
+                "scale": sd,
+                "mean": float(np.mean(yhat_est)),
+                "sd": float(np.std(yhat_est)) or 1.0,
+                "knots": knots,
+            },
+        ]
     elif cause == "drift":
         terms += [{"type": "time"}]
     return terms, columns
@@ -181,10 +198,15 @@ def attach(diag, ctx, results, nominal) -> None:
     fit0, fit1 = fit_percent(ctx.y_val[keep], g0[keep]), fit_percent(ctx.y_val[keep], pred[keep])
     top.fit_before, top.fit_after, top.gain = float(fit0), float(fit1), float(fit1 - fit0)
     top.rms_before, top.rms_after = rms_percent(ctx.y_val[keep], g0[keep]), rms_percent(ctx.y_val[keep], pred[keep])
-    what = (f"{model.kind} model re-identified" if expressible else "nominal + G0 + the cause's terms (host only)")
-    top.on_device = ("expressible: quantize and flash take the extended model" if expressible
-                     else f"not expressible: {ADVICE.get(top.cause, '')}")
-    top.evidence += (f" Extended model ({what}): simulation fit on validation {fit1:.1f} % against nominal + G0 "
-                     f"{fit0:.1f} % on the same samples (gain {fit1 - fit0:+.2f} points). On the device: "
-                     f"{top.on_device}.")
+    what = f"{model.kind} model re-identified" if expressible else "nominal + G0 + the cause's terms (host only)"
+    top.on_device = (
+        "expressible: quantize and flash take the extended model"
+        if expressible
+        else f"not expressible: {ADVICE.get(top.cause, '')}"
+    )
+    top.evidence += (
+        f" Extended model ({what}): simulation fit on validation {fit1:.1f} % against nominal + G0 "
+        f"{fit0:.1f} % on the same samples (gain {fit1 - fit0:+.2f} points). On the device: "
+        f"{top.on_device}."
+    )
     diag.extended = model

@@ -11,7 +11,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-
 from scipy.stats import binom as sps_binom
 
 from porosense.diagnose import signals, stats
@@ -90,9 +89,12 @@ class Context:
         if np.ptp(yh) == 0:
             return 0.8
         for a in POLE_GRID:
-            X = self.stack(lambda r: np.column_stack(
-                [self.lag_bank(r.u[:, i], LAGUERRE_ORDER, a) for i in range(self.n_in)]
-                + [np.ones(len(r.y))]), self.est)
+            X = self.stack(
+                lambda r: np.column_stack(
+                    [self.lag_bank(r.u[:, i], LAGUERRE_ORDER, a) for i in range(self.n_in)] + [np.ones(len(r.y))]
+                ),
+                self.est,
+            )
             c = stats.lstsq(X, yh)
             rss = float(np.sum((yh - X @ c) ** 2))
             if rss < best[0] * 0.999:
@@ -181,8 +183,10 @@ class Context:
     def curves(self, results: dict) -> dict:
         return {
             "ts": self.ts,
-            "e_est": self.e_est, "yhat_est": self.yhat_est,
-            "y_val": self.y_val, "yhat_val": self.yhat_val,
+            "e_est": self.e_est,
+            "yhat_est": self.yhat_est,
+            "y_val": self.y_val,
+            "yhat_val": self.yhat_val,
             "extended_val": {c: r.yhat_val for c, r in results.items() if r.yhat_val is not None},
             "spectrum": results["periodic_disturbance"].test.detail,
         }
@@ -259,20 +263,32 @@ def _static_sets(ctx: Context) -> dict:
 def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
     sets = _static_sets(ctx)
     parts = ctx._cache["static_parts"]
-    tests = {side: ctx.f_test(ctx.stack(nl, ctx.est), extra_base=ctx.stack(lin, ctx.est))
-             for side, (lin, nl) in parts.items()}
+    tests = {
+        side: ctx.f_test(ctx.stack(nl, ctx.est), extra_base=ctx.stack(lin, ctx.est))
+        for side, (lin, nl) in parts.items()
+    }
     side = min(tests, key=lambda k: tests[k].log10_p)
     ctx._cache["static_side"] = side
     test, z = tests[side], sets[side]
-    res = stats.f_result(f"F(residual ~ PWL of the level beyond its linear part, {side} side)", test, alpha,
-                         len(sets), side=side)
+    res = stats.f_result(
+        f"F(residual ~ PWL of the level beyond its linear part, {side} side)", test, alpha, len(sets), side=side
+    )
     pred, _ = ctx.fit_apply(z)
-    kind = {"output": "Wiener: PWL on the output side", "input": "Hammerstein: PWL on the input side",
-            "between": "PWL between the linear blocks (Wiener-Hammerstein)"}[side]
-    return CauseResult(res, True, f"the residual depends on the signal level, best explained on the {side} side "
-                       f"({_explained(res)})", f"{kind}, 5 breakpoints", pred,
-                       {"side": side, **{f"p_{k}": t.p for k, t in tests.items()}},
-                       Z_est=ctx.stack(z, ctx.est), n_search=len(sets))
+    kind = {
+        "output": "Wiener: PWL on the output side",
+        "input": "Hammerstein: PWL on the input side",
+        "between": "PWL between the linear blocks (Wiener-Hammerstein)",
+    }[side]
+    return CauseResult(
+        res,
+        True,
+        f"the residual depends on the signal level, best explained on the {side} side ({_explained(res)})",
+        f"{kind}, 5 breakpoints",
+        pred,
+        {"side": side, **{f"p_{k}": t.p for k, t in tests.items()}},
+        Z_est=ctx.stack(z, ctx.est),
+        n_search=len(sets),
+    )
 
 
 def _play_set(ctx: Context):
@@ -345,10 +361,15 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
         return np.column_stack([sets[side](r), z_h(r)])
 
     pred, _ = ctx.fit_apply(z_full)
-    return CauseResult(res, True, "at equal output level the residual depends on the direction of motion "
-                       f"({_explained(res)} beyond the level alone)",
-                       "Prandtl-Ishlinskii play operators (4 radii) of the model output and inputs with a static PWL", pred,
-                       Z_est=ctx.stack(z_full, ctx.est))
+    return CauseResult(
+        res,
+        True,
+        "at equal output level the residual depends on the direction of motion "
+        f"({_explained(res)} beyond the level alone)",
+        "Prandtl-Ishlinskii play operators (4 radii) of the model output and inputs with a static PWL",
+        pred,
+        Z_est=ctx.stack(z_full, ctx.est),
+    )
 
 
 def _slow_sets(ctx: Context):
@@ -376,8 +397,10 @@ def _slow_sets(ctx: Context):
     by_id = {id(r): f for r, f in zip(ctx.est + ctx.val, filtered)}
     z_h = _play_set(ctx)
     static = _static_sets(ctx)
-    base = np.column_stack([ctx.stack(shape, ctx.est), ctx.stack(_trend, ctx.est), ctx.stack(z_h, ctx.est),
-                            _trend_blocks(ctx, 2)] + [ctx.stack(zs, ctx.est) for zs in static.values()])
+    base = np.column_stack(
+        [ctx.stack(shape, ctx.est), ctx.stack(_trend, ctx.est), ctx.stack(z_h, ctx.est), _trend_blocks(ctx, 2)]
+        + [ctx.stack(zs, ctx.est) for zs in static.values()]
+    )
     best = None
     for tau in taus:
         a = float(np.exp(-ctx.ts / tau))
@@ -400,20 +423,29 @@ def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
     (test, z, tau), n_taus = _slow_sets(ctx)
     shape, _, _ = _output_shape(ctx)
     res = stats.f_result("F(residual ~ slowly filtered input | drift, hysteresis)", test, alpha, n_taus, tau_s=tau)
+
     def z_full(r):
         return np.column_stack([z(r), shape(r)])
 
     pred, _ = ctx.fit_apply(z_full)
-    return CauseResult(res, True, f"the residual follows the input through a slow mode of about {tau:.3g} s "
-                       f"({_explained(res)}; the model's own time constant is {ctx.tau_s:.3g} s)",
-                       f"an extra relaxation pole at tau = {tau:.3g} s", pred, {"tau_s": tau},
-                       Z_est=ctx.stack(z_full, ctx.est), n_search=n_taus)
+    return CauseResult(
+        res,
+        True,
+        f"the residual follows the input through a slow mode of about {tau:.3g} s "
+        f"({_explained(res)}; the model's own time constant is {ctx.tau_s:.3g} s)",
+        f"an extra relaxation pole at tau = {tau:.3g} s",
+        pred,
+        {"tau_s": tau},
+        Z_est=ctx.stack(z_full, ctx.est),
+        n_search=n_taus,
+    )
 
 
 def time_delay(ctx: Context, alpha: float) -> CauseResult:
     d_max = int(min(25, max(2, min(ctx.seg_est) // 20)))
     best = None
     for d in range(1, d_max + 1):
+
         def z(r, d=d):
             # the model output delayed, and the delayed inputs through a short Laguerre bank (a
             # delay in front of dynamics the nominal model has partly bent to fit it)
@@ -427,10 +459,17 @@ def time_delay(ctx: Context, alpha: float) -> CauseResult:
     xc = stats.input_crosscorrelation(ctx.u_est[:, 0], ctx.e_est, 25, alpha)
     res = stats.f_result("F(residual ~ model output delayed)", test, alpha, d_max, delay_samples=d)
     pred, _ = ctx.fit_apply(z)
-    return CauseResult(res, True, f"the measurement lags the model by about {d} samples ({d * ctx.ts:.3g} s; "
-                       f"prewhitened input-residual cross-correlation peaks at lag {xc.detail['peak_lag']})",
-                       f"an input delay of {d} samples", pred, {"delay": d},
-                       Z_est=ctx.stack(z, ctx.est), n_search=d_max)
+    return CauseResult(
+        res,
+        True,
+        f"the measurement lags the model by about {d} samples ({d * ctx.ts:.3g} s; "
+        f"prewhitened input-residual cross-correlation peaks at lag {xc.detail['peak_lag']})",
+        f"an input delay of {d} samples",
+        pred,
+        {"delay": d},
+        Z_est=ctx.stack(z, ctx.est),
+        n_search=d_max,
+    )
 
 
 def _ema_causal(x: np.ndarray, a: float) -> np.ndarray:
@@ -475,17 +514,26 @@ def drift(ctx: Context, alpha: float) -> CauseResult:
         if best is None or rss < best[0]:
             best = (rss, a, tau)
     _, a, tau = best
-    trk_est = _track_per_record(ctx.est, r_est, lambda rec, x: _ema_causal(x, a))
+    _track_per_record(ctx.est, r_est, lambda rec, x: _ema_causal(x, a))
     pred_trk = pred_g0_val + _track_per_record(ctx.val, r_val, lambda rec, x: _ema_causal(x, a))
 
     # simulation mode: a deterministic trend since the start of each record (offset and gain
     # drifting at constant rates); a drift that no input explains cannot be simulated beyond
     # that. Predictor mode (one step ahead, uses the measured output): the tracked drift state.
     pred, _ = ctx.fit_apply(_trend)
-    ext = ("simulation: offset and gain drifting linearly from the start of each record; predictor: a drift "
-           f"state tracked from the measured output (time constant {tau:.3g} s)")
-    return CauseResult(res, True, f"the residual has a slow trend over time ({_explained(res)})", ext, pred,
-                       {"predictor_val": pred_trk}, Z_est=_trend_blocks(ctx, n_terms))
+    ext = (
+        "simulation: offset and gain drifting linearly from the start of each record; predictor: a drift "
+        f"state tracked from the measured output (time constant {tau:.3g} s)"
+    )
+    return CauseResult(
+        res,
+        True,
+        f"the residual has a slow trend over time ({_explained(res)})",
+        ext,
+        pred,
+        {"predictor_val": pred_trk},
+        Z_est=_trend_blocks(ctx, n_terms),
+    )
 
 
 def periodic_disturbance(ctx: Context, alpha: float) -> CauseResult:
@@ -521,8 +569,15 @@ def periodic_disturbance(ctx: Context, alpha: float) -> CauseResult:
         start += len(r.y)
     test = ctx.f_test(np.column_stack(blocks))
     ftest = stats.f_result("F(residual ~ sinusoid)", test, alpha)
-    res = stats.StatResult(line.name, line.value, line.threshold, line.p, alpha,
-                           {**line.detail, "f_test": ftest.value}, log10_p=-min(line.strength, ftest.strength))
+    res = stats.StatResult(
+        line.name,
+        line.value,
+        line.threshold,
+        line.p,
+        alpha,
+        {**line.detail, "f_test": ftest.value},
+        log10_p=-min(line.strength, ftest.strength),
+    )
     pred_g0_val, pred_g0_est = ctx.fit_apply(None)
     r_est = np.concatenate([r.y for r in ctx.est]) - pred_g0_est
     r_val = ctx.y_val - pred_g0_val
@@ -531,6 +586,7 @@ def periodic_disturbance(ctx: Context, alpha: float) -> CauseResult:
         def fn(rec, x):
             c, s = np.cos(2 * np.pi * f * rec.t), np.sin(2 * np.pi * f * rec.t)
             return 2.0 * (_ema_causal(x * c, a) * c + _ema_causal(x * s, a) * s)
+
         return fn
 
     best = None
@@ -543,10 +599,17 @@ def periodic_disturbance(ctx: Context, alpha: float) -> CauseResult:
     # simulation mode: the sinusoid fitted on estimation continues with its phase from each
     # record's start (a disturbance not locked to the record start does not carry over)
     pred, _ = ctx.fit_apply(z)
-    return CauseResult(res, line.significant, f"the residual has a spectral line at {f:.4g} Hz that the input "
-                       "does not have", f"simulation: a sinusoid at {f:.4g} Hz; predictor: the sinusoid's amplitude "
-                       "and phase tracked from the measured output", pred, {"freq_hz": f, "predictor_val": pred_trk},
-                       Z_est=np.column_stack(blocks), n_search=int(line.detail.get("tested", 1)))
+    return CauseResult(
+        res,
+        line.significant,
+        f"the residual has a spectral line at {f:.4g} Hz that the input does not have",
+        f"simulation: a sinusoid at {f:.4g} Hz; predictor: the sinusoid's amplitude "
+        "and phase tracked from the measured output",
+        pred,
+        {"freq_hz": f, "predictor_val": pred_trk},
+        Z_est=np.column_stack(blocks),
+        n_search=int(line.detail.get("tested", 1)),
+    )
 
 
 def _condition_columns(ctx: Context) -> list:
@@ -568,6 +631,7 @@ def _column_tests(ctx: Context) -> dict:
     m, s = float(np.mean(ctx.yhat_est)), float(np.std(ctx.yhat_est)) or 1.0
     knots_out = signals.quantile_knots(ctx.yhat_est, 5)
     for name, mu, sd in _condition_columns(ctx):
+
         def z_dyn(r, name=name, mu=mu, sd=sd):
             return ctx.lag_bank((r.conditions[name] - mu) / sd, 3)
 
@@ -595,8 +659,15 @@ def _column_tests(ctx: Context) -> dict:
         static = _static_sets(ctx)
         Zst = np.column_stack([ctx.stack(z, ctx.est) for z in static.values()])
         sched = ctx.f_test(Zs, extra_base=np.column_stack([Zd, Zst]))
-        out[name] = {"dyn": dyn, "inter": inter, "both": both, "sched": sched, "z_dyn": z_dyn,
-                     "z_gain": z_gain, "z_load": z_load}
+        out[name] = {
+            "dyn": dyn,
+            "inter": inter,
+            "both": both,
+            "sched": sched,
+            "z_dyn": z_dyn,
+            "z_gain": z_gain,
+            "z_load": z_load,
+        }
     ctx._cache["columns"] = out
     return out
 
@@ -615,10 +686,18 @@ def load_dependence(ctx: Context, alpha: float) -> CauseResult:
     res = stats.f_result(f"F(residual ~ {name} and {name} x output)", c["both"], alpha, len(cols), column=name)
     inter = stats.f_result("interaction", c["sched"], alpha, len(cols))
     pred, _ = ctx.fit_apply(c["z_load"])
-    return CauseResult(res, True, f"the residual depends on the measured column {name}, and the "
-                       f"model's gain changes with it (interaction F = {c['sched'].f:.3g}, p = {inter.p:.2g}; "
-                       f"{_explained(res)})", f"{name} as an extra input and a {name}-scheduled gain", pred,
-                       {"column": name}, Z_est=ctx.stack(c["z_load"], ctx.est), n_search=len(cols))
+    return CauseResult(
+        res,
+        True,
+        f"the residual depends on the measured column {name}, and the "
+        f"model's gain changes with it (interaction F = {c['sched'].f:.3g}, p = {inter.p:.2g}; "
+        f"{_explained(res)})",
+        f"{name} as an extra input and a {name}-scheduled gain",
+        pred,
+        {"column": name},
+        Z_est=ctx.stack(c["z_load"], ctx.est),
+        n_search=len(cols),
+    )
 
 
 def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
@@ -630,10 +709,18 @@ def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
     res = stats.f_result(f"F(residual ~ dynamics of unused input {name})", c["dyn"], alpha, len(cols), column=name)
     inter = stats.f_result("interaction", c["inter"], alpha, len(cols))
     pred, _ = ctx.fit_apply(c["z_dyn"])
-    return CauseResult(res, True, f"the residual follows the unused input {name} through "
-                       f"dynamics, additively (interaction with the output F = {c['inter'].f:.3g}, "
-                       f"p = {inter.p:.2g}; {_explained(res)})", f"{name} as an extra MISO input", pred,
-                       {"column": name}, Z_est=ctx.stack(c["z_dyn"], ctx.est), n_search=len(cols))
+    return CauseResult(
+        res,
+        True,
+        f"the residual follows the unused input {name} through "
+        f"dynamics, additively (interaction with the output F = {c['inter'].f:.3g}, "
+        f"p = {inter.p:.2g}; {_explained(res)})",
+        f"{name} as an extra MISO input",
+        pred,
+        {"column": name},
+        Z_est=ctx.stack(c["z_dyn"], ctx.est),
+        n_search=len(cols),
+    )
 
 
 def _record_limit(y: np.ndarray, side: str, default: float) -> float:
@@ -654,6 +741,7 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
     n_sig = len(candidates)
     limit, side = clus.detail["limit"], clus.detail["side"]
     if idx is None:
+
         def z(r):
             over = r.yhat - _record_limit(r.y, side, limit)
             return np.maximum(over, 0.0) if side == "high" else np.minimum(over, 0.0)
@@ -663,13 +751,21 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
         def z(r):
             at = (np.abs(r.u[:, idx] - limit) <= 1e-6 * span).astype(float)
             return ctx.lag_bank(at, 2)
+
     test = ctx.f_test(ctx.stack(z, ctx.est))
     ftest = stats.f_result("F(residual ~ excess beyond the limit)", test, alpha)
     p = min(1.0, clus.p * n_sig)
     # a pile-up at one exact value is evidence no other cause produces: the two tests add up
     strength = clus.strength - np.log10(n_sig) + (ftest.strength if ftest.significant else 0.0)
-    res = stats.StatResult(f"samples at the {side} limit of the {where}", clus.value, clus.threshold, p, alpha,
-                           {**clus.detail, "f_test": ftest.value}, log10_p=-strength)
+    res = stats.StatResult(
+        f"samples at the {side} limit of the {where}",
+        clus.value,
+        clus.threshold,
+        p,
+        alpha,
+        {**clus.detail, "f_test": ftest.value},
+        log10_p=-strength,
+    )
     if idx is None:
         # clipped samples are censored: they say only that the output is beyond the limit
         lim_est = np.concatenate([np.full(len(r.y), _record_limit(r.y, side, limit)) for r in ctx.est])
@@ -698,11 +794,18 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
     llr = 0.0
     if k_at + k_ref > 0 and p < alpha:
         llr = float(sps_binom.logpmf(k_at, k_at + k_ref, share) - sps_binom.logpmf(k_at, k_at + k_ref, 0.5))
-    return CauseResult(res, p < alpha, f"{clus.detail['k_at']} samples ({100 * clus.detail['fraction']:.1f} % of "
-                       f"the record) sit exactly at the {side} limit {limit:.4g} of the {where}",
-                       f"clipping of the {where} at its limit (ADC/divider)", pred, {"limit": limit, "where": where},
-                       Z_est=np.column_stack([ctx.stack(_static_sets(ctx)["output"], ctx.est), ctx.stack(z, ctx.est)]),
-                       n_search=n_sig, evidence_llr=llr)
+    return CauseResult(
+        res,
+        p < alpha,
+        f"{clus.detail['k_at']} samples ({100 * clus.detail['fraction']:.1f} % of "
+        f"the record) sit exactly at the {side} limit {limit:.4g} of the {where}",
+        f"clipping of the {where} at its limit (ADC/divider)",
+        pred,
+        {"limit": limit, "where": where},
+        Z_est=np.column_stack([ctx.stack(_static_sets(ctx)["output"], ctx.est), ctx.stack(z, ctx.est)]),
+        n_search=n_sig,
+        evidence_llr=llr,
+    )
 
 
 def outliers(ctx: Context, alpha: float) -> CauseResult:
@@ -718,11 +821,18 @@ def outliers(ctx: Context, alpha: float) -> CauseResult:
     Z[idx, np.arange(len(idx))] = 1.0
     kurt = spikes.detail["kurtosis"]
     res_note = f"; measurement resolution {step:.3g} allowed for" if step > 0 else ""
-    return CauseResult(spikes, spikes.significant, f"{int(spikes.value)} isolated spikes "
-                       f"({100 * spikes.detail['fraction']:.2f} % of samples; excess kurtosis of the residual "
-                       f"differences {kurt:.3g}; {int(reject.sum())} validation samples rejected{res_note})",
-                       "outlier rejection (alpha/N band around the local median) and a robust (Huber) refit", pred,
-                       {"score_mask": ~reject}, Z_est=Z, n_search=1)
+    return CauseResult(
+        spikes,
+        spikes.significant,
+        f"{int(spikes.value)} isolated spikes "
+        f"({100 * spikes.detail['fraction']:.2f} % of samples; excess kurtosis of the residual "
+        f"differences {kurt:.3g}; {int(reject.sum())} validation samples rejected{res_note})",
+        "outlier rejection (alpha/N band around the local median) and a robust (Huber) refit",
+        pred,
+        {"score_mask": ~reject},
+        Z_est=Z,
+        n_search=1,
+    )
 
 
 def unmodelled_dynamics(ctx: Context, alpha: float) -> CauseResult:
@@ -737,7 +847,7 @@ def unmodelled_dynamics(ctx: Context, alpha: float) -> CauseResult:
     # an order that is too low misses faster poles that a bank at the dominant pole renders poorly
     best = None
     for speed in (2.0, 4.0, 8.0):
-        a = float(ctx.pole ** speed)
+        a = float(ctx.pole**speed)
 
         def z(r, a=a):
             return np.column_stack([ctx.lag_bank(r.u[:, i], 2, a) for i in range(ctx.n_in)])
@@ -750,11 +860,18 @@ def unmodelled_dynamics(ctx: Context, alpha: float) -> CauseResult:
     res = stats.f_result("F(residual ~ Laguerre banks of past inputs)", test, alpha, 3, speed=speed)
     xc = [stats.input_crosscorrelation(ctx.u_est[:, i], ctx.e_est, 25, alpha) for i in range(ctx.n_in)]
     worst = max(xc, key=lambda t: t.strength)
-    return CauseResult(res, True, f"the residual depends linearly on past inputs ({_explained(res)}; prewhitened "
-                       f"input-residual cross-correlation {worst.value:.3g} against the band {worst.threshold:.3g}, "
-                       f"p = {worst.p:.2g})", "re-identify at a higher order", ctx.generic_validation(),
-                       {"xcorr_p": worst.p, "gain_against": "nominal"}, Z_est=ctx.stack(z_fast, ctx.est),
-                       n_search=3)
+    return CauseResult(
+        res,
+        True,
+        f"the residual depends linearly on past inputs ({_explained(res)}; prewhitened "
+        f"input-residual cross-correlation {worst.value:.3g} against the band {worst.threshold:.3g}, "
+        f"p = {worst.p:.2g})",
+        "re-identify at a higher order",
+        ctx.generic_validation(),
+        {"xcorr_p": worst.p, "gain_against": "nominal"},
+        Z_est=ctx.stack(z_fast, ctx.est),
+        n_search=3,
+    )
 
 
 HANDLERS = {

@@ -56,12 +56,17 @@ class OEModel:
         return y
 
     def to_dict(self) -> dict:
-        return {"b": [list(map(float, b)) for b in self.b], "f": [list(map(float, f)) for f in self.f],
-                "offset": float(self.offset), "delay": int(self.delay)}
+        return {
+            "b": [list(map(float, b)) for b in self.b],
+            "f": [list(map(float, f)) for f in self.f],
+            "offset": float(self.offset),
+            "delay": int(self.delay),
+        }
 
 
-def fit_oe(u_list: list, y_list: list, n_poles: int = 2, n_zeros: int = 1, delay: int = 0,
-           loss: str = "linear") -> OEModel:
+def fit_oe(
+    u_list: list, y_list: list, n_poles: int = 2, n_zeros: int = 1, delay: int = 0, loss: str = "linear"
+) -> OEModel:
     """Fit an OE model with ``n_poles`` poles and ``n_zeros`` zeros per input (b0 included).
 
     u_list: arrays (N_r, n_inputs); y_list: arrays (N_r,); loss as in least_squares
@@ -113,6 +118,7 @@ def fit_oe(u_list: list, y_list: list, n_poles: int = 2, n_zeros: int = 1, delay
     # offset initial guess: mean error of the ARX-initialised simulation
     theta0[-1] = -float(np.mean(residuals(theta0)))
     scale = np.std(np.concatenate(ys)) or 1.0
-    sol = optimize.least_squares(residuals, theta0, loss=loss, f_scale=scale * 0.1, method="trf",
-                                 x_scale="jac", max_nfev=60 * len(theta0))
+    sol = optimize.least_squares(
+        residuals, theta0, loss=loss, f_scale=scale * 0.1, method="trf", x_scale="jac", max_nfev=60 * len(theta0)
+    )
     return model(sol.x)

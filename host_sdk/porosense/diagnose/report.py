@@ -39,8 +39,11 @@ def write_figures(diag, directory, unit: str = "output unit") -> list:
             band = t.detail["band"]
     axes[1].axhline(band, color="r", ls="--", lw=1)
     axes[1].axhline(-band, color="r", ls="--", lw=1)
-    axes[1].set(title="input-residual cross-correlation (input prewhitened)", xlabel="lag (samples)",
-                ylabel="r_ue (normalised, 1)")
+    axes[1].set(
+        title="input-residual cross-correlation (input prewhitened)",
+        xlabel="lag (samples)",
+        ylabel="r_ue (normalised, 1)",
+    )
     axes[1].legend()
     fig.tight_layout()
     paths.append(d / "correlations.png")
@@ -52,8 +55,11 @@ def write_figures(diag, directory, unit: str = "output unit") -> list:
     rising = np.concatenate([[True], np.diff(yh) >= 0])
     ax.plot(yh[rising], e[rising], ".", ms=2, label="rising")
     ax.plot(yh[~rising], e[~rising], ".", ms=2, label="falling")
-    ax.set(title="residual versus model output level and direction", xlabel=f"model output ({unit})",
-           ylabel=f"residual ({unit})")
+    ax.set(
+        title="residual versus model output level and direction",
+        xlabel=f"model output ({unit})",
+        ylabel=f"residual ({unit})",
+    )
     ax.legend()
     fig.tight_layout()
     paths.append(d / "level_direction.png")
@@ -64,8 +70,7 @@ def write_figures(diag, directory, unit: str = "output unit") -> list:
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.semilogy(sp["freqs"][1:], np.asarray(sp["power"])[1:] + 1e-300, lw=0.8)
     ax.axvline(sp["freq_hz"], color="r", ls="--", lw=1, label=f"largest line {sp['freq_hz']:.3g} Hz")
-    ax.set(title="residual spectrum (Hann periodogram)", xlabel="frequency (Hz)",
-           ylabel=f"power (({unit})²/Hz)")
+    ax.set(title="residual spectrum (Hann periodogram)", xlabel="frequency (Hz)", ylabel=f"power (({unit})²/Hz)")
     ax.legend()
     fig.tight_layout()
     paths.append(d / "spectrum.png")
@@ -90,12 +95,19 @@ def write_figures(diag, directory, unit: str = "output unit") -> list:
 
 def summary_markdown(diag, title: str = "Diagnosis") -> str:
     """Short Markdown: verdict, the ranked table, evidence of the leading findings, figures."""
-    lines = [f"# {title}", "", f"**Most likely cause: {diag.top}**", "",
-             "| cause | confidence | fit before % | fit after % | gain (points) | statistic |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        f"# {title}",
+        "",
+        f"**Most likely cause: {diag.top}**",
+        "",
+        "| cause | confidence | fit before % | fit after % | gain (points) | statistic |",
+        "|---|---|---|---|---|---|",
+    ]
     for f in diag.findings:
-        lines.append(f"| {f.cause} | {f.confidence:.2f} | {f.fit_before:.2f} | {f.fit_after:.2f} | "
-                     f"{f.gain:+.2f} | {f.statistic} |")
+        lines.append(
+            f"| {f.cause} | {f.confidence:.2f} | {f.fit_before:.2f} | {f.fit_after:.2f} | "
+            f"{f.gain:+.2f} | {f.statistic} |"
+        )
     lines += ["", "## Evidence", ""]
     for f in diag.findings[:3]:
         lines.append(f"- **{f.cause}**: {f.evidence}")

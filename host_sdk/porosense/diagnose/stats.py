@@ -82,14 +82,21 @@ def residual_autocorrelation(e: np.ndarray, max_lag: int = 25, alpha: float = DE
     z = np.abs(r[1:]) * np.sqrt(n)
     k = int(np.argmax(z)) + 1
     return StatResult(
-        "max |r_ee(k)| sqrt(N)", float(z.max()), _zcrit(alpha, max_lag), _p_from_max_z(z.max(), max_lag),
-        alpha, {"lags": list(range(max_lag + 1)), "r": r.tolist(), "band": _zcrit(alpha, max_lag) / np.sqrt(n),
-                "worst_lag": k},
+        "max |r_ee(k)| sqrt(N)",
+        float(z.max()),
+        _zcrit(alpha, max_lag),
+        _p_from_max_z(z.max(), max_lag),
+        alpha,
+        {
+            "lags": list(range(max_lag + 1)),
+            "r": r.tolist(),
+            "band": _zcrit(alpha, max_lag) / np.sqrt(n),
+            "worst_lag": k,
+        },
     )
 
 
-def input_crosscorrelation(u: np.ndarray, e: np.ndarray, max_lag: int = 25,
-                           alpha: float = DEFAULT_ALPHA) -> StatResult:
+def input_crosscorrelation(u: np.ndarray, e: np.ndarray, max_lag: int = 25, alpha: float = DEFAULT_ALPHA) -> StatResult:
     """Residual-input cross-correlation with the input prewhitened (Box-Jenkins).
 
     The input's AR model whitens u; the same filter is applied to e, so under independence
@@ -107,15 +114,22 @@ def input_crosscorrelation(u: np.ndarray, e: np.ndarray, max_lag: int = 25,
     pos = lags >= 0
     peak = int(lags[pos][np.argmax(z[pos])])
     return StatResult(
-        "max |r_ue(tau)| sqrt(N), input prewhitened", float(z.max()), _zcrit(alpha, m),
-        _p_from_max_z(z.max(), m), alpha,
-        {"lags": lags.tolist(), "r": r.tolist(), "band": _zcrit(alpha, m) / np.sqrt(n), "peak_lag": peak,
-         "positive_lag_share": float(np.sum(r[pos] ** 2) / max(np.sum(r ** 2), 1e-300))},
+        "max |r_ue(tau)| sqrt(N), input prewhitened",
+        float(z.max()),
+        _zcrit(alpha, m),
+        _p_from_max_z(z.max(), m),
+        alpha,
+        {
+            "lags": lags.tolist(),
+            "r": r.tolist(),
+            "band": _zcrit(alpha, m) / np.sqrt(n),
+            "peak_lag": peak,
+            "positive_lag_share": float(np.sum(r[pos] ** 2) / max(np.sum(r**2), 1e-300)),
+        },
     )
 
 
-def bartlett_crosscorrelation(x: np.ndarray, y: np.ndarray, lags: np.ndarray, alpha: float,
-                              name: str) -> StatResult:
+def bartlett_crosscorrelation(x: np.ndarray, y: np.ndarray, lags: np.ndarray, alpha: float, name: str) -> StatResult:
     """corr(x[k], y[k + tau]) at ``lags`` with Bartlett's variance for two coloured signals."""
     x = np.asarray(x, float)
     y = np.asarray(y, float)
@@ -129,8 +143,14 @@ def bartlett_crosscorrelation(x: np.ndarray, y: np.ndarray, lags: np.ndarray, al
     sel = np.isin(all_lags, lags)
     z = np.abs(r[sel]) / np.sqrt(var)
     m = int(sel.sum())
-    return StatResult(name, float(z.max()), _zcrit(alpha, m), _p_from_max_z(z.max(), m), alpha,
-                      {"lags": all_lags[sel].tolist(), "r": r[sel].tolist(), "band": _zcrit(alpha, m) * np.sqrt(var)})
+    return StatResult(
+        name,
+        float(z.max()),
+        _zcrit(alpha, m),
+        _p_from_max_z(z.max(), m),
+        alpha,
+        {"lags": all_lags[sel].tolist(), "r": r[sel].tolist(), "band": _zcrit(alpha, m) * np.sqrt(var)},
+    )
 
 
 def billings_voon(u: np.ndarray, e: np.ndarray, max_lag: int = 20, alpha: float = DEFAULT_ALPHA) -> dict:
@@ -190,8 +210,9 @@ class FTest:
     log10_p: float = 0.0
 
 
-def gls_f_test(e: np.ndarray, Z: np.ndarray, base: np.ndarray | None = None, max_ar: int = 10,
-               segments: list[int] | None = None) -> FTest:
+def gls_f_test(
+    e: np.ndarray, Z: np.ndarray, base: np.ndarray | None = None, max_ar: int = 10, segments: list[int] | None = None
+) -> FTest:
     """F test that the columns of Z explain e beyond the columns of ``base`` (feasible GLS).
 
     1. OLS of e on [base, Z]; 2. AR(p) noise model (BIC, p <= max_ar) of its residual;
@@ -238,8 +259,16 @@ def gls_f_test(e: np.ndarray, Z: np.ndarray, base: np.ndarray | None = None, max
         f = ((rss0 - rss1) / df1) / (rss1 / df2)
         p = float(sps.f.sf(f, df1, df2))
     logp = _f_log10_sf(f, df1, df2) if p < 1e-280 else (np.log10(p) if p > 0 else -300.0)
-    return FTest(float(f), df1, df2, p, float((rss0 - rss1) / rss0) if rss0 > 0 else 0.0,
-                 len(ar) - 1, coef[nb:] if kz else np.zeros(0), float(logp))
+    return FTest(
+        float(f),
+        df1,
+        df2,
+        p,
+        float((rss0 - rss1) / rss0) if rss0 > 0 else 0.0,
+        len(ar) - 1,
+        coef[nb:] if kz else np.zeros(0),
+        float(logp),
+    )
 
 
 def _f_log10_sf(f: float, df1: int, df2: int) -> float:
@@ -250,6 +279,7 @@ def _f_log10_sf(f: float, df1: int, df2: int) -> float:
     # sf = I_x(df2/2, df1/2); for tiny x, I_x(a, b) ~ x^a (1-x)^b / (a B(a, b))
     a, b = df2 / 2.0, df1 / 2.0
     from scipy.special import betaln
+
     ln = a * np.log(x) + b * np.log1p(-x) - np.log(a) - betaln(a, b)
     return float(ln / np.log(10.0))
 
@@ -258,10 +288,15 @@ def f_result(name: str, test: FTest, alpha: float, n_tests: int = 1, **detail) -
     """Wrap an :class:`FTest` (Bonferroni over ``n_tests`` alternatives) as a StatResult."""
     p = min(1.0, test.p * n_tests)
     thr = float(sps.f.isf(alpha / n_tests, test.df1, test.df2))
-    return StatResult(name, test.f, thr, max(p, 1e-300), alpha,
-                      {"df1": test.df1, "df2": test.df2, "explained": test.explained,
-                       "ar_order": test.ar_order, **detail},
-                      log10_p=min(0.0, test.log10_p + float(np.log10(n_tests))))
+    return StatResult(
+        name,
+        test.f,
+        thr,
+        max(p, 1e-300),
+        alpha,
+        {"df1": test.df1, "df2": test.df2, "explained": test.explained, "ar_order": test.ar_order, **detail},
+        log10_p=min(0.0, test.log10_p + float(np.log10(n_tests))),
+    )
 
 
 def _line_ratios(x: np.ndarray, guard: int, half_width: int, min_bin: int):
@@ -282,9 +317,15 @@ def _line_ratios(x: np.ndarray, guard: int, half_width: int, min_bin: int):
     return P, ratio, dof
 
 
-def spectral_lines(e: np.ndarray, ts: float, alpha: float = DEFAULT_ALPHA, guard: int = 3,
-                   half_width: int = 40, min_bin: int = 6,
-                   exclude: np.ndarray | None = None) -> StatResult:
+def spectral_lines(
+    e: np.ndarray,
+    ts: float,
+    alpha: float = DEFAULT_ALPHA,
+    guard: int = 3,
+    half_width: int = 40,
+    min_bin: int = 6,
+    exclude: np.ndarray | None = None,
+) -> StatResult:
     """Largest periodogram line of the residual against its local background (periodic disturbance).
 
     Hann-tapered periodogram; each ordinate is divided by the mean of its neighbours
@@ -304,9 +345,15 @@ def spectral_lines(e: np.ndarray, ts: float, alpha: float = DEFAULT_ALPHA, guard
     k = int(np.argmin(logsf))
     log10_p = min(0.0, (float(logsf[k]) + np.log(tested)) / np.log(10.0))
     thr = float(sps.f.isf(alpha / tested, 2, max(dof[k], 1))) if dof[k] > 0 else float("inf")
-    return StatResult("periodogram line / local background", float(ratio[k]), thr, max(10.0 ** log10_p, 1e-300),
-                      alpha, {"freq_hz": float(freqs[k]), "bin": k, "tested": tested, "freqs": freqs.tolist(), "power": P.tolist()},
-                      log10_p=log10_p)
+    return StatResult(
+        "periodogram line / local background",
+        float(ratio[k]),
+        thr,
+        max(10.0**log10_p, 1e-300),
+        alpha,
+        {"freq_hz": float(freqs[k]), "bin": k, "tested": tested, "freqs": freqs.tolist(), "power": P.tolist()},
+        log10_p=log10_p,
+    )
 
 
 def line_mask(x: np.ndarray, alpha: float = 1e-3, guard: int = 3, half_width: int = 40) -> np.ndarray:
@@ -322,8 +369,9 @@ def line_mask(x: np.ndarray, alpha: float = 1e-3, guard: int = 3, half_width: in
     return mask
 
 
-def limit_clustering(x: np.ndarray, alpha: float = DEFAULT_ALPHA, tol_frac: float = 1e-6,
-                     n_levels: int = 5) -> StatResult:
+def limit_clustering(
+    x: np.ndarray, alpha: float = DEFAULT_ALPHA, tol_frac: float = 1e-6, n_levels: int = 5
+) -> StatResult:
     """Samples piled up at the smallest or largest value of x (clipping at an ADC/divider limit).
 
     k_at = samples within tol_frac * range of the extreme; k_ref = the largest count among the
@@ -347,9 +395,14 @@ def limit_clustering(x: np.ndarray, alpha: float = DEFAULT_ALPHA, tol_frac: floa
         if best is None or p < best[0]:
             best = (p, side, float(ext), k_at, k_ref)
     p, side, ext, k_at, k_ref = best
-    return StatResult("samples at the limit", float(k_at), 10.0, max(p, 1e-300), alpha,
-                      {"side": side, "limit": ext, "k_at": k_at, "k_near": k_ref,
-                       "fraction": k_at / len(x)})
+    return StatResult(
+        "samples at the limit",
+        float(k_at),
+        10.0,
+        max(p, 1e-300),
+        alpha,
+        {"side": side, "limit": ext, "k_at": k_at, "k_near": k_ref, "fraction": k_at / len(x)},
+    )
 
 
 def resolution(x: np.ndarray) -> float:
@@ -407,9 +460,22 @@ def isolated_spikes(e: np.ndarray, alpha: float = DEFAULT_ALPHA, step: float = 0
     logp = float(sps.binom.logsf(k - 1, n, q) / np.log(10.0)) if k > 0 else 0.0
     d = np.diff(e)
     kurt = float(sps.kurtosis(d)) if len(d) > 3 else 0.0
-    return StatResult("isolated spikes beyond the alpha/N band", float(k), 1.0, max(p, 1e-300), alpha,
-                      {"kurtosis": kurt, "fraction": k / max(n, 1), "band": thr, "sigma": sigma, "step": step,
-                       "index": np.flatnonzero(mask)[:50].tolist()}, log10_p=min(logp, 0.0))
+    return StatResult(
+        "isolated spikes beyond the alpha/N band",
+        float(k),
+        1.0,
+        max(p, 1e-300),
+        alpha,
+        {
+            "kurtosis": kurt,
+            "fraction": k / max(n, 1),
+            "band": thr,
+            "sigma": sigma,
+            "step": step,
+            "index": np.flatnonzero(mask)[:50].tolist(),
+        },
+        log10_p=min(logp, 0.0),
+    )
 
 
 def is_piecewise_constant(x: np.ndarray) -> bool:
@@ -446,14 +512,20 @@ class GainTest:
         return bool(self.df > 0 and sps.t.cdf(self.t, self.df) < self.alpha)
 
     def sentence(self) -> str:
-        verdict = "refuted (worse on held-out data)" if self.refuted else (
-            "confirmed" if self.confirmed else "not distinguishable from zero")
-        return (f"held-out gain {verdict}: batch-means t = {self.t:.3g} on {self.df} df "
-                f"(one-sided tests at {100 * self.alpha:g} %)")
+        verdict = (
+            "refuted (worse on held-out data)"
+            if self.refuted
+            else ("confirmed" if self.confirmed else "not distinguishable from zero")
+        )
+        return (
+            f"held-out gain {verdict}: batch-means t = {self.t:.3g} on {self.df} df "
+            f"(one-sided tests at {100 * self.alpha:g} %)"
+        )
 
 
-def paired_gain_test(y: np.ndarray, base: np.ndarray, ext: np.ndarray, alpha: float = CONFIRM_ALPHA,
-                     n_batches: int = N_BATCHES) -> GainTest:
+def paired_gain_test(
+    y: np.ndarray, base: np.ndarray, ext: np.ndarray, alpha: float = CONFIRM_ALPHA, n_batches: int = N_BATCHES
+) -> GainTest:
     """Is ``ext`` closer to ``y`` than ``base`` beyond the sampling uncertainty of the difference?
 
     d[k] = (y - base)^2 - (y - ext)^2 is serially correlated (both errors share the residual's

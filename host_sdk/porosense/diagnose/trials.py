@@ -31,7 +31,7 @@ NOISE_FRACTION = 0.005
 #: Range of strength of each hidden cause (what a trial draws uniformly from).
 STRENGTHS = {
     "static_nonlinearity": "bend s in [0.4, 0.9]: g(v) = v + s v (1 + v) on the normalised input or output "
-                           "(largest deviation s/4 of full scale)",
+    "(largest deviation s/4 of full scale)",
     "hysteresis": "rate-independent lag of the output (memory length 5-15 % of full scale), weight 0.3-0.6",
     "slow_relaxation": "extra slow mode with 15-35 % of the gain and tau 5-15 s",
     "time_delay": "extra delay of 3-10 samples (0.15-0.5 s)",
@@ -92,7 +92,7 @@ class Plant:
             w = u / 60.0
             u = 60.0 * (w + pr["s"] * w * (1.0 + w))
         if c == "time_delay":
-            u = np.concatenate([np.zeros(pr["d"]), u[:-pr["d"]]])
+            u = np.concatenate([np.zeros(pr["d"]), u[: -pr["d"]]])
         x = self.lag(u)
         if c == "slow_relaxation":
             x = (1.0 - pr["r"]) * x + pr["r"] * self.lag(x, pr["tau_slow"])
@@ -206,14 +206,14 @@ SIM_STRENGTHS = {
     "time_delay": "delay_s 0.15-0.5 s",
     "periodic_disturbance": "amplitude_pct 1-3 % dR at freq_hz 1-9 Hz",
     "saturation": "low_V at the divider voltage the clean step_40 record (the validation, the shallowest "
-                  "stroke) stays above for 80-95 % of its samples",
+    "stroke) stays above for 80-95 % of its samples",
     "load_dependence": "delta_g 200-500 g ramped in from 10-30 s over 5-15 s",
     "slow_relaxation": "gain 0.1-0.2 of the change in dR, tau_s 15-40 s",
     "outliers": "glitch_pct 10-30 % dR with probability 0.3-1 % per sample",
     "static_nonlinearity": "bend s in [0.4, 0.9] on the normalised measured dR",
     "hysteresis": "rate-independent lag of the measured dR, memory 5-15 %, weight 0.3-0.6",
     "cross_coupling": "3-DoF segment (porosity 70-82 %): gain 0.1-0.3 of the neighbours' strain leaks into "
-                      "contractor 0's contact strain",
+    "contractor 0's contact strain",
 }
 SIM_CAUSES = tuple(SIM_STRENGTHS)
 
@@ -223,13 +223,17 @@ def _sim_effect(rng, cause: str) -> dict | None:
     return {
         "drift": lambda: {"drift": {"rate_pct_per_min": u(1.0, 3.0)}},
         "time_delay": lambda: {"time_delay": {"delay_s": u(0.15, 0.5)}},
-        "periodic_disturbance": lambda: {"periodic_disturbance": {"amplitude_pct": u(1.0, 3.0), "freq_hz": u(1.0, 9.0)}},
+        "periodic_disturbance": lambda: {
+            "periodic_disturbance": {"amplitude_pct": u(1.0, 3.0), "freq_hz": u(1.0, 9.0)}
+        },
         "saturation": lambda: {"saturation": {"low_V": float("nan"), "quantile": u(0.05, 0.2)}},
-        "load_dependence": lambda: {"load_dependence": {"delta_g": u(200.0, 500.0), "start_s": u(10.0, 30.0),
-                                                        "ramp_s": u(5.0, 15.0)}},
+        "load_dependence": lambda: {
+            "load_dependence": {"delta_g": u(200.0, 500.0), "start_s": u(10.0, 30.0), "ramp_s": u(5.0, 15.0)}
+        },
         "slow_relaxation": lambda: {"slow_relaxation": {"gain": u(0.1, 0.2), "tau_s": u(15.0, 40.0)}},
-        "outliers": lambda: {"outliers": {"glitch_pct": u(10.0, 30.0), "glitch_prob": u(0.003, 0.01),
-                                          "drop_prob": 0.0}},
+        "outliers": lambda: {
+            "outliers": {"glitch_pct": u(10.0, 30.0), "glitch_prob": u(0.003, 0.01), "drop_prob": 0.0}
+        },
     }.get(cause, lambda: None)()
 
 
@@ -268,10 +272,16 @@ def run_sim_3dof_trial(cause: str, seed: int) -> Trial:
     porosity = rng.uniform(70.0, 82.0)
     parts = []
     for k, exp in enumerate(SIM_3DOF_EXPERIMENTS[0] + SIM_3DOF_EXPERIMENTS[1]):
-        rec = sim.run_experiment("3dof", exp, porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10 + k,
-                                 effects=effects)
-        parts.append((rec["p_cmd_0"][:, None], rec["dR_0"], {"p_cmd_1": rec["p_cmd_1"], "p_cmd_2": rec["p_cmd_2"],
-                                                            "load_g": rec["load_g"]}))
+        rec = sim.run_experiment(
+            "3dof", exp, porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10 + k, effects=effects
+        )
+        parts.append(
+            (
+                rec["p_cmd_0"][:, None],
+                rec["dR_0"],
+                {"p_cmd_1": rec["p_cmd_1"], "p_cmd_2": rec["p_cmd_2"], "load_g": rec["load_g"]},
+            )
+        )
     n_est = len(SIM_3DOF_EXPERIMENTS[0])
     est, val = parts[:n_est], parts[n_est:]
     ts = 1.0 / SIM_RATE_HZ
@@ -293,8 +303,11 @@ def run_sim_trial(cause: str, seed: int) -> Trial:
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
     effects = _sim_effect(rng, cause)
-    post = {"s": rng.uniform(0.4, 0.9)} if cause == "static_nonlinearity" else (
-        {"memory": rng.uniform(0.05, 0.15), "h": rng.uniform(0.3, 0.6)} if cause == "hysteresis" else {})
+    post = (
+        {"s": rng.uniform(0.4, 0.9)}
+        if cause == "static_nonlinearity"
+        else ({"memory": rng.uniform(0.05, 0.15), "h": rng.uniform(0.3, 0.6)} if cause == "hysteresis" else {})
+    )
     porosity = rng.uniform(72.0, 86.0)
     if cause == "saturation":  # clip at the voltage a drawn share of the clean record lies below
         # on the validation experiment (the shallowest stroke): the clip must show in every record
@@ -306,8 +319,9 @@ def run_sim_trial(cause: str, seed: int) -> Trial:
     # the intermediate steps validate (a load that arrives during every record leaves the first
     # pulse unloaded, and that pulse must have been seen at the validation's level or above)
     for k, exp in enumerate(("staircase", "step_60", "step_40")):
-        rec = sim.run_experiment("contractor", exp, porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10 + k,
-                                 effects=effects)
+        rec = sim.run_experiment(
+            "contractor", exp, porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10 + k, effects=effects
+        )
         parts.append((rec["p_cmd_0"][:, None], _post(rec["dR_0"], cause, post), {"load_g": rec["load_g"]}))
     est, val = parts[:2], parts[2:]
     ts = 1.0 / SIM_RATE_HZ

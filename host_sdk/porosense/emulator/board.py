@@ -112,8 +112,11 @@ class BoardCore:
         if st.power_lost:
             self.power_cycle()  # what it sent since the loss is lost with it
             return
-        drive = (tuple(v / 10.0 for v in st.setpoint_dkpa), tuple(bool(st.pump_mask >> i & 1) for i in range(3)),
-                 tuple(bool(st.valve_mask >> i & 1) for i in range(3)))
+        drive = (
+            tuple(v / 10.0 for v in st.setpoint_dkpa),
+            tuple(bool(st.pump_mask >> i & 1) for i in range(3)),
+            tuple(bool(st.valve_mask >> i & 1) for i in range(3)),
+        )
         if drive != self._drive:
             self._advance_plant()  # up to now with the old outputs
             self._drive = drive

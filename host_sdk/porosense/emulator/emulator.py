@@ -26,10 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from porosense.emulator.board import BoardCore
-from porosense.firmware.corelib import RESET_EXTERNAL
 from porosense.emulator.endpoints import make_endpoint
 from porosense.emulator.faults import Faults, FaultyLink
 from porosense.emulator.version_claim import HelloRewrite
+from porosense.firmware.corelib import RESET_EXTERNAL
 
 # Real-time mode: the UART sends at BAUD (10 bits per byte) from a 64-byte transmit buffer;
 # a SAMPLE that does not fit in it is dropped, like on the board.
@@ -98,8 +98,10 @@ class Emulator:
         self.reset_on_connect = reset_on_connect
         from porosense.sim import make_plant
 
-        self._plant = plant if plant is not None else make_plant(
-            actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects
+        self._plant = (
+            plant
+            if plant is not None
+            else make_plant(actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects)
         )
         self._out = bytearray()
         self._tokens = 0.0  # real time: bytes the UART may send now
@@ -302,7 +304,7 @@ class Emulator:
             try:
                 ready_r, ready_w, _ = select.select(ep.read_fds(), wfds, [], wait)
             except (OSError, ValueError):
-                ready_r, ready_w = [], []
+                ready_r, _ready_w = [], []
             if ready_r:
                 data, new_client = ep.on_readable(ready_r)
                 with self._lock:
@@ -338,5 +340,8 @@ class Emulator:
         right timestamps, and the UART sends what it sent before each tick; beyond
         ``max_catch_up_s`` (device time) the firmware sees the missed ticks at once and counts
         them as overruns."""
-        core.run_until(core.T_us if upto_us is None else upto_us, max_late_us=int(self.max_catch_up_s * 1e6),
-                       before_tick=lambda due: self._flush_paced(upto_us=due))
+        core.run_until(
+            core.T_us if upto_us is None else upto_us,
+            max_late_us=int(self.max_catch_up_s * 1e6),
+            before_tick=lambda due: self._flush_paced(upto_us=due),
+        )

@@ -69,8 +69,10 @@ class FaultyLink:
         # One generator per purpose and direction: the decisions for the n-th byte do not
         # depend on how the bytes were split into reads.
         seeds = np.random.SeedSequence(faults.seed).spawn(6)
-        self._rng = {name: np.random.default_rng(s) for name, s in zip(
-            ("rx_hit", "rx_drop", "rx_value", "tx_hit", "tx_drop", "tx_value"), seeds)}
+        self._rng = {
+            name: np.random.default_rng(s)
+            for name, s in zip(("rx_hit", "rx_drop", "rx_value", "tx_hit", "tx_drop", "tx_value"), seeds)
+        }
 
     def _mangle(self, data: bytes, corrupt: float, drop: float, side: str) -> tuple[bytes, int, int]:
         if not (corrupt or drop) or not data:

@@ -35,8 +35,8 @@ class HelloRewrite:
             return chunk  # text of the line mode, or not a frame
         payload, version = bytearray(frame.payload), frame.version
         if frame.type == _HELLO_REPLY:
-            caps = int.from_bytes(payload[_CAPS_AT:_CAPS_AT + 2], "little") | self.capabilities
-            payload[_CAPS_AT:_CAPS_AT + 2] = caps.to_bytes(2, "little")
+            caps = int.from_bytes(payload[_CAPS_AT : _CAPS_AT + 2], "little") | self.capabilities
+            payload[_CAPS_AT : _CAPS_AT + 2] = caps.to_bytes(2, "little")
         if self.version is not None:
             major, minor = self.version
             version = (major << 4) | minor

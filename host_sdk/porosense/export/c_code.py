@@ -41,24 +41,40 @@ def c_source(structure, name: str = "porosense_model") -> str:
         f"{', '.join(o.name for o in structure.outputs)}.",
         f" * Sample period {structure.ts!r} s: call {p}_step once per sample, after {p}_init.",
         " * Define POROSENSE_REAL as float before including for single precision. */",
-        "#ifndef POROSENSE_REAL", "#define POROSENSE_REAL double", "#endif", "",
+        "#ifndef POROSENSE_REAL",
+        "#define POROSENSE_REAL double",
+        "#endif",
+        "",
         f"#define {P}_TS {structure.ts!r}",
-        f"#define {P}_N_INPUTS {n_in}", f"#define {P}_N_OUTPUTS {n_out}", "",
+        f"#define {P}_N_INPUTS {n_in}",
+        f"#define {P}_N_OUTPUTS {n_out}",
+        "",
     ]
     if any(o.g is not None or any(b.f is not None for b in o.branches) for o in structure.outputs):
         lines += [
             "/* Piecewise-linear map through (x[k], y[k]), linear beyond the outer breakpoints. */",
-            f"static POROSENSE_REAL {p}_pwl(const POROSENSE_REAL *x, const POROSENSE_REAL *y, int n, "
-            "POROSENSE_REAL u)",
-            "{", "    int k = 0;", "    while (k < n - 2 && u >= x[k + 1]) k++;",
-            "    return y[k] + (y[k + 1] - y[k]) / (x[k + 1] - x[k]) * (u - x[k]);", "}", ""]
+            f"static POROSENSE_REAL {p}_pwl(const POROSENSE_REAL *x, const POROSENSE_REAL *y, int n, POROSENSE_REAL u)",
+            "{",
+            "    int k = 0;",
+            "    while (k < n - 2 && u >= x[k + 1]) k++;",
+            "    return y[k] + (y[k + 1] - y[k]) / (x[k + 1] - x[k]) * (u - x[k]);",
+            "}",
+            "",
+        ]
     lines += [
         "/* Second-order sections b0 b1 b2 1 a1 a2 in transposed direct form II; z holds 2 states each. */",
         f"static POROSENSE_REAL {p}_sos(const POROSENSE_REAL *sos, int n, POROSENSE_REAL *z, POROSENSE_REAL x)",
-        "{", "    for (int s = 0; s < n; s++) {", "        const POROSENSE_REAL *c = sos + 6 * s;",
+        "{",
+        "    for (int s = 0; s < n; s++) {",
+        "        const POROSENSE_REAL *c = sos + 6 * s;",
         "        POROSENSE_REAL y = c[0] * x + z[2 * s];",
         "        z[2 * s] = c[1] * x - c[4] * y + z[2 * s + 1];",
-        "        z[2 * s + 1] = c[2] * x - c[5] * y;", "        x = y;", "    }", "    return x;", "}", "",
+        "        z[2 * s + 1] = c[2] * x - c[5] * y;",
+        "        x = y;",
+        "    }",
+        "    return x;",
+        "}",
+        "",
     ]
     state_fields = []
     step = []
@@ -66,25 +82,27 @@ def c_source(structure, name: str = "porosense_model") -> str:
         q = f"{p}_o{j}"
         lines.append(f"/* output {j}: {out.name} ({out.kind}) */")
         step.append(f"    /* {out.name} */")
-        step.append(f"    {{ POROSENSE_REAL sum = 0.0;")
+        step.append("    { POROSENSE_REAL sum = 0.0;")
         for br in out.branches:
             r = f"{q}_i{br.input}"
             lines.append(_array(f"{r}_h1", br.h1.sos))
-            state_fields.append(f"    POROSENSE_REAL {r[len(p) + 1:]}_z[{2 * br.h1.n_sections}];")
+            state_fields.append(f"    POROSENSE_REAL {r[len(p) + 1 :]}_z[{2 * br.h1.n_sections}];")
             x = f"(u[{br.input}] - {_num(br.u_offset)})"
             if br.delay:
-                state_fields.append(f"    POROSENSE_REAL {r[len(p) + 1:]}_delay[{br.delay}];")
-                state_fields.append(f"    int {r[len(p) + 1:]}_pos;")
-                d = f"s->{r[len(p) + 1:]}"
-                step += [f"      {{ POROSENSE_REAL now = {x};",
-                         f"        POROSENSE_REAL x = {d}_delay[{d}_pos];",
-                         f"        {d}_delay[{d}_pos] = now; {d}_pos = ({d}_pos + 1) % {br.delay};"]
+                state_fields.append(f"    POROSENSE_REAL {r[len(p) + 1 :]}_delay[{br.delay}];")
+                state_fields.append(f"    int {r[len(p) + 1 :]}_pos;")
+                d = f"s->{r[len(p) + 1 :]}"
+                step += [
+                    f"      {{ POROSENSE_REAL now = {x};",
+                    f"        POROSENSE_REAL x = {d}_delay[{d}_pos];",
+                    f"        {d}_delay[{d}_pos] = now; {d}_pos = ({d}_pos + 1) % {br.delay};",
+                ]
             else:
                 step.append(f"      {{ POROSENSE_REAL x = {x};")
             if br.f is not None:
                 lines += [_array(f"{r}_fx", br.f.x), _array(f"{r}_fy", br.f.y)]
                 step.append(f"        x = {p}_pwl({r}_fx, {r}_fy, {len(br.f.x)}, x);")
-            step.append(f"        sum += {p}_sos({r}_h1, {br.h1.n_sections}, s->{r[len(p) + 1:]}_z, x); }}")
+            step.append(f"        sum += {p}_sos({r}_h1, {br.h1.n_sections}, s->{r[len(p) + 1 :]}_z, x); }}")
         if out.g is not None:
             lines += [_array(f"{q}_gx", out.g.x), _array(f"{q}_gy", out.g.y)]
             step.append(f"      sum = {p}_pwl({q}_gx, {q}_gy, {len(out.g.x)}, sum);")
@@ -93,12 +111,24 @@ def c_source(structure, name: str = "porosense_model") -> str:
             state_fields.append(f"    POROSENSE_REAL o{j}_h2_z[{2 * out.h2.n_sections}];")
             step.append(f"      sum = {p}_sos({q}_h2, {out.h2.n_sections}, s->o{j}_h2_z, sum);")
         step.append(f"      y[{j}] = sum + {_num(out.offset)}; }}")
-    lines += ["", f"typedef struct {{", *state_fields, f"}} {p}_state;", "",
-              f"/* Put the estimator at rest (all states zero). */",
-              f"void {p}_init({p}_state *s)", "{",
-              "    unsigned char *b = (unsigned char *)s;",
-              f"    for (unsigned long k = 0; k < sizeof(*s); k++) b[k] = 0;", "}", "",
-              f"/* One sample: inputs u[{n_in}] in, estimates y[{n_out}] out. */",
-              f"void {p}_step({p}_state *s, const POROSENSE_REAL *u, POROSENSE_REAL *y)", "{",
-              *step, "}", ""]
+    lines += [
+        "",
+        "typedef struct {",
+        *state_fields,
+        f"}} {p}_state;",
+        "",
+        "/* Put the estimator at rest (all states zero). */",
+        f"void {p}_init({p}_state *s)",
+        "{",
+        "    unsigned char *b = (unsigned char *)s;",
+        "    for (unsigned long k = 0; k < sizeof(*s); k++) b[k] = 0;",
+        "}",
+        "",
+        f"/* One sample: inputs u[{n_in}] in, estimates y[{n_out}] out. */",
+        f"void {p}_step({p}_state *s, const POROSENSE_REAL *u, POROSENSE_REAL *y)",
+        "{",
+        *step,
+        "}",
+        "",
+    ]
     return "\n".join(lines)

@@ -31,8 +31,12 @@ def control_blocks(model) -> dict:
 
 def _tf_dict(tf) -> dict:
     num, den = (np.asarray(v[0][0], dtype=float) for v in (tf.num, tf.den))
-    return {"num": num.tolist(), "den": den.tolist(), "dt": float(tf.dt),
-            "form": "coefficients of descending powers of z (control.tf(num, den, dt))"}
+    return {
+        "num": num.tolist(),
+        "den": den.tolist(),
+        "dt": float(tf.dt),
+        "form": "coefficients of descending powers of z (control.tf(num, den, dt))",
+    }
 
 
 def write_control(model, path) -> Path:
@@ -42,8 +46,11 @@ def write_control(model, path) -> Path:
     if path.suffix in (".pkl", ".pickle"):
         path.write_bytes(pickle.dumps(blocks))
         return path
-    doc = {"format": "porosense.control/1", "ts": float(model.ts), "inputs": list(model.inputs),
-           "outputs": {o: {k: (_tf_dict(v) if hasattr(v, "num") else v) for k, v in b.items()}
-                       for o, b in blocks.items()}}
+    doc = {
+        "format": "porosense.control/1",
+        "ts": float(model.ts),
+        "inputs": list(model.inputs),
+        "outputs": {o: {k: (_tf_dict(v) if hasattr(v, "num") else v) for k, v in b.items()} for o, b in blocks.items()},
+    }
     path.write_text(json.dumps(doc, indent=1))
     return path

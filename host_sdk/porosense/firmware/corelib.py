@@ -22,10 +22,21 @@ _u8, _u16, _u32 = C.c_uint8, C.c_uint16, C.c_uint32
 class State(C.Structure):
     """ps_state: what the firmware drives and counts, read after each call."""
 
-    _fields_ = [("setpoint_dkpa", C.c_int16 * 3), ("pump_mask", _u8), ("valve_mask", _u8),
-                ("streaming", _u8), ("power_lost", _u8), ("reset_requested", _u8), ("analog_pin", _u8),
-                ("analog_duty", _u8), ("rate_hz", _u16), ("flags", _u16), ("rx_frames", _u32),
-                ("tx_frames", _u32), ("eeprom_writes", _u32)]
+    _fields_ = [
+        ("setpoint_dkpa", C.c_int16 * 3),
+        ("pump_mask", _u8),
+        ("valve_mask", _u8),
+        ("streaming", _u8),
+        ("power_lost", _u8),
+        ("reset_requested", _u8),
+        ("analog_pin", _u8),
+        ("analog_duty", _u8),
+        ("rate_hz", _u16),
+        ("flags", _u16),
+        ("rx_frames", _u32),
+        ("tx_frames", _u32),
+        ("eeprom_writes", _u32),
+    ]
 
 
 _lib = None
@@ -42,14 +53,24 @@ def load_library() -> C.PyDLL:
             lib = C.PyDLL(str(library_path()))
             P, D3, B = C.c_void_p, C.POINTER(C.c_double), C.c_char_p
             for name, res, args in (
-                ("ps_create", P, []), ("ps_destroy", None, [P]), ("ps_boot", None, [P, _u8, C.c_uint64]),
-                ("ps_eeprom", C.POINTER(_u8), [P]), ("ps_flash_store", C.POINTER(_u8), [P]), ("ps_set_refresh", None, [P, REFRESH_FN, P]),
-                ("ps_set_present", None, [P, C.c_int, C.c_int]), ("ps_set_inputs", None, [P, D3, D3]),
-                ("ps_set_tx_room", None, [P, _u32]), ("ps_fail_after_writes", None, [P, C.c_int32, _u16]),
-                ("ps_set_time", None, [P, C.c_uint64]), ("ps_feed", _u32, [P, B, _u32]), ("ps_poll", None, [P]),
-                ("ps_next_tick", C.c_int64, [P]), ("ps_run_to", _u32, [P, C.c_uint64]),
+                ("ps_create", P, []),
+                ("ps_destroy", None, [P]),
+                ("ps_boot", None, [P, _u8, C.c_uint64]),
+                ("ps_eeprom", C.POINTER(_u8), [P]),
+                ("ps_flash_store", C.POINTER(_u8), [P]),
+                ("ps_set_refresh", None, [P, REFRESH_FN, P]),
+                ("ps_set_present", None, [P, C.c_int, C.c_int]),
+                ("ps_set_inputs", None, [P, D3, D3]),
+                ("ps_set_tx_room", None, [P, _u32]),
+                ("ps_fail_after_writes", None, [P, C.c_int32, _u16]),
+                ("ps_set_time", None, [P, C.c_uint64]),
+                ("ps_feed", _u32, [P, B, _u32]),
+                ("ps_poll", None, [P]),
+                ("ps_next_tick", C.c_int64, [P]),
+                ("ps_run_to", _u32, [P, C.c_uint64]),
                 ("ps_step", _u32, [P, C.c_uint64, D3, D3, _u32, B, _u32, C.POINTER(_u32), C.POINTER(State)]),
-                ("ps_take", _u32, [P, B, _u32]), ("ps_state_get", None, [P, C.POINTER(State)]),
+                ("ps_take", _u32, [P, B, _u32]),
+                ("ps_state_get", None, [P, C.POINTER(State)]),
             ):
                 fn = getattr(lib, name)
                 fn.restype, fn.argtypes = res, args
@@ -131,7 +152,7 @@ class FirmwareCore:
             off = addr - FLASH_BASE
             if off < 0 or off + len(data) > size:
                 raise ValueError(f"page 0x{addr:04X} is outside the flash model store")
-            mem[off:off + len(data)] = data
+            mem[off : off + len(data)] = data
             done += 1
         return done
 
@@ -139,7 +160,9 @@ class FirmwareCore:
         """The flash model store's bytes (from layout.FLASH_BASE)."""
         from porosense.quant.layout import FLASH_SLOT_SIZE, FLASH_SLOTS
 
-        return bytes(C.cast(self._lib.ps_flash_store(self._h), C.POINTER(_u8 * (FLASH_SLOTS * FLASH_SLOT_SIZE))).contents)
+        return bytes(
+            C.cast(self._lib.ps_flash_store(self._h), C.POINTER(_u8 * (FLASH_SLOTS * FLASH_SLOT_SIZE))).contents
+        )
 
     def set_time(self, t_us: int) -> None:
         """Device time (us since power-on); runs no firmware code."""
@@ -161,8 +184,17 @@ class FirmwareCore:
     def step(self, t_us: int, volts, euler_deg, tx_room: int) -> tuple[int, bytes]:
         """Present the inputs, run the clock to ``t_us`` and the main loop: (ticks, bytes sent)."""
         self._inputs(volts, euler_deg)
-        ticks = self._lib.ps_step(self._h, int(t_us), self._volts, self._euler, max(0, int(tx_room)),
-                                  self._buf, _TAKE, C.byref(self._n), C.byref(self.state))
+        ticks = self._lib.ps_step(
+            self._h,
+            int(t_us),
+            self._volts,
+            self._euler,
+            max(0, int(tx_room)),
+            self._buf,
+            _TAKE,
+            C.byref(self._n),
+            C.byref(self.state),
+        )
         if self._error is not None:
             self._done()
         n = self._n.value
@@ -171,6 +203,6 @@ class FirmwareCore:
     def take(self) -> bytes:
         """Bytes the firmware sent since the last take."""
         out = b""
-        while (n := self._lib.ps_take(self._h, self._buf, _TAKE)):
+        while n := self._lib.ps_take(self._h, self._buf, _TAKE):
             out += self._buf.raw[:n]
         return out

@@ -16,8 +16,8 @@ import struct
 from dataclasses import dataclass
 
 from porosense.errors import ModelError
-from porosense.quant import layout as L
 from porosense.protocol.framing import crc16
+from porosense.quant import layout as L
 from porosense.quant.blob import ModelBlob
 
 #: Slot numbers MODEL_INFO reports: 0, 1 EEPROM; FLASH_SLOT0 + k flash slot k.
@@ -52,7 +52,7 @@ class FlashUpload:
 
     slot: int
     seq: int
-    image: bytes           # the slot's bytes, FLASH_SLOT_SIZE long
+    image: bytes  # the slot's bytes, FLASH_SLOT_SIZE long
 
     @property
     def address(self) -> int:
@@ -61,8 +61,10 @@ class FlashUpload:
 
     def pages(self) -> list[tuple[int, bytes]]:
         """(flash address, 128 bytes) in upload order (ascending: the header's page last)."""
-        return [(self.address + i * L.FLASH_PAGE, self.image[i * L.FLASH_PAGE:(i + 1) * L.FLASH_PAGE])
-                for i in range(SLOT_PAGES)]
+        return [
+            (self.address + i * L.FLASH_PAGE, self.image[i * L.FLASH_PAGE : (i + 1) * L.FLASH_PAGE])
+            for i in range(SLOT_PAGES)
+        ]
 
     def to_hex(self) -> str:
         """Intel HEX holding only this slot's pages."""
@@ -75,8 +77,13 @@ class FlashUpload:
         return out.getvalue()
 
     def to_dict(self) -> dict:
-        return {"flash_slot": self.slot, "seq": self.seq, "address": self.address, "bytes": len(self.image),
-                "pages": SLOT_PAGES}
+        return {
+            "flash_slot": self.slot,
+            "seq": self.seq,
+            "address": self.address,
+            "bytes": len(self.image),
+            "pages": SLOT_PAGES,
+        }
 
 
 def plan_upload(blob: bytes, info) -> FlashUpload:

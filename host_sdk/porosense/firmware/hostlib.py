@@ -24,8 +24,9 @@ from porosense.firmware.files import HERE, core_dir
 CXXFLAGS = ("-std=c++11", "-O2", "-fPIC", "-shared", "-fvisibility=hidden")
 LIB_NAME = "libporosense_core" + (".dylib" if sys.platform == "darwin" else ".so")
 PACKAGED_LIB = HERE / "lib" / LIB_NAME
-MISSING_COMPILER = ("no C++ compiler found to build the firmware core: install one "
-                    "(Debian/Ubuntu: sudo apt-get install g++) or set CXX")
+MISSING_COMPILER = (
+    "no C++ compiler found to build the firmware core: install one (Debian/Ubuntu: sudo apt-get install g++) or set CXX"
+)
 
 _lock = threading.Lock()
 _built: Path | None = None

@@ -40,8 +40,10 @@ class Split:
     score: float = float("inf")
 
     def describe(self) -> str:
-        return (f"H1 {len(self.poles1)} poles {len(self.zeros1)} zeros | "
-                f"H2 {len(self.poles2)} poles {len(self.zeros2)} zeros")
+        return (
+            f"H1 {len(self.poles1)} poles {len(self.zeros1)} zeros | "
+            f"H2 {len(self.poles2)} poles {len(self.zeros2)} zeros"
+        )
 
 
 def _groups(roots) -> list[np.ndarray]:
@@ -63,7 +65,7 @@ def enumerate_splits(poles, zeros) -> list[Split]:
     allocation gets only its first MAX_SPLITS // (pole allocations) zero allocations.
     """
     pg, zg = _groups(poles), _groups(zeros)
-    cat = (lambda gs: np.concatenate(gs) if gs else np.zeros(0, complex))
+    cat = lambda gs: np.concatenate(gs) if gs else np.zeros(0, complex)
     pole_splits = []
     for pm in itertools.product((0, 1), repeat=len(pg)):
         p1 = cat([g for g, m in zip(pg, pm) if m == 0])

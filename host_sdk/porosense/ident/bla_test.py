@@ -24,8 +24,8 @@ from scipy.stats import norm
 
 from porosense.ident.noise_level import repeated_period
 
-MIN_REALISATIONS = 4      # F(2, 2(M - 1)) has a finite variance only for M >= 4
-EXCITED = 0.01            # a frequency is excited when |U| exceeds this fraction of its peak in every record
+MIN_REALISATIONS = 4  # F(2, 2(M - 1)) has a finite variance only for M >= 4
+EXCITED = 0.01  # a frequency is excited when |U| exceeds this fraction of its peak in every record
 MIN_FREQUENCIES = 20
 
 
@@ -33,14 +33,14 @@ MIN_FREQUENCIES = 20
 class NonparametricBLA:
     """The BLA at the excited frequencies of M realisations, with the variance of its mean."""
 
-    bins: np.ndarray          # DFT bins of one period
-    period: int               # samples
-    mean: np.ndarray          # complex, output units per input unit
-    variance: np.ndarray      # variance of the mean (|.|^2)
+    bins: np.ndarray  # DFT bins of one period
+    period: int  # samples
+    mean: np.ndarray  # complex, output units per input unit
+    variance: np.ndarray  # variance of the mean (|.|^2)
     realisations: int
 
     @classmethod
-    def from_records(cls, us, ys, skip: int = 0) -> "NonparametricBLA | None":
+    def from_records(cls, us, ys, skip: int = 0) -> NonparametricBLA | None:
         """The BLA of single-input records that repeat their input with one common period
         (the last whole period of each, past ``skip`` and the transient), or None when there
         are fewer than MIN_REALISATIONS such records or too few excited frequencies."""
@@ -70,7 +70,7 @@ class NonparametricBLA:
             u2 = np.asarray(u, dtype=float)
             u2 = u2[:, None] if u2.ndim == 1 else u2
             yh = np.asarray(model.predict(u=u2)).ravel()
-            gm.append(np.fft.rfft(yh[-self.period:])[self.bins] / np.fft.rfft(u2[-self.period:, 0])[self.bins])
+            gm.append(np.fft.rfft(yh[-self.period :])[self.bins] / np.fft.rfft(u2[-self.period :, 0])[self.bins])
         return float(np.mean(np.abs(np.mean(gm, axis=0) - self.mean) ** 2 / self.variance))
 
     def threshold(self, alpha: float = 0.01) -> float:

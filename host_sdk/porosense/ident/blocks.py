@@ -37,7 +37,7 @@ def sections(theta) -> tuple[np.ndarray, np.ndarray]:
     den[:, 0] = 1.0
     dden = np.zeros((m, 2, 2))
     for s in range(m):
-        t = theta[2 * s: 2 * s + 2]
+        t = theta[2 * s : 2 * s + 2]
         k = _K_MAX * np.tanh(t)
         dk = _K_MAX * (1.0 - np.tanh(t) ** 2)
         if len(t) == 2:
@@ -84,7 +84,7 @@ def theta_from_poly(a, n_poles: int) -> np.ndarray:
         if len(grp) == 2:
             k2 = poly[2]
             k1 = poly[1] / (1.0 + k2)
-            theta[2 * s: 2 * s + 2] = np.arctanh(np.clip(np.array([k1, k2]) / _K_MAX, -_K_CLIP, _K_CLIP))
+            theta[2 * s : 2 * s + 2] = np.arctanh(np.clip(np.array([k1, k2]) / _K_MAX, -_K_CLIP, _K_CLIP))
         else:
             theta[2 * s] = np.arctanh(np.clip(poly[1] / _K_MAX, -_K_CLIP, _K_CLIP))
     return theta
@@ -238,9 +238,9 @@ def pwl_expected(x, y, u, sigma: float, derivatives: bool = False):
     y = np.asarray(y, dtype=float)
     n = len(x)
     dx = np.diff(x)
-    s = np.diff(y) / dx                      # slopes of the n - 1 segments
-    c = np.diff(s)                           # slope changes at the inner breakpoints x_1..x_(n-2)
-    d = u[:, None] - x[None, 1:-1]           # (N, n - 2)
+    s = np.diff(y) / dx  # slopes of the n - 1 segments
+    c = np.diff(s)  # slope changes at the inner breakpoints x_1..x_(n-2)
+    d = u[:, None] - x[None, 1:-1]  # (N, n - 2)
     t = d / sigma
     cdf = ndtr(t)
     pdf = np.exp(-0.5 * t * t) / np.sqrt(2.0 * np.pi)
@@ -252,7 +252,7 @@ def pwl_expected(x, y, u, sigma: float, derivatives: bool = False):
     dz_dsigma = pdf @ c
     # dz/ds_j = G_j - G_(j+1) with G_0 = u - x_0, G_j = hinge_j (inner), G_(n-1) = 0.
     big_g = np.column_stack([u - x[0], hinge, np.zeros(len(u))])
-    dz_ds = big_g[:, :-1] - big_g[:, 1:]     # (N, n - 1)
+    dz_ds = big_g[:, :-1] - big_g[:, 1:]  # (N, n - 1)
     # s_j = (y_(j+1) - y_j) / dx_j.
     dz_dy = np.zeros((len(u), n))
     dz_dy[:, 0] = 1.0
@@ -261,7 +261,7 @@ def pwl_expected(x, y, u, sigma: float, derivatives: bool = False):
     dz_dx = np.zeros((len(u), n))
     dz_dx[:, 0] -= s[0]
     dz_dx[:, 1:-1] -= cdf * c
-    ds_w = dz_ds * (s / dx)                  # ds_j/dx_j = s_j/dx_j, ds_j/dx_(j+1) = -s_j/dx_j
+    ds_w = dz_ds * (s / dx)  # ds_j/dx_j = s_j/dx_j, ds_j/dx_(j+1) = -s_j/dx_j
     dz_dx[:, :-1] += ds_w
     dz_dx[:, 1:] -= ds_w
     return z, slope, dz_dx, dz_dy, dz_dsigma

@@ -24,7 +24,6 @@ from porosense.ident.lm import levenberg_marquardt
 from porosense.ident.metrics import relative_standard_error
 
 
-
 def lstsq(phi, rhs):
     """Least squares for tall ``phi`` through its (small) normal equations, ridge-guarded."""
     gram = phi.T @ phi
@@ -83,7 +82,7 @@ def _penalty_rows(spec: ChainSpec, theta, n_res: int, opts: Options):
             w = np.sqrt(opts.smoothness * n_res)
             d2 = np.zeros((len(v) - 2, spec.n_params))
             for k in range(len(v) - 2):
-                d2[k, idx[k:k + 3]] = w * np.array([1.0, -2.0, 1.0])
+                d2[k, idx[k : k + 3]] = w * np.array([1.0, -2.0, 1.0])
             rows.append(d2 @ theta)
             jac.append(d2)
         if opts.monotone and len(v) >= 2:
@@ -135,12 +134,22 @@ def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
     method = "lm" if n_res >= spec.n_params else "trf"
     try:
         if method == "lm":  # tall problem: LM on the normal equations (lm.py says why)
-            res = levenberg_marquardt(residuals, jacobian, theta0, max_nfev=opts.max_nfev, ftol=opts.tol,
-                                      xtol=opts.tol, gtol=opts.tol)
+            res = levenberg_marquardt(
+                residuals, jacobian, theta0, max_nfev=opts.max_nfev, ftol=opts.tol, xtol=opts.tol, gtol=opts.tol
+            )
             theta, cost, nfev = res.x, res.cost, res.nfev
         else:
-            res = least_squares(residuals, theta0, jac=jacobian, method=method, max_nfev=opts.max_nfev,
-                                ftol=opts.tol, xtol=opts.tol, gtol=opts.tol, x_scale=1.0)
+            res = least_squares(
+                residuals,
+                theta0,
+                jac=jacobian,
+                method=method,
+                max_nfev=opts.max_nfev,
+                ftol=opts.tol,
+                xtol=opts.tol,
+                gtol=opts.tol,
+                x_scale=1.0,
+            )
             theta, cost, nfev = res.x, 2.0 * res.cost, res.nfev
     except (np.linalg.LinAlgError, ValueError):
         theta, cost, nfev = theta0, start_sse, 0
@@ -224,7 +233,7 @@ def _hammerstein_starts(lin: Fit, us, ys, n_bp, delay, opts):
     phi = np.vstack(cols)
     sol = lstsq(phi, np.concatenate(ys))
     if np.all(np.isfinite(sol)):
-        fys = [sol[i * n_bp:(i + 1) * n_bp] for i in range(n_in)]
+        fys = [sol[i * n_bp : (i + 1) * n_bp] for i in range(n_in)]
         starts.append(theta_with(fys, sol[-1]))
     return spec, starts[: max(opts.starts, 1)]
 
@@ -324,8 +333,7 @@ def linear_plus_hammerstein(ham: Fit, us, n_bp: int) -> tuple[ChainSpec, np.ndar
         theta[sl["h2.b"]] = theta_h[hsl["h10.b"]]
         theta[sl["offset"]] = theta_h[hsl["offset"]]
         return spec, theta
-    spec = ChainSpec(hs.n_inputs, hs.np1, hs.nz1, f_bp=hs.f_bp, g_bp=n_bp, h2=True, np2=1, nz2=1,
-                     delay=hs.delay)
+    spec = ChainSpec(hs.n_inputs, hs.np1, hs.nz1, f_bp=hs.f_bp, g_bp=n_bp, h2=True, np2=1, nz2=1, delay=hs.delay)
     sl = spec.slices()
     theta = np.zeros(spec.n_params)
     theta[: hsl["offset"].start] = theta_h[: hsl["offset"].start]
@@ -338,8 +346,9 @@ def linear_plus_hammerstein(ham: Fit, us, n_bp: int) -> tuple[ChainSpec, np.ndar
     return spec, theta
 
 
-def fit_wh(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | None = None,
-           hammerstein: Fit | None = None) -> Fit:
+def fit_wh(
+    us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | None = None, hammerstein: Fit | None = None
+) -> Fit:
     """H1, g, H2 built both ways (Wiener + linear, linear + Hammerstein), each refined jointly.
 
     ``wiener`` / ``hammerstein``: the Wiener and Hammerstein fits of the same order on the same
@@ -351,8 +360,18 @@ def fit_wh(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | N
     return wh_fits(us, ys, n_poles, n_zeros, n_bp, delay, opts, wiener, hammerstein)[0]
 
 
-def wh_fits(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | None = None,
-            hammerstein: Fit | None = None, linear: Fit | None = None) -> list[Fit]:
+def wh_fits(
+    us,
+    ys,
+    n_poles,
+    n_zeros,
+    n_bp,
+    delay,
+    opts: Options,
+    wiener: Fit | None = None,
+    hammerstein: Fit | None = None,
+    linear: Fit | None = None,
+) -> list[Fit]:
     """As :func:`fit_wh`, but every member: the best refinement first, then the other
     refinements and the starting models (``build`` ends in " start").
 
@@ -369,8 +388,9 @@ def wh_fits(us, ys, n_poles, n_zeros, n_bp, delay, opts: Options, wiener: Fit | 
         hammerstein = hammerstein or fit_hammerstein(us, ys, n_poles, n_zeros, n_bp, delay, opts, lin=lin)
     fits, starts = [], []
     for build, (spec, theta0), parent in (
-            ("wiener+linear", wiener_plus_linear(wiener), wiener),
-            ("linear+hammerstein", linear_plus_hammerstein(hammerstein, us, n_bp), hammerstein)):
+        ("wiener+linear", wiener_plus_linear(wiener), wiener),
+        ("linear+hammerstein", linear_plus_hammerstein(hammerstein, us, n_bp), hammerstein),
+    ):
         start = sse(spec, theta0, us, ys, opts.skip)
         # The start is the parent model itself; only rounding may separate the two errors.
         if not start <= parent.sse * (1 + 1e-9) + 1e-12:
@@ -504,7 +524,7 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS, alt
     spec = replace(fit.spec, g_noise=True)
     sl, old = spec.slices(), fit.spec.slices()
     chain = Chain(fit.spec, fit.theta)
-    spread = float(np.std(np.concatenate([chain.linear_sum(u)[opts.skip:] for u in us]))) or 1.0
+    spread = float(np.std(np.concatenate([chain.linear_sum(u)[opts.skip :] for u in us]))) or 1.0
     thetas = []
     with np.errstate(all="ignore"):
         for frac in starts:
@@ -512,7 +532,7 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS, alt
             cut = old["g.y"].stop
             theta[:cut] = fit.theta[:cut]
             theta[sl["g.s"]] = np.log(frac * spread)
-            theta[sl["g.s"].stop:] = fit.theta[cut:]
+            theta[sl["g.s"].stop :] = fit.theta[cut:]
             thetas.append(_noise_start(spec, theta, us, ys, opts.skip))
         costs = [sse(spec, t, us, ys, opts.skip) for t in thetas]
         keep = [thetas[i] for i in np.argsort(costs)[: max(opts.starts, 1)]]
@@ -531,7 +551,7 @@ def _vanishing_noise(fit: Fit, us, ys, skip: int, nfev: int = 0) -> Fit:
     theta = np.zeros(spec.n_params)
     theta[:cut] = fit.theta[:cut]
     theta[sl["g.s"]] = -30.0
-    theta[sl["g.s"].stop:] = fit.theta[cut:]
+    theta[sl["g.s"].stop :] = fit.theta[cut:]
     return Fit(spec, theta, sse(spec, theta, us, ys, skip), nfev)
 
 
@@ -542,8 +562,8 @@ def _vanishing_noise(fit: Fit, us, ys, skip: int, nfev: int = 0) -> Fit:
 NOISE_MIN_SMOOTHNESS = 1e-4
 # Noise levels bracketed first, as fractions of the spread of g's input under the OE fit.
 PERIOD_LEVELS = (0.25, 0.5, 1.0, 2.0, 4.0)
-PERIOD_STEPS = 4           # refined models at most per build
-PERIOD_TOLERANCE = 0.05    # |log power ratio| accepted: 5 %, below the Monte Carlo scatter of the check
+PERIOD_STEPS = 4  # refined models at most per build
+PERIOD_TOLERANCE = 0.05  # |log power ratio| accepted: 5 %, below the Monte Carlo scatter of the check
 
 
 def _at_noise_level(fit: Fit, spec: ChainSpec, us, ys, sigma: float, opts: Options, refine_blocks: bool) -> Fit:
@@ -554,7 +574,7 @@ def _at_noise_level(fit: Fit, spec: ChainSpec, us, ys, sigma: float, opts: Optio
     sl, old = spec.slices(), fit.spec.slices()
     xs = [chain.linear_sum(u) for u in us]
     rng = np.random.default_rng(0)
-    pooled = np.concatenate([x[opts.skip:] for x in xs])
+    pooled = np.concatenate([x[opts.skip :] for x in xs])
     gx = blocks.initial_breakpoints(pooled + sigma * rng.standard_normal(len(pooled)), spec.g_bp)
     theta = np.zeros(spec.n_params)
     for name in sl:
@@ -568,8 +588,8 @@ def _at_noise_level(fit: Fit, spec: ChainSpec, us, ys, sigma: float, opts: Optio
         if chain.h2 is not None:
             b, den, _ = chain.h2
             basis = _filter(b, den, basis)
-        cols.append(np.hstack([basis, np.ones((len(x), 1))])[opts.skip:])
-        rhs.append(y[opts.skip:])
+        cols.append(np.hstack([basis, np.ones((len(x), 1))])[opts.skip :])
+        rhs.append(y[opts.skip :])
     phi, r = np.vstack(cols), np.concatenate(rhs)
     d2 = np.diff(np.eye(len(gx)), 2, axis=0) * np.sqrt(opts.smoothness * len(r))
     phi = np.vstack([phi, np.hstack([d2, np.zeros((len(d2), 1))])])
@@ -598,7 +618,7 @@ class _SpreadConstraint:
 
     def _log_spread(self, theta) -> float:
         chain = Chain(self.spec, theta)
-        return float(np.log(np.std(np.concatenate([chain.linear_sum(u)[self.skip:] for u in self.us]))))
+        return float(np.log(np.std(np.concatenate([chain.linear_sum(u)[self.skip :] for u in self.us]))))
 
     def __call__(self, theta):
         base = self._log_spread(theta)
@@ -623,7 +643,7 @@ def _noise_from_periods(fit: Fit, us, ys, opts: Options, periods) -> Fit:
     spec = replace(fit.spec, g_noise=True)
     opts = replace(opts, smoothness=max(opts.smoothness, NOISE_MIN_SMOOTHNESS))
     chain = Chain(fit.spec, fit.theta)
-    spread = float(np.std(np.concatenate([chain.linear_sum(u)[opts.skip:] for u in us]))) or 1.0
+    spread = float(np.std(np.concatenate([chain.linear_sum(u)[opts.skip :] for u in us]))) or 1.0
     levels, logs = [], []
     for frac in PERIOD_LEVELS:
         sigma = frac * spread
@@ -652,14 +672,22 @@ def _noise_from_periods(fit: Fit, us, ys, opts: Options, periods) -> Fit:
         raise ValueError("the period differences could not be simulated")
     _, sigma, out, check = min(tried, key=lambda t: t[0])
     out.build = (fit.build + " + " if fit.build else "") + "process noise (level from repeated periods)"
-    out.notes = {"process_noise": {
-        "method": "repeated periods", "periods": periods.describe(), "sigma": float(sigma),
-        "sigma_per_spread": float(sigma / spread), "power_ratio": float(check.power_ratio),
-        "power_ratio_error": float(check.ratio_error),
-        "consistent": periods.consistent(check, PERIOD_TOLERANCE),
-        "colour": _colour_or_none(periods, spec, out.theta, us),
-        "shape_misfit": float(check.shape_misfit), "band_edges": check.band_edges.tolist(),
-        "noise_density": check.shape.tolist(), "smoothness": opts.smoothness}}
+    out.notes = {
+        "process_noise": {
+            "method": "repeated periods",
+            "periods": periods.describe(),
+            "sigma": float(sigma),
+            "sigma_per_spread": float(sigma / spread),
+            "power_ratio": float(check.power_ratio),
+            "power_ratio_error": float(check.ratio_error),
+            "consistent": periods.consistent(check, PERIOD_TOLERANCE),
+            "colour": _colour_or_none(periods, spec, out.theta, us),
+            "shape_misfit": float(check.shape_misfit),
+            "band_edges": check.band_edges.tolist(),
+            "noise_density": check.shape.tolist(),
+            "smoothness": opts.smoothness,
+        }
+    }
     return out
 
 
@@ -713,16 +741,21 @@ def deconvolution_spread(chosen: Fit, parent: Fit, tied: list[Fit], us, skip: in
     one of the ambiguities the records leave open. (A rank statement over the tied builds, not a
     significance level: with K tied builds, an output-error fit that were just one more of them
     would lie farthest with probability 1 / K.)"""
+
     def noise_free(f):
         chain = Chain(f.spec, f.theta)
         return np.concatenate([chain.simulate(u, expected=False)[skip:] for u in us])
 
     base = noise_free(chosen)
-    rms = (lambda d: float(np.sqrt(np.mean(d ** 2))))
+    rms = lambda d: float(np.sqrt(np.mean(d**2)))
     correction = rms(base - noise_free(parent))
     spread = max([rms(noise_free(f) - base) for f in tied if f is not chosen] or [0.0])
-    return {"correction": correction, "spread": spread, "tied_builds": len(tied),
-            "determined": bool(correction > spread)}
+    return {
+        "correction": correction,
+        "spread": spread,
+        "tied_builds": len(tied),
+        "determined": bool(correction > spread),
+    }
 
 
 def _slope(levels, logs) -> float:

@@ -16,12 +16,17 @@ def c_header(structure, name: str = "porosense_model") -> str:
     """Header text: per output, per branch the PWL breakpoints and SOS rows (b0 b1 b2 1 a1 a2)."""
     ident = re.sub(r"\W", "_", name)
     guard = ident.upper() + "_H"
-    lines = [f"/* {name}: float coefficients of a porosense estimator. */",
-             "/* y_j = offset_j + H2_j(g_j(sum_i H1_ij(f_ij(u_i[k - delay_ij] - u_offset_ij)))) */",
-             f"#ifndef {guard}", f"#define {guard}", "",
-             f"#define {ident.upper()}_TS {structure.ts!r}f",
-             f"#define {ident.upper()}_N_INPUTS {len(structure.inputs)}",
-             f"#define {ident.upper()}_N_OUTPUTS {len(structure.outputs)}", ""]
+    lines = [
+        f"/* {name}: float coefficients of a porosense estimator. */",
+        "/* y_j = offset_j + H2_j(g_j(sum_i H1_ij(f_ij(u_i[k - delay_ij] - u_offset_ij)))) */",
+        f"#ifndef {guard}",
+        f"#define {guard}",
+        "",
+        f"#define {ident.upper()}_TS {structure.ts!r}f",
+        f"#define {ident.upper()}_N_INPUTS {len(structure.inputs)}",
+        f"#define {ident.upper()}_N_OUTPUTS {len(structure.outputs)}",
+        "",
+    ]
     for j, out in enumerate(structure.outputs):
         p = f"{ident}_out{j}"
         lines.append(f"/* output {j}: {out.name} ({out.kind}) */")

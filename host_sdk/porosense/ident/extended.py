@@ -29,6 +29,7 @@ FORMAT_VERSION = 1
 
 # -- terms ---------------------------------------------------------------------------------------
 
+
 def laguerre_settled(x: np.ndarray, pole: float, order: int) -> np.ndarray:
     """(N, order) discrete Laguerre bank of x at ``pole``, started in steady state at x[0]."""
     x = np.asarray(x, float)
@@ -120,6 +121,7 @@ def predict_settled(model, u: np.ndarray, n_pre: int | None = None) -> np.ndarra
 
 # -- the model -----------------------------------------------------------------------------------
 
+
 class ExtendedModel:
     """Nominal model + sum of terms x coef: the simulation-mode extension of one named cause.
 
@@ -164,9 +166,17 @@ class ExtendedModel:
         raise ModelError(f"the {self.cause} extension cannot run in the on-device estimator: {self.note}")
 
     def to_dict(self) -> dict:
-        return {"format": FORMAT, "version": FORMAT_VERSION, "cause": self.cause,
-                "nominal": self.nominal.to_dict(), "columns": list(self.columns), "terms": self.terms,
-                "coef": [float(c) for c in self.coef], "preroll": self.preroll, "note": self.note}
+        return {
+            "format": FORMAT,
+            "version": FORMAT_VERSION,
+            "cause": self.cause,
+            "nominal": self.nominal.to_dict(),
+            "columns": list(self.columns),
+            "terms": self.terms,
+            "coef": [float(c) for c in self.coef],
+            "preroll": self.preroll,
+            "note": self.note,
+        }
 
     @classmethod
     def from_dict(cls, d: dict) -> ExtendedModel:
@@ -174,12 +184,14 @@ class ExtendedModel:
 
         try:
             nominal = Model.from_dict(d["nominal"])
-            m = cls(nominal, d["cause"], d["terms"], d["coef"], d.get("columns", ()), d.get("note", ""),
-                    d.get("preroll", 0))
+            m = cls(
+                nominal, d["cause"], d["terms"], d["coef"], d.get("columns", ()), d.get("note", ""), d.get("preroll", 0)
+            )
         except (KeyError, TypeError, ValueError) as exc:
             raise ModelError(f"malformed extended model ({exc})") from exc
-        if len(m.coef) != sum(term_columns(t, np.zeros((2, len(m.inputs))), np.zeros(2), 1.0).shape[1]
-                              for t in m.terms):
+        if len(m.coef) != sum(
+            term_columns(t, np.zeros((2, len(m.inputs))), np.zeros(2), 1.0).shape[1] for t in m.terms
+        ):
             raise ModelError("extended model: coefficient count does not match its terms")
         return m
 

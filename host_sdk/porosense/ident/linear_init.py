@@ -35,7 +35,7 @@ def _regressors(u, y, n_poles, n_zeros, delay, y_for_lags=None):
 
 def _unpack(theta, n_inputs, n_poles, n_zeros):
     a = np.concatenate([[1.0], theta[:n_poles]])
-    bs = [theta[n_poles + i * (n_zeros + 1): n_poles + (i + 1) * (n_zeros + 1)] for i in range(n_inputs)]
+    bs = [theta[n_poles + i * (n_zeros + 1) : n_poles + (i + 1) * (n_zeros + 1)] for i in range(n_inputs)]
     return stabilise(a), bs, float(theta[-1])
 
 
@@ -72,4 +72,3 @@ def iv(us, ys, n_poles, n_zeros, delay=0, iterations=2):
             break
         a, bs, c = _unpack(theta, us[0].shape[1], n_poles, n_zeros)
     return a, bs, c
-

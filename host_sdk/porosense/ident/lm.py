@@ -20,7 +20,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
-
 # Nielsen's starting damping, relative to the largest diagonal entry of J^T J.
 MU0 = 1e-3
 
@@ -28,8 +27,8 @@ MU0 = 1e-3
 @dataclass
 class LMResult:
     x: np.ndarray
-    cost: float          # sum of squared residuals at x
-    nfev: int            # residual evaluations (the initial one included)
+    cost: float  # sum of squared residuals at x
+    nfev: int  # residual evaluations (the initial one included)
     njev: int
     status: str
 
@@ -46,14 +45,15 @@ def _normal_equations(j, r):
     rows = max(8, _BLOCK_MNK // max(p * p, 1))
     a, g = np.zeros((p, p)), np.zeros(p)
     for i in range(0, len(j), rows):
-        blk = j[i:i + rows]
+        blk = j[i : i + rows]
         a += blk.T @ blk
-        g += blk.T @ r[i:i + rows]
+        g += blk.T @ r[i : i + rows]
     return a, g
 
 
-def levenberg_marquardt(fun, jac, x0, *, max_nfev: int = 200, ftol: float = 1e-7, xtol: float = 1e-7,
-                        gtol: float = 1e-7) -> LMResult:
+def levenberg_marquardt(
+    fun, jac, x0, *, max_nfev: int = 200, ftol: float = 1e-7, xtol: float = 1e-7, gtol: float = 1e-7
+) -> LMResult:
     """Minimise ||fun(x)||^2 from ``x0``; ``jac(x)`` returns d fun / dx (N, p).
 
     ``max_nfev`` bounds the residual evaluations (as MINPACK's maxfev). Only steps that lower

@@ -24,8 +24,7 @@ from porosense.ident import estimate
 from porosense.ident.blocks import sos_rows
 from porosense.ident.chain import Chain, ChainSpec
 from porosense.ident.metrics import fit_percent, information_criteria, rms_percent
-from porosense.structure import (Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade,
-                                 input_unit_scale)
+from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade, input_unit_scale
 
 FORMAT = "porosense.ident.model"
 FORMAT_VERSION = 1
@@ -57,9 +56,20 @@ class Model:
 
     kind = "base"
 
-    def __init__(self, *, n_poles: int = 2, n_zeros: int = 1, n_breakpoints: int = 10, delay: int = 0,
-                 starts: int = 2, max_nfev: int = 200, skip: int = 0, smoothness: float = 0.0,
-                 monotone: bool = False, process_noise: bool = False):
+    def __init__(
+        self,
+        *,
+        n_poles: int = 2,
+        n_zeros: int = 1,
+        n_breakpoints: int = 10,
+        delay: int = 0,
+        starts: int = 2,
+        max_nfev: int = 200,
+        skip: int = 0,
+        smoothness: float = 0.0,
+        monotone: bool = False,
+        process_noise: bool = False,
+    ):
         if n_poles < 0 or n_zeros < 0:
             raise InputError("n_poles and n_zeros must be >= 0")
         if not 2 <= n_breakpoints <= MAX_BREAKPOINTS:
@@ -75,8 +85,9 @@ class Model:
         # Estimate a Gaussian noise at g's input with g (estimate.with_process_noise).
         self.process_noise = bool(process_noise)
         if self.process_noise and self.kind not in NOISE_KINDS:
-            raise InputError(f"process noise enters before a map g: only {' and '.join(NOISE_KINDS)} "
-                             f"models take it, not {self.kind}")
+            raise InputError(
+                f"process noise enters before a map g: only {' and '.join(NOISE_KINDS)} models take it, not {self.kind}"
+            )
         self.spec: ChainSpec | None = None
         self.theta: np.ndarray | None = None
         self.u_scale = None
@@ -94,8 +105,18 @@ class Model:
     def _estimate(self, us, ys, opts) -> estimate.Fit:  # pragma: no cover - abstract
         raise NotImplementedError
 
-    def fit(self, *, u, y, ts: float = 1.0, inputs=None, output: str = "y", input_unit=None,
-            output_unit: str | None = None, linear: Model | None = None) -> Model:
+    def fit(
+        self,
+        *,
+        u,
+        y,
+        ts: float = 1.0,
+        inputs=None,
+        output: str = "y",
+        input_unit=None,
+        output_unit: str | None = None,
+        linear: Model | None = None,
+    ) -> Model:
         """Estimate on the recordings ``u`` (list of (N, n_in)), ``y`` (list of (N,)); ts in s.
 
         ``input_unit``: what ``u`` holds, "%" (dR in %) or "dR/100" (dR as a fraction), one for
@@ -106,21 +127,30 @@ class Model:
         """
         self._linear = linear
         try:
-            return self._fit(u=u, y=y, ts=ts, inputs=inputs, output=output, input_unit=input_unit,
-                             output_unit=output_unit)
+            return self._fit(
+                u=u, y=y, ts=ts, inputs=inputs, output=output, input_unit=input_unit, output_unit=output_unit
+            )
         finally:
             self._linear = None
+
     def _start_fit(self, model):
         """The estimate.Fit of ``model`` (same data and orders as this one), or None."""
         if model is None:
             return None
-        same = (model.theta is not None and model.n_poles == self.n_poles and model.n_zeros == self.n_zeros
-                and model.delay == self.delay and model.skip == self.skip
-                and np.array_equal(model.u_scale, self.u_scale) and model.y_mean == self.y_mean
-                and model.y_std == self.y_std)
+        same = (
+            model.theta is not None
+            and model.n_poles == self.n_poles
+            and model.n_zeros == self.n_zeros
+            and model.delay == self.delay
+            and model.skip == self.skip
+            and np.array_equal(model.u_scale, self.u_scale)
+            and model.y_mean == self.y_mean
+            and model.y_std == self.y_std
+        )
         if not same:
-            raise InputError(f"the {model.kind} model to start from must be fitted on the same data "
-                             "with the same orders")
+            raise InputError(
+                f"the {model.kind} model to start from must be fitted on the same data with the same orders"
+            )
         return estimate.Fit(model.spec, model.theta, model.info["sse"] / self.y_std**2)
 
     def _fit(self, *, u, y, ts, inputs, output, input_unit=None, output_unit=None) -> Model:
@@ -148,8 +178,13 @@ class Model:
         self.y_std = float(np.std(all_y)) or 1.0
         nus = [x / self.u_scale for x in us]
         nys = [(v - self.y_mean) / self.y_std for v in ys]
-        opts = estimate.Options(max_nfev=self.max_nfev, skip=self.skip, starts=self.starts,
-                                smoothness=self.smoothness, monotone=self.monotone)
+        opts = estimate.Options(
+            max_nfev=self.max_nfev,
+            skip=self.skip,
+            starts=self.starts,
+            smoothness=self.smoothness,
+            monotone=self.monotone,
+        )
         self.alternatives = []
         result = self._estimate(nus, nys, opts)
         self._oe_fit = None
@@ -193,8 +228,7 @@ class Model:
         x = x[:, None] if x.ndim == 1 else x
         if x.shape[1] != len(self.inputs):
             raise InputError(f"expected {len(self.inputs)} input columns, got {x.shape[1]}")
-        return (Chain(self.spec, self.theta).simulate(x / self.u_scale, expected=expected) * self.y_std
-                + self.y_mean)
+        return Chain(self.spec, self.theta).simulate(x / self.u_scale, expected=expected) * self.y_std + self.y_mean
 
     @property
     def process_noise_std(self) -> float:
@@ -212,8 +246,10 @@ class Model:
         us, ys = as_recordings(u, y)
         preds = [self.predict(u=x, expected=expected)[skip:] for x in us]
         ys = [v[skip:] for v in ys]
-        return {"fit": [fit_percent(v, p) for v, p in zip(ys, preds)],
-                "rms": [rms_percent(v, p) for v, p in zip(ys, preds)]}
+        return {
+            "fit": [fit_percent(v, p) for v, p in zip(ys, preds)],
+            "rms": [rms_percent(v, p) for v, p in zip(ys, preds)],
+        }
 
     @property
     def n_params(self) -> int:
@@ -247,18 +283,28 @@ class Model:
     def to_structure(self) -> EstimatorStructure:
         """The float estimator structure (raw data units) that quant and the firmware run."""
         self._require_fitted()
-        return EstimatorStructure(inputs=self.inputs, outputs=(self.output_chain(),), ts=self.ts,
-                                  meta={"kind": self.kind, "n_poles": self.n_poles, "n_zeros": self.n_zeros,
-                                        **({"process_noise_std": self.process_noise_std}
-                                           if self.spec.g_noise else {})},
-                                  **self._units())
+        return EstimatorStructure(
+            inputs=self.inputs,
+            outputs=(self.output_chain(),),
+            ts=self.ts,
+            meta={
+                "kind": self.kind,
+                "n_poles": self.n_poles,
+                "n_zeros": self.n_zeros,
+                **({"process_noise_std": self.process_noise_std} if self.spec.g_noise else {}),
+            },
+            **self._units(),
+        )
 
     def _units(self) -> dict:
         """Units and identification peaks of the inputs, for EstimatorStructure."""
         n = len(self.inputs)
         units = tuple(self.input_units) if len(self.input_units) == n else (None,) * n
-        return {"input_units": units, "output_units": (self.output_unit,),
-                "input_peak": tuple(float(v) for v in self.u_scale)}
+        return {
+            "input_units": units,
+            "output_units": (self.output_unit,),
+            "input_peak": tuple(float(v) for v in self.u_scale),
+        }
 
     def output_chain(self) -> OutputChain:
         """This model as one :class:`OutputChain` with the scalings folded into the blocks."""
@@ -284,8 +330,9 @@ class Model:
         if c.h2 is not None:
             b, den, _ = c.h2
             h2 = SOSCascade(sos_rows(np.array(b, dtype=float) * self.y_std, den))
-        return OutputChain(name=self.output, branches=tuple(branches), g=g, h2=h2,
-                           offset=c.offset * self.y_std + self.y_mean)
+        return OutputChain(
+            name=self.output, branches=tuple(branches), g=g, h2=h2, offset=c.offset * self.y_std + self.y_mean
+        )
 
     def linear_blocks(self) -> dict:
         """python-control TransferFunction of each linear block (``h1[i]``, ``h2``), dt = ts.
@@ -316,17 +363,29 @@ class Model:
         """Plain JSON types; floats survive json.dumps/json.loads exactly (shortest repr)."""
         self._require_fitted()
         return {
-            "format": FORMAT, "version": FORMAT_VERSION, "kind": self.kind,
-            "orders": {"n_poles": self.n_poles, "n_zeros": self.n_zeros,
-                       "n_breakpoints": self.n_breakpoints, "delay": self.delay},
-            "options": {"starts": self.starts, "max_nfev": self.max_nfev, "skip": self.skip,
-                        **({"smoothness": self.smoothness} if self.smoothness else {}),
-                        **({"monotone": True} if self.monotone else {}),
-                        **({"process_noise": True} if self.process_noise else {})},
+            "format": FORMAT,
+            "version": FORMAT_VERSION,
+            "kind": self.kind,
+            "orders": {
+                "n_poles": self.n_poles,
+                "n_zeros": self.n_zeros,
+                "n_breakpoints": self.n_breakpoints,
+                "delay": self.delay,
+            },
+            "options": {
+                "starts": self.starts,
+                "max_nfev": self.max_nfev,
+                "skip": self.skip,
+                **({"smoothness": self.smoothness} if self.smoothness else {}),
+                **({"monotone": True} if self.monotone else {}),
+                **({"process_noise": True} if self.process_noise else {}),
+            },
             "spec": asdict(self.spec),
             "theta": [float(v) for v in self.theta],
             "scaling": {"u_scale": [float(v) for v in self.u_scale], "y_mean": self.y_mean, "y_std": self.y_std},
-            "ts": self.ts, "inputs": list(self.inputs), "output": self.output,
+            "ts": self.ts,
+            "inputs": list(self.inputs),
+            "output": self.output,
             "signals": self._signals(),
             "info": {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in self.info.items()},
         }
@@ -360,9 +419,13 @@ class Model:
         every input and of the output; unit None = undeclared."""
         n = len(self.inputs)
         units = tuple(self.input_units) if len(self.input_units) == n else (None,) * n
-        return {"inputs": [{"name": name, "unit": unit, "scale": input_unit_scale(unit or "%")}
-                           for name, unit in zip(self.inputs, units)],
-                "output": {"name": self.output, "unit": self.output_unit, "scale": 1.0}}
+        return {
+            "inputs": [
+                {"name": name, "unit": unit, "scale": input_unit_scale(unit or "%")}
+                for name, unit in zip(self.inputs, units)
+            ],
+            "output": {"name": self.output, "unit": self.output_unit, "scale": 1.0},
+        }
 
     def save(self, path) -> Path:
         """Write the versioned JSON model file."""
@@ -370,8 +433,10 @@ class Model:
 
     def __repr__(self) -> str:
         state = f"fit sse={self.info['sse']:.4g}" if self.info else "not fitted"
-        return (f"{type(self).__name__}(n_poles={self.n_poles}, n_zeros={self.n_zeros}, "
-                f"n_breakpoints={self.n_breakpoints}, delay={self.delay}; {state})")
+        return (
+            f"{type(self).__name__}(n_poles={self.n_poles}, n_zeros={self.n_zeros}, "
+            f"n_breakpoints={self.n_breakpoints}, delay={self.delay}; {state})"
+        )
 
 
 def _tf(control, b, a, ts, delay):
@@ -397,8 +462,16 @@ class Hammerstein(Model):
     kind = "hammerstein"
 
     def _estimate(self, us, ys, opts):
-        return estimate.fit_hammerstein(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts,
-                                        lin=self._start_fit(getattr(self, "_linear", None)))
+        return estimate.fit_hammerstein(
+            us,
+            ys,
+            self.n_poles,
+            self.n_zeros,
+            self.n_breakpoints,
+            self.delay,
+            opts,
+            lin=self._start_fit(getattr(self, "_linear", None)),
+        )
 
 
 class Wiener(Model):
@@ -407,8 +480,16 @@ class Wiener(Model):
     kind = "wiener"
 
     def _estimate(self, us, ys, opts):
-        return estimate.fit_wiener(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts,
-                                   lin=self._start_fit(getattr(self, "_linear", None)))
+        return estimate.fit_wiener(
+            us,
+            ys,
+            self.n_poles,
+            self.n_zeros,
+            self.n_breakpoints,
+            self.delay,
+            opts,
+            lin=self._start_fit(getattr(self, "_linear", None)),
+        )
 
 
 class WienerHammerstein(Model):
@@ -426,40 +507,77 @@ class WienerHammerstein(Model):
 
     kind = "wh"
 
-    def fit(self, *, u, y, ts: float = 1.0, inputs=None, output: str = "y", wiener: Wiener | None = None,
-            hammerstein: Hammerstein | None = None, linear: Linear | None = None, input_unit=None,
-            output_unit: str | None = None) -> Model:
+    def fit(
+        self,
+        *,
+        u,
+        y,
+        ts: float = 1.0,
+        inputs=None,
+        output: str = "y",
+        wiener: Wiener | None = None,
+        hammerstein: Hammerstein | None = None,
+        linear: Linear | None = None,
+        input_unit=None,
+        output_unit: str | None = None,
+    ) -> Model:
         """As :meth:`Model.fit`; ``wiener`` / ``hammerstein`` / ``linear``: models of the same
         orders already fitted on the same data (reused as the starts instead of being estimated
         again)."""
         self._parts = (wiener, hammerstein)
         try:
-            return super().fit(u=u, y=y, ts=ts, inputs=inputs, output=output, linear=linear,
-                               input_unit=input_unit, output_unit=output_unit)
+            return super().fit(
+                u=u,
+                y=y,
+                ts=ts,
+                inputs=inputs,
+                output=output,
+                linear=linear,
+                input_unit=input_unit,
+                output_unit=output_unit,
+            )
         finally:
             self._parts = (None, None)
 
     def _part_fit(self, model):
         if model is None:
             return None
-        same = (model.theta is not None and model.n_poles == self.n_poles and model.n_zeros == self.n_zeros
-                and model.n_breakpoints == self.n_breakpoints and model.delay == self.delay and model.skip == self.skip
-                and np.array_equal(model.u_scale, self.u_scale) and model.y_mean == self.y_mean
-                and model.y_std == self.y_std)
+        same = (
+            model.theta is not None
+            and model.n_poles == self.n_poles
+            and model.n_zeros == self.n_zeros
+            and model.n_breakpoints == self.n_breakpoints
+            and model.delay == self.delay
+            and model.skip == self.skip
+            and np.array_equal(model.u_scale, self.u_scale)
+            and model.y_mean == self.y_mean
+            and model.y_std == self.y_std
+        )
         if not same:
-            raise InputError(f"the {model.kind} model to start from must be fitted on the same data "
-                             "with the same orders")
+            raise InputError(
+                f"the {model.kind} model to start from must be fitted on the same data with the same orders"
+            )
         if getattr(model, "_oe_fit", None) is not None:  # a process-noise model: its OE fit
             return model._oe_fit
         return estimate.Fit(model.spec, model.theta, model.info["sse"] / self.y_std**2)
 
     def _estimate(self, us, ys, opts):
         wiener, hammerstein = (self._part_fit(m) for m in getattr(self, "_parts", (None, None)))
-        fits = estimate.wh_fits(us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts,
-                                wiener=wiener, hammerstein=hammerstein,
-                                linear=self._start_fit(getattr(self, "_linear", None)))
+        fits = estimate.wh_fits(
+            us,
+            ys,
+            self.n_poles,
+            self.n_zeros,
+            self.n_breakpoints,
+            self.delay,
+            opts,
+            wiener=wiener,
+            hammerstein=hammerstein,
+            linear=self._start_fit(getattr(self, "_linear", None)),
+        )
         self.alternatives = fits[1:]
         return fits[0]
+
 
 NOISE_KINDS = ("wiener", "wh")
 KINDS = {"linear": Linear, "hammerstein": Hammerstein, "wiener": Wiener, "wh": WienerHammerstein}
@@ -504,10 +622,15 @@ class ModelSet:
     def to_structure(self) -> EstimatorStructure:
         units = [m._units() for m in self.models]
         peak = tuple(np.max([u["input_peak"] for u in units], axis=0))
-        return EstimatorStructure(inputs=self.inputs, outputs=tuple(m.output_chain() for m in self.models),
-                                  ts=self.ts, meta={"kinds": [m.kind for m in self.models]},
-                                  input_units=units[0]["input_units"],
-                                  output_units=tuple(u["output_units"][0] for u in units), input_peak=peak)
+        return EstimatorStructure(
+            inputs=self.inputs,
+            outputs=tuple(m.output_chain() for m in self.models),
+            ts=self.ts,
+            meta={"kinds": [m.kind for m in self.models]},
+            input_units=units[0]["input_units"],
+            output_units=tuple(u["output_units"][0] for u in units),
+            input_peak=peak,
+        )
 
     def save(self, path) -> Path:
         return save_models(self.models, path)
@@ -530,7 +653,8 @@ def load_model(path):
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ModelError(f"{path} is not a model file: {exc}") from exc
     if isinstance(doc, dict) and doc.get("format") == "porosense.ident.extended":
-        from porosense.ident.extended import FORMAT_VERSION as EXT_VERSION, ExtendedModel
+        from porosense.ident.extended import FORMAT_VERSION as EXT_VERSION
+        from porosense.ident.extended import ExtendedModel
 
         if doc.get("version") != EXT_VERSION:
             raise ModelError(f"{path}: extended model version {doc.get('version')}, this build reads {EXT_VERSION}")

@@ -45,11 +45,11 @@ MC_PAIRS = 4  # simulated period pairs per measured one (their scatter enters ea
 class ColourCheck:
     """The measured period-difference spectrum against a model's white-noise path."""
 
-    statistic: float       # weighted squared misfit of the band powers (chi-square under the model)
-    dof: int               # degrees of freedom
+    statistic: float  # weighted squared misfit of the band powers (chi-square under the model)
+    dof: int  # degrees of freedom
     p_value: float
-    ratio_db: np.ndarray   # simulated (level fitted, measurement noise added) / measured, per band, dB
-    output_noise: float    # fitted measurement-noise density b, as a fraction of the mean measured density
+    ratio_db: np.ndarray  # simulated (level fitted, measurement noise added) / measured, per band, dB
+    output_noise: float  # fitted measurement-noise density b, as a fraction of the mean measured density
 
     @property
     def refuted(self) -> bool:
@@ -57,13 +57,20 @@ class ColourCheck:
         return bool(self.p_value < ALPHA)
 
     def describe(self) -> str:
-        return (f"period-difference colour: misfit {self.statistic:.1f} on {self.dof} dof, p = {self.p_value:.2g} "
-                f"({'refuted' if self.refuted else 'not refuted'} at {100 * ALPHA:g} %)")
+        return (
+            f"period-difference colour: misfit {self.statistic:.1f} on {self.dof} dof, p = {self.p_value:.2g} "
+            f"({'refuted' if self.refuted else 'not refuted'} at {100 * ALPHA:g} %)"
+        )
 
     def to_dict(self) -> dict:
-        return {"statistic": float(self.statistic), "dof": int(self.dof), "p_value": float(self.p_value),
-                "refuted": self.refuted, "ratio_db": np.round(self.ratio_db, 2).tolist(),
-                "output_noise": float(self.output_noise)}
+        return {
+            "statistic": float(self.statistic),
+            "dof": int(self.dof),
+            "p_value": float(self.p_value),
+            "refuted": self.refuted,
+            "ratio_db": np.round(self.ratio_db, 2).tolist(),
+            "output_noise": float(self.output_noise),
+        }
 
 
 def band_means(bands: _Bands, diffs) -> tuple[np.ndarray, np.ndarray]:
@@ -83,7 +90,7 @@ def band_means(bands: _Bands, diffs) -> tuple[np.ndarray, np.ndarray]:
     c0 = sum(np.sum(d * d, axis=0) for d in dev) / (k - 1)
     c1 = sum(np.sum(d[1:] * d[:-1], axis=0) for d in dev) / (k - 1)
     var = np.maximum(c0 + 2 * c1, c0) / k
-    return mean, var / mean ** 2
+    return mean, var / mean**2
 
 
 def check(periods: PeriodData, spec, theta, us, seed: int = 0) -> ColourCheck:
@@ -112,5 +119,10 @@ def check(periods: PeriodData, spec, theta, us, seed: int = 0) -> ColourCheck:
     fitted = design @ coef
     stat = float(np.sum((w * (1.0 - fitted)) ** 2))
     dof = max(len(m) - max(free, 1), 1)
-    return ColourCheck(stat, dof, float(chi2.sf(stat, dof)), 10 * np.log10(np.maximum(fitted, 1e-12)),
-                       float(coef[1] * len(m) / np.sum(m)))
+    return ColourCheck(
+        stat,
+        dof,
+        float(chi2.sf(stat, dof)),
+        10 * np.log10(np.maximum(fitted, 1e-12)),
+        float(coef[1] * len(m) / np.sum(m)),
+    )

@@ -36,12 +36,12 @@ from porosense.ident.chain import Chain, _filter
 # input's RMS. Repeats of a generator agree to its noise (the WH benchmark: 0.03 %); two
 # unrelated stretches of a random input differ by about sqrt(2) x the RMS.
 REPEAT_TOLERANCE = 0.01
-MAX_REPEATS = 8            # periods tried: N/2 .. N/MAX_REPEATS samples
-SEGMENT = 256              # Welch segment (samples)
-N_BANDS = 14               # log-spaced band edges over the Welch grid
-POWER_KEPT = 0.999         # measured power the compared bands hold
+MAX_REPEATS = 8  # periods tried: N/2 .. N/MAX_REPEATS samples
+SEGMENT = 256  # Welch segment (samples)
+N_BANDS = 14  # log-spaced band edges over the Welch grid
+POWER_KEPT = 0.999  # measured power the compared bands hold
 SHAPE_ITERATIONS = 8
-MC_PAIRS = 2               # simulated period pairs per measured one
+MC_PAIRS = 2  # simulated period pairs per measured one
 # Two-sided 1 % quantile of the standard normal: a model whose simulated period power misses the
 # measured one by more than this many standard errors cannot reproduce the noise at any level.
 CONSISTENCY_Z = 2.576
@@ -54,13 +54,13 @@ def repeated_period(u, skip: int = 0) -> int:
     u = np.asarray(u, dtype=float)
     u = u[:, None] if u.ndim == 1 else u
     n = len(u)
-    rms = float(np.sqrt(np.mean(u ** 2))) or 1.0
+    rms = float(np.sqrt(np.mean(u**2))) or 1.0
     for k in range(2, MAX_REPEATS + 1):
         p = n // k
         if p <= max(skip, SEGMENT // 2):
             break
-        d = u[p:k * p] - u[: (k - 1) * p]
-        if float(np.sqrt(np.mean(d ** 2))) < REPEAT_TOLERANCE * rms:
+        d = u[p : k * p] - u[: (k - 1) * p]
+        if float(np.sqrt(np.mean(d**2))) < REPEAT_TOLERANCE * rms:
             return p
     return 0
 
@@ -73,8 +73,8 @@ def _pairs(y, period: int, skip: int):
 
 @dataclass
 class _Bands:
-    edges: np.ndarray      # Welch-grid indices of the band edges
-    used: np.ndarray       # bands compared (bool)
+    edges: np.ndarray  # Welch-grid indices of the band edges
+    used: np.ndarray  # bands compared (bool)
 
     def powers(self, diffs) -> np.ndarray:
         """Mean Welch density per band over the difference records ``diffs``."""
@@ -118,11 +118,11 @@ class _Bands:
 class PeriodNoise:
     """What the repeated periods say about the process noise at a trial level."""
 
-    sigma: float                 # trial standard deviation at g's input (normalised units)
-    power_ratio: float           # simulated / measured power of the period differences
-    shape: np.ndarray            # noise density per compared band (relative, max 1)
-    band_edges: np.ndarray       # band edges, cycles per sample
-    shape_misfit: float          # largest |log| band ratio left after the shape fit
+    sigma: float  # trial standard deviation at g's input (normalised units)
+    power_ratio: float  # simulated / measured power of the period differences
+    shape: np.ndarray  # noise density per compared band (relative, max 1)
+    band_edges: np.ndarray  # band edges, cycles per sample
+    shape_misfit: float  # largest |log| band ratio left after the shape fit
     n_pairs: int = 0
     ratio_error: float = float("nan")  # standard error of log(power_ratio): measured and simulated scatter
     extra: dict = field(default_factory=dict)
@@ -132,7 +132,7 @@ class PeriodData:
     """The measured period differences of the recordings that repeat their input."""
 
     def __init__(self, us, ys, skip: int = 0):
-        self.records = []          # (index, period, measured differences)
+        self.records = []  # (index, period, measured differences)
         for i, (u, y) in enumerate(zip(us, ys)):
             p = repeated_period(u, skip)
             if p:
@@ -157,8 +157,9 @@ class PeriodData:
         """Whether a model's simulated period power (``check``) agrees with the measured one:
         |log ratio| within CONSISTENCY_Z standard errors (two-sided, 1 %) or ``tolerance``."""
         bound = max(tolerance, CONSISTENCY_Z * check.ratio_error)
-        return bool(np.isfinite(check.power_ratio) and check.power_ratio > 0
-                    and abs(np.log(check.power_ratio)) <= bound)
+        return bool(
+            np.isfinite(check.power_ratio) and check.power_ratio > 0 and abs(np.log(check.power_ratio)) <= bound
+        )
 
     def __bool__(self) -> bool:
         return bool(self.records)
@@ -169,8 +170,10 @@ class PeriodData:
 
     def describe(self) -> str:
         periods = sorted({p for _, p, _ in self.records})
-        return (f"{len(self.records)} recording(s) repeat their input (period {', '.join(map(str, periods))} "
-                f"samples): {self.n_pairs} period difference(s)")
+        return (
+            f"{len(self.records)} recording(s) repeat their input (period {', '.join(map(str, periods))} "
+            f"samples): {self.n_pairs} period difference(s)"
+        )
 
     def evaluate(self, spec, theta, us, sigma: float, seed: int = 0) -> PeriodNoise:
         """Fit the noise spectrum's shape for the model (``spec``, ``theta``) with its noise at
@@ -209,8 +212,8 @@ def _split(y, period: int, skip: int):
     for k in range(n_periods - 1):
         lo = start if k == 0 else 0
         if period - lo >= SEGMENT:
-            earlier.append(y[k * period + lo: (k + 1) * period])
-            later.append(y[(k + 1) * period + lo: (k + 2) * period])
+            earlier.append(y[k * period + lo : (k + 1) * period])
+            later.append(y[(k + 1) * period + lo : (k + 2) * period])
     return earlier, later
 
 

@@ -84,14 +84,25 @@ class Candidate:
         return float(np.mean(vals)) if vals else float("nan")
 
     def to_dict(self) -> dict:
-        return {"structure": self.structure, "n_poles": self.n_poles, "n_zeros": self.n_zeros,
-                "mean_fit": self.mean_fit, "mean_rms": self.mean_rms,
-                "fit_estimation": self.fit_estimation, "fit_validation": self.fit_validation,
-                "rms_estimation": self.rms_estimation, "rms_validation": self.rms_validation,
-                "aic": self.aic, "bic": self.bic, "n_params": self.n_params,
-                "seconds": self.seconds, "cpu_seconds": self.cpu_seconds, "feasible": self.feasible,
-                "refuted": self.refuted,
-                "build": (self.model.info.get("build") if self.model is not None else None)}
+        return {
+            "structure": self.structure,
+            "n_poles": self.n_poles,
+            "n_zeros": self.n_zeros,
+            "mean_fit": self.mean_fit,
+            "mean_rms": self.mean_rms,
+            "fit_estimation": self.fit_estimation,
+            "fit_validation": self.fit_validation,
+            "rms_estimation": self.rms_estimation,
+            "rms_validation": self.rms_validation,
+            "aic": self.aic,
+            "bic": self.bic,
+            "n_params": self.n_params,
+            "seconds": self.seconds,
+            "cpu_seconds": self.cpu_seconds,
+            "feasible": self.feasible,
+            "refuted": self.refuted,
+            "build": (self.model.info.get("build") if self.model is not None else None),
+        }
 
 
 @dataclass
@@ -123,7 +134,7 @@ class SearchResult:
     def _select(self):
         pool = self.feasible or self.candidates
         pool = [c for c in pool if not c.refuted] or pool
-        key = (lambda c: c.score(self.criterion))
+        key = lambda c: c.score(self.criterion)
         top = max(pool, key=key)
         tol = self.tolerance(top)
         near = [c for c in pool if key(c) >= key(top) - tol]
@@ -133,8 +144,10 @@ class SearchResult:
         if best.structure != "linear" and linears and best.fit_validation:
             lin = max(linears, key=lambda c: c.validation_fit)
             if best.validation_fit < lin.validation_fit:
-                note = (f"{best.structure} {best.n_poles}p{best.n_zeros}z validates worse than linear "
-                        f"({best.validation_fit:.2f} % < {lin.validation_fit:.2f} %): linear kept")
+                note = (
+                    f"{best.structure} {best.n_poles}p{best.n_zeros}z validates worse than linear "
+                    f"({best.validation_fit:.2f} % < {lin.validation_fit:.2f} %): linear kept"
+                )
                 best = lin
         return best, top, tol, near, note
 
@@ -147,14 +160,20 @@ class SearchResult:
     def rule(self) -> str:
         """One line: how the selected candidate was chosen."""
         best, top, tol, near, note = self._select()
-        what = {"paper": "mean fit over estimation and validation recordings",
-                "fit": "mean fit on the validation data" if top.fit_validation else
-                       "mean fit on the estimation data (no validation data)",
-                "aic": "lowest AIC on the estimation data", "bic": "lowest BIC on the estimation data"}[self.criterion]
+        what = {
+            "paper": "mean fit over estimation and validation recordings",
+            "fit": "mean fit on the validation data"
+            if top.fit_validation
+            else "mean fit on the estimation data (no validation data)",
+            "aic": "lowest AIC on the estimation data",
+            "bic": "lowest BIC on the estimation data",
+        }[self.criterion]
         text = f"rule: {what}"
         if self.criterion in ("fit", "paper"):
-            text += (f"; {len(near)} candidate(s) within {tol:.3g} points of the best "
-                     f"({top.score(self.criterion):.2f} %), the fewest parameters taken")
+            text += (
+                f"; {len(near)} candidate(s) within {tol:.3g} points of the best "
+                f"({top.score(self.criterion):.2f} %), the fewest parameters taken"
+            )
         if self.holdout:
             text += f"; validation: {self.holdout}"
         if note:
@@ -183,25 +202,38 @@ class SearchResult:
 
     def to_dict(self) -> dict:
         best = self.best
-        return {"best": best.to_dict(), "seconds": self.seconds, "criterion": self.criterion,
-                "rule": self.rule, "holdout": self.holdout,
-                "best_per_structure": {k: v.to_dict() for k, v in self.best_per_structure().items()},
-                "candidates": self.table()}
+        return {
+            "best": best.to_dict(),
+            "seconds": self.seconds,
+            "criterion": self.criterion,
+            "rule": self.rule,
+            "holdout": self.holdout,
+            "best_per_structure": {k: v.to_dict() for k, v in self.best_per_structure().items()},
+            "candidates": self.table(),
+        }
 
     def __str__(self) -> str:
-        lines = [f"{'structure':<12}{'poles':>6}{'zeros':>6}{'mean fit %':>12}{'est fit %':>11}{'val fit %':>11}"
-                 f"{'mean RMS %':>12}{'AIC':>12}{'BIC':>12}"]
+        lines = [
+            f"{'structure':<12}{'poles':>6}{'zeros':>6}{'mean fit %':>12}{'est fit %':>11}{'val fit %':>11}"
+            f"{'mean RMS %':>12}{'AIC':>12}{'BIC':>12}"
+        ]
         for c in sorted(self.best_per_structure(self.criterion).values(), key=lambda c: -c.score(self.criterion)):
             val = f"{c.validation_fit:>11.2f}" if c.fit_validation else f"{'-':>11}"
-            lines.append(f"{c.structure:<12}{c.n_poles:>6}{c.n_zeros:>6}{c.mean_fit:>12.2f}{c.estimation_fit:>11.2f}"
-                         f"{val}{c.mean_rms:>12.2f}{c.aic:>12.4g}{c.bic:>12.4g}")
+            lines.append(
+                f"{c.structure:<12}{c.n_poles:>6}{c.n_zeros:>6}{c.mean_fit:>12.2f}{c.estimation_fit:>11.2f}"
+                f"{val}{c.mean_rms:>12.2f}{c.aic:>12.4g}{c.bic:>12.4g}"
+            )
         b = self.best
         val = f"{b.validation_fit:.2f} %" if b.fit_validation else "-"
-        lines.append(f"selected: {b.structure} ({b.n_poles} poles, {b.n_zeros} zeros), "
-                     f"{len(self.candidates)} candidates in {self.seconds:.1f} s")
-        lines.append(f"selected row: {b.structure:<12}{b.n_poles:>3}p{b.n_zeros:>3}z  estimation fit "
-                     f"{b.estimation_fit:.2f} %  validation fit {val}  AIC {b.aic:.5g}  BIC {b.bic:.5g}"
-                     + (f"  [{b.model.info['build']}]" if b.model is not None and b.model.info.get("build") else ""))
+        lines.append(
+            f"selected: {b.structure} ({b.n_poles} poles, {b.n_zeros} zeros), "
+            f"{len(self.candidates)} candidates in {self.seconds:.1f} s"
+        )
+        lines.append(
+            f"selected row: {b.structure:<12}{b.n_poles:>3}p{b.n_zeros:>3}z  estimation fit "
+            f"{b.estimation_fit:.2f} %  validation fit {val}  AIC {b.aic:.5g}  BIC {b.bic:.5g}"
+            + (f"  [{b.model.info['build']}]" if b.model is not None and b.model.info.get("build") else "")
+        )
         lines.append(self.rule)
         return "\n".join(lines)
 
@@ -263,8 +295,23 @@ def _score(structure, n_poles, n_zeros, model, kwargs, fit_args, val, seconds, c
     est = model.score(u=fit_args["u"], y=fit_args["y"], skip=kwargs["skip"], expected=True)
     vs = _score_records(model, *val) if val else {"fit": [], "rms": []}
     n_val = int(sum(len(y) - k for y, k in zip(val[1], val[2]))) if val else 0
-    return Candidate(structure, n_poles, n_zeros, est["fit"], vs["fit"], est["rms"], vs["rms"],
-                     model.aic, model.bic, model.n_params, seconds, True, model, cpu_seconds, n_val)
+    return Candidate(
+        structure,
+        n_poles,
+        n_zeros,
+        est["fit"],
+        vs["fit"],
+        est["rms"],
+        vs["rms"],
+        model.aic,
+        model.bic,
+        model.n_params,
+        seconds,
+        True,
+        model,
+        cpu_seconds,
+        n_val,
+    )
 
 
 def tie_tolerance(top: Candidate, criterion: str, tie_tol: float = 0.01) -> float:
@@ -284,12 +331,17 @@ def _best_member(structure, n_poles, n_zeros, model, kwargs, fit_args, val, crit
     own = [] if model.info.get("process_noise", {}).get("method", "").endswith("rejected") else [model]
     # A noise model the period differences refute is only its output-error fit with a vanishing
     # noise: its members (that fit among them) stand instead.
-    members = [_score(structure, n_poles, n_zeros, m, kwargs, fit_args, val, 0.0, 0.0)
-               for m in own + model.alternative_models()]
+    members = [
+        _score(structure, n_poles, n_zeros, m, kwargs, fit_args, val, 0.0, 0.0)
+        for m in own + model.alternative_models()
+    ]
     best = max(members + list(others), key=lambda c: c.score(criterion))
     measured = bool(own) and model.info.get("process_noise", {}).get("method") == "repeated periods"
-    if measured and members[0] is not best and \
-            members[0].score(criterion) >= best.score(criterion) - tie_tolerance(best, criterion):
+    if (
+        measured
+        and members[0] is not best
+        and members[0].score(criterion) >= best.score(criterion) - tie_tolerance(best, criterion)
+    ):
         # The noise level was measured and the noise-aware model (what process_noise asks for)
         # validates within the noise of its output-error member: the validation data carry
         # the same process noise and cannot tell the noise-free map from the smoothed one.
@@ -303,8 +355,9 @@ def _fit_candidate(structure, n_poles, n_zeros, kwargs, fit_args, val):
     t0, c0 = time.perf_counter(), time.process_time()
     model = make_model(structure, n_poles=n_poles, n_zeros=n_zeros, **kwargs)
     model.fit(**fit_args)
-    return _score(structure, n_poles, n_zeros, model, kwargs, fit_args, val,
-                  time.perf_counter() - t0, time.process_time() - c0)
+    return _score(
+        structure, n_poles, n_zeros, model, kwargs, fit_args, val, time.perf_counter() - t0, time.process_time() - c0
+    )
 
 
 def _fit_order_group(structures, n_poles, n_zeros, kwargs, fit_args, val, criterion="paper") -> list:
@@ -361,14 +414,40 @@ def _run_task(structures, n_poles, n_zeros, kwargs, fit_args, val, criterion="pa
     return _fit_order_group(structures, n_poles, n_zeros, kwargs, fit_args, val, criterion)
 
 
-def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=range(1, 11), zeros=None,
-           n_breakpoints: int = 10, delay: int = 0, starts: int = 2, max_nfev: int = 100, skip: int = 0,
-           inputs=None, output: str = "y", executor: Executor | None = None, progress: bool = True,
-           constraint=None, size_fn=None, max_bytes: int | None = None, grid=None,
-           tie_tol: float = 0.01, validation_skip=0, criterion: str = "paper", holdout: str = "",
-           staged: bool = False, staged_orders: int = 2, smoothness: float = 0.0,
-           monotone: bool = False, process_noise: bool = False, input_unit=None,
-           output_unit: str | None = None) -> SearchResult:
+def search(
+    *,
+    u,
+    y,
+    ts: float,
+    validation=None,
+    structures=STRUCTURES,
+    poles=range(1, 11),
+    zeros=None,
+    n_breakpoints: int = 10,
+    delay: int = 0,
+    starts: int = 2,
+    max_nfev: int = 100,
+    skip: int = 0,
+    inputs=None,
+    output: str = "y",
+    executor: Executor | None = None,
+    progress: bool = True,
+    constraint=None,
+    size_fn=None,
+    max_bytes: int | None = None,
+    grid=None,
+    tie_tol: float = 0.01,
+    validation_skip=0,
+    criterion: str = "paper",
+    holdout: str = "",
+    staged: bool = False,
+    staged_orders: int = 2,
+    smoothness: float = 0.0,
+    monotone: bool = False,
+    process_noise: bool = False,
+    input_unit=None,
+    output_unit: str | None = None,
+) -> SearchResult:
     """Estimate the whole grid and select by ``criterion`` (see :class:`SearchResult`).
 
     u, y: estimation recordings (lists of (N, n_in) and (N,)); validation: (u_list, y_list) or
@@ -403,31 +482,80 @@ def search(*, u, y, ts: float, validation=None, structures=STRUCTURES, poles=ran
     if criterion not in CRITERIA:
         raise InputError(f"unknown criterion {criterion!r}; choose from {', '.join(CRITERIA)}")
     if process_noise:
-        fit_args, val = _fit_args_and_validation(u, y, ts, validation, validation_skip, inputs, output,
-                                                 input_unit, output_unit)
-        args = dict(u=u, y=y, ts=ts, validation=validation, n_breakpoints=n_breakpoints, delay=delay,
-                    starts=starts, max_nfev=max_nfev, skip=skip, inputs=inputs, output=output, progress=progress,
-                    constraint=constraint, size_fn=size_fn, max_bytes=max_bytes, tie_tol=tie_tol,
-                    validation_skip=validation_skip, criterion=criterion, holdout=holdout, smoothness=smoothness,
-                    monotone=monotone, input_unit=input_unit, output_unit=output_unit)
+        fit_args, val = _fit_args_and_validation(
+            u, y, ts, validation, validation_skip, inputs, output, input_unit, output_unit
+        )
+        args = dict(
+            u=u,
+            y=y,
+            ts=ts,
+            validation=validation,
+            n_breakpoints=n_breakpoints,
+            delay=delay,
+            starts=starts,
+            max_nfev=max_nfev,
+            skip=skip,
+            inputs=inputs,
+            output=output,
+            progress=progress,
+            constraint=constraint,
+            size_fn=size_fn,
+            max_bytes=max_bytes,
+            tie_tol=tie_tol,
+            validation_skip=validation_skip,
+            criterion=criterion,
+            holdout=holdout,
+            smoothness=smoothness,
+            monotone=monotone,
+            input_unit=input_unit,
+            output_unit=output_unit,
+        )
         full = list(grid) if grid is not None else order_grid(structures, poles, zeros)
         bla = NonparametricBLA.from_records(fit_args["u"], fit_args["y"], skip)
         oe = _bla_ordered_search(bla, full, staged, executor, args) if bla is not None else None
         if oe is None:
             oe = search(grid=full, executor=executor, staged=staged, staged_orders=staged_orders, **args)
-        return _with_process_noise(oe, fit_args, val, _model_options(n_breakpoints, delay, starts, max_nfev, skip,
-                                                                     smoothness, monotone),
-                                   constraint, size_fn, max_bytes)
+        return _with_process_noise(
+            oe,
+            fit_args,
+            val,
+            _model_options(n_breakpoints, delay, starts, max_nfev, skip, smoothness, monotone),
+            constraint,
+            size_fn,
+            max_bytes,
+        )
     if staged:
-        args = dict(u=u, y=y, ts=ts, validation=validation, n_breakpoints=n_breakpoints, delay=delay,
-                    starts=starts, max_nfev=max_nfev, skip=skip, inputs=inputs, output=output,
-                    progress=progress, constraint=constraint, size_fn=size_fn, max_bytes=max_bytes,
-                    tie_tol=tie_tol, validation_skip=validation_skip, criterion=criterion, holdout=holdout,
-                    smoothness=smoothness, monotone=monotone, input_unit=input_unit, output_unit=output_unit)
-        return _staged_search(list(grid) if grid is not None else order_grid(structures, poles, zeros),
-                              executor, staged_orders, args)
-    fit_args, val = _fit_args_and_validation(u, y, ts, validation, validation_skip, inputs, output, input_unit,
-                                             output_unit)
+        args = dict(
+            u=u,
+            y=y,
+            ts=ts,
+            validation=validation,
+            n_breakpoints=n_breakpoints,
+            delay=delay,
+            starts=starts,
+            max_nfev=max_nfev,
+            skip=skip,
+            inputs=inputs,
+            output=output,
+            progress=progress,
+            constraint=constraint,
+            size_fn=size_fn,
+            max_bytes=max_bytes,
+            tie_tol=tie_tol,
+            validation_skip=validation_skip,
+            criterion=criterion,
+            holdout=holdout,
+            smoothness=smoothness,
+            monotone=monotone,
+            input_unit=input_unit,
+            output_unit=output_unit,
+        )
+        return _staged_search(
+            list(grid) if grid is not None else order_grid(structures, poles, zeros), executor, staged_orders, args
+        )
+    fit_args, val = _fit_args_and_validation(
+        u, y, ts, validation, validation_skip, inputs, output, input_unit, output_unit
+    )
     grid = list(grid) if grid is not None else order_grid(structures, poles, zeros)
     if not grid:
         raise InputError("empty order grid")
@@ -482,8 +610,15 @@ def _fit_args_and_validation(u, y, ts, validation, validation_skip, inputs, outp
         if len(vskips) != len(vy) or any(len(v) - k < 2 for v, k in zip(vy, vskips)):
             raise InputError("every validation recording needs at least 2 scored samples after its skip")
         val = (vu, vy, vskips)
-    fit_args = {"u": us, "y": ys, "ts": ts, "inputs": inputs, "output": output, "input_unit": input_unit,
-                "output_unit": output_unit}
+    fit_args = {
+        "u": us,
+        "y": ys,
+        "ts": ts,
+        "inputs": inputs,
+        "output": output,
+        "input_unit": input_unit,
+        "output_unit": output_unit,
+    }
     return fit_args, val
 
 
@@ -514,14 +649,20 @@ def _with_process_noise(result: SearchResult, fit_args, val, kwargs, constraint,
         pool = [c for c in pool if not c.refuted] or pool
         top = max(pool, key=lambda c: c.score(result.criterion))
         order = (top.n_poles, top.n_zeros)
-        parts = {c.structure: c.model for c in candidates if (c.n_poles, c.n_zeros) == order
-                 and c.structure in ("linear", "wiener", "hammerstein") and c.model is not None
-                 and (structure == "wh" or c.structure == "linear")}
+        parts = {
+            c.structure: c.model
+            for c in candidates
+            if (c.n_poles, c.n_zeros) == order
+            and c.structure in ("linear", "wiener", "hammerstein")
+            and c.model is not None
+            and (structure == "wh" or c.structure == "linear")
+        }
         t1, c1 = time.perf_counter(), time.process_time()
         model = make_model(structure, n_poles=top.n_poles, n_zeros=top.n_zeros, process_noise=True, **kwargs)
         model.fit(**fit_args, **parts)
-        best = _best_member(structure, top.n_poles, top.n_zeros, model, kwargs, fit_args, val, result.criterion,
-                            others=[top])
+        best = _best_member(
+            structure, top.n_poles, top.n_zeros, model, kwargs, fit_args, val, result.criterion, others=[top]
+        )
         if best is not top:
             best.seconds = top.seconds + time.perf_counter() - t1
             best.cpu_seconds = top.cpu_seconds + time.process_time() - c1
@@ -529,13 +670,26 @@ def _with_process_noise(result: SearchResult, fit_args, val, kwargs, constraint,
             best.refuted = top.refuted
             candidates[candidates.index(top)] = best
         method = model.info.get("process_noise", {}).get("method", "")
-        kept = ("process noise rejected by the period differences, output error kept" if method.endswith("rejected")
-                else "process noise undetermined by the records, output error kept" if method.endswith("undetermined")
-                else "process noise" if best.model.spec.g_noise else "output error kept")
+        kept = (
+            "process noise rejected by the period differences, output error kept"
+            if method.endswith("rejected")
+            else "process noise undetermined by the records, output error kept"
+            if method.endswith("undetermined")
+            else "process noise"
+            if best.model.spec.g_noise
+            else "output error kept"
+        )
         refitted.append(f"{structure} {top.n_poles}p{top.n_zeros}z ({kept})")
-    note = "process noise fitted for " + ", ".join(refitted) if refitted else "no Wiener or WH candidate for process noise"
-    return SearchResult(candidates, result.seconds + time.perf_counter() - t0, result.tie_tol, result.criterion,
-                        result.holdout + ("; " if result.holdout else "") + note)
+    note = (
+        "process noise fitted for " + ", ".join(refitted) if refitted else "no Wiener or WH candidate for process noise"
+    )
+    return SearchResult(
+        candidates,
+        result.seconds + time.perf_counter() - t0,
+        result.tie_tol,
+        result.criterion,
+        result.holdout + ("; " if result.holdout else "") + note,
+    )
 
 
 # One-sided level at which the nonparametric BLA refutes a linear order (bla_test).
@@ -566,7 +720,7 @@ def _bla_ordered_search(bla: NonparametricBLA, grid, staged: bool, executor, arg
         for count in sorted({p + z for _, p, z in linear_grid}):
             batch = [g for g in linear_grid if g[1] + g[2] == count]
             linear += search(grid=batch, executor=executor, **args).candidates
-            misfit.update({(c.n_poles, c.n_zeros): bla.misfit(c.model, us) for c in linear[-len(batch):]})
+            misfit.update({(c.n_poles, c.n_zeros): bla.misfit(c.model, us) for c in linear[-len(batch) :]})
             if staged and any(misfit[(p, z)] <= limit for _, p, z in batch):
                 break
         kept = [c for c in linear if misfit[(c.n_poles, c.n_zeros)] <= limit]
@@ -583,11 +737,18 @@ def _bla_ordered_search(bla: NonparametricBLA, grid, staged: bool, executor, arg
             executor.shutdown()
     for c in candidates:
         c.refuted = misfit.get((c.n_poles, c.n_zeros), 0.0) > limit
-    note = (f"order from the {bla.describe()}: {order[0]}p{order[1]}z, the fewest parameters of the "
-            f"{len(kept)} of {len(linear)} linear order(s) fitted it does not refute (misfit {misfit[order]:.3f} "
-            f"<= {limit:.3f}, {100 * BLA_ALPHA:g} % one-sided); candidates at refuted orders not selected")
-    return SearchResult(candidates, time.perf_counter() - t0, args["tie_tol"], args["criterion"],
-                        args["holdout"] + ("; " if args["holdout"] else "") + note)
+    note = (
+        f"order from the {bla.describe()}: {order[0]}p{order[1]}z, the fewest parameters of the "
+        f"{len(kept)} of {len(linear)} linear order(s) fitted it does not refute (misfit {misfit[order]:.3f} "
+        f"<= {limit:.3f}, {100 * BLA_ALPHA:g} % one-sided); candidates at refuted orders not selected"
+    )
+    return SearchResult(
+        candidates,
+        time.perf_counter() - t0,
+        args["tie_tol"],
+        args["criterion"],
+        args["holdout"] + ("; " if args["holdout"] else "") + note,
+    )
 
 
 def _staged_search(grid, executor, n_orders: int, args) -> SearchResult:
@@ -613,9 +774,15 @@ def _staged_search(grid, executor, n_orders: int, args) -> SearchResult:
     finally:
         if own and executor is not None:
             executor.shutdown()
-    return SearchResult(candidates, time.perf_counter() - t0, args["tie_tol"], args["criterion"],
-                        args["holdout"] + ("; " if args["holdout"] else "") +
-                        f"staged search: nonlinear structures at linear orders {', '.join(f'{p}p{z}z' for p, z in orders)}")
+    return SearchResult(
+        candidates,
+        time.perf_counter() - t0,
+        args["tie_tol"],
+        args["criterion"],
+        args["holdout"]
+        + ("; " if args["holdout"] else "")
+        + f"staged search: nonlinear structures at linear orders {', '.join(f'{p}p{z}z' for p, z in orders)}",
+    )
 
 
 def _feasible(model, constraint, size_fn, max_bytes) -> bool:
@@ -658,9 +825,19 @@ class SmoothnessChoice:
         return f"smoothness weight {self.weight:g} kept (validation fit per weight: {tried})"
 
 
-def choose_smoothness(result: SearchResult, *, u, y, ts: float, validation, validation_skip=0,
-                      weights=(1e-4, 1e-3, 1e-2), monotone: bool = False, inputs=None,
-                      output: str = "y") -> SmoothnessChoice:
+def choose_smoothness(
+    result: SearchResult,
+    *,
+    u,
+    y,
+    ts: float,
+    validation,
+    validation_skip=0,
+    weights=(1e-4, 1e-3, 1e-2),
+    monotone: bool = False,
+    inputs=None,
+    output: str = "y",
+) -> SmoothnessChoice:
     """Refit the selected (nonlinear) model with each smoothness weight (dimensionless, see
     ``estimate._penalty_rows``) and keep the weight with the best validation fit; the
     unpenalised model is the weight-0 entry. Linear models have no breakpoints: returned as is."""
@@ -673,11 +850,28 @@ def choose_smoothness(result: SearchResult, *, u, y, ts: float, validation, vali
     fits = {0.0: best.validation_fit}
     chosen, top = base, best.validation_fit
     for w in weights:
-        m = make_model(best.structure, n_poles=base.n_poles, n_zeros=base.n_zeros, n_breakpoints=base.n_breakpoints,
-                       delay=base.delay, starts=base.starts, max_nfev=base.max_nfev, skip=base.skip,
-                       smoothness=w, monotone=monotone, process_noise=base.process_noise)
-        m.fit(u=u, y=y, ts=ts, inputs=inputs, output=output, input_unit=list(base.input_units) or None,
-              output_unit=base.output_unit)
+        m = make_model(
+            best.structure,
+            n_poles=base.n_poles,
+            n_zeros=base.n_zeros,
+            n_breakpoints=base.n_breakpoints,
+            delay=base.delay,
+            starts=base.starts,
+            max_nfev=base.max_nfev,
+            skip=base.skip,
+            smoothness=w,
+            monotone=monotone,
+            process_noise=base.process_noise,
+        )
+        m.fit(
+            u=u,
+            y=y,
+            ts=ts,
+            inputs=inputs,
+            output=output,
+            input_unit=list(base.input_units) or None,
+            output_unit=base.output_unit,
+        )
         f = float(np.mean(_score_records(m, vu, vy, skips)["fit"]))
         fits[float(w)] = f
         if f > top:

@@ -54,8 +54,13 @@ class BuildPlan:
     items: list[BuildItem] = field(default_factory=list)
 
     def to_dict(self) -> dict:
-        return {"format": "porosense-build-plan", "version": 1, "actuator": self.actuator,
-                "folder": self.folder, "items": [asdict(i) for i in self.items]}
+        return {
+            "format": "porosense-build-plan",
+            "version": 1,
+            "actuator": self.actuator,
+            "folder": self.folder,
+            "items": [asdict(i) for i in self.items],
+        }
 
     def summary(self) -> list[str]:
         lines = [f"{self.actuator}: {len(self.items)} items in {self.folder}"]
@@ -81,12 +86,23 @@ def build_plan(actuator: str, machine: Machine, folder, fixture_machine: Machine
     plot_toolpath(job, folder / f"{actuator}_toolpath.png")
     bodies = 3 if actuator == "segment" else 1
     plan = BuildPlan(actuator, str(folder))
-    plan.items.append(BuildItem(design.name, "print", machine.material, 1, design.notes, gcode, machine.name,
-                                round(job.mass_g, 2)))
+    plan.items.append(
+        BuildItem(design.name, "print", machine.material, 1, design.notes, gcode, machine.name, round(job.mass_g, 2))
+    )
     for part in build_parts(FIXTURES[actuator], fixture_machine or machine):
         row = part.write(folder)
-        plan.items.append(BuildItem(part.name, "fixture", "pla", 1, part.purpose, row["file"],
-                                    (fixture_machine or machine).name, round(row["mass_g"], 2)))
+        plan.items.append(
+            BuildItem(
+                part.name,
+                "fixture",
+                "pla",
+                1,
+                part.purpose,
+                row["file"],
+                (fixture_machine or machine).name,
+                round(row["mass_g"], 2),
+            )
+        )
     for name, n in SUPPLIES:
         plan.items.append(BuildItem(name.split(",")[0], "supply", "-", n * bodies, name))
     (folder / "plan.json").write_text(json.dumps(plan.to_dict(), indent=2) + "\n")

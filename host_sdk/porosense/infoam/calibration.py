@@ -39,9 +39,7 @@ def porosity_from_mass(mass_g: float, volume_mm3: float, bulk_density_g_cm3: flo
         raise InputError("mass, volume and bulk density must be positive")
     solid = mass_g / (volume_mm3 * 1e-3 * bulk_density_g_cm3)
     if solid > 1.05:
-        raise InputError(
-            f"sample denser than the bulk material ({solid:.2f} x rho_b): check mass, volume and density"
-        )
+        raise InputError(f"sample denser than the bulk material ({solid:.2f} x rho_b): check mass, volume and density")
     return 100.0 * (1.0 - min(solid, 1.0))
 
 
@@ -58,16 +56,22 @@ class CoilRadiusFit:
     def __post_init__(self):
         vals = (self.a, self.b, self.h_min_mm, self.h_max_mm)
         if not all(np.isfinite(v) for v in vals):
-            raise InputError(f"coil radius fit has a non-finite value: Rc = {self.a} H + {self.b}, "
-                             f"H {self.h_min_mm}..{self.h_max_mm} mm")
+            raise InputError(
+                f"coil radius fit has a non-finite value: Rc = {self.a} H + {self.b}, "
+                f"H {self.h_min_mm}..{self.h_max_mm} mm"
+            )
         if not 0.0 < self.h_min_mm < self.h_max_mm:
-            raise InputError(f"coil radius fit: height range {self.h_min_mm:g}..{self.h_max_mm:g} mm is empty or negative")
+            raise InputError(
+                f"coil radius fit: height range {self.h_min_mm:g}..{self.h_max_mm:g} mm is empty or negative"
+            )
         if self.a <= 0:
             raise InputError(f"coil radius must grow with nozzle height (Rc = {self.a:g} H {self.b:+g} mm)")
         r_low = self.a * self.h_min_mm + self.b
         if r_low <= 0:
-            raise InputError(f"coil radius Rc = {self.a:g} H {self.b:+g} mm is {r_low:.2f} mm at the lowest "
-                             f"height {self.h_min_mm:g} mm: a coil radius must be positive")
+            raise InputError(
+                f"coil radius Rc = {self.a:g} H {self.b:+g} mm is {r_low:.2f} mm at the lowest "
+                f"height {self.h_min_mm:g} mm: a coil radius must be positive"
+            )
 
     def radius(self, height_mm):
         """Coil radius (mm) at nozzle height(s) ``height_mm``."""
@@ -115,7 +119,10 @@ class PorosityModel:
     def __post_init__(self):
         if not (np.isfinite(self.c_mm) and self.c_mm > 0 and np.isfinite(self.nozzle_mm) and self.nozzle_mm > 0):
             raise InputError(f"porosity model needs positive c ({self.c_mm}) and nozzle ({self.nozzle_mm}) in mm")
-        if not np.isfinite(self.e_mm) or 2 * float(self.coil.radius(self.coil.h_min_mm)) + self.nozzle_mm + self.e_mm <= 0:
+        if (
+            not np.isfinite(self.e_mm)
+            or 2 * float(self.coil.radius(self.coil.h_min_mm)) + self.nozzle_mm + self.e_mm <= 0
+        ):
             raise InputError(f"porosity model: line gap e = {self.e_mm} mm leaves no room between coiled lines")
 
     def solid_fraction(self, height_mm, coil_density=PAPER_COIL_DENSITY):

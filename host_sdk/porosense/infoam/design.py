@@ -55,7 +55,9 @@ class Rect:
     y1: float
 
     def spans(self, axis: int, coord: float) -> list[tuple[float, float]]:
-        lo_a, hi_a, lo_c, hi_c = (self.x0, self.x1, self.y0, self.y1) if axis == 0 else (self.y0, self.y1, self.x0, self.x1)
+        lo_a, hi_a, lo_c, hi_c = (
+            (self.x0, self.x1, self.y0, self.y1) if axis == 0 else (self.y0, self.y1, self.x0, self.x1)
+        )
         if not lo_c <= coord <= hi_c:
             return []
         return [(lo_a, hi_a)]
@@ -174,8 +176,14 @@ class Design:
             d = asdict(r)
             d["shape"] = {"type": type(r.shape).__name__.lower(), **asdict(r.shape)}
             regions.append(d)
-        return {"format": "porosense-design", "version": 1, "name": self.name, "actuator": self.actuator,
-                "notes": self.notes, "regions": regions}
+        return {
+            "format": "porosense-design",
+            "version": 1,
+            "name": self.name,
+            "actuator": self.actuator,
+            "notes": self.notes,
+            "regions": regions,
+        }
 
     def save(self, path) -> Path:
         path = Path(path)
@@ -222,9 +230,17 @@ SOLID_PCT = 0.0
 PORT_MM = 4.2
 
 
-def paper_contractor(foam_porosity: float = 76.0, ring_porosity: float = SOLID_PCT,
-                     ring_mm: float = CONTRACTOR_RING_MM, ring_wall_mm: float = CONTRACTOR_RING_WALL_MM,
-                     *, port_end: str = "top", cx: float = 0.0, cy: float = 0.0, prefix: str = "") -> Design:
+def paper_contractor(
+    foam_porosity: float = 76.0,
+    ring_porosity: float = SOLID_PCT,
+    ring_mm: float = CONTRACTOR_RING_MM,
+    ring_wall_mm: float = CONTRACTOR_RING_WALL_MM,
+    *,
+    port_end: str = "top",
+    cx: float = 0.0,
+    cy: float = 0.0,
+    prefix: str = "",
+) -> Design:
     """The paper's contractor: a cylinder 25 mm in diameter and 50 mm tall; 5 mm base and top
     printed solid; low-porosity rings ``ring_mm`` (5.6 mm) tall whose lower edges sit at 14 and
     28 mm, ``ring_wall_mm`` thick at the rim, with foam of ``foam_porosity`` (%) everywhere else
@@ -256,9 +272,13 @@ def paper_contractor(foam_porosity: float = 76.0, ring_porosity: float = SOLID_P
         regions.append(Region(f"{n}core_{z:g}", core, z, z + ring_mm, foam_porosity))
     regions.append(Region(f"{n}foam_{len(CONTRACTOR_RING_Z_MM) + 1}", disc, edges[-2], top, foam_porosity))
     regions.append(Region(f"{n}top", ported if port_end == "top" else disc, top, CONTRACTOR_HEIGHT_MM, SOLID_PCT))
-    return Design("paper_contractor", "contractor", tuple(regions),
-                  "Contractor of the paper: 25 mm x 50 mm cylinder, solid 5 mm ends, "
-                  f"{ring_mm:g} mm low-porosity rings at 14 and 28 mm.")
+    return Design(
+        "paper_contractor",
+        "contractor",
+        tuple(regions),
+        "Contractor of the paper: 25 mm x 50 mm cylinder, solid 5 mm ends, "
+        f"{ring_mm:g} mm low-porosity rings at 14 and 28 mm.",
+    )
 
 
 #: The paper's bending actuator (mm): base, foam body, and the spacers between its sections.
@@ -269,8 +289,9 @@ BENDING_SECTIONS = 4
 BENDING_SPACER_MM = 2.0
 
 
-def paper_bending(section_porosity: float = 84.0, spacer_porosity: float = SOLID_PCT,
-                  spacer_mm: float = BENDING_SPACER_MM) -> Design:
+def paper_bending(
+    section_porosity: float = 84.0, spacer_porosity: float = SOLID_PCT, spacer_mm: float = BENDING_SPACER_MM
+) -> Design:
     """The paper's bending actuator: a 1 mm solid base under a 75 x 15 x 10 mm porous body of
     four sections of ``section_porosity`` (%), each preceded by a low-porosity spacer of
     ``spacer_mm``; the first spacer is the clamped end (x = -37.5 mm), the tip is foam."""
@@ -288,9 +309,13 @@ def paper_bending(section_porosity: float = 84.0, spacer_porosity: float = SOLID
         x += spacer_mm
         regions.append(Region(f"section_{i + 1}", Rect(x, x + sec, y0, y1), base, base + height, section_porosity))
         x += sec
-    return Design("paper_bending", "bending", tuple(regions),
-                  "Bending actuator of the paper: 1 mm base, 75 x 15 x 10 mm body of four "
-                  f"{section_porosity:g} % sections and four low-porosity spacers.")
+    return Design(
+        "paper_bending",
+        "bending",
+        tuple(regions),
+        "Bending actuator of the paper: 1 mm base, 75 x 15 x 10 mm body of four "
+        f"{section_porosity:g} % sections and four low-porosity spacers.",
+    )
 
 
 #: The 3-DoF segment: contractors on an equilateral triangle of this side (mm).
@@ -314,9 +339,13 @@ def paper_segment(foam_porosity: float = SEGMENT_POROSITY, side_mm: float = SEGM
     regions = []
     for k, (x, y) in enumerate(segment_corners_mm(side_mm)):
         regions += paper_contractor(foam_porosity, port_end="base", cx=x, cy=y, prefix=f"c{k + 1}_").regions
-    return Design("paper_segment", "contractor", tuple(regions),
-                  f"3-DoF segment: three {foam_porosity:g} % contractors on a {side_mm:g} mm triangle.",
-                  {"side_mm": side_mm})
+    return Design(
+        "paper_segment",
+        "contractor",
+        tuple(regions),
+        f"3-DoF segment: three {foam_porosity:g} % contractors on a {side_mm:g} mm triangle.",
+        {"side_mm": side_mm},
+    )
 
 
 EXAMPLES = {"contractor": paper_contractor, "bending": paper_bending, "segment": paper_segment}

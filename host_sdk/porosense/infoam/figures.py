@@ -45,8 +45,16 @@ def _region_patches(ax, design, axis: int = 0, dx: float = 0.0, dz: float = 0.0)
     cmap, norm = plt.get_cmap(POROSITY_CMAP), _norm()
     for r in design.regions:
         for a, b in r.shape.spans(axis, 0.0):
-            ax.add_patch(Rectangle((a + dx, r.z0 + dz), b - a, r.z1 - r.z0, facecolor=cmap(norm(r.porosity)),
-                                   edgecolor="white", linewidth=0.4))
+            ax.add_patch(
+                Rectangle(
+                    (a + dx, r.z0 + dz),
+                    b - a,
+                    r.z1 - r.z0,
+                    facecolor=cmap(norm(r.porosity)),
+                    edgecolor="white",
+                    linewidth=0.4,
+                )
+            )
 
 
 def _mesh_cut(ax, mesh, normal=(0, 1, 0), origin=(0, 0, 0), transform=None, colour=PLA_COLOUR, label=None):
@@ -75,8 +83,12 @@ def _colourbar(fig, axes):
     from matplotlib import cm
 
     plt = _plt()
-    fig.colorbar(cm.ScalarMappable(norm=_norm(), cmap=plt.get_cmap(POROSITY_CMAP)), ax=axes,
-                 label="target porosity (%)", shrink=0.7)
+    fig.colorbar(
+        cm.ScalarMappable(norm=_norm(), cmap=plt.get_cmap(POROSITY_CMAP)),
+        ax=axes,
+        label="target porosity (%)",
+        shrink=0.7,
+    )
 
 
 def contractor_assembly(path=None):
@@ -87,8 +99,13 @@ def contractor_assembly(path=None):
     h, r = D.CONTRACTOR_HEIGHT_MM, D.CONTRACTOR_DIAMETER_MM / 2
     _region_patches(ax, c)
     s = r + SLEEVE_MM
-    ax.plot([-s, -s, s, s, -s], [-SLEEVE_MM, h + SLEEVE_MM, h + SLEEVE_MM, -SLEEVE_MM, -SLEEVE_MM],
-            color=SLEEVE_COLOUR, lw=1.2, label=f"SEBS sleeve {SLEEVE_MM:g} mm, heat-sealed")
+    ax.plot(
+        [-s, -s, s, s, -s],
+        [-SLEEVE_MM, h + SLEEVE_MM, h + SLEEVE_MM, -SLEEVE_MM, -SLEEVE_MM],
+        color=SLEEVE_COLOUR,
+        lw=1.2,
+        label=f"SEBS sleeve {SLEEVE_MM:g} mm, heat-sealed",
+    )
     # The hanger is printed floor down and used floor up: turn it over onto the top end.
     hanger = build_part("contractor_hanger").mesh
     floor = h + SLEEVE_MM + 4.0  # the hanger's 4 mm floor rests on the sleeved top
@@ -101,15 +118,34 @@ def contractor_assembly(path=None):
     ax.plot([xw, xw], [h - 5.0, floor + 10.0], color=ELECTRODE_COLOUR, lw=2.0)
     ax.plot([xw, xw], [5.0, -16.0], color=ELECTRODE_COLOUR, lw=2.0)
     ax.plot([], [], color=ELECTRODE_COLOUR, lw=2.0, label="copper-wire electrodes, 5 mm into each solid end")
-    ax.plot([0, 0], [h - D.CONTRACTOR_END_MM - 1.0, floor + 12.0], color="k", lw=3.0,
-            label="vacuum tube through the hanger and the top's port into the foam")
+    ax.plot(
+        [0, 0],
+        [h - D.CONTRACTOR_END_MM - 1.0, floor + 12.0],
+        color="k",
+        lw=3.0,
+        label="vacuum tube through the hanger and the top's port into the foam",
+    )
     rc = cup_inner_diameter() / 2 + 3.0
     for z in (2.5 - 4.0, h + 2.0):
         ax.plot([rc + 1.0], [z], "o", color=MARKER_COLOUR, ms=9, mec="k")
-    ax.plot([], [], "o", color=MARKER_COLOUR, ms=9, mec="k", label="camera markers on the two cups (they move with the solid ends)")
+    ax.plot(
+        [],
+        [],
+        "o",
+        color=MARKER_COLOUR,
+        ms=9,
+        mec="k",
+        label="camera markers on the two cups (they move with the solid ends)",
+    )
     for z in D.CONTRACTOR_RING_Z_MM:
-        ax.annotate(f"ring {z:g}-{z + D.CONTRACTOR_RING_MM:g} mm", (r, z + 2.8), (r + 6, z + 2.8),
-                    va="center", fontsize=8, arrowprops={"arrowstyle": "-"})
+        ax.annotate(
+            f"ring {z:g}-{z + D.CONTRACTOR_RING_MM:g} mm",
+            (r, z + 2.8),
+            (r + 6, z + 2.8),
+            va="center",
+            fontsize=8,
+            arrowprops={"arrowstyle": "-"},
+        )
     ax.annotate("load (200 g / 500 g)", (0, -20), (8, -26), fontsize=8, arrowprops={"arrowstyle": "->"})
     ax.set_xlim(-42, 48)
     ax.set_ylim(-32, h + 24)
@@ -132,8 +168,13 @@ def bending_assembly(path=None):
     _region_patches(ax, b)
     x0, x1 = -length / 2, length / 2
     s = SLEEVE_MM
-    ax.plot([x0 - s, x0 - s, x1 + s, x1 + s, x0 - s], [-s, top + s, top + s, -s, -s], color=SLEEVE_COLOUR, lw=1.2,
-            label=f"SEBS sleeve {s:g} mm, heat-sealed")
+    ax.plot(
+        [x0 - s, x0 - s, x1 + s, x1 + s, x0 - s],
+        [-s, top + s, top + s, -s, -s],
+        color=SLEEVE_COLOUR,
+        lw=1.2,
+        label=f"SEBS sleeve {s:g} mm, heat-sealed",
+    )
     # The holder's slot starts 4 mm behind its back face: put the actuator's end there.
     holder = build_part("bending_holder").mesh
     _mesh_cut(ax, holder, transform=_move(x=x0 - s - 0.2 - 4.0, z=-4.0 - s - 0.2), label="PLA holder (section)")
@@ -154,8 +195,10 @@ def bending_assembly(path=None):
     ax.set_aspect("equal")
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("z (mm)")
-    fig.suptitle(f"Bending actuator: 1 mm base, {length:g} x {width:g} x {height:g} mm body of four "
-                 "84 % sections and four solid spacers")
+    fig.suptitle(
+        f"Bending actuator: 1 mm base, {length:g} x {width:g} x {height:g} mm body of four "
+        "84 % sections and four solid spacers"
+    )
     ax.legend(loc="lower right", fontsize=7, ncol=2)
     _colourbar(fig, ax)
     return _save(fig, path)
@@ -202,8 +245,9 @@ def segment_assembly(path=None):
     from matplotlib.patches import Circle as CirclePatch
     from matplotlib.patches import FancyArrow, Rectangle
 
-    fig, (top, side) = plt.subplots(1, 2, figsize=(11, 5.2), layout="constrained",
-                                    gridspec_kw={"width_ratios": [1, 1.15]})
+    fig, (top, side) = plt.subplots(
+        1, 2, figsize=(11, 5.2), layout="constrained", gridspec_kw={"width_ratios": [1, 1.15]}
+    )
     base, stage = build_part("segment_base").mesh, build_part("segment_stage").mesh
     r_base = base.extents[0] / 2
     r_stage = stage.extents[0] / 2
@@ -243,11 +287,24 @@ def segment_assembly(path=None):
     c = D.paper_contractor(D.SEGMENT_POROSITY, port_end="base")
     for r in c.regions:
         for a, b in r.shape.spans(0, 0.0):
-            side.add_patch(Rectangle((y1 + a, z_c + r.z0), b - a, r.z1 - r.z0,
-                                     facecolor=plt_cmap(norm(r.porosity)), edgecolor="white", lw=0.3))
+            side.add_patch(
+                Rectangle(
+                    (y1 + a, z_c + r.z0),
+                    b - a,
+                    r.z1 - r.z0,
+                    facecolor=plt_cmap(norm(r.porosity)),
+                    edgecolor="white",
+                    lw=0.3,
+                )
+            )
     side.plot([-bx / 2 * 0 - by / 2, by / 2], [z_c + h + floor + 0.4] * 2, color="#2ca02c", lw=4, label="BNO055")
-    side.plot([y1, y1], [-12, z_c + D.CONTRACTOR_END_MM + 1.0], color="k", lw=3,
-              label="vacuum tubes through the base into the foam")
+    side.plot(
+        [y1, y1],
+        [-12, z_c + D.CONTRACTOR_END_MM + 1.0],
+        color="k",
+        lw=3,
+        label="vacuum tubes through the base into the foam",
+    )
     side.set_aspect("equal")
     side.autoscale()
     side.set_ylim(-14, z_c + h + 2 * floor + 10)
@@ -313,9 +370,13 @@ def write_all(folder) -> list[Path]:
 
     folder = Path(folder)
     out = []
-    for name, draw in (("assembly_contractor", contractor_assembly), ("assembly_bending", bending_assembly),
-                       ("assembly_wiring", wiring), ("assembly_segment", segment_assembly),
-                       ("assembly_parts", parts_overview)):
+    for name, draw in (
+        ("assembly_contractor", contractor_assembly),
+        ("assembly_bending", bending_assembly),
+        ("assembly_wiring", wiring),
+        ("assembly_segment", segment_assembly),
+        ("assembly_parts", parts_overview),
+    ):
         out.append(folder / f"{name}.png")
         draw(out[-1])
     for name, make in (("contractor", paper_contractor), ("bending", paper_bending), ("segment", paper_segment)):

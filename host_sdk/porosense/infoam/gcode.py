@@ -26,7 +26,6 @@ from porosense.infoam.calibration import PorosityModel, paper_calibration
 from porosense.infoam.design import Design, Region
 from porosense.infoam.profiles import DEFAULT_MACHINE, Machine, Material, load_machine, load_material
 
-
 #: Coil densities the planner may use when a porosity is out of reach at the nominal N.
 MIN_COIL_DENSITY = 1.0
 MAX_COIL_DENSITY = 8.0
@@ -46,8 +45,10 @@ class PrintSettings:
             object.__setattr__(self, "material", load_material(self.machine.material))
         self.machine.check_temperatures(self.material)
         if abs(self.porosity_model.nozzle_mm - self.machine.nozzle_mm) > 1e-9:
-            raise InputError(f"the porosity calibration is for a {self.porosity_model.nozzle_mm:g} mm nozzle, "
-                             f"the machine {self.machine.name!r} has {self.machine.nozzle_mm:g} mm: recalibrate")
+            raise InputError(
+                f"the porosity calibration is for a {self.porosity_model.nozzle_mm:g} mm nozzle, "
+                f"the machine {self.machine.name!r} has {self.machine.nozzle_mm:g} mm: recalibrate"
+            )
         if not 0.5 <= self.coil_density <= 10:
             raise InputError(f"coil density {self.coil_density} outside 0.5..10")
 
@@ -110,13 +111,20 @@ class PrintJob:
         return float(sum(p.solid_volume for p in self.plans))
 
     def summary(self) -> list[str]:
-        lines = [f"{self.design.name}: {len(self.plans)} regions, "
-                 f"predicted solid volume {self.predicted_solid_volume:.0f} mm^3"]
+        lines = [
+            f"{self.design.name}: {len(self.plans)} regions, "
+            f"predicted solid volume {self.predicted_solid_volume:.0f} mm^3"
+        ]
         for p in self.plans:
-            extra = (f"H {p.nozzle_height_mm:.2f} mm, N {p.coil_density:.2f}" if p.method == "coil"
-                     else f"line pitch {p.pitch_mm:.2f} mm")
-            lines.append(f"  {p.region.name:10s} {p.method:4s} {p.region.porosity:5.1f} % -> "
-                         f"{p.porosity:5.1f} %, {p.n_layers} x {p.layer_mm:.2f} mm layers, {extra}")
+            extra = (
+                f"H {p.nozzle_height_mm:.2f} mm, N {p.coil_density:.2f}"
+                if p.method == "coil"
+                else f"line pitch {p.pitch_mm:.2f} mm"
+            )
+            lines.append(
+                f"  {p.region.name:10s} {p.method:4s} {p.region.porosity:5.1f} % -> "
+                f"{p.porosity:5.1f} %, {p.n_layers} x {p.layer_mm:.2f} mm layers, {extra}"
+            )
         return lines
 
     @property
@@ -131,15 +139,32 @@ class PrintJob:
 
     def to_dict(self, gcode_path=None) -> dict:
         m = self.settings.machine
-        return {"design": self.design.name, "gcode": None if gcode_path is None else str(gcode_path),
-                "machine": m.name, "e_unit": m.extruder.e_unit, "mm3_per_e": m.mm3_per_e,
-                "predicted_solid_volume_mm3": self.predicted_solid_volume, "mass_g": self.mass_g,
-                "extruded_e": self.extruded_e,
-                "regions": [{"name": p.region.name, "method": p.method, "target_pct": p.region.porosity,
-                             "predicted_pct": p.porosity, "z0_mm": p.region.z0, "z1_mm": p.region.z1,
-                             "layers": p.n_layers, "layer_mm": p.layer_mm, "pitch_mm": p.pitch_mm,
-                             "nozzle_height_mm": p.nozzle_height_mm, "coil_density": p.coil_density}
-                            for p in self.plans]}
+        return {
+            "design": self.design.name,
+            "gcode": None if gcode_path is None else str(gcode_path),
+            "machine": m.name,
+            "e_unit": m.extruder.e_unit,
+            "mm3_per_e": m.mm3_per_e,
+            "predicted_solid_volume_mm3": self.predicted_solid_volume,
+            "mass_g": self.mass_g,
+            "extruded_e": self.extruded_e,
+            "regions": [
+                {
+                    "name": p.region.name,
+                    "method": p.method,
+                    "target_pct": p.region.porosity,
+                    "predicted_pct": p.porosity,
+                    "z0_mm": p.region.z0,
+                    "z1_mm": p.region.z1,
+                    "layers": p.n_layers,
+                    "layer_mm": p.layer_mm,
+                    "pitch_mm": p.pitch_mm,
+                    "nozzle_height_mm": p.nozzle_height_mm,
+                    "coil_density": p.coil_density,
+                }
+                for p in self.plans
+            ],
+        }
 
     def write(self, path) -> None:
         with open(path, "w") as fh:
@@ -166,8 +191,20 @@ def plan_region(region: Region, s: PrintSettings) -> RegionPlan:
         pitch_x = _tile(x1 - x0, line_w / solid)
         v_x = fill * layer / _raster_length(region, pitch, 0)
         v_y = fill * layer / _raster_length(region, pitch_x, 1)
-        return RegionPlan(region, "bulk", layer, n_layers, pitch, pitch_x, layer, 0.0, v_x,
-                          s.machine.bulk_speed_mm_s, region.porosity, v_y)
+        return RegionPlan(
+            region,
+            "bulk",
+            layer,
+            n_layers,
+            pitch,
+            pitch_x,
+            layer,
+            0.0,
+            v_x,
+            s.machine.bulk_speed_mm_s,
+            region.porosity,
+            v_y,
+        )
     model = s.porosity_model
     try:
         h_nozzle = model.height_for(region.porosity, s.coil_density)
@@ -192,8 +229,20 @@ def plan_region(region: Region, s: PrintSettings) -> RegionPlan:
     volume_per_mm = fill * layer / _raster_length(region, pitch, 0)
     n_eff = volume_per_mm / (math.pi * s.strand_area)
     speed = s.machine.coil_strand_mm_s / (math.pi * n_eff)
-    return RegionPlan(region, "coil", layer, n_layers, pitch, pitch, h_nozzle, n_eff,
-                      volume_per_mm, speed, region.porosity, volume_per_mm)
+    return RegionPlan(
+        region,
+        "coil",
+        layer,
+        n_layers,
+        pitch,
+        pitch,
+        h_nozzle,
+        n_eff,
+        volume_per_mm,
+        speed,
+        region.porosity,
+        volume_per_mm,
+    )
 
 
 def _raster_length(region: Region, pitch: float, axis: int) -> float:
@@ -210,7 +259,9 @@ def _tile(width: float, pitch: float) -> float:
     return width / max(1, round(width / pitch))
 
 
-def _raster(region: Region, pitch: float, axis: int, offset: tuple[float, float]) -> list[tuple[float, float, float, float]]:
+def _raster(
+    region: Region, pitch: float, axis: int, offset: tuple[float, float]
+) -> list[tuple[float, float, float, float]]:
     """Serpentine lines over the region's shape, along ``axis``, one per strip of ``pitch``."""
     x0, x1, y0, y1 = region.shape.bounds()
     lo, hi = (y0, y1) if axis == 0 else (x0, x1)
@@ -271,8 +322,10 @@ def generate(design: Design, settings: PrintSettings | None = None) -> PrintJob:
     ]
     for p in plans.values():
         r = p.region
-        out.append(f";REGION name={r.name} method={p.method} target={r.porosity:.2f} predicted={p.porosity:.2f} "
-                   f"z0={r.z0:.3f} z1={r.z1:.3f} volume={r.volume:.3f}")
+        out.append(
+            f";REGION name={r.name} method={p.method} target={r.porosity:.2f} predicted={p.porosity:.2f} "
+            f"z0={r.z0:.3f} z1={r.z1:.3f} volume={r.volume:.3f}"
+        )
     segments = []
     printed_top = 0.0
     e_per_vol = 1.0 / m.mm3_per_e
@@ -296,7 +349,9 @@ def generate(design: Design, settings: PrintSettings | None = None) -> PrintJob:
             length = math.hypot(xb - xa, yb - ya)
             e = length * p.volume_per_mm_along(axis) * e_per_vol
             out.append(f"G1 X{xb:.3f} Y{yb:.3f} E{e:.5f} F{p.speed_mm_s * 60:.0f}")
-            segments.append((xa, ya, z_nozzle, xb, yb, z_nozzle, p.region.porosity, z_bottom + p.layer_mm / 2, p.layer_mm))
+            segments.append(
+                (xa, ya, z_nozzle, xb, yb, z_nozzle, p.region.porosity, z_bottom + p.layer_mm / 2, p.layer_mm)
+            )
             prev = (xb, yb)
         printed_top = max(printed_top, z_top)
     out += [

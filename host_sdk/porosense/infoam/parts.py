@@ -66,8 +66,9 @@ def _box(x0, x1, y0, y1, z0, z1):
 
     if not (x1 > x0 and y1 > y0 and z1 > z0):
         raise InputError(f"zero or negative box {x1 - x0:g} x {y1 - y0:g} x {z1 - z0:g} mm")
-    return trimesh.creation.box(extents=(x1 - x0, y1 - y0, z1 - z0),
-                                transform=_move((x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2))
+    return trimesh.creation.box(
+        extents=(x1 - x0, y1 - y0, z1 - z0), transform=_move((x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2)
+    )
 
 
 def _cyl(r, z0, z1, cx=0.0, cy=0.0, axis="z"):
@@ -126,10 +127,17 @@ def bending_holder(grip_mm: float = 10.0):
     flange = _box(0.0, length, -sw / 2 - wall - flange_w, sw / 2 + wall + flange_w, 0.0, flange_t)
     slot = _box(back, length + 1.0, -sw / 2, sw / 2, wall, wall + sh)
     # Tube enters the foam at mid-height; the top-left electrode wire leaves above it.
-    tube = _box(-1.0, back + 0.5, -TUBE_HOLE_MM / 2, TUBE_HOLE_MM / 2,
-                wall + sh / 2 - TUBE_HOLE_MM / 2, wall + sh / 2 + TUBE_HOLE_MM / 2)
-    wire = _box(-1.0, back + 0.5, -sw / 2 + 1.0, -sw / 2 + 1.0 + WIRE_HOLE_MM,
-                wall + sh - 1.0 - WIRE_HOLE_MM, wall + sh - 1.0)
+    tube = _box(
+        -1.0,
+        back + 0.5,
+        -TUBE_HOLE_MM / 2,
+        TUBE_HOLE_MM / 2,
+        wall + sh / 2 - TUBE_HOLE_MM / 2,
+        wall + sh / 2 + TUBE_HOLE_MM / 2,
+    )
+    wire = _box(
+        -1.0, back + 0.5, -sw / 2 + 1.0, -sw / 2 + 1.0 + WIRE_HOLE_MM, wall + sh - 1.0 - WIRE_HOLE_MM, wall + sh - 1.0
+    )
     y_hole = sw / 2 + wall + flange_w / 2
     holes = [_cyl(M4_HOLE_MM / 2, -1.0, flange_t + 1.0, length / 2, s * y_hole) for s in (-1, 1)]
     return _minus(_union(body, flange), slot, tube, wire, *holes)
@@ -228,9 +236,16 @@ class Part:
 
     def to_dict(self) -> dict:
         m = self.mesh
-        return {"name": self.name, "purpose": self.purpose, "size_mm": list(self.size_mm),
-                "volume_cm3": float(m.volume) / 1000.0, "mass_g": float(m.volume) / 1000.0 * PLA_DENSITY_G_CM3,
-                "watertight": bool(m.is_watertight), "triangles": int(len(m.faces)), "material": "pla"}
+        return {
+            "name": self.name,
+            "purpose": self.purpose,
+            "size_mm": list(self.size_mm),
+            "volume_cm3": float(m.volume) / 1000.0,
+            "mass_g": float(m.volume) / 1000.0 * PLA_DENSITY_G_CM3,
+            "watertight": bool(m.is_watertight),
+            "triangles": int(len(m.faces)),
+            "material": "pla",
+        }
 
     def write(self, folder) -> dict:
         """Write ``<name>.stl`` into ``folder``; return to_dict() with the file name."""

@@ -35,8 +35,9 @@ class Prediction:
     def summary(self) -> list[str]:
         lines = [f"{self.design} ({self.actuator}): foam porosity {self.foam_porosity:.1f} %, load {self.load_g:g} g"]
         for r in self.rows:
-            out = (f"strain {r.strain_pct:6.2f} %" if r.strain_pct is not None
-                   else f"curvature {r.curvature_1pm:6.2f} 1/m")
+            out = (
+                f"strain {r.strain_pct:6.2f} %" if r.strain_pct is not None else f"curvature {r.curvature_1pm:6.2f} 1/m"
+            )
             lines.append(f"  {r.vacuum_kpa:6.1f} kPa: dR {r.dR_pct:7.2f} %, {out}")
         return lines
 

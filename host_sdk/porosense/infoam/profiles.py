@@ -84,20 +84,34 @@ class Machine:
     coil_strand_mm_s: float
 
     def __post_init__(self):
-        for key in ("build_x_mm", "build_y_mm", "build_z_mm", "nozzle_mm", "travel_speed_mm_s",
-                    "bulk_speed_mm_s", "bulk_layer_mm", "coil_strand_mm_s", "hotend_max_c"):
+        for key in (
+            "build_x_mm",
+            "build_y_mm",
+            "build_z_mm",
+            "nozzle_mm",
+            "travel_speed_mm_s",
+            "bulk_speed_mm_s",
+            "bulk_layer_mm",
+            "coil_strand_mm_s",
+            "hotend_max_c",
+        ):
             _positive(f"machine {self.name!r}", key, getattr(self, key))
         if self.bulk_layer_mm > self.nozzle_mm:
-            raise InputError(f"machine {self.name!r}: bulk_layer_mm {self.bulk_layer_mm:g} is thicker than "
-                             f"the {self.nozzle_mm:g} mm nozzle")
+            raise InputError(
+                f"machine {self.name!r}: bulk_layer_mm {self.bulk_layer_mm:g} is thicker than "
+                f"the {self.nozzle_mm:g} mm nozzle"
+            )
         if self.hotend_c > self.hotend_max_c:
-            raise InputError(f"machine {self.name!r}: hotend {self.hotend_c:g} C above its limit "
-                             f"{self.hotend_max_c:g} C")
+            raise InputError(
+                f"machine {self.name!r}: hotend {self.hotend_c:g} C above its limit {self.hotend_max_c:g} C"
+            )
         if not 0.0 <= self.bed_c <= self.bed_max_c:
             raise InputError(f"machine {self.name!r}: bed {self.bed_c:g} C outside 0..{self.bed_max_c:g} C")
         e = self.extruder
         if e.kind not in EXTRUDER_KINDS:
-            raise InputError(f"machine {self.name!r}: extruder kind {e.kind!r} is not one of {', '.join(EXTRUDER_KINDS)}")
+            raise InputError(
+                f"machine {self.name!r}: extruder kind {e.kind!r} is not one of {', '.join(EXTRUDER_KINDS)}"
+            )
         if e.e_unit not in E_UNITS:
             raise InputError(f"machine {self.name!r}: e_unit {e.e_unit!r} is not one of {', '.join(E_UNITS)}")
         if e.e_unit == "turn":
@@ -119,11 +133,13 @@ class Machine:
         if not material.hotend_min_c <= self.hotend_c <= material.hotend_max_c:
             raise InputError(
                 f"machine {self.name!r}: hotend {self.hotend_c:g} C outside the {material.key} range "
-                f"{material.hotend_min_c:g}-{material.hotend_max_c:g} C")
+                f"{material.hotend_min_c:g}-{material.hotend_max_c:g} C"
+            )
         if not material.bed_min_c <= self.bed_c <= material.bed_max_c:
             raise InputError(
                 f"machine {self.name!r}: bed {self.bed_c:g} C outside the {material.key} range "
-                f"{material.bed_min_c:g}-{material.bed_max_c:g} C")
+                f"{material.bed_min_c:g}-{material.bed_max_c:g} C"
+            )
 
     def check_fits(self, what: str, size_x: float, size_y: float, size_z: float) -> None:
         """InputError when a part of size_x x size_y x size_z (mm) exceeds the build volume."""
@@ -133,7 +149,8 @@ class Machine:
         if size_x > self.build_x_mm or size_y > self.build_y_mm or size_z > self.build_z_mm:
             raise InputError(
                 f"{what} ({size_x:.0f} x {size_y:.0f} x {size_z:.0f} mm) is larger than the {self.name} "
-                f"build volume {self.build_x_mm:g} x {self.build_y_mm:g} x {self.build_z_mm:g} mm")
+                f"build volume {self.build_x_mm:g} x {self.build_y_mm:g} x {self.build_z_mm:g} mm"
+            )
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -161,8 +178,9 @@ def _profiles_dir():
 
 def list_machines() -> list[str]:
     """Names of the built-in machine profiles."""
-    return sorted(p.name[:-5] for p in _profiles_dir().iterdir()
-                  if p.name.endswith(".toml") and p.name != "materials.toml")
+    return sorted(
+        p.name[:-5] for p in _profiles_dir().iterdir() if p.name.endswith(".toml") and p.name != "materials.toml"
+    )
 
 
 _MATERIAL_KEYS = ("name", "bulk_density_g_cm3", "hotend_min_c", "hotend_max_c", "bed_min_c", "bed_max_c")
@@ -190,8 +208,12 @@ _MACHINE_KEYS = {
     "limits": {"hotend_max_c": "hotend_max_c", "bed_max_c": "bed_max_c"},
     "nozzle": {"diameter_mm": "nozzle_mm"},
     "temperatures": {"hotend_c": "hotend_c", "bed_c": "bed_c"},
-    "speeds": {"travel_mm_s": "travel_speed_mm_s", "bulk_mm_s": "bulk_speed_mm_s",
-               "bulk_layer_mm": "bulk_layer_mm", "coil_strand_mm_s": "coil_strand_mm_s"},
+    "speeds": {
+        "travel_mm_s": "travel_speed_mm_s",
+        "bulk_mm_s": "bulk_speed_mm_s",
+        "bulk_layer_mm": "bulk_layer_mm",
+        "coil_strand_mm_s": "coil_strand_mm_s",
+    },
 }
 _EXTRUDER_KEYS = {"kind", "e_unit", "mm3_per_turn", "steps_per_turn", "filament_diameter_mm"}
 
@@ -201,8 +223,11 @@ def machine_from_dict(d: dict, source: str) -> Machine:
     unknown = set(d) - {"name", "description", "material", "extruder", *_MACHINE_KEYS}
     if unknown:
         raise InputError(f"{source}: unknown key(s) {', '.join(sorted(unknown))}")
-    fields: dict = {"name": d.get("name", Path(source).stem), "description": d.get("description", ""),
-                    "material": d.get("material", "ctpe")}
+    fields: dict = {
+        "name": d.get("name", Path(source).stem),
+        "description": d.get("description", ""),
+        "material": d.get("material", "ctpe"),
+    }
     for section, keys in _MACHINE_KEYS.items():
         sec = d.get(section)
         if not isinstance(sec, dict):

@@ -126,7 +126,9 @@ def decode_frame(encoded: bytes, accept_any_version: bool = False) -> Frame:
         raise FrameError("unknown_type", f"type 0x{msg_type:02X}")
     # Another major may lay HELLO/HELLO_REPLY out differently: only their first bytes count.
     if not foreign and not cls.MIN_LEN <= length <= cls.MAX_LEN:
-        raise FrameError("bad_length", f"{cls.__name__} payload of {length} bytes (expected {cls.MIN_LEN}..{cls.MAX_LEN})")
+        raise FrameError(
+            "bad_length", f"{cls.__name__} payload of {length} bytes (expected {cls.MIN_LEN}..{cls.MAX_LEN})"
+        )
     return Frame(msg_type, seq, bytes(body[HEADER_LEN:-CRC_LEN]), version)
 
 

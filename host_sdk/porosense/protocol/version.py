@@ -30,7 +30,11 @@ def check_compatible(proto_major: int, proto_minor: int) -> None:
         raise ProtocolVersionError(
             f"device speaks protocol {proto_major}.{proto_minor}, this host speaks "
             f"{VERSION_MAJOR}.{VERSION_MINOR}: update the "
-            + ("host software (pip install -U porosense)" if proto_major > VERSION_MAJOR else "firmware (make -C firmware upload)")
+            + (
+                "host software (pip install -U porosense)"
+                if proto_major > VERSION_MAJOR
+                else "firmware (make -C firmware upload)"
+            )
         )
 
 

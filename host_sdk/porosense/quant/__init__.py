@@ -16,6 +16,16 @@ from porosense.quant.quantize import QuantResult, evaluate, quantize
 from porosense.quant.report import QuantReport, RecordingFit, fit_percent
 
 __all__ = [
-    "FORMAT_VERSION", "MAX_BLOB_LEN", "FixedPointEstimator", "ModelBlob", "QuantReport", "QuantResult",
-    "RecordingFit", "c_header", "evaluate", "fit_percent", "orders_that_fit", "quantize",
+    "FORMAT_VERSION",
+    "MAX_BLOB_LEN",
+    "FixedPointEstimator",
+    "ModelBlob",
+    "QuantReport",
+    "QuantResult",
+    "RecordingFit",
+    "c_header",
+    "evaluate",
+    "fit_percent",
+    "orders_that_fit",
+    "quantize",
 ]

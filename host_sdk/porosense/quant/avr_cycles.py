@@ -15,10 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
+from porosense.firmware.files import core_dir, programs_dir  # noqa: E402
 from porosense.quant.blob import ModelBlob
 from porosense.quant.fixed import FixedPointEstimator
-
-from porosense.firmware.files import core_dir, programs_dir  # noqa: E402
 
 CORE = core_dir()
 PROGRAM = programs_dir() / "cycles.cpp"
@@ -69,23 +68,27 @@ def available() -> str | None:
     return ", ".join(missing) or None
 
 
-def measure(blob: ModelBlob | bytes, *, in_eeprom: bool = False, steps: int = 64, timeout: float = 120.0) -> CycleResult:
+def measure(
+    blob: ModelBlob | bytes, *, in_eeprom: bool = False, steps: int = 64, timeout: float = 120.0
+) -> CycleResult:
     """Worst and mean cycles of one step over ``steps`` samples of switching inputs."""
     if not isinstance(blob, ModelBlob):
         blob = ModelBlob.from_bytes(bytes(blob), max_length=4096)
     data = blob.to_bytes()
     with tempfile.TemporaryDirectory(prefix="porosense-cycles-") as tmp:
         tmp = Path(tmp)
-        rows = ",\n".join("  " + ", ".join(f"0x{v:02X}" for v in data[i:i + 16]) for i in range(0, len(data), 16))
+        rows = ",\n".join("  " + ", ".join(f"0x{v:02X}" for v in data[i : i + 16]) for i in range(0, len(data), 16))
         (tmp / "model.h").write_text(
             "#pragma once\n#include <avr/pgmspace.h>\n"
             f"#define MODEL_LEN {len(data)}u\n#define MODEL_STEPS {steps}u\n"
             f"#define MODEL_IN_EEPROM {int(in_eeprom)}\n"
-            f"static const uint8_t MODEL_BLOB[{len(data)}] PROGMEM = {{\n{rows}\n}};\n")
+            f"static const uint8_t MODEL_BLOB[{len(data)}] PROGMEM = {{\n{rows}\n}};\n"
+        )
         elf = _build(PROGRAM, tmp, tmp / "cycles.elf", "atmega328p")
         size = subprocess.run(["avr-size", str(elf)], capture_output=True, text=True).stdout.split("\n")[1].split()
-        run = subprocess.run(["simavr", "-m", "atmega328p", "-f", "16000000", str(elf)], capture_output=True,
-                             text=True, timeout=timeout)
+        run = subprocess.run(
+            ["simavr", "-m", "atmega328p", "-f", "16000000", str(elf)], capture_output=True, text=True, timeout=timeout
+        )
         out = run.stdout + run.stderr
         m = re.search(r"cycles max=(\d+) mean=(\d+) steps=(\d+) ram=(\d+) check=(\d+) ctl=(\d+)", out)
         if not m:
@@ -96,9 +99,23 @@ def measure(blob: ModelBlob | bytes, *, in_eeprom: bool = False, steps: int = 64
 
 def _build(program: Path, include: Path, elf: Path, mcu: str) -> Path:
     """avr-g++ -Os of ``program`` with the estimator's sources (``include`` holds its header)."""
-    cmd = ["avr-g++", "-std=c++11", os.environ.get("POROSENSE_AVR_OPT", "-Os"), f"-mmcu={mcu}", "-DF_CPU=16000000UL",
-           "-fno-exceptions", "-ffunction-sections", "-fdata-sections", "-Wl,--gc-sections", f"-I{CORE}",
-           f"-I{include}", "-o", str(elf), str(program), *[str(CORE / s) for s in CORE_SOURCES]]
+    cmd = [
+        "avr-g++",
+        "-std=c++11",
+        os.environ.get("POROSENSE_AVR_OPT", "-Os"),
+        f"-mmcu={mcu}",
+        "-DF_CPU=16000000UL",
+        "-fno-exceptions",
+        "-ffunction-sections",
+        "-fdata-sections",
+        "-Wl,--gc-sections",
+        f"-I{CORE}",
+        f"-I{include}",
+        "-o",
+        str(elf),
+        str(program),
+        *[str(CORE / s) for s in CORE_SOURCES],
+    ]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode:
         raise RuntimeError(f"avr-g++ failed:\n{proc.stderr}")
@@ -139,15 +156,18 @@ def _check_batch(cases, timeout: float) -> list[bool]:
         flat = np.asarray(u, dtype=np.int64).reshape(-1)
         lines.append(f"static const int16_t IN{i}[] PROGMEM = {{{', '.join(str(int(v)) for v in flat)}}};")
     lines.append(f"static const uint16_t CASE_LEN[] PROGMEM = {{{', '.join(str(len(c[0])) for c in cases)}}};")
-    lines.append("static const uint8_t* const CASE_BLOB[] PROGMEM = {"
-                 + ", ".join(f"BLOB{i}" for i in range(len(cases))) + "};")
-    lines.append("static const int16_t* const CASE_INPUTS[] PROGMEM = {"
-                 + ", ".join(f"IN{i}" for i in range(len(cases))) + "};")
+    lines.append(
+        "static const uint8_t* const CASE_BLOB[] PROGMEM = {" + ", ".join(f"BLOB{i}" for i in range(len(cases))) + "};"
+    )
+    lines.append(
+        "static const int16_t* const CASE_INPUTS[] PROGMEM = {" + ", ".join(f"IN{i}" for i in range(len(cases))) + "};"
+    )
     with tempfile.TemporaryDirectory(prefix="porosense-vectors-") as tmp:
         tmp = Path(tmp)
         (tmp / "vectors.h").write_text("\n".join(lines) + "\n")
         elf = _build(VECTORS_PROGRAM, tmp, tmp / "vectors.elf", "atmega1284p")
-        run = subprocess.run(["simavr", "-m", "atmega1284p", "-f", "16000000", str(elf)], capture_output=True,
-                             text=True, timeout=timeout)
+        run = subprocess.run(
+            ["simavr", "-m", "atmega1284p", "-f", "16000000", str(elf)], capture_output=True, text=True, timeout=timeout
+        )
     got = {int(m[1]): int(m[2]) for m in re.finditer(r"case (\d+) check=(\d+)", run.stdout + run.stderr)}
     return [got.get(i) == _hash(est, flags) for i, (_, _, est, flags) in enumerate(cases)]

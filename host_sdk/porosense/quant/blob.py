@@ -24,7 +24,6 @@ from dataclasses import dataclass, field
 
 from porosense.errors import ModelError
 from porosense.protocol.framing import crc16
-
 from porosense.quant.layout import (  # noqa: F401  (re-exported: the blob's constants)
     BRANCH_FORMAT,
     BRANCH_HAS_F,
@@ -49,9 +48,7 @@ from porosense.quant.layout import (  # noqa: F401  (re-exported: the blob's con
     SEC_DELTA,
     SEC_WIDE,
     SECTION_FIXED_FORMAT,
-    SLOT_HEADER_LEN as STORE_HEADER_LEN,
     TABLE_COMPACT,
-    STORE_REGION as EEPROM_MODEL_REGION,
 )
 
 STATE_FRAC = 13  # section states are Q13 of the section's int16 output
@@ -72,7 +69,6 @@ def numerator_limit(wide: bool, sb: int) -> int:
     if wide:
         return 0xFFFF0000 if sb >= 2 else (1 << (30 + sb)) - 65536
     return 65535 if sb >= 2 else 1 << (14 + sb)
-
 
 
 def pwl_len(n: int, compact: bool = False) -> int:
@@ -128,12 +124,16 @@ class SectionQ:
 
     @property
     def flags(self) -> int:
-        return (SEC_WIDE if self.wide else 0) | (SEC_DELTA if self.delta else 0) | \
-            ((self.m[0] + 2) << 2) | ((self.m[1] + 1) << 5)
+        return (
+            (SEC_WIDE if self.wide else 0)
+            | (SEC_DELTA if self.delta else 0)
+            | ((self.m[0] + 2) << 2)
+            | ((self.m[1] + 1) << 5)
+        )
 
     def real(self, s_in: float = 1.0, s_out: float = 1.0):
         """The section's float coefficients (b, a) for input/output scales s_in, s_out."""
-        scale = 2.0 ** -self.sb * (2.0 ** -16 if self.wide else 1.0) / 2.0 ** STATE_FRAC
+        scale = 2.0**-self.sb * (2.0**-16 if self.wide else 1.0) / 2.0**STATE_FRAC
         b = [bi * scale * s_out / s_in for bi in self.b]
         k1, k2 = self.k[0] * 2.0 ** -self.n[0], self.k[1] * 2.0 ** -self.n[1]
         if self.delta:
@@ -213,8 +213,7 @@ class ModelBlob:
 
     @property
     def n_sections(self) -> int:
-        return sum(len(b.sections) for o in self.outputs for b in o.branches) + \
-            sum(len(o.h2) for o in self.outputs)
+        return sum(len(b.sections) for o in self.outputs for b in o.branches) + sum(len(o.h2) for o in self.outputs)
 
     # -- serialisation --------------------------------------------------------------
 
@@ -226,8 +225,9 @@ class ModelBlob:
                 flags = (OUT_HAS_G if out.g else 0) | (OUT_HAS_H2 if out.h2 else 0)
                 body += struct.pack(OUTPUT_FORMAT, len(out.branches), flags, out.offset)
                 for br in out.branches:
-                    body += struct.pack(BRANCH_FORMAT, br.input, br.delay, br.u_offset,
-                                        BRANCH_HAS_F if br.f else 0, len(br.sections))
+                    body += struct.pack(
+                        BRANCH_FORMAT, br.input, br.delay, br.u_offset, BRANCH_HAS_F if br.f else 0, len(br.sections)
+                    )
                     if br.f:
                         body += _pack_pwl(br.f)
                     body += b"".join(_pack_section(s) for s in br.sections)
@@ -241,8 +241,19 @@ class ModelBlob:
                 raise ModelError(f"model blob of {length} bytes cannot be addressed")
             if not 1 <= self.ts_us <= MAX_TS_US:
                 raise ModelError(f"sample period {self.ts_us} us outside 1..{MAX_TS_US}")
-            head = struct.pack(HEADER_FORMAT, *MAGIC, self.format_version, self.n_inputs, self.n_outputs,
-                               0, length, self.model_id & 0xFFFFFFFF, *scales, int(self.ts_us), self.input_lsb)
+            head = struct.pack(
+                HEADER_FORMAT,
+                *MAGIC,
+                self.format_version,
+                self.n_inputs,
+                self.n_outputs,
+                0,
+                length,
+                self.model_id & 0xFFFFFFFF,
+                *scales,
+                int(self.ts_us),
+                self.input_lsb,
+            )
         except struct.error as exc:
             raise ModelError(f"model blob field out of range: {exc}") from exc
         data = head + bytes(body)
@@ -257,27 +268,35 @@ class ModelBlob:
         if data[:2] != MAGIC:
             raise ModelError("not a porosense model blob (bad magic)")
         if len(data) >= 3 and data[2] != FORMAT_VERSION:
-            raise ModelError(f"model blob format version {data[2]}; this software reads {FORMAT_VERSION}"
-                             + (" (re-quantize the model)" if data[2] < FORMAT_VERSION else ""))
+            raise ModelError(
+                f"model blob format version {data[2]}; this software reads {FORMAT_VERSION}"
+                + (" (re-quantize the model)" if data[2] < FORMAT_VERSION else "")
+            )
         if len(data) < HEADER_LEN + CRC_LEN:
             raise ModelError(f"model blob of {len(data)} bytes is shorter than its header")
-        (_, _, version, n_in, n_out, reserved, length, model_id, *scales, ts_us,
-         input_lsb) = struct.unpack_from(HEADER_FORMAT, data.ljust(HEADER_LEN, b"\0"), 0)
+        (_, _, version, n_in, n_out, reserved, length, model_id, *scales, ts_us, input_lsb) = struct.unpack_from(
+            HEADER_FORMAT, data.ljust(HEADER_LEN, b"\0"), 0
+        )
         if version != FORMAT_VERSION:
-            raise ModelError(f"model blob format version {version}; this software reads {FORMAT_VERSION}"
-                             + (" (re-quantize the model)" if version < FORMAT_VERSION else ""))
+            raise ModelError(
+                f"model blob format version {version}; this software reads {FORMAT_VERSION}"
+                + (" (re-quantize the model)" if version < FORMAT_VERSION else "")
+            )
         if length != len(data):
             raise ModelError(f"model blob length field {length} but {len(data)} bytes given")
         if length > max_length:
-            raise ModelError(f"model blob of {length} bytes exceeds the {max_length}-byte EEPROM model region "
-                             f"by {length - max_length} bytes")
+            raise ModelError(
+                f"model blob of {length} bytes exceeds the {max_length}-byte EEPROM model region "
+                f"by {length - max_length} bytes"
+            )
         if not (1 <= n_in <= MAX_INPUTS and 1 <= n_out <= MAX_OUTPUTS) or reserved:
             raise ModelError(f"model blob has {n_in} inputs and {n_out} outputs (1..3 each)")
         if not 1 <= ts_us <= MAX_TS_US:
             raise ModelError(f"model blob: sample period {ts_us} us outside 1..{MAX_TS_US}")
         if input_lsb != DEVICE_INPUT_LSB:
-            raise ModelError(f"model blob expects inputs of {input_lsb:g} % dR per LSB; the device sends "
-                             f"{INPUT_LSB_PERCENT:g} %")
+            raise ModelError(
+                f"model blob expects inputs of {input_lsb:g} % dR per LSB; the device sends {INPUT_LSB_PERCENT:g} %"
+            )
         (stored,) = struct.unpack_from("<H", data, length - CRC_LEN)
         if blob_crc(data) != stored:
             raise ModelError("model blob CRC mismatch")
@@ -302,8 +321,15 @@ class ModelBlob:
             outputs.append(OutputQ(tuple(branches), g, h2, offset))
         if r.pos != r.end:
             raise ModelError(f"model blob: {r.end - r.pos} unexpected bytes after the last record")
-        return cls(n_in, tuple(outputs), tuple(float(s) for s in scales[:n_out]), model_id, version,
-                   ts_us=ts_us, input_lsb=input_lsb)
+        return cls(
+            n_in,
+            tuple(outputs),
+            tuple(float(s) for s in scales[:n_out]),
+            model_id,
+            version,
+            ts_us=ts_us,
+            input_lsb=input_lsb,
+        )
 
 
 def _pack_pwl(p: PwlQ) -> bytes:

@@ -30,7 +30,17 @@ from scipy import signal
 
 from porosense.errors import ModelError
 from porosense.quant.blob import (
-    CRC_LEN, HEADER_LEN, MAX_BLOB_LEN, STATE_FRAC, BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit, pwl_len,
+    CRC_LEN,
+    HEADER_LEN,
+    MAX_BLOB_LEN,
+    STATE_FRAC,
+    BranchQ,
+    ModelBlob,
+    OutputQ,
+    PwlQ,
+    SectionQ,
+    numerator_limit,
+    pwl_len,
 )
 from porosense.structure import EstimatorStructure, PiecewiseLinear
 
@@ -41,6 +51,7 @@ DEFAULT_INPUT_LSB = 0.01  # structure input units (dR in %) per 0.01 % LSB
 
 
 # -- sections ----------------------------------------------------------------------------
+
 
 def regroup(sos: np.ndarray) -> np.ndarray:
     """Re-pair poles and zeros (nearest) and order sections by pole radius; keeps delays."""
@@ -119,12 +130,12 @@ def _quantize_residue(k: float) -> tuple[int, int]:
     n = 16
     while n < 47 and abs(k) * 2.0 ** (n + 1) <= 32767:
         n += 1
-    return int(np.clip(round(k * 2.0 ** n), -32768, 32767)), n
+    return int(np.clip(round(k * 2.0**n), -32768, 32767)), n
 
 
 def quantize_section(row: np.ndarray, s_in: float, s_out: float, notes: list[str], name: str) -> SectionQ:
     """One float section (scipy sos row) with input/output scales -> SectionQ."""
-    b = np.asarray(row[:3], dtype=float) * (s_in / s_out) * 2.0 ** STATE_FRAC  # y Q13 per x LSB
+    b = np.asarray(row[:3], dtype=float) * (s_in / s_out) * 2.0**STATE_FRAC  # y Q13 per x LSB
     a1, a2 = float(row[4]), float(row[5])
     b16, sb16, err16 = _numerator(b, wide=False)
     if err16 <= DC_TOLERANCE:
@@ -151,8 +162,10 @@ def quantize_section(row: np.ndarray, s_in: float, s_out: float, notes: list[str
     if np.any(np.abs(poles) >= 1.0):
         raise ModelError(f"{name}: quantized section became unstable (poles {np.round(poles, 6)})")
     dc_note = f"16-bit DC error {err16:.1e}" if math.isfinite(err16) else "16-bit numerator out of range"
-    notes.append(f"{name}: poles {_fmt_roots(np.roots([1, a1, a2]))}; {form}, residue shifts {n1},{n2}; "
-                 f"{'32' if wide else '16'}-bit numerator ({dc_note})")
+    notes.append(
+        f"{name}: poles {_fmt_roots(np.roots([1, a1, a2]))}; {form}, residue shifts {n1},{n2}; "
+        f"{'32' if wide else '16'}-bit numerator ({dc_note})"
+    )
     return sec
 
 
@@ -178,11 +191,14 @@ def _numerator(b: np.ndarray, wide: bool) -> tuple[list[int], int, float]:
 
 
 def _fmt_roots(r: np.ndarray) -> str:
-    return ", ".join(f"{abs(x):.4f}" + (f"@{math.degrees(np.angle(x)):.1f}deg" if abs(x.imag) > 1e-12 else "")
-                     for x in np.atleast_1d(r))
+    return ", ".join(
+        f"{abs(x):.4f}" + (f"@{math.degrees(np.angle(x)):.1f}deg" if abs(x.imag) > 1e-12 else "")
+        for x in np.atleast_1d(r)
+    )
 
 
 # -- tables ------------------------------------------------------------------------------
+
 
 def _table_points(f: PiecewiseLinear, s_x: float, x_range) -> np.ndarray:
     """Breakpoints (LSB of the input) for the input interval ``x_range``: the ones inside, and
@@ -198,8 +214,9 @@ def _table_points(f: PiecewiseLinear, s_x: float, x_range) -> np.ndarray:
     return np.concatenate([[lo] if np.any(x <= lo) else [], inside, [hi] if np.any(x >= hi) else []])
 
 
-def quantize_pwl(f: PiecewiseLinear, s_x: float, s_y: float, notes: list[str], name: str,
-                 x_range: tuple[float, float] | None = None) -> PwlQ:
+def quantize_pwl(
+    f: PiecewiseLinear, s_x: float, s_y: float, notes: list[str], name: str, x_range: tuple[float, float] | None = None
+) -> PwlQ:
     """A float table with input scale s_x and output scale s_y -> PwlQ; ``x_range``: the input
     interval (input units) the node's scaling guarantees."""
     xq = np.clip(np.round(_table_points(f, s_x, x_range)), -32768, 32767).astype(int)
@@ -224,10 +241,10 @@ def quantize_pwl(f: PiecewiseLinear, s_x: float, s_y: float, notes: list[str], n
         sh = 30
         if m != 0.0:
             sh = int(np.clip(math.floor(math.log2(32767 / abs(m))), 0, 30))
-        mq = round(m * 2.0 ** sh)
+        mq = round(m * 2.0**sh)
         while abs(mq) > 32767 and sh > 0:
             sh -= 1
-            mq = round(m * 2.0 ** sh)
+            mq = round(m * 2.0**sh)
         if abs(mq) > 32767:
             notes.append(f"{name}: segment {k} slope clipped")
             mq = int(np.clip(mq, -32768, 32767))
@@ -265,8 +282,13 @@ def _scale(lo: float, hi: float) -> float:
     return peak / FULL_SCALE if peak > 0 else 1.0 / FULL_SCALE
 
 
-def design_blob(structure: EstimatorStructure, input_range: list[tuple[float, float]], input_lsb: float,
-                model_id: int, notes: list[str]) -> tuple[ModelBlob, list[dict]]:
+def design_blob(
+    structure: EstimatorStructure,
+    input_range: list[tuple[float, float]],
+    input_lsb: float,
+    model_id: int,
+    notes: list[str],
+) -> tuple[ModelBlob, list[dict]]:
     """Build the blob; returns it and one dict per node (name, interval, scale)."""
     structure.check_limits()
     nodes: list[dict] = []
@@ -291,16 +313,19 @@ def design_blob(structure: EstimatorStructure, input_range: list[tuple[float, fl
         h2_sos = regroup(out.h2.sos) if out.h2 is not None else None
         h2_ivs = prefix_intervals(h2_sos, *g_iv) if h2_sos is not None else []
         last = h2_ivs[-1] if h2_ivs else g_iv
-        out_l1 = max(abs(last[0]), abs(last[1]), abs(last[0] + out.offset), abs(last[1] + out.offset),
-                     1e-12) / FULL_SCALE
+        out_l1 = (
+            max(abs(last[0]), abs(last[1]), abs(last[0] + out.offset), abs(last[1] + out.offset), 1e-12) / FULL_SCALE
+        )
         # 2. Scales: the l1 bound, raised where a section's numerator would need a gain above
         #    MAX_NUMERATOR_GAIN (int16 per int16); the last node of the chain is the output's.
         branch_scales = []
-        for br, x_iv, f_iv, sos, ivs in plans:
+        for br, _x_iv, f_iv, sos, ivs in plans:
             s_in = _scale(*f_iv) if br.f is not None else input_lsb
             branch_scales.append(_chain_scales(sos, ivs, s_in))
-        s_sum = max([max(worst_branch, abs(sum_lo), abs(sum_hi)) / FULL_SCALE or 1.0 / FULL_SCALE]
-                    + [sc[-1] for sc in branch_scales])
+        s_sum = max(
+            [max(worst_branch, abs(sum_lo), abs(sum_hi)) / FULL_SCALE or 1.0 / FULL_SCALE]
+            + [sc[-1] for sc in branch_scales]
+        )
         if out.g is None and h2_sos is None:
             out_l1 = s_sum = max(out_l1, s_sum)
         s_g = _scale(*g_iv) if out.g is not None else s_sum
@@ -349,8 +374,15 @@ def design_blob(structure: EstimatorStructure, input_range: list[tuple[float, fl
     return blob, nodes
 
 
-def blob_size(structure: EstimatorStructure, *, h1_sections: int | None = None, h2_sections: int | None = None,
-              breakpoints: int | None = None, section_bytes: float = 14.0, compact: bool | None = None) -> int:
+def blob_size(
+    structure: EstimatorStructure,
+    *,
+    h1_sections: int | None = None,
+    h2_sections: int | None = None,
+    breakpoints: int | None = None,
+    section_bytes: float = 14.0,
+    compact: bool | None = None,
+) -> int:
     """Bytes of the blob of ``structure`` with its blocks capped at the given orders: with full
     tables when that fits the model area, else with compact tables (:func:`compact_tables`);
     ``compact`` True / False forces one encoding (True: for a share of a larger blob, which the
@@ -379,25 +411,31 @@ def blob_size(structure: EstimatorStructure, *, h1_sections: int | None = None, 
 def compact_tables(blob: ModelBlob) -> ModelBlob:
     """The blob with every table in the compact encoding (x, y only: 27 bytes fewer per
     10-breakpoint table; the board computes each lookup's slope with one division)."""
+
     def c(t):
         return None if t is None else PwlQ(t.x, t.y, compact=True)
 
-    outs = tuple(OutputQ(tuple(dataclasses.replace(b, f=c(b.f)) for b in o.branches), c(o.g), o.h2, o.offset)
-                 for o in blob.outputs)
+    outs = tuple(
+        OutputQ(tuple(dataclasses.replace(b, f=c(b.f)) for b in o.branches), c(o.g), o.h2, o.offset)
+        for o in blob.outputs
+    )
     return dataclasses.replace(blob, outputs=outs)
 
 
-def orders_that_fit(structure: EstimatorStructure, section_bytes: float = 14.0, limit: int = 4,
-                    capacity: int = MAX_BLOB_LEN) -> list[str]:
+def orders_that_fit(
+    structure: EstimatorStructure, section_bytes: float = 14.0, limit: int = 4, capacity: int = MAX_BLOB_LEN
+) -> list[str]:
     """The largest uniform caps (poles in H1, poles in H2, breakpoints) whose blob fits."""
     has_h2 = any(o.h2 is not None for o in structure.outputs)
     has_pwl = any(o.g is not None or any(b.f is not None for b in o.branches) for o in structure.outputs)
     fits = []
     for s1 in range(5, 0, -1):
-        for s2 in (range(5, 0, -1) if has_h2 else [None]):
-            for bp in ((16, 12, 10, 8, 6, 5, 4, 3, 2) if has_pwl else [None]):
-                if blob_size(structure, h1_sections=s1, h2_sections=s2, breakpoints=bp,
-                             section_bytes=section_bytes) <= capacity:
+        for s2 in range(5, 0, -1) if has_h2 else [None]:
+            for bp in (16, 12, 10, 8, 6, 5, 4, 3, 2) if has_pwl else [None]:
+                if (
+                    blob_size(structure, h1_sections=s1, h2_sections=s2, breakpoints=bp, section_bytes=section_bytes)
+                    <= capacity
+                ):
                     fits.append((s1, s2 or 0, bp or 0))
     # For each table size, the largest pole budget (balanced between H1 and H2 on ties).
     out = []
@@ -423,12 +461,14 @@ def check_size(blob: ModelBlob, structure: EstimatorStructure, capacity: int = M
     length = blob.length
     if length <= capacity:
         return
-    per_section = np.mean([s.nbytes for o in blob.outputs for b in o.branches for s in b.sections]
-                          + [s.nbytes for o in blob.outputs for s in o.h2])
+    per_section = np.mean(
+        [s.nbytes for o in blob.outputs for b in o.branches for s in b.sections]
+        + [s.nbytes for o in blob.outputs for s in o.h2]
+    )
     fits = orders_that_fit(structure, float(per_section), capacity=capacity)
     hint = "; ".join(fits) if fits else "none: reduce the number of outputs or inputs"
     where = "EEPROM model region" if capacity == MAX_BLOB_LEN else "model slot"
     raise ModelError(
         f"model blob is {length} bytes, {length - capacity} bytes too large for the "
-        f"{capacity}-byte {where}; orders that fit: {hint}")
-
+        f"{capacity}-byte {where}; orders that fit: {hint}"
+    )

@@ -151,7 +151,7 @@ class FixedPointEstimator:
             total = np.zeros(n, dtype=np.int64)
             for br in out.branches:
                 start = DELAY_LEN - br.delay
-                x = _sat16(ext[start: start + n, br.input] - br.u_offset, sat)
+                x = _sat16(ext[start : start + n, br.input] - br.u_offset, sat)
                 if br.f is not None:
                     x = pwl_eval(br.f, x, sat)
                 total += self._cascade(c, br.sections, x, sat)

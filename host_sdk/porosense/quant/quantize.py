@@ -37,9 +37,15 @@ class QuantResult:
 FRACTION_SUSPECT_PEAK = 1.5
 
 
-def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None,
-             model_id: int | None = None, noise_lsb: float | None = None,
-             capacity: int = MAX_BLOB_LEN) -> QuantResult:
+def quantize(
+    structure: EstimatorStructure,
+    *,
+    recordings=None,
+    input_range=None,
+    model_id: int | None = None,
+    noise_lsb: float | None = None,
+    capacity: int = MAX_BLOB_LEN,
+) -> QuantResult:
     """Quantize ``structure`` for the firmware.
 
     recordings: recordings (porosense.data.Recording or mappings name -> column) holding the
@@ -76,24 +82,38 @@ def quantize(structure: EstimatorStructure, *, recordings=None, input_range=None
     if blob.length > capacity:  # too large with full tables: try compact ones
         small = compact_tables(blob)
         if small.length < blob.length:
-            notes.append(f"compact tables: {blob.length} bytes with full tables, {small.length} compact (the board "
-                         "computes each lookup's slope from the two breakpoints, one division)")
+            notes.append(
+                f"compact tables: {blob.length} bytes with full tables, {small.length} compact (the board "
+                "computes each lookup's slope from the two breakpoints, one division)"
+            )
             blob = small
     mid = model_id if model_id is not None else zlib.crc32(blob.to_bytes()) & 0xFFFFFFFF
     blob = dataclasses.replace(blob, model_id=mid & 0xFFFFFFFF)
     check_size(blob, structure, capacity)
     secs = [s for o in blob.outputs for b in o.branches for s in b.sections] + [s for o in blob.outputs for s in o.h2]
-    scaling = ("l1 interval bound: each node's range is the input interval through the positive and "
-               "negative parts of the impulse response (tables: their image), mapped to "
-               f"+-{FULL_SCALE:.0f} LSB; input ranges " + ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in ranges))
-    report = QuantReport(blob_bytes=blob.length, capacity_bytes=capacity, n_sections=len(secs),
-                         wide_numerators=sum(s.wide for s in secs), delta_sections=sum(s.delta for s in secs),
-                         out_scale=list(blob.out_scale), scaling=scaling, nodes=nodes, notes=notes)
+    scaling = (
+        "l1 interval bound: each node's range is the input interval through the positive and "
+        "negative parts of the impulse response (tables: their image), mapped to "
+        f"+-{FULL_SCALE:.0f} LSB; input ranges " + ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in ranges)
+    )
+    report = QuantReport(
+        blob_bytes=blob.length,
+        capacity_bytes=capacity,
+        n_sections=len(secs),
+        wide_numerators=sum(s.wide for s in secs),
+        delta_sections=sum(s.delta for s in secs),
+        out_scale=list(blob.out_scale),
+        scaling=scaling,
+        nodes=nodes,
+        notes=notes,
+    )
     guessed = [name for name, u, _ in recs if off_grid(u, lsb)]
     if guessed:
-        notes.append(f"inputs not on the device's {lsb:g}-unit grid in {', '.join(guessed)}: not what a device "
-                     "measured (noise-free truth or a simulation?); the fits use them rounded as the device "
-                     "rounds, and the noise probe shows what sensor noise would cost")
+        notes.append(
+            f"inputs not on the device's {lsb:g}-unit grid in {', '.join(guessed)}: not what a device "
+            "measured (noise-free truth or a simulation?); the fits use them rounded as the device "
+            "rounds, and the noise probe shows what sensor noise would cost"
+        )
     for name, u, y in recs:
         report.fits.extend(evaluate(structure, blob, u, y, name, lsb, noise_lsb))
     return QuantResult(blob, report)
@@ -118,7 +138,8 @@ def _check_units(structure: EstimatorStructure) -> None:
             raise ModelError(
                 f"input {name} peaked at {peak:.3g} in identification: that is dR/100, not dR in %, "
                 "but the model does not say which; declare it (fit(..., input_unit='dR/100') or "
-                "porosense quantize --input-unit dR/100)")
+                "porosense quantize --input-unit dR/100)"
+            )
 
 
 def device_inputs(u, input_lsb: float = DEFAULT_INPUT_LSB) -> np.ndarray:
@@ -137,8 +158,15 @@ def off_grid(u, input_lsb: float = DEFAULT_INPUT_LSB) -> bool:
     return bool(np.any(np.abs(v - np.round(v)) > 1e-3))
 
 
-def evaluate(structure: EstimatorStructure, blob: ModelBlob, u: np.ndarray, y, name: str,
-             input_lsb: float = DEFAULT_INPUT_LSB, noise_lsb: float = NOISE_PROBE_LSB) -> list[RecordingFit]:
+def evaluate(
+    structure: EstimatorStructure,
+    blob: ModelBlob,
+    u: np.ndarray,
+    y,
+    name: str,
+    input_lsb: float = DEFAULT_INPUT_LSB,
+    noise_lsb: float = NOISE_PROBE_LSB,
+) -> list[RecordingFit]:
     """Fit of the fixed-point reference against the float model and the data, per output.
 
     Both models run on exactly the device's inputs (:func:`device_inputs`). ``noise_lsb``: RMS
@@ -158,15 +186,19 @@ def evaluate(structure: EstimatorStructure, blob: ModelBlob, u: np.ndarray, y, n
         y_fixed = est[:, j].astype(float) * blob.out_scale[j]
         yd = None if y is None or y[j] is None else np.asarray(y[j], dtype=float)
         y_noisy = None if noisy is None else noisy[:, j].astype(float) * blob.out_scale[j]
-        out.append(RecordingFit(
-            recording=name, output=o.name,
-            fit_float_vs_data=None if yd is None else fit_percent(yd, y_float[:, j]),
-            fit_fixed_vs_data=None if yd is None else fit_percent(yd, y_fixed),
-            fit_fixed_vs_float=fit_percent(y_float[:, j], y_fixed),
-            saturated_samples=int(np.count_nonzero(flags)),
-            noise_lsb=float(noise_lsb),
-            fit_noisy_vs_data=None if yd is None or y_noisy is None else fit_percent(yd, y_noisy),
-            fit_noisy_vs_fixed=None if y_noisy is None else fit_percent(y_fixed, y_noisy)))
+        out.append(
+            RecordingFit(
+                recording=name,
+                output=o.name,
+                fit_float_vs_data=None if yd is None else fit_percent(yd, y_float[:, j]),
+                fit_fixed_vs_data=None if yd is None else fit_percent(yd, y_fixed),
+                fit_fixed_vs_float=fit_percent(y_float[:, j], y_fixed),
+                saturated_samples=int(np.count_nonzero(flags)),
+                noise_lsb=float(noise_lsb),
+                fit_noisy_vs_data=None if yd is None or y_noisy is None else fit_percent(yd, y_noisy),
+                fit_noisy_vs_fixed=None if y_noisy is None else fit_percent(y_fixed, y_noisy),
+            )
+        )
     return out
 
 

@@ -9,8 +9,7 @@ from scipy import signal
 from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade
 
 
-def random_cascade(rng: np.random.Generator, n_poles: int, slow: float = 0.999,
-                   gain: float = 1.0) -> SOSCascade:
+def random_cascade(rng: np.random.Generator, n_poles: int, slow: float = 0.999, gain: float = 1.0) -> SOSCascade:
     """Stable cascade of ``n_poles`` poles (radius 0.9..slow, some complex with small angles),
     fewer zeros, and the given DC gain."""
     poles, zeros = [], []
@@ -40,9 +39,17 @@ def random_pwl(rng: np.random.Generator, n: int, lo: float, hi: float, gain: flo
     return PiecewiseLinear(x, y)
 
 
-def random_structure(rng: np.random.Generator, n_inputs: int = 1, n_outputs: int = 1, *, h1_poles: int = 4,
-                     h2_poles: int = 2, breakpoints: int = 10, kind: str = "wh",
-                     slow: float = 0.999) -> EstimatorStructure:
+def random_structure(
+    rng: np.random.Generator,
+    n_inputs: int = 1,
+    n_outputs: int = 1,
+    *,
+    h1_poles: int = 4,
+    h2_poles: int = 2,
+    breakpoints: int = 10,
+    kind: str = "wh",
+    slow: float = 0.999,
+) -> EstimatorStructure:
     """A random structure of ``kind`` linear | hammerstein | wiener | wh, inputs dR in %."""
     outputs = []
     for j in range(n_outputs):
@@ -50,18 +57,22 @@ def random_structure(rng: np.random.Generator, n_inputs: int = 1, n_outputs: int
         for i in range(n_inputs):
             f = random_pwl(rng, breakpoints, -90, 10, 1.0) if kind in ("hammerstein", "wh") else None
             h1 = random_cascade(rng, h1_poles, slow, gain=rng.uniform(-0.4, -0.1))
-            branches.append(Branch(input=i, h1=h1, f=f, delay=int(rng.integers(0, 4)),
-                                   u_offset=float(rng.uniform(-2, 2))))
+            branches.append(
+                Branch(input=i, h1=h1, f=f, delay=int(rng.integers(0, 4)), u_offset=float(rng.uniform(-2, 2)))
+            )
         g = random_pwl(rng, breakpoints, -40, 40, 1.0) if kind in ("wiener", "wh") else None
         h2 = random_cascade(rng, h2_poles, slow) if kind == "wh" and h2_poles else None
-        outputs.append(OutputChain(name=f"y{j}", branches=tuple(branches), g=g, h2=h2,
-                                   offset=float(rng.uniform(-1, 1))))
-    return EstimatorStructure(inputs=tuple(f"dR_{i}" for i in range(n_inputs)), outputs=tuple(outputs),
-                              ts=0.02, meta={"kind": kind})
+        outputs.append(
+            OutputChain(name=f"y{j}", branches=tuple(branches), g=g, h2=h2, offset=float(rng.uniform(-1, 1)))
+        )
+    return EstimatorStructure(
+        inputs=tuple(f"dR_{i}" for i in range(n_inputs)), outputs=tuple(outputs), ts=0.02, meta={"kind": kind}
+    )
 
 
-def step_inputs(rng: np.random.Generator, n: int, n_inputs: int = 1, lo: float = -85.0, hi: float = 5.0,
-                hold: int = 500) -> np.ndarray:
+def step_inputs(
+    rng: np.random.Generator, n: int, n_inputs: int = 1, lo: float = -85.0, hi: float = 5.0, hold: int = 500
+) -> np.ndarray:
     """Smoothed random steps inside [lo, hi] (dR in %), shape (n, n_inputs): the paper's
     on/off vacuum steps seen through the sensor."""
     u = np.empty((n, n_inputs))

@@ -81,8 +81,9 @@ class QuantReport:
         for f, fd in zip(self.fits, d["fits"]):
             fd["loss_points"] = f.loss_points
             fd["noise_loss_points"] = f.noise_loss_points
-        d["nodes"] = [{**n, "interval": [float(v) for v in n["interval"]], "scale": float(n["scale"])}
-                      for n in self.nodes]
+        d["nodes"] = [
+            {**n, "interval": [float(v) for v in n["interval"]], "scale": float(n["scale"])} for n in self.nodes
+        ]
         return d
 
     def to_json(self, path=None) -> str:
@@ -93,21 +94,27 @@ class QuantReport:
         return text
 
     def lines(self) -> list[str]:
-        out = [f"blob {self.blob_bytes} of {self.capacity_bytes} bytes; {self.n_sections} sections "
-               f"({self.wide_numerators} with 32-bit numerators, {self.delta_sections} in delta form)",
-               f"scaling: {self.scaling}",
-               "out_scale: " + ", ".join(f"{s:.6g}" for s in self.out_scale),
-               "fits: the bit-exact fixed-point estimator on the device's inputs (rounded to its LSB "
-               "as the device rounds)"]
+        out = [
+            f"blob {self.blob_bytes} of {self.capacity_bytes} bytes; {self.n_sections} sections "
+            f"({self.wide_numerators} with 32-bit numerators, {self.delta_sections} in delta form)",
+            f"scaling: {self.scaling}",
+            "out_scale: " + ", ".join(f"{s:.6g}" for s in self.out_scale),
+            "fits: the bit-exact fixed-point estimator on the device's inputs (rounded to its LSB "
+            "as the device rounds)",
+        ]
         out += [f"note: {n}" for n in self.notes if n.startswith("inputs not on the device")]
         for f in self.fits:
             parts = [f"{f.recording} {f.output}: fixed vs float {f.fit_fixed_vs_float:.2f} %"]
             if f.fit_float_vs_data is not None:
-                parts.append(f"float vs data {f.fit_float_vs_data:.2f} %, fixed vs data "
-                             f"{f.fit_fixed_vs_data:.2f} % (loss {f.loss_points:+.3f} points)")
+                parts.append(
+                    f"float vs data {f.fit_float_vs_data:.2f} %, fixed vs data "
+                    f"{f.fit_fixed_vs_data:.2f} % (loss {f.loss_points:+.3f} points)"
+                )
             if f.noise_loss_points is not None:
-                parts.append(f"with {f.noise_lsb:g} LSB RMS input noise fixed vs data {f.fit_noisy_vs_data:.2f} % "
-                             f"(noise costs {f.noise_loss_points:+.3f} points)")
+                parts.append(
+                    f"with {f.noise_lsb:g} LSB RMS input noise fixed vs data {f.fit_noisy_vs_data:.2f} % "
+                    f"(noise costs {f.noise_loss_points:+.3f} points)"
+                )
             parts.append(f"saturated samples {f.saturated_samples}")
             out.append("; ".join(parts))
         return out

@@ -21,6 +21,19 @@ from porosense.record.sync import ClockFit, fit_clock, host_clock
 from porosense.record.tracker import Track, track_video
 from porosense.record.truth import add_truth
 
-__all__ = ["Calibration", "CircleFit", "ClockFit", "Layout", "Track", "add_truth", "board_edges",
-           "board_levels", "calibrate", "fit_circle", "fit_clock", "host_clock", "indicator_level",
-           "track_video"]
+__all__ = [
+    "Calibration",
+    "CircleFit",
+    "ClockFit",
+    "Layout",
+    "Track",
+    "add_truth",
+    "board_edges",
+    "board_levels",
+    "calibrate",
+    "fit_circle",
+    "fit_clock",
+    "host_clock",
+    "indicator_level",
+    "track_video",
+]

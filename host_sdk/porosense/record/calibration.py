@@ -38,9 +38,13 @@ class Calibration:
         return cv2.perspectiveTransform(p, self.plane_homography).reshape(-1, 2)
 
     def to_dict(self) -> dict:
-        return {"camera_matrix": self.camera_matrix.tolist(), "distortion": self.distortion.ravel().tolist(),
-                "rms_px": self.rms_px, "plane_homography": self.plane_homography.tolist(),
-                "image_size": list(self.image_size)}
+        return {
+            "camera_matrix": self.camera_matrix.tolist(),
+            "distortion": self.distortion.ravel().tolist(),
+            "rms_px": self.rms_px,
+            "plane_homography": self.plane_homography.tolist(),
+            "image_size": list(self.image_size),
+        }
 
     def save(self, path) -> Path:
         path = Path(path)
@@ -48,12 +52,17 @@ class Calibration:
         return path
 
     @classmethod
-    def load(cls, path) -> "Calibration":
+    def load(cls, path) -> Calibration:
         path = Path(path)
         try:
             d = json.loads(path.read_text(encoding="utf-8"))
-            return cls(np.array(d["camera_matrix"], float), np.array(d["distortion"], float),
-                       float(d["rms_px"]), np.array(d["plane_homography"], float), tuple(d["image_size"]))
+            return cls(
+                np.array(d["camera_matrix"], float),
+                np.array(d["distortion"], float),
+                float(d["rms_px"]),
+                np.array(d["plane_homography"], float),
+                tuple(d["image_size"]),
+            )
         except FileNotFoundError:
             raise InputError(f"calibration file {path} not found") from None
         except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
@@ -62,8 +71,9 @@ class Calibration:
 
 def find_corners(gray: np.ndarray, pattern: tuple[int, int]) -> np.ndarray | None:
     """Inner corners (N, 2) of a checkerboard with ``pattern`` = (columns, rows) inner corners."""
-    found, corners = cv2.findChessboardCorners(gray, pattern, flags=cv2.CALIB_CB_ADAPTIVE_THRESH
-                                               | cv2.CALIB_CB_NORMALIZE_IMAGE)
+    found, corners = cv2.findChessboardCorners(
+        gray, pattern, flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
+    )
     if not found:
         return None
     crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-4)

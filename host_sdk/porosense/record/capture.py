@@ -24,7 +24,7 @@ class Capture:
         self._writer = None
         self.error: str | None = None
 
-    def __enter__(self) -> "Capture":
+    def __enter__(self) -> Capture:
         self._thread.start()
         return self
 

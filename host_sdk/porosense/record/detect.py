@@ -23,15 +23,14 @@ class Blob:
     contrast: float
 
 
-def dark_blobs(gray: np.ndarray, roi, feature_px: int, min_contrast: float,
-               min_area: float = 4.0) -> list[Blob]:
+def dark_blobs(gray: np.ndarray, roi, feature_px: int, min_contrast: float, min_area: float = 4.0) -> list[Blob]:
     """Dark blobs inside ``roi`` (x, y, w, h) of an 8-bit image, largest first.
 
     ``feature_px`` is the largest feature size (px); ``min_contrast`` the darkening (grey
     levels) below which nothing counts as a feature, whatever the image's own statistics.
     """
     x0, y0, w, h = (int(v) for v in roi)
-    sub = gray[y0:y0 + h, x0:x0 + w]
+    sub = gray[y0 : y0 + h, x0 : x0 + w]
     if sub.size == 0:
         return []
     k = int(feature_px) | 1
@@ -55,7 +54,13 @@ def dark_blobs(gray: np.ndarray, roi, feature_px: int, min_contrast: float,
         m = cv2.moments(wgt)
         if m["m00"] <= 0:
             continue
-        out.append(Blob(m["m10"] / m["m00"] + xa + x0, m["m01"] / m["m00"] + ya + y0,
-                        float(area), float(hat[ya:yb, xa:xb][mask > 0].max())))
+        out.append(
+            Blob(
+                m["m10"] / m["m00"] + xa + x0,
+                m["m01"] / m["m00"] + ya + y0,
+                float(area),
+                float(hat[ya:yb, xa:xb][mask > 0].max()),
+            )
+        )
     out.sort(key=lambda b: -b.area)
     return out

@@ -30,8 +30,8 @@ class Layout:
     indicator: tuple | None = None
     reference: tuple | None = None
     reference_mm: float | None = None
-    feature_px: int = 25             # widest dark feature (stripe, marker), px
-    min_contrast: float = 30.0       # darkening below which nothing is a feature, grey levels
+    feature_px: int = 25  # widest dark feature (stripe, marker), px
+    min_contrast: float = 30.0  # darkening below which nothing is a feature, grey levels
     max_failed_fraction: float = 0.10  # more failed frames than this is an error
     marker_length_mm: float | None = None  # fixed end to marker at rest: strain = dz / this
 
@@ -51,7 +51,7 @@ class Layout:
             raise InputError("layout: 'max_failed_fraction' must be in [0, 1)")
 
     @classmethod
-    def load(cls, path) -> "Layout":
+    def load(cls, path) -> Layout:
         path = Path(path)
         try:
             data = json.loads(path.read_text(encoding="utf-8"))

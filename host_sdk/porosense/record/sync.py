@@ -47,8 +47,10 @@ class ClockFit:
         return asdict(self)
 
     def __str__(self) -> str:
-        return (f"clock by {self.method}: offset {self.offset_s:.4f} s, drift {self.drift_ppm:.0f} ppm, "
-                f"residual {self.residual_ms:.1f} ms over {self.n_edges} edges")
+        return (
+            f"clock by {self.method}: offset {self.offset_s:.4f} s, drift {self.drift_ppm:.0f} ppm, "
+            f"residual {self.residual_ms:.1f} ms over {self.n_edges} edges"
+        )
 
 
 def observed_edges(t_cam, brightness) -> tuple[np.ndarray, np.ndarray] | None:
@@ -111,7 +113,8 @@ def fit_clock(t_cam, brightness, t_dev_us, fps: float) -> ClockFit | None:
     if rivals:
         raise InputError(
             f"the sync blinks fit offsets {best[1]:.2f} s and {rivals[0]:.2f} s equally well: the video "
-            "must show the start code (start the camera before the stream)")
+            "must show the start code (start the camera before the stream)"
+        )
     offset, slope = best[1], 1.0
     i = j = np.zeros(0, int)
     for tol_k in (tol, 3.0 / fps, 1.5 / fps):
@@ -123,9 +126,15 @@ def fit_clock(t_cam, brightness, t_dev_us, fps: float) -> ClockFit | None:
         else:
             slope, offset = 1.0, float(np.mean(td[j] - tc[i]))
     res = td[j] - (offset + slope * tc[i])
-    rms = float(np.sqrt(np.mean(res ** 2)))
-    return ClockFit(float(offset), float((slope - 1.0) * 1e6), rms * 1e3, int(len(i)), "blinks",
-                    max(rms * 1e3, 1e3 / fps / np.sqrt(12.0)))
+    rms = float(np.sqrt(np.mean(res**2)))
+    return ClockFit(
+        float(offset),
+        float((slope - 1.0) * 1e6),
+        rms * 1e3,
+        int(len(i)),
+        "blinks",
+        max(rms * 1e3, 1e3 / fps / np.sqrt(12.0)),
+    )
 
 
 def host_clock(t_host_stream_start: float, expected_error_ms: float) -> ClockFit:

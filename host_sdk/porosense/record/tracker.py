@@ -61,7 +61,7 @@ class Track:
     ok_marker: np.ndarray | None = None
     mm_per_px: float | None = None
     fps: float = float("nan")
-    tracking_fps: float = float("nan")      # frames per wall-clock second (decode included)
+    tracking_fps: float = float("nan")  # frames per wall-clock second (decode included)
     tracking_fps_cpu: float = float("nan")  # frames per CPU second of this process
     stripe_count: int = 0
     info: dict = field(default_factory=dict)
@@ -79,16 +79,23 @@ class Track:
         return out
 
     def to_dict(self) -> dict:
-        return {"n_frames": self.n_frames, "fps": self.fps, "tracking_fps": self.tracking_fps,
-                "tracking_fps_cpu": self.tracking_fps_cpu,
-                "mm_per_px": self.mm_per_px, "stripe_count": self.stripe_count,
-                "failed_frames": {k: [list(r) for r in v] for k, v in self.failed_ranges().items()},
-                **self.info}
+        return {
+            "n_frames": self.n_frames,
+            "fps": self.fps,
+            "tracking_fps": self.tracking_fps,
+            "tracking_fps_cpu": self.tracking_fps_cpu,
+            "mm_per_px": self.mm_per_px,
+            "stripe_count": self.stripe_count,
+            "failed_frames": {k: [list(r) for r in v] for k, v in self.failed_ranges().items()},
+            **self.info,
+        }
 
     def __repr__(self) -> str:
         failed = {k: int(sum(b - a + 1 for a, b in v)) for k, v in self.failed_ranges().items()}
-        return (f"Track({self.n_frames} frames at {self.fps:.2f} fps, tracked at "
-                f"{self.tracking_fps:.0f} fps, failed frames {failed})")
+        return (
+            f"Track({self.n_frames} frames at {self.fps:.2f} fps, tracked at "
+            f"{self.tracking_fps:.0f} fps, failed frames {failed})"
+        )
 
 
 class _Scale:
@@ -129,8 +136,9 @@ def _stripe_points(gray, layout: Layout) -> np.ndarray:
     # Stripe fragments (a partly hidden stripe) are far smaller than the stripes themselves.
     typical = np.median([b.area for b in blobs])
     ink = max(b.contrast for b in blobs)
-    return np.array([(b.x, b.y) for b in blobs
-                     if b.area >= 0.5 * typical and b.contrast >= MIN_CONTRAST_SHARE * ink]).reshape(-1, 2)
+    return np.array(
+        [(b.x, b.y) for b in blobs if b.area >= 0.5 * typical and b.contrast >= MIN_CONTRAST_SHARE * ink]
+    ).reshape(-1, 2)
 
 
 def _marker_blob(gray, layout: Layout):
@@ -140,11 +148,18 @@ def _marker_blob(gray, layout: Layout):
 
 def _indicator(gray, layout: Layout) -> float:
     x, y, w, h = layout.indicator
-    return float(gray[y:y + h, x:x + w].mean())
+    return float(gray[y : y + h, x : x + w].mean())
 
 
-def track_video(path, layout: Layout, calibration: Calibration | None = None, *,
-                timestamps=None, progress: bool = False, preview=None) -> Track:
+def track_video(
+    path,
+    layout: Layout,
+    calibration: Calibration | None = None,
+    *,
+    timestamps=None,
+    progress: bool = False,
+    preview=None,
+) -> Track:
     """Track ``path`` (a video file) with ``layout``; camera times from ``timestamps`` (s, one
     per frame, e.g. host capture times) or frame index / fps. ``preview``: write an annotated
     copy of the video there.
@@ -196,8 +211,13 @@ def track_video(path, layout: Layout, calibration: Calibration | None = None, *,
     else:
         t_cam = np.arange(n) / fps
     scale.finish()
-    track = Track(t_cam=t_cam, fps=fps, tracking_fps=n / elapsed if elapsed > 0 else float("inf"),
-                  tracking_fps_cpu=n / cpu if cpu > 0 else float("inf"), mm_per_px=scale.mm_per_px)
+    track = Track(
+        t_cam=t_cam,
+        fps=fps,
+        tracking_fps=n / elapsed if elapsed > 0 else float("inf"),
+        tracking_fps_cpu=n / cpu if cpu > 0 else float("inf"),
+        mm_per_px=scale.mm_per_px,
+    )
     if layout.indicator is not None:
         track.indicator = np.asarray(indicator)
     if layout.stripes is not None:
@@ -221,8 +241,10 @@ def _curvature(track: Track, stripes, scale: _Scale, layout: Layout, path) -> No
     learn = counts[:LEARN_FRAMES]
     expected = int(np.bincount(learn).argmax()) if learn.size else 0
     if expected < 3:
-        raise InputError(f"{path}: fewer than three stripes found in region {list(layout.stripes)} "
-                         f"(found {expected}); the curvature needs at least three")
+        raise InputError(
+            f"{path}: fewer than three stripes found in region {list(layout.stripes)} "
+            f"(found {expected}); the curvature needs at least three"
+        )
     n = len(stripes)
     kappa, kstd = np.full(n, np.nan), np.full(n, np.nan)
     ok = counts == expected
@@ -253,12 +275,18 @@ def _displacement(track: Track, marker, scale: _Scale, layout: Layout, path) -> 
     typical = np.nanmedian(areas[:LEARN_FRAMES] if learn else areas)
     ink = np.nanmedian(contrast[:LEARN_FRAMES] if learn else contrast)
     with np.errstate(invalid="ignore"):
-        ok = (found & (areas < typical * MARKER_AREA_FACTOR) & (areas > typical / MARKER_AREA_FACTOR)
-              & (contrast > MIN_CONTRAST_SHARE * ink))
+        ok = (
+            found
+            & (areas < typical * MARKER_AREA_FACTOR)
+            & (areas > typical / MARKER_AREA_FACTOR)
+            & (contrast > MIN_CONTRAST_SHARE * ink)
+        )
     px = np.array([(b.x, b.y) if b is not None else (np.nan, np.nan) for b in marker])
     if not ok.any():
-        raise InputError(f"{path}: no marker found in region {list(layout.marker)}: dark blobs there "
-                         "change size or contrast from frame to frame")
+        raise InputError(
+            f"{path}: no marker found in region {list(layout.marker)}: dark blobs there "
+            "change size or contrast from frame to frame"
+        )
     mm = np.full((n, 2), np.nan)
     mm[ok] = scale.to_mm(px[ok])
     # Rest position: the first second of video (the schedule starts at rest).
@@ -282,7 +310,8 @@ def _check_failures(track: Track, layout: Layout, path) -> None:
         if n_bad > layout.max_failed_fraction * track.n_frames:
             raise InputError(
                 f"{path}: {name} not found in {n_bad} of {track.n_frames} frames "
-                f"(more than {layout.max_failed_fraction:.0%}): frames {format_ranges(ranges)}")
+                f"(more than {layout.max_failed_fraction:.0%}): frames {format_ranges(ranges)}"
+            )
 
 
 def _annotate(writer, path, frame, fps, layout: Layout, stripes, marker):
@@ -290,8 +319,12 @@ def _annotate(writer, path, frame, fps, layout: Layout, stripes, marker):
     img = frame.copy() if frame.ndim == 3 else cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR)
     if writer is None:
         writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), fps, img.shape[1::-1])
-    for name, colour in (("stripes", (0, 200, 0)), ("marker", (0, 0, 255)),
-                         ("indicator", (0, 200, 255)), ("reference", (255, 0, 0))):
+    for name, colour in (
+        ("stripes", (0, 200, 0)),
+        ("marker", (0, 0, 255)),
+        ("indicator", (0, 200, 255)),
+        ("reference", (255, 0, 0)),
+    ):
         roi = getattr(layout, name)
         if roi is not None:
             x, y, w, h = roi
@@ -300,7 +333,6 @@ def _annotate(writer, path, frame, fps, layout: Layout, stripes, marker):
         for x, y in stripes[-1]:
             cv2.circle(img, (int(round(x)), int(round(y))), 4, (0, 200, 0), 1)
     if marker and marker[-1] is not None:
-        cv2.drawMarker(img, (int(round(marker[-1].x)), int(round(marker[-1].y))), (0, 0, 255),
-                       cv2.MARKER_CROSS, 12, 1)
+        cv2.drawMarker(img, (int(round(marker[-1].x)), int(round(marker[-1].y))), (0, 0, 255), cv2.MARKER_CROSS, 12, 1)
     writer.write(img)
     return writer

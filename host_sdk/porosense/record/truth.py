@@ -42,7 +42,8 @@ def add_truth(board: Recording, track: Track, clock: ClockFit, *, marker_length_
         short = max(float(span_v[0] - t_dev[0]), float(t_dev[-1] - span_v[1]))
         raise InputError(
             f"the video covers device time {span_v[0]:.2f} to {span_v[1]:.2f} s but the recording "
-            f"spans {t_dev[0]:.2f} to {t_dev[-1]:.2f} s: the video is {short:.2f} s too short")
+            f"spans {t_dev[0]:.2f} to {t_dev[-1]:.2f} s: the video is {short:.2f} s too short"
+        )
     cols, units = {"t_cam": t_cam}, {"t_cam": "s"}
     good = np.ones(t_dev.size, dtype=bool)
     if track.curvature is not None:
@@ -64,10 +65,13 @@ def add_truth(board: Recording, track: Track, clock: ClockFit, *, marker_length_
     for name, values in cols.items():
         merged[f"{name}_camera" if name in name_clash else name] = values
     meta = dict(board.meta)
-    meta["camera"] = {"clock": clock.to_dict(), "track": track.to_dict(),
-                      "samples_without_truth": int((~good).sum()),
-                      "sample_ranges_without_truth": format_ranges(frame_ranges(~good)),
-                      "truth_columns": [n for n in ("curvature", "dz", "strain_0") if n in cols]}
+    meta["camera"] = {
+        "clock": clock.to_dict(),
+        "track": track.to_dict(),
+        "samples_without_truth": int((~good).sum()),
+        "sample_ranges_without_truth": format_ranges(frame_ranges(~good)),
+        "truth_columns": [n for n in ("curvature", "dz", "strain_0") if n in cols],
+    }
     return Recording(board.t, merged, meta=meta, units={**board.units, **units})
 
 

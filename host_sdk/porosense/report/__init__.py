@@ -9,5 +9,12 @@ from porosense.report.figures import (
 )
 from porosense.report.page import Section, write_report
 
-__all__ = ["fit_power_law", "plot_fit_bars", "plot_hysteresis", "plot_power_law", "plot_reconstruction",
-           "Section", "write_report"]
+__all__ = [
+    "fit_power_law",
+    "plot_fit_bars",
+    "plot_hysteresis",
+    "plot_power_law",
+    "plot_reconstruction",
+    "Section",
+    "write_report",
+]

@@ -43,18 +43,26 @@ class CompareResult:
             for f in self.files:
                 out.append(f"{'':{len(o) + 2}}{f[-40:]:<40} {self.fit[f][o]:>8.2f} {self.rms[f][o]:>8.2f}")
             s = self.summary(o)
-            out.append(f"{'':{len(o) + 2}}{'mean ± standard error':<40} {s['fit_mean']:>5.2f}±{s['fit_se']:.2f}"
-                       f" {s['rms_mean']:>5.2f}±{s['rms_se']:.2f}")
+            out.append(
+                f"{'':{len(o) + 2}}{'mean ± standard error':<40} {s['fit_mean']:>5.2f}±{s['fit_se']:.2f}"
+                f" {s['rms_mean']:>5.2f}±{s['rms_se']:.2f}"
+            )
         return out
 
     def __str__(self) -> str:
         return "\n".join(self.lines())
 
     def to_dict(self) -> dict:
-        return {"model": self.model, "files": self.files, "outputs": self.outputs,
-                "per_file": [{"file": f, **{o: {"fit": self.fit[f][o], "rms": self.rms[f][o]} for o in self.outputs}}
-                             for f in self.files],
-                "summary": {o: self.summary(o) for o in self.outputs}}
+        return {
+            "model": self.model,
+            "files": self.files,
+            "outputs": self.outputs,
+            "per_file": [
+                {"file": f, **{o: {"fit": self.fit[f][o], "rms": self.rms[f][o]} for o in self.outputs}}
+                for f in self.files
+            ],
+            "summary": {o: self.summary(o) for o in self.outputs},
+        }
 
 
 def model_outputs(model) -> list[str]:
@@ -102,8 +110,13 @@ def hold_averages(pressure_kpa, columns: dict, *, settle: float = 0.5, min_sampl
         if p[a] == 0 or b - a < 2 * min_samples:
             continue
         k0 = a + int(settle * (b - a))
-        holds.append({"pressure_kpa": float(p[a]), "n": int(b - k0),
-                      **{name: float(np.mean(np.asarray(v, dtype=float)[k0:b])) for name, v in columns.items()}})
+        holds.append(
+            {
+                "pressure_kpa": float(p[a]),
+                "n": int(b - k0),
+                **{name: float(np.mean(np.asarray(v, dtype=float)[k0:b])) for name, v in columns.items()},
+            }
+        )
     return holds
 
 
@@ -148,8 +161,13 @@ def hysteresis_branches(x, y, *, degree: int = 3, smooth: int = 5) -> dict:
             continue
         coef = np.polyfit(x[mask], y[mask], degree)
         grid = np.linspace(x[mask].min(), x[mask].max(), 100)
-        out[name] = {"coef": coef.tolist(), "r2": r_squared(y[mask], np.polyval(coef, x[mask])),
-                     "x": grid, "y": np.polyval(coef, grid), "samples": int(mask.sum())}
+        out[name] = {
+            "coef": coef.tolist(),
+            "r2": r_squared(y[mask], np.polyval(coef, x[mask])),
+            "x": grid,
+            "y": np.polyval(coef, grid),
+            "samples": int(mask.sum()),
+        }
     return out
 
 
@@ -163,9 +181,16 @@ def poles_zeros(model) -> list[dict]:
             zeros = np.asarray(tf.zeros())
             zeros = zeros[np.abs(zeros) > 1e-12]  # the z^-k delays are not zeros of the dynamics
             real = poles[(np.abs(poles.imag) < 1e-9) & (poles.real > 0) & (poles.real < 1)].real
-            rows.append({"output": m.output, "kind": m.kind, "block": name,
-                         "poles": poles.tolist(), "zeros": zeros.tolist(),
-                         "time_constants_s": sorted((-m.ts / np.log(real)).tolist())})
+            rows.append(
+                {
+                    "output": m.output,
+                    "kind": m.kind,
+                    "block": name,
+                    "poles": poles.tolist(),
+                    "zeros": zeros.tolist(),
+                    "time_constants_s": sorted((-m.ts / np.log(real)).tolist()),
+                }
+            )
     return rows
 
 

@@ -17,6 +17,7 @@ STRUCTURE_COLOURS = {"linear": "#7f7f7f", "hammerstein": "#1f77b4", "wiener": "#
 def model_colours(names) -> dict:
     """A colour per model name, the same in every figure: the structure's colour when every name
     maps to a different structure (by name or a '(kind)' suffix), else a fixed palette in order."""
+
     def kind(name):
         for k in sorted(STRUCTURE_COLOURS, key=len, reverse=True):
             if name == k or name.endswith(f"({k})") or name.startswith(f"{k} ") or name == f"{k}.json":
@@ -45,8 +46,14 @@ def figure_labels(fig) -> dict:
     axes = []
     for ax in fig.axes:
         legend = ax.get_legend()
-        axes.append({"title": ax.get_title(), "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel(),
-                     "legend": [t.get_text() for t in legend.get_texts()] if legend else []})
+        axes.append(
+            {
+                "title": ax.get_title(),
+                "xlabel": ax.get_xlabel(),
+                "ylabel": ax.get_ylabel(),
+                "legend": [t.get_text() for t in legend.get_texts()] if legend else [],
+            }
+        )
     return {"title": fig._suptitle.get_text() if fig._suptitle else "", "axes": axes}
 
 
@@ -80,12 +87,19 @@ def read_labels(path) -> dict:
 
 def _legend_outside(ax, n_entries: int):
     """Legend to the right of the axes, never over the data."""
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=8,
-              frameon=False, ncol=1 if n_entries <= 12 else 2)
+    ax.legend(
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        borderaxespad=0.0,
+        fontsize=8,
+        frameon=False,
+        ncol=1 if n_entries <= 12 else 2,
+    )
 
 
-def plot_reconstruction(t, measured, estimates: dict, *, ylabel: str = "strain (%)", title: str = "", path=None,
-                        show_fit: bool = True):
+def plot_reconstruction(
+    t, measured, estimates: dict, *, ylabel: str = "strain (%)", title: str = "", path=None, show_fit: bool = True
+):
     """Measured output against each model's estimate over time (s), like the paper's
     reconstruction figures. ``estimates`` maps a model name to its simulated output; the
     legend (beside the axes) gives each model's NRMSE fit in %."""
@@ -106,16 +120,18 @@ def plot_reconstruction(t, measured, estimates: dict, *, ylabel: str = "strain (
     return _finish(fig, path)
 
 
-def plot_compare(t, measured: dict, predicted: dict, *, label: str = "model", units: dict | None = None,
-                 title: str = "", path=None):
+def plot_compare(
+    t, measured: dict, predicted: dict, *, label: str = "model", units: dict | None = None, title: str = "", path=None
+):
     """MATLAB's ``compare``: one panel per output, measured (when known) and predicted against
     time (s), the fit (%) in the legend. ``measured``/``predicted`` map output names to arrays."""
     from porosense.ident.metrics import fit_percent
 
     plt = _plt()
     names = list(predicted)
-    fig, axes = plt.subplots(len(names), 1, figsize=(9.5, 2.6 * len(names) + 0.6), layout="constrained",
-                             squeeze=False, sharex=True)
+    fig, axes = plt.subplots(
+        len(names), 1, figsize=(9.5, 2.6 * len(names) + 0.6), layout="constrained", squeeze=False, sharex=True
+    )
     for ax, name in zip(axes[:, 0], names):
         if name in measured:
             ax.plot(t, measured[name], color="black", lw=1.5, label="measured")
@@ -132,8 +148,18 @@ def plot_compare(t, measured: dict, predicted: dict, *, label: str = "model", un
     return _finish(fig, path)
 
 
-def plot_hysteresis(dR_pct, output, *, ylabel: str = "strain (%)", title: str = "", path=None,
-                    colour=None, colour_label: str = "time (s)", fits: dict | None = None, xlabel: str = "dR (%)"):
+def plot_hysteresis(
+    dR_pct,
+    output,
+    *,
+    ylabel: str = "strain (%)",
+    title: str = "",
+    path=None,
+    colour=None,
+    colour_label: str = "time (s)",
+    fits: dict | None = None,
+    xlabel: str = "dR (%)",
+):
     """dR (%) against the output: the loop whose area shows hysteresis and relaxation.
 
     ``colour`` (time in s, or pressure in kPa) colours the points, ``colour_label`` names it
@@ -211,8 +237,9 @@ def plot_power_law(porosity_pct, values: dict, fits: dict | None = None, *, titl
         ax.plot(phi, v, "o", color="black")
         if fits and label in fits:
             c, n, r2 = fits[label]
-            ax.plot(grid, c * (1 - grid / 100) ** n, color="#d62728",
-                    label=f"{c:.3g} (1 - phi/100)^{n:.2f}, R^2 {r2:.2f}")
+            ax.plot(
+                grid, c * (1 - grid / 100) ** n, color="#d62728", label=f"{c:.3g} (1 - phi/100)^{n:.2f}, R^2 {r2:.2f}"
+            )
             ax.legend(fontsize=8)
         ax.set_xlabel("porosity (%)")
         ax.set_ylabel(label)

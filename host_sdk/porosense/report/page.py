@@ -31,18 +31,30 @@ class DataTable:
         return str(value)
 
     def markdown(self) -> str:
-        lines = [f"*{self.caption}*", "", "| " + " | ".join(map(str, self.header)) + " |",
-                 "|" + "|".join("---" for _ in self.header) + "|"]
+        lines = [
+            f"*{self.caption}*",
+            "",
+            "| " + " | ".join(map(str, self.header)) + " |",
+            "|" + "|".join("---" for _ in self.header) + "|",
+        ]
         lines += ["| " + " | ".join(self.cell(c) for c in row) + " |" for row in self.rows]
         return "\n".join(lines)
 
     def html(self) -> str:
         head = "".join(f"<th>{html.escape(str(h))}</th>" for h in self.header)
         body = "".join(
-            "<tr>" + "".join(f'<td class="{"num" if isinstance(c, (int, float)) else "txt"}">'
-                             f"{html.escape(self.cell(c))}</td>" for c in row) + "</tr>" for row in self.rows)
-        return (f"<table><caption>{html.escape(self.caption)}</caption><thead><tr>{head}</tr></thead>"
-                f"<tbody>{body}</tbody></table>")
+            "<tr>"
+            + "".join(
+                f'<td class="{"num" if isinstance(c, (int, float)) else "txt"}">{html.escape(self.cell(c))}</td>'
+                for c in row
+            )
+            + "</tr>"
+            for row in self.rows
+        )
+        return (
+            f"<table><caption>{html.escape(self.caption)}</caption><thead><tr>{head}</tr></thead>"
+            f"<tbody>{body}</tbody></table>"
+        )
 
     def to_dict(self) -> dict:
         return {"caption": self.caption, "header": list(self.header), "rows": [list(r) for r in self.rows]}
@@ -74,14 +86,16 @@ class Section:
     tables: list[DataTable] = field(default_factory=list)
 
 
-STYLE = ("body{font-family:system-ui,sans-serif;max-width:1150px;margin:2em auto;padding:0 1em;color:#222}"
-         "pre{background:#f6f6f6;padding:.8em;overflow-x:auto;font-size:13px}"
-         "table{border-collapse:collapse;margin:1em 0;font-size:14px}"
-         "caption{caption-side:top;text-align:left;font-style:italic;padding-bottom:.3em}"
-         "th,td{border:1px solid #ccc;padding:.25em .6em}th{background:#f0f0f0}"
-         "td.num{text-align:right;font-variant-numeric:tabular-nums}"
-         "img{max-width:100%;border:1px solid #ddd;margin:.5em 0}h2{border-bottom:1px solid #ddd}"
-         "figcaption{font-size:13px;color:#555}")
+STYLE = (
+    "body{font-family:system-ui,sans-serif;max-width:1150px;margin:2em auto;padding:0 1em;color:#222}"
+    "pre{background:#f6f6f6;padding:.8em;overflow-x:auto;font-size:13px}"
+    "table{border-collapse:collapse;margin:1em 0;font-size:14px}"
+    "caption{caption-side:top;text-align:left;font-style:italic;padding-bottom:.3em}"
+    "th,td{border:1px solid #ccc;padding:.25em .6em}th{background:#f0f0f0}"
+    "td.num{text-align:right;font-variant-numeric:tabular-nums}"
+    "img{max-width:100%;border:1px solid #ddd;margin:.5em 0}h2{border-bottom:1px solid #ddd}"
+    "figcaption{font-size:13px;color:#555}"
+)
 
 
 def _labels(path: Path) -> dict:
@@ -90,8 +104,9 @@ def _labels(path: Path) -> dict:
     return read_labels(path)
 
 
-def write_report(directory, title: str, sections: list[Section], *, intro: str = "",
-                 name: str = "summary") -> tuple[Path, Path]:
+def write_report(
+    directory, title: str, sections: list[Section], *, intro: str = "", name: str = "summary"
+) -> tuple[Path, Path]:
     """Write ``<name>.md`` and ``<name>.html`` into ``directory``; returns both paths."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -107,13 +122,21 @@ def write_report(directory, title: str, sections: list[Section], *, intro: str =
         if s.table:
             md += ["```", s.table.rstrip(), "```", ""]
         for f in s.figures:
-            md += [f"![{Path(f).stem}]({Path(f).relative_to(directory) if Path(f).is_relative_to(directory) else f})", ""]
+            md += [
+                f"![{Path(f).stem}]({Path(f).relative_to(directory) if Path(f).is_relative_to(directory) else f})",
+                "",
+            ]
     md_path = directory / f"{name}.md"
     md_path.write_text("\n".join(md))
 
-    parts = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
-             f"<title>{html.escape(title)}</title>", f"<style>{STYLE}</style>", "</head><body>",
-             f"<h1>{html.escape(title)}</h1>"]
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>{html.escape(title)}</title>",
+        f"<style>{STYLE}</style>",
+        "</head><body>",
+        f"<h1>{html.escape(title)}</h1>",
+    ]
     if intro:
         parts.append(f"<p>{html.escape(intro)}</p>")
     for s in sections:
@@ -134,11 +157,14 @@ def write_report(directory, title: str, sections: list[Section], *, intro: str =
                 f'<figure data-labels="{html.escape(json.dumps(labels))}">'
                 f'<img alt="{html.escape(Path(f).stem)}" src="data:image/png;base64,{data}">'
                 f"<figcaption>{html.escape(caption)}{': ' + html.escape(described) if described else ''}"
-                f"</figcaption></figure>")
+                f"</figcaption></figure>"
+            )
     # Marks the page once every figure has decoded, so a headless browser can check it.
-    parts.append("<script>window.addEventListener('load',function(){var i=document.images,n=0;"
-                 "for(var k=0;k<i.length;k++){if(i[k].complete&&i[k].naturalWidth>0)n++;}"
-                 "document.body.setAttribute('data-figures-loaded',n+'/'+i.length);});</script>")
+    parts.append(
+        "<script>window.addEventListener('load',function(){var i=document.images,n=0;"
+        "for(var k=0;k<i.length;k++){if(i[k].complete&&i[k].naturalWidth>0)n++;}"
+        "document.body.setAttribute('data-figures-loaded',n+'/'+i.length);});</script>"
+    )
     parts.append("</body></html>")
     html_path = directory / f"{name}.html"
     html_path.write_text("\n".join(parts))

@@ -34,7 +34,6 @@ from porosense.report.figures import (
     _finish,
     _plt,
     fit_power_law,
-    mean_and_se,
     plot_fit_bars,
     plot_hysteresis,
     plot_reconstruction,
@@ -95,8 +94,15 @@ def plot_porosity(groups: dict, fits: dict, *, ylabel: str, title: str = "", pat
     return _finish(fig, path)
 
 
-def write_user_report(tables, models: dict, out, *, units: dict | None = None, pressure: str | None = None,
-                      title: str = "porosense report") -> Path:
+def write_user_report(
+    tables,
+    models: dict,
+    out,
+    *,
+    units: dict | None = None,
+    pressure: str | None = None,
+    title: str = "porosense report",
+) -> Path:
     """Write the report for ``tables`` (porosense.data Tables) and ``models`` (name -> model) into
     ``out``; returns the HTML page's path. ``units`` maps columns to units (added to those the
     recordings' sidecars state); ``pressure`` names the commanded-pressure column in kPa (default:
@@ -113,10 +119,28 @@ def write_user_report(tables, models: dict, out, *, units: dict | None = None, p
     sections = []
 
     # Data.
-    rows = [[_short(t.path), len(t), float(t.ts) if t.ts else "?", t.dialect,
-             t.meta.get("porosity", "?"), t.meta.get("load_g", "?")] for t in tables]
-    sections.append(Section("Recordings", "Each recording is simulated from rest by every model.", tables=[
-        DataTable("Recordings", ["recording", "samples", "Ts (s)", "read as", "porosity (%)", "load (g)"], rows, 4)]))
+    rows = [
+        [
+            _short(t.path),
+            len(t),
+            float(t.ts) if t.ts else "?",
+            t.dialect,
+            t.meta.get("porosity", "?"),
+            t.meta.get("load_g", "?"),
+        ]
+        for t in tables
+    ]
+    sections.append(
+        Section(
+            "Recordings",
+            "Each recording is simulated from rest by every model.",
+            tables=[
+                DataTable(
+                    "Recordings", ["recording", "samples", "Ts (s)", "read as", "porosity (%)", "load (g)"], rows, 4
+                )
+            ],
+        )
+    )
 
     # Reconstruction with fits in the legend.
     recon = []
@@ -126,11 +150,17 @@ def write_user_report(tables, models: dict, out, *, units: dict | None = None, p
         for o in outputs:
             est = {name: r.predictions[key][:, r.outputs.index(o)] for name, r in scores.items() if o in r.outputs}
             path = figs / f"reconstruction_{_short(key)}_{o}.png"
-            plot_reconstruction(time, t.columns[o], est, ylabel=_label(o, units),
-                                title=f"{o} on {_short(key)}", path=path)
+            plot_reconstruction(
+                time, t.columns[o], est, ylabel=_label(o, units), title=f"{o} on {_short(key)}", path=path
+            )
             recon.append(path)
-    sections.append(Section("Measured versus estimated", "Every model simulated from rest on each recording; "
-                            "the legend gives each model's NRMSE fit.", figures=recon))
+    sections.append(
+        Section(
+            "Measured versus estimated",
+            "Every model simulated from rest on each recording; the legend gives each model's NRMSE fit.",
+            figures=recon,
+        )
+    )
 
     # Fit and RMS bars; Table 1.
     bars, t1_rows = [], []
@@ -139,31 +169,70 @@ def write_user_report(tables, models: dict, out, *, units: dict | None = None, p
         rmss = {n: {_short(f): r.rms[f][o] for f in r.files} for n, r in scores.items() if o in r.outputs}
         for metric, values, tag in (("fit (%)", fits, "fit"), ("RMS (% of max |y|)", rmss, "rms")):
             path = figs / f"{tag}_bars_{o}.png"
-            plot_fit_bars(values, metric=metric, xlabel="recording",
-                          title=f"{o}: {tag} per recording, mean ± standard error", path=path)
+            plot_fit_bars(
+                values,
+                metric=metric,
+                xlabel="recording",
+                title=f"{o}: {tag} per recording, mean ± standard error",
+                path=path,
+            )
             bars.append(path)
         for n, r in scores.items():
             if o in r.outputs:
                 s = r.summary(o)
-                t1_rows.append([n, o, f"{s['fit_mean']:.1f} ± {s['fit_se']:.1f}",
-                                f"{s['rms_mean']:.1f} ± {s['rms_se']:.1f}", s["files"]])
-    sections.append(Section("Fit and RMS per recording", "RMS is scaled to the largest |output| of each "
-                            "recording, as the paper reports it. Standard error: sample standard deviation / √n.",
-                            figures=bars, tables=[DataTable(
-                                "Table 1: mean ± standard error over the recordings",
-                                ["model", "output", "fit (%)", "RMS (%)", "recordings"], t1_rows)]))
+                t1_rows.append(
+                    [
+                        n,
+                        o,
+                        f"{s['fit_mean']:.1f} ± {s['fit_se']:.1f}",
+                        f"{s['rms_mean']:.1f} ± {s['rms_se']:.1f}",
+                        s["files"],
+                    ]
+                )
+    sections.append(
+        Section(
+            "Fit and RMS per recording",
+            "RMS is scaled to the largest |output| of each "
+            "recording, as the paper reports it. Standard error: sample standard deviation / √n.",
+            figures=bars,
+            tables=[
+                DataTable(
+                    "Table 1: mean ± standard error over the recordings",
+                    ["model", "output", "fit (%)", "RMS (%)", "recordings"],
+                    t1_rows,
+                )
+            ],
+        )
+    )
 
     # Table S2: poles and zeros.
     pz_rows = []
     for n, m in models.items():
         for row in poles_zeros(m):
-            pz_rows.append([n, row["output"], row["block"], format_roots(row["poles"]), format_roots(row["zeros"]),
-                            ", ".join(f"{v:.3g}" for v in row["time_constants_s"]) or "none"])
-    sections.append(Section("Poles and zeros", f"Discrete-time (z, Ts = {first.ts:g} s) poles and zeros of "
-                            "every linear block; time constants of the real poles.", tables=[DataTable(
-                                "Table S2: poles and zeros of each model",
-                                ["model", "output", "block", "poles (z)", "zeros (z)", "time constants (s)"],
-                                pz_rows)]))
+            pz_rows.append(
+                [
+                    n,
+                    row["output"],
+                    row["block"],
+                    format_roots(row["poles"]),
+                    format_roots(row["zeros"]),
+                    ", ".join(f"{v:.3g}" for v in row["time_constants_s"]) or "none",
+                ]
+            )
+    sections.append(
+        Section(
+            "Poles and zeros",
+            f"Discrete-time (z, Ts = {first.ts:g} s) poles and zeros of "
+            "every linear block; time constants of the real poles.",
+            tables=[
+                DataTable(
+                    "Table S2: poles and zeros of each model",
+                    ["model", "output", "block", "poles (z)", "zeros (z)", "time constants (s)"],
+                    pz_rows,
+                )
+            ],
+        )
+    )
 
     # Hysteresis loops with fitted branches.
     loops, loop_rows = [], []
@@ -177,15 +246,28 @@ def write_user_report(tables, models: dict, out, *, units: dict | None = None, p
             colour = t.columns["t"] if "t" in t.columns else np.arange(len(t)) * (t.ts or first.ts)
             clabel = "time (s)"
         path = figs / f"hysteresis_{_short(t.path)}.png"
-        plot_hysteresis(x, y, ylabel=_label(y_name, units), title=f"{_short(t.path)}: {x_name} against {y_name}",
-                        colour=colour, colour_label=clabel, path=path, xlabel=_label(x_name, units),
-                        fits={d: (b["x"], b["y"]) for d, b in branches.items()})
+        plot_hysteresis(
+            x,
+            y,
+            ylabel=_label(y_name, units),
+            title=f"{_short(t.path)}: {x_name} against {y_name}",
+            colour=colour,
+            colour_label=clabel,
+            path=path,
+            xlabel=_label(x_name, units),
+            fits={d: (b["x"], b["y"]) for d, b in branches.items()},
+        )
         loops.append(path)
         for d, b in branches.items():
             loop_rows.append([_short(t.path), d, b["samples"], b["r2"]])
-    sections.append(Section("Hysteresis", "Loading (input rising) and unloading (input falling) branches, each "
-                            "fitted with a cubic polynomial.", figures=loops, tables=[DataTable(
-                                "Fits per direction", ["recording", "direction", "samples", "R²"], loop_rows, 3)]))
+    sections.append(
+        Section(
+            "Hysteresis",
+            "Loading (input rising) and unloading (input falling) branches, each fitted with a cubic polynomial.",
+            figures=loops,
+            tables=[DataTable("Fits per direction", ["recording", "direction", "samples", "R²"], loop_rows, 3)],
+        )
+    )
 
     # Static nonlinearities against a exp(b x).
     nl_figs, nl_rows = [], []
@@ -203,21 +285,35 @@ def write_user_report(tables, models: dict, out, *, units: dict | None = None, p
                 else:
                     xl = "sum of the H1 outputs (a.u.)"
                     yl = _label(sub.output, units) if chain.h2 is None else "g(x) (a.u., into H2)"
-                plot_nonlinearity(pwl.x, pwl.y, fit, xlabel=xl, ylabel=yl,
-                                  title=f"{n}: {sub.output} {block}", path=path)
+                plot_nonlinearity(
+                    pwl.x, pwl.y, fit, xlabel=xl, ylabel=yl, title=f"{n}: {sub.output} {block}", path=path
+                )
                 nl_figs.append(path)
                 nl_rows.append([n, sub.output, block, len(pwl.x), fit[0], fit[1], fit[2]])
     if nl_figs:
-        sections.append(Section("Identified nonlinearities", "Each static map's breakpoints fitted to a exp(b x).",
-                                figures=nl_figs, tables=[DataTable(
-                                    "Breakpoints fitted to a exp(b x)",
-                                    ["model", "output", "block", "breakpoints", "a", "b", "R²"], nl_rows, 4)]))
+        sections.append(
+            Section(
+                "Identified nonlinearities",
+                "Each static map's breakpoints fitted to a exp(b x).",
+                figures=nl_figs,
+                tables=[
+                    DataTable(
+                        "Breakpoints fitted to a exp(b x)",
+                        ["model", "output", "block", "breakpoints", "a", "b", "R²"],
+                        nl_rows,
+                        4,
+                    )
+                ],
+            )
+        )
 
     section = _porosity_section(tables, outputs, inputs, pressure, units, figs)
     if section is not None:
         sections.append(section)
-    intro = (f"{len(tables)} recordings, {len(models)} model(s): {', '.join(models)}. Outputs: {', '.join(outputs)}; "
-             f"inputs: {', '.join(inputs)}.")
+    intro = (
+        f"{len(tables)} recordings, {len(models)} model(s): {', '.join(models)}. Outputs: {', '.join(outputs)}; "
+        f"inputs: {', '.join(inputs)}."
+    )
     _, html_path = write_report(out, title, sections, intro=intro, name="report")
     return html_path
 
@@ -232,8 +328,7 @@ def _porosity_section(tables, outputs, inputs, pressure, units, figs):
         load = float(t.meta.get("load_g", 0.0) or 0.0)
         # Holds last seconds; a ramp's one-sample levels are not holds.
         min_samples = max(5, int(round(MIN_HOLD_S / 2 / (t.ts or 1.0))))
-        for hold in hold_averages(t.columns[pressure], {q: t.columns[q] for q in quantities},
-                                  min_samples=min_samples):
+        for hold in hold_averages(t.columns[pressure], {q: t.columns[q] for q in quantities}, min_samples=min_samples):
             for q in quantities:
                 per[q][(hold["pressure_kpa"], load)][float(t.meta["porosity"])].append(hold[q])
     figures, rows = [], []
@@ -246,12 +341,27 @@ def _porosity_section(tables, outputs, inputs, pressure, units, figs):
                 fits[key] = fit_power_law(phi, [pts[p] for p in phi])
                 rows.append([q, key[0], key[1], len(phi), *fits[key]])
         path = figs / f"porosity_{q}.png"
-        plot_porosity(groups, fits, ylabel=f"hold average of {_label(q, units)}",
-                      title=f"{q} against porosity: C (1 - phi/100)^n", path=path)
+        plot_porosity(
+            groups,
+            fits,
+            ylabel=f"hold average of {_label(q, units)}",
+            title=f"{q} against porosity: C (1 - phi/100)^n",
+            path=path,
+        )
         figures.append(path)
     if not rows:
         return None
-    return Section("Porosity", "Hold averages (second half of every hold) per pressure, load and porosity, fitted "
-                   "with p = C (1 - phi/100)^n over porosity.", figures=figures, tables=[DataTable(
-                       "Table S1: power-law fits over porosity",
-                       ["quantity", "pressure (kPa)", "load (g)", "porosities", "C", "n", "R²"], rows, 3)])
+    return Section(
+        "Porosity",
+        "Hold averages (second half of every hold) per pressure, load and porosity, fitted "
+        "with p = C (1 - phi/100)^n over porosity.",
+        figures=figures,
+        tables=[
+            DataTable(
+                "Table S1: power-law fits over porosity",
+                ["quantity", "pressure (kPa)", "load (g)", "porosities", "C", "n", "R²"],
+                rows,
+                3,
+            )
+        ],
+    )

@@ -21,7 +21,19 @@ from porosense.sim.schedules import LOAD_CASES_G, Schedule, experiment_names, sc
 from porosense.sim.steady import steady_state
 
 __all__ = [
-    "ACTUATORS", "EFFECT_DEFAULTS", "EFFECT_NAMES", "LOAD_CASES_G", "OUTPUTS", "Physics", "Plant",
-    "PlantReading", "Schedule", "experiment_names", "make_plant", "resolve_effects",
-    "run_experiment", "schedule", "steady_state",
+    "ACTUATORS",
+    "EFFECT_DEFAULTS",
+    "EFFECT_NAMES",
+    "LOAD_CASES_G",
+    "OUTPUTS",
+    "Physics",
+    "Plant",
+    "PlantReading",
+    "Schedule",
+    "experiment_names",
+    "make_plant",
+    "resolve_effects",
+    "run_experiment",
+    "schedule",
+    "steady_state",
 ]

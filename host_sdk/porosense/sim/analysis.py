@@ -61,8 +61,9 @@ def release_overshoots(rec: Recording, channel: int = 0, window_s: float = 0.5) 
     return out
 
 
-def hold_mean(rec: Recording, name: str, level_kpa: float, channel: int = 0, last_s: float = 2.0,
-              occurrence: int = 0) -> float:
+def hold_mean(
+    rec: Recording, name: str, level_kpa: float, channel: int = 0, last_s: float = 2.0, occurrence: int = 0
+) -> float:
     """Mean of ``name`` over the last ``last_s`` of a hold at ``level_kpa`` (the n-th such hold)."""
     at = np.isclose(rec[f"p_cmd_{channel}"], level_kpa)
     starts = np.flatnonzero(np.diff(np.r_[0, at.astype(int)]) == 1)

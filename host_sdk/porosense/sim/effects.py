@@ -55,8 +55,6 @@ def resolve_effects(effects) -> dict[str, dict[str, float]]:
         params = dict(params or {})
         unknown = set(params) - set(DEFAULTS[name])
         if unknown:
-            raise InputError(
-                f"effect '{name}' has no parameter {sorted(unknown)} (parameters: {list(DEFAULTS[name])})"
-            )
+            raise InputError(f"effect '{name}' has no parameter {sorted(unknown)} (parameters: {list(DEFAULTS[name])})")
         out[name] = {**DEFAULTS[name], **{k: float(v) for k, v in params.items()}}
     return out

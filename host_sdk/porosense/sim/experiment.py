@@ -30,9 +30,18 @@ def _camera(values: np.ndarray, t: np.ndarray, fps: float, noise: float, rng, no
     return held
 
 
-def run_experiment(actuator: str, experiment, *, porosity=None, load_g: float = 0.0,
-                   rate_hz: float = 100.0, seed: int = 0, effects=None, physics=None,
-                   noise: bool = True) -> Recording:
+def run_experiment(
+    actuator: str,
+    experiment,
+    *,
+    porosity=None,
+    load_g: float = 0.0,
+    rate_hz: float = 100.0,
+    seed: int = 0,
+    effects=None,
+    physics=None,
+    noise: bool = True,
+) -> Recording:
     """Simulate ``experiment`` (a name or a :class:`Schedule`) and return its Recording.
 
     ``porosity`` in %, ``load_g`` in g, ``rate_hz`` the sample rate (Hz), ``seed`` of the
@@ -43,8 +52,9 @@ def run_experiment(actuator: str, experiment, *, porosity=None, load_g: float = 
         raise InputError(f"sample rate must be positive, got {rate_hz} Hz")
     if actuator != "3dof" and sched.name.startswith(THREE_DOF_ONLY):
         raise InputError(f"experiment '{sched.name}' is for the 3dof segment, not the {actuator}")
-    plant = make_plant(actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects,
-                       physics=physics, noise=noise)
+    plant = make_plant(
+        actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects, physics=physics, noise=noise
+    )
     n, ph = plant.n_channels, plant.physics
     t = sched.times(rate_hz)
     sp, pump, valve = sched.actuation(t)

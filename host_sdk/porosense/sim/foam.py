@@ -32,16 +32,16 @@ G_ACCEL = 9.81  # m/s^2
 class FoamCurve:
     """The static strain-stress curve of one porosity, ready to evaluate."""
 
-    modulus_kpa: float       # E = E_s rho^2
-    tension_kpa: float       # modulus under tension
-    collapse_kpa: float      # centre of the collapse regime
-    width_kpa: float         # spread of the collapse regime
-    bending_strain: float    # asymptote of the wall-bending strain, a eps_D
-    collapse_strain: float   # strain released by a full collapse, c eps_D
-    step0: float             # logistic value at sigma = 0 (normalisation)
+    modulus_kpa: float  # E = E_s rho^2
+    tension_kpa: float  # modulus under tension
+    collapse_kpa: float  # centre of the collapse regime
+    width_kpa: float  # spread of the collapse regime
+    bending_strain: float  # asymptote of the wall-bending strain, a eps_D
+    collapse_strain: float  # strain released by a full collapse, c eps_D
+    step0: float  # logistic value at sigma = 0 (normalisation)
 
     @classmethod
-    def of(cls, porosity: float, p: Foam) -> "FoamCurve":
+    def of(cls, porosity: float, p: Foam) -> FoamCurve:
         rho = 1.0 - porosity / 100.0
         rho_ref = 1.0 - p.ref_porosity / 100.0
         collapse = p.collapse_kpa_ref * (rho / rho_ref) ** p.collapse_exponent
@@ -67,9 +67,7 @@ class FoamCurve:
         """Static strain (fraction) at compressive stress ``sigma_kpa`` (array or float)."""
         s = np.asarray(sigma_kpa, dtype=float)
         sc = np.maximum(s, 0.0)
-        step = (1.0 / (1.0 + np.exp(-(sc - self.collapse_kpa) / self.width_kpa)) - self.step0) / (
-            1.0 - self.step0
-        )
+        step = (1.0 / (1.0 + np.exp(-(sc - self.collapse_kpa) / self.width_kpa)) - self.step0) / (1.0 - self.step0)
         a = self.bending_strain
         compressed = -a * np.expm1(-sc / (self.modulus_kpa * a)) + self.collapse_strain * step
         out = np.where(s >= 0.0, compressed, s / self.tension_kpa)

@@ -58,8 +58,11 @@ class PlantReading:
 
 def default_porosity(actuator: str, physics: Physics = Physics()) -> float:
     """Porosity (%) of an actuator when none is given."""
-    return {"contractor": 82.0, "bending": physics.geometry.bending_porosity,
-            "3dof": physics.geometry.segment_porosity}[actuator]
+    return {
+        "contractor": 82.0,
+        "bending": physics.geometry.bending_porosity,
+        "3dof": physics.geometry.segment_porosity,
+    }[actuator]
 
 
 def check_actuator(actuator: str) -> str:
@@ -91,8 +94,16 @@ class _NoiseBank:
 class Plant:
     """One actuator (see module docstring); build it with :func:`make_plant`."""
 
-    def __init__(self, actuator: str, porosity=None, load_g: float = 0.0, seed: int = 0,
-                 effects=None, physics: Physics | None = None, noise: bool = True):
+    def __init__(
+        self,
+        actuator: str,
+        porosity=None,
+        load_g: float = 0.0,
+        seed: int = 0,
+        effects=None,
+        physics: Physics | None = None,
+        noise: bool = True,
+    ):
         self.actuator = check_actuator(actuator)
         self.physics = physics or Physics()
         self.porosity = float(default_porosity(actuator, self.physics) if porosity is None else porosity)
@@ -130,10 +141,12 @@ class Plant:
         if a is None:
             f, pz = self.physics.foam, self.physics.piezo
             slow = self.effects.get("slow_relaxation", {"tau_s": 1.0})
-            a = {"creep": [math.exp(-dt / tau) for tau in f.creep_tau_s],
-                 "lag": math.exp(-dt / pz.contact_lag_s),
-                 "relax": math.exp(-dt / pz.relax_s),
-                 "slow": math.exp(-dt / slow["tau_s"])}
+            a = {
+                "creep": [math.exp(-dt / tau) for tau in f.creep_tau_s],
+                "lag": math.exp(-dt / pz.contact_lag_s),
+                "relax": math.exp(-dt / pz.relax_s),
+                "slow": math.exp(-dt / slow["tau_s"]),
+            }
             if len(self._alpha_cache) > 64:  # callers with a jittering dt: keep the cache small
                 self._alpha_cache.clear()
             self._alpha_cache[dt] = a
@@ -172,15 +185,15 @@ class Plant:
         ph, eff, nb, noisy = self.physics, self.effects, self._noise, self.noise
         f, pz, el = ph.foam, ph.piezo, ph.electronics
         al = self._alphas(dt)
-        sigma_load = float(load_stress_kpa(self.load_at(t), f)) if "load_dependence" in eff else \
-            self._sigma_load0
+        sigma_load = float(load_stress_kpa(self.load_at(t), f)) if "load_dependence" in eff else self._sigma_load0
         n = self.n_channels
         eps, eps_c = [0.0] * n, [0.0] * n
         r = self._lead_share
         a_lag = al["lag"]
         for c in range(n):
-            p = pneumatics.step_pressure(self._p[c], dt, float(setpoint_kpa[c]), bool(pump[c]),
-                                         bool(valve[c]), ph.pneumatics)
+            p = pneumatics.step_pressure(
+                self._p[c], dt, float(setpoint_kpa[c]), bool(pump[c]), bool(valve[c]), ph.pneumatics
+            )
             self._p[c] = p
             es = self.curve.strain_scalar(-p - sigma_load)
             modes = self._creep[c]
@@ -214,8 +227,9 @@ class Plant:
             dr_seen = dr + (pz.noise_pct * nb.normal() if noisy else 0.0)
             if "periodic_disturbance" in eff:
                 pd = eff["periodic_disturbance"]
-                dr_seen += pd["amplitude_pct"] * math.sin(2.0 * math.pi * pd["freq_hz"] * t
-                                                          + math.radians(pd["phase_deg"]))
+                dr_seen += pd["amplitude_pct"] * math.sin(
+                    2.0 * math.pi * pd["freq_hz"] * t + math.radians(pd["phase_deg"])
+                )
             if "outliers" in eff and nb.uniform() < eff["outliers"]["glitch_prob"]:
                 dr_seen += eff["outliers"]["glitch_pct"] * (1.0 if nb.uniform() < 0.5 else -1.0)
             volts[c] = max(pz.r0_ohm * drift * (1.0 + dr_seen / 100.0), 1.0)  # R for now
@@ -287,8 +301,7 @@ class Plant:
             es = self.curve.strain(-p - sigma_load)
             e = sum(w * first_order(es, a, eps_rest) for a, w in zip(al["creep"], f.creep_weight))
             eps[:, c] = e
-            eps_c[:, c] = (r * e + (1.0 - r) * first_order(e, al["lag"], eps_rest)
-                           - self._load_contact * sigma_load)
+            eps_c[:, c] = r * e + (1.0 - r) * first_order(e, al["lag"], eps_rest) - self._load_contact * sigma_load
         if "cross_coupling" in eff and n > 1:
             rel = eps - eps_rest
             eps_c = eps_c + eff["cross_coupling"]["gain"] * (rel.sum(axis=1, keepdims=True) - rel)
@@ -306,8 +319,9 @@ class Plant:
             dr_seen = dr + (pz.noise_pct * rng.standard_normal(N) if noisy else 0.0)
             if "periodic_disturbance" in eff:
                 pd = eff["periodic_disturbance"]
-                dr_seen = dr_seen + pd["amplitude_pct"] * np.sin(2.0 * np.pi * pd["freq_hz"] * t
-                                                                 + np.radians(pd["phase_deg"]))
+                dr_seen = dr_seen + pd["amplitude_pct"] * np.sin(
+                    2.0 * np.pi * pd["freq_hz"] * t + np.radians(pd["phase_deg"])
+                )
             if "outliers" in eff:
                 o = eff["outliers"]
                 hit = rng.random(N) < o["glitch_prob"]
@@ -346,8 +360,15 @@ class Plant:
         return out
 
 
-def make_plant(actuator: str, porosity=None, load_g: float = 0.0, seed: int = 0, effects=None,
-               physics: Physics | None = None, noise: bool = True) -> Plant:
+def make_plant(
+    actuator: str,
+    porosity=None,
+    load_g: float = 0.0,
+    seed: int = 0,
+    effects=None,
+    physics: Physics | None = None,
+    noise: bool = True,
+) -> Plant:
     """A plant of ``actuator`` ('contractor', 'bending', '3dof') at rest.
 
     ``porosity`` in % (60-90; default 82 for the contractor, 84 bending, 76 3-DoF), ``load_g``

@@ -28,8 +28,7 @@ def target_and_tau(setpoint_kpa: float, pump: bool, valve: bool, p: Pneumatics) 
     return 0.0, p.tau_vent_s
 
 
-def step_pressure(pressure: float, dt: float, setpoint_kpa: float, pump: bool, valve: bool,
-                  p: Pneumatics) -> float:
+def step_pressure(pressure: float, dt: float, setpoint_kpa: float, pump: bool, valve: bool, p: Pneumatics) -> float:
     """Chamber pressure (kPa) after ``dt`` seconds."""
     target, tau = target_and_tau(setpoint_kpa, pump, valve, p)
     change = (target - pressure) * -math.expm1(-dt / tau)

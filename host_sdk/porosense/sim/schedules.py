@@ -68,11 +68,15 @@ class Schedule:
         return [c for c, ch in enumerate(self.changes) if any(v < 0 for _, v in ch)]
 
     def to_dict(self) -> dict:
-        return {"name": self.name, "duration_s": self.duration_s, "description": self.description,
-                "changes": [[list(x) for x in ch] for ch in self.changes]}
+        return {
+            "name": self.name,
+            "duration_s": self.duration_s,
+            "description": self.description,
+            "changes": [[list(x) for x in ch] for ch in self.changes],
+        }
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Schedule":
+    def from_dict(cls, d: dict) -> Schedule:
         try:
             changes = tuple(tuple((float(t), float(v)) for t, v in ch) for ch in d["changes"])
             return cls(str(d["name"]), float(d["duration_s"]), changes, str(d.get("description", "")))
@@ -106,8 +110,7 @@ def _pulses(level: float, ons, offs) -> list:
 def _step(level: int, channels=(0, 1, 2)) -> Schedule:
     ch = _pulses(level, (5, 25, 45), (15, 35, 55))
     changes = tuple(tuple(ch) if c in channels else ((0.0, 0.0),) for c in range(N_CHANNELS))
-    return Schedule(f"step_{level}", 65.0, changes,
-                    f"-{level} kPa, 10 s on / 10 s off, three cycles after 5 s rest")
+    return Schedule(f"step_{level}", 65.0, changes, f"-{level} kPa, 10 s on / 10 s off, three cycles after 5 s rest")
 
 
 def _staircase() -> Schedule:
@@ -124,9 +127,12 @@ def _staircase() -> Schedule:
         if target in holds:
             t += holds[target]
     duration = t + 10.0
-    return Schedule("staircase", duration, (tuple(ch), ((0.0, 0.0),), ((0.0, 0.0),)),
-                    "gradual staircase 0 -> -60 kPa and back at 2 kPa/s, 10 s holds at -20, -40, -60 "
-                    "and back at -40, -20")
+    return Schedule(
+        "staircase",
+        duration,
+        (tuple(ch), ((0.0, 0.0),), ((0.0, 0.0),)),
+        "gradual staircase 0 -> -60 kPa and back at 2 kPa/s, 10 s holds at -20, -40, -60 and back at -40, -20",
+    )
 
 
 def _sequential(level: int) -> Schedule:
@@ -136,23 +142,34 @@ def _sequential(level: int) -> Schedule:
         on, off = REST_S + 20.0 * k, REST_S + 20.0 * k + 10.0
         for c in combo:
             chans[c] += [(on, -float(level)), (off, 0.0)]
-    return Schedule(f"sequential_{level}", REST_S + 20.0 * len(combos),
-                    tuple(tuple(c) for c in chans),
-                    f"3-DoF: one, two, then three contractors on at -{level} kPa, 10 s pulses every 20 s")
+    return Schedule(
+        f"sequential_{level}",
+        REST_S + 20.0 * len(combos),
+        tuple(tuple(c) for c in chans),
+        f"3-DoF: one, two, then three contractors on at -{level} kPa, 10 s pulses every 20 s",
+    )
 
 
 def _parallel(level: int) -> Schedule:
     s = _step(level)
-    return Schedule(f"parallel_{level}", s.duration_s, s.changes,
-                    f"3-DoF: all three contractors at -{level} kPa together, 10 s on / 10 s off, three cycles")
+    return Schedule(
+        f"parallel_{level}",
+        s.duration_s,
+        s.changes,
+        f"3-DoF: all three contractors at -{level} kPa together, 10 s on / 10 s off, three cycles",
+    )
 
 
 def _two_level() -> Schedule:
     a = [(0.0, 0.0), (5.0, -10.0), (15.0, 0.0), (25.0, -20.0), (35.0, 0.0), (45.0, -30.0), (55.0, 0.0)]
     b = [(0.0, 0.0), (5.0, -40.0), (35.0, 0.0), (45.0, -60.0), (65.0, 0.0)]
-    return Schedule("two_level", 75.0, (tuple(a), tuple(b), ((0.0, 0.0),)),
-                    "3-DoF: contractor 0 at -10/-20/-30 kPa (on 5, 25, 45 s; off 15, 35, 55 s), "
-                    "contractor 1 at -40 kPa (5-35 s) and -60 kPa (45-65 s)")
+    return Schedule(
+        "two_level",
+        75.0,
+        (tuple(a), tuple(b), ((0.0, 0.0),)),
+        "3-DoF: contractor 0 at -10/-20/-30 kPa (on 5, 25, 45 s; off 15, 35, 55 s), "
+        "contractor 1 at -40 kPa (5-35 s) and -60 kPa (45-65 s)",
+    )
 
 
 def experiment_names() -> list[str]:

@@ -12,8 +12,9 @@ from porosense.sim.plant import check_actuator, make_plant
 _DS_KPA = 0.5  # stress step for the local sensitivity
 
 
-def steady_state(actuator: str, *, porosity=None, load_g: float = 0.0, vacuum_kpa: float = -60.0,
-                 physics: Physics | None = None) -> dict:
+def steady_state(
+    actuator: str, *, porosity=None, load_g: float = 0.0, vacuum_kpa: float = -60.0, physics: Physics | None = None
+) -> dict:
     """Settled response of ``actuator`` to a constant chamber vacuum (all channels).
 
     ``vacuum_kpa`` is the gauge pressure (<= 0; a positive value is read as its magnitude).
@@ -45,9 +46,16 @@ def steady_state(actuator: str, *, porosity=None, load_g: float = 0.0, vacuum_kp
     e_lo, g_lo = dr_of(max(sigma - _DS_KPA, -sigma_load))
     sens = (g_hi - g_lo) / (100.0 * (e_hi - e_lo)) / (1.0 + g_rest / 100.0) if e_hi > e_lo else 0.0
     out = {
-        "actuator": actuator, "porosity": plant.porosity, "load_g": float(load_g), "vacuum_kpa": p,
-        "stress_kpa": sigma, "strain_pct": 100.0 * eps, "stroke_pct": 100.0 * (eps - eps_rest),
-        "dR_pct": dr, "R_ohm": r, "voltage_V": float(divider_voltage(r, ph.electronics)),
+        "actuator": actuator,
+        "porosity": plant.porosity,
+        "load_g": float(load_g),
+        "vacuum_kpa": p,
+        "stress_kpa": sigma,
+        "strain_pct": 100.0 * eps,
+        "stroke_pct": 100.0 * (eps - eps_rest),
+        "dR_pct": dr,
+        "R_ohm": r,
+        "voltage_V": float(divider_voltage(r, ph.electronics)),
         "sensitivity": sens,
     }
     if actuator == "bending":

@@ -43,8 +43,8 @@ class PinState:
     valves: tuple[bool, bool, bool]
     regulator_duty: tuple[int, int, int]
     setpoint_kpa: tuple[float, float, float]
-    level: int                      # bit n: Dn driven high
-    pwm_duty: dict                  # Arduino PWM pin -> 0..255
+    level: int  # bit n: Dn driven high
+    pwm_duty: dict  # Arduino PWM pin -> 0..255
 
     @classmethod
     def from_tick(cls, t: link.Tick) -> PinState:
@@ -74,30 +74,56 @@ class SimBoard:
     client opens the serial URL, as the Uno's DTR line does on a real port.
     """
 
-    def __init__(self, elf: Path | str = DEFAULT_ELF, actuator: str = "contractor", porosity=None,
-                 seed: int = 0, eeprom: Path | str | None = None, *, load_g: float = 0.0,
-                 effects=None, plant=None, absent=(), period_ms: float = 1.0,
-                 max_speed: float | None = None, bno_boot_ms: float = 0.0,
-                 truth_every_ms: float = 10.0, port: int = 0, reset_on_connect: bool = False,
-                 harness: Path | str | None = None):
+    def __init__(
+        self,
+        elf: Path | str = DEFAULT_ELF,
+        actuator: str = "contractor",
+        porosity=None,
+        seed: int = 0,
+        eeprom: Path | str | None = None,
+        *,
+        load_g: float = 0.0,
+        effects=None,
+        plant=None,
+        absent=(),
+        period_ms: float = 1.0,
+        max_speed: float | None = None,
+        bno_boot_ms: float = 0.0,
+        truth_every_ms: float = 10.0,
+        port: int = 0,
+        reset_on_connect: bool = False,
+        harness: Path | str | None = None,
+    ):
         self.elf = Path(elf)
         self.harness = Path(harness) if harness else harness_path()
         if not self.harness.is_file():
-            raise DeviceError(f"simboard harness not found at {self.harness}: "
-                              "build it with `make -C tools/simboard`")
+            raise DeviceError(f"simboard harness not found at {self.harness}: build it with `make -C tools/simboard`")
         if not self.elf.is_file():
             raise DeviceError(f"firmware ELF not found at {self.elf}: build it with `make -C firmware`")
         self._tmpdir = None
         self.eeprom_path = Path(eeprom) if eeprom is not None else None  # None: a temporary image
         if self.eeprom_path is not None and not self.eeprom_path.parent.is_dir():
             raise DeviceError(f"EEPROM image folder {self.eeprom_path.parent} does not exist")
-        self.plant = plant if plant is not None else default_plant(
-            actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects)
+        self.plant = (
+            plant
+            if plant is not None
+            else default_plant(actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects)
+        )
         self.actuator = actuator
         self.period_ms = float(period_ms)
         self._absent_mask = _absent_mask(absent)
-        self._args = [str(self.harness), "--elf", str(self.elf), "--cosim", "--port", str(port),
-                      "--period-us", f"{self.period_ms * 1000.0:g}", "--bno-boot-ms", f"{bno_boot_ms:g}"]
+        self._args = [
+            str(self.harness),
+            "--elf",
+            str(self.elf),
+            "--cosim",
+            "--port",
+            str(port),
+            "--period-us",
+            f"{self.period_ms * 1000.0:g}",
+            "--bno-boot-ms",
+            f"{bno_boot_ms:g}",
+        ]
         if max_speed:
             self._args += ["--max-speed", f"{max_speed:g}"]
         if reset_on_connect:
@@ -109,13 +135,13 @@ class SimBoard:
         self._thread = None
         self._cond = threading.Condition()
         self._commands = collections.deque()
-        self._scheduled = []            # (time_s, cmd, arg8, arg16), time-ordered
+        self._scheduled = []  # (time_s, cmd, arg8, arg16), time-ordered
         self._tick = None
         self._saves = 0
         self._error = None
         self._closed = False
         self.truth: list[dict] = []
-        self.last_reset_s = 0.0         # AVR time (since power-on) of the latest reset
+        self.last_reset_s = 0.0  # AVR time (since power-on) of the latest reset
         self.port = None
         self.halted = False
 
@@ -134,9 +160,12 @@ class SimBoard:
             self.eeprom_path = Path(self._tmpdir) / "eeprom.bin"
         self._stderr = tempfile.TemporaryFile()
         self._pages_path = Path(tempfile.mkdtemp(prefix="simboard-flash-")) / "pages.bin"
-        self._proc = subprocess.Popen(self._args + ["--eeprom", str(self.eeprom_path),
-                                                    "--flash-pages", str(self._pages_path)], stdin=subprocess.PIPE,
-                                      stdout=subprocess.PIPE, stderr=self._stderr)
+        self._proc = subprocess.Popen(
+            self._args + ["--eeprom", str(self.eeprom_path), "--flash-pages", str(self._pages_path)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=self._stderr,
+        )
         ready, _, _ = select.select([self._proc.stdout], [], [], _START_TIMEOUT_S)
         line = self._proc.stdout.readline() if ready else b""
         if not line.startswith(b"SIMBOARD 1 PORT "):
@@ -190,8 +219,9 @@ class SimBoard:
                 dt = (tick.cycles - last_cycles) / link.FREQUENCY_HZ
                 last_cycles = tick.cycles
                 if dt > 0:
-                    reading = self.plant.step(dt, np.array(pins.setpoint_kpa), np.array(pins.pumps, float),
-                                              np.array(pins.valves, float))
+                    reading = self.plant.step(
+                        dt, np.array(pins.setpoint_kpa), np.array(pins.pumps, float), np.array(pins.valves, float)
+                    )
                     ain[:3] = np.asarray(reading.voltage_V, float)[:3]
                     euler[:] = np.asarray(reading.euler_deg, float)[:3]
                     if tick.seq % self._truth_every == 0:
@@ -274,8 +304,10 @@ class SimBoard:
     def counters(self) -> dict:
         """Harness counters: resets, UART bytes, EEPROM writes, TWI NACKs, ADC conversions."""
         t = self._latest()
-        return {k: getattr(t, k) for k in ("resets", "twi_nacks", "uart_rx", "uart_tx", "eeprom_writes",
-                                           "uart_dropped", "adc_conversions")}
+        return {
+            k: getattr(t, k)
+            for k in ("resets", "twi_nacks", "uart_rx", "uart_tx", "eeprom_writes", "uart_dropped", "adc_conversions")
+        }
 
     @property
     def speed_ratio(self) -> float:
@@ -316,8 +348,9 @@ class SimBoard:
                 self._scheduled.append((float(at_s), link.CMD_RESET, 0, 0))
                 self._scheduled.sort()
         if wait:
-            self.wait_for(lambda t: t.resets != before, timeout=_START_TIMEOUT_S + (
-                max(0.0, (at_s or 0) - self.sim_time_s) * 50))
+            self.wait_for(
+                lambda t: t.resets != before, timeout=_START_TIMEOUT_S + (max(0.0, (at_s or 0) - self.sim_time_s) * 50)
+            )
 
     def program_flash(self, pages, n_pages: int | None = None) -> None:
         """An upload through the bootloader: writes (flash address, 128 bytes) pages into the
@@ -377,8 +410,13 @@ class SimBoard:
         """AVR time, cycles, wall time, speed ratio and counters."""
         t = self._latest()
         wall = time.monotonic() - self._wall_start
-        return {"sim_time_s": t.time_s, "cycles": t.cycles, "wall_s": wall,
-                "speed_ratio": t.time_s / wall if wall > 0 else 0.0, **self.counters}
+        return {
+            "sim_time_s": t.time_s,
+            "cycles": t.cycles,
+            "wall_s": wall,
+            "speed_ratio": t.time_s / wall if wall > 0 else 0.0,
+            **self.counters,
+        }
 
 
 @dataclass(frozen=True)
@@ -399,8 +437,10 @@ class SpeedReport:
         return {**asdict(self), "ratio": self.ratio}
 
     def __str__(self) -> str:
-        return (f"simboard: {self.sim_time_s:.2f} s of AVR time ({self.cycles} cycles) in "
-                f"{self.wall_s:.2f} s wall: {self.ratio:.2f} x real time")
+        return (
+            f"simboard: {self.sim_time_s:.2f} s of AVR time ({self.cycles} cycles) in "
+            f"{self.wall_s:.2f} s wall: {self.ratio:.2f} x real time"
+        )
 
 
 def measure_speed(elf: Path | str = DEFAULT_ELF, seconds: float = 2.0, **board_args) -> SpeedReport:

@@ -46,8 +46,8 @@ class Tick:
     """One board state report from the harness."""
 
     seq: int
-    cycles: int           # AVR cycles since power-on (monotonic across resets)
-    pins: int             # bit n: Dn driven high
+    cycles: int  # AVR cycles since power-on (monotonic across resets)
+    pins: int  # bit n: Dn driven high
     duty: tuple[int, ...]  # 0..255 on D3, D5, D6, D9, D10, D11
     events: int
     resets: int

@@ -37,8 +37,11 @@ class ConstantPlant:
         pass
 
     def step(self, dt_s, setpoint_kpa, pump, valve) -> Reading:
-        truth = {"setpoint_kpa": np.asarray(setpoint_kpa, float).copy(),
-                 "pump": np.asarray(pump).copy(), "valve": np.asarray(valve).copy()}
+        truth = {
+            "setpoint_kpa": np.asarray(setpoint_kpa, float).copy(),
+            "pump": np.asarray(pump).copy(),
+            "valve": np.asarray(valve).copy(),
+        }
         return Reading(self.voltage_V.copy(), self.euler_deg.copy(), truth)
 
 
@@ -58,8 +61,7 @@ class BringupPlant:
         self.p_kpa = np.zeros(3)
 
     def step(self, dt_s, setpoint_kpa, pump, valve) -> Reading:
-        target = np.where(np.asarray(pump, bool) & np.asarray(valve, bool),
-                          np.asarray(setpoint_kpa, float), 0.0)
+        target = np.where(np.asarray(pump, bool) & np.asarray(valve, bool), np.asarray(setpoint_kpa, float), 0.0)
         self.p_kpa += (target - self.p_kpa) * (1.0 - np.exp(-dt_s / self.tau_s))
         r = self.r0_ohm * (1.0 + 0.85 * self.p_kpa / 80.0)
         v = SUPPLY_V * r / (r + BIAS_OHM)

@@ -13,7 +13,8 @@ static long cycles[8];
 static int current;
 
 static void on_portb(struct avr_irq_t* irq, uint32_t value, void* param) {
-  (void)irq; (void)param;
+  (void)irq;
+  (void)param;
   if (value != 0 && value < 8) {
     current = (int)value;
     started[current] = avr->cycle;
@@ -38,9 +39,10 @@ int main(int argc, char** argv) {
   avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('B'), IOPORT_IRQ_PIN_ALL), on_portb, NULL);
   int state = cpu_Running;
   for (long steps = 0; steps < 50000000L && state != cpu_Done && state != cpu_Crashed; ++steps) state = avr_run(avr);
-  printf("{\"f_cpu_hz\": 16000000, \"valid_frame_delimiter\": %ld, \"worst_bad_chunk_delimiter\": %ld, "
-         "\"recovery_delimiter\": %ld, \"encode_sample\": %ld, \"ordinary_byte\": %ld, "
-         "\"adversarial_chunk_delimiter\": %ld}\n",
-         cycles[1], cycles[2], cycles[3], cycles[4], cycles[5], cycles[6]);
+  printf(
+      "{\"f_cpu_hz\": 16000000, \"valid_frame_delimiter\": %ld, \"worst_bad_chunk_delimiter\": %ld, "
+      "\"recovery_delimiter\": %ld, \"encode_sample\": %ld, \"ordinary_byte\": %ld, "
+      "\"adversarial_chunk_delimiter\": %ld}\n",
+      cycles[1], cycles[2], cycles[3], cycles[4], cycles[5], cycles[6]);
   return state == cpu_Crashed ? 1 : 0;
 }

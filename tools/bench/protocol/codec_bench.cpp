@@ -48,8 +48,8 @@ int main(int argc, char** argv) {
   uint32_t checksum = 0;
   auto t0 = std::chrono::steady_clock::now();
   for (uint32_t i = 0; i < n; ++i) {
-    const uint8_t len = encode_frame(msg::SAMPLE, (uint8_t)i, &payloads[(i % distinct) * Sample::kMinLen],
-                                     Sample::kMinLen, out);
+    const uint8_t len =
+        encode_frame(msg::SAMPLE, (uint8_t)i, &payloads[(i % distinct) * Sample::kMinLen], Sample::kMinLen, out);
     checksum += out[len - 2] + len;
   }
   const double t_encode = seconds_since(t0);
@@ -77,8 +77,9 @@ int main(int argc, char** argv) {
     fprintf(stderr, "decoded %u of %u frames\n", decoded, rounds * distinct);
     return 1;
   }
-  printf("{\"frames\": %u, \"sample_frame_bytes\": %zu, \"encode_frames_per_s\": %.0f, "
-         "\"decode_frames_per_s\": %.0f, \"checksum\": %u}\n",
-         n, frame_bytes, n / t_encode, decoded / t_decode, checksum);
+  printf(
+      "{\"frames\": %u, \"sample_frame_bytes\": %zu, \"encode_frames_per_s\": %.0f, "
+      "\"decode_frames_per_s\": %.0f, \"checksum\": %u}\n",
+      n, frame_bytes, n / t_encode, decoded / t_decode, checksum);
   return 0;
 }

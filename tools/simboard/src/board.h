@@ -9,16 +9,13 @@
 
 /* Analog and IMU inputs the plant sets; read by the virtual sensors. */
 typedef struct plant_inputs_t {
-	float ain_V[4];     /* ADS1115 AIN0..AIN3 (volts, to GND) */
-	float euler_deg[3]; /* BNO055 heading, roll, pitch (degrees) */
+  float ain_V[4];     /* ADS1115 AIN0..AIN3 (volts, to GND) */
+  float euler_deg[3]; /* BNO055 heading, roll, pitch (degrees) */
 } plant_inputs_t;
 
 /* Monotonic board time in cycles: survives AVR resets, which may zero avr->cycle. */
 uint64_t board_cycles(void);
 
-static inline uint64_t board_us_to_cycles(double us)
-{
-	return (uint64_t)(us * (BOARD_FREQUENCY_HZ / 1e6) + 0.5);
-}
+static inline uint64_t board_us_to_cycles(double us) { return (uint64_t)(us * (BOARD_FREQUENCY_HZ / 1e6) + 0.5); }
 
 #endif

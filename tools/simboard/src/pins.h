@@ -10,10 +10,10 @@
 extern const uint8_t pins_pwm_pin[PINS_PWM_COUNT]; /* 3, 5, 6, 9, 10, 11 */
 
 typedef struct pins_state_t {
-	uint16_t level;                  /* bit n: Dn driven high (PORT & DDR) */
-	uint8_t duty[PINS_PWM_COUNT];    /* 0..255: OCR when the timer drives the pin, else 0/255 */
+  uint16_t level;               /* bit n: Dn driven high (PORT & DDR) */
+  uint8_t duty[PINS_PWM_COUNT]; /* 0..255: OCR when the timer drives the pin, else 0/255 */
 } pins_state_t;
 
-void pins_read(avr_t *avr, pins_state_t *out);
+void pins_read(avr_t* avr, pins_state_t* out);
 
 #endif

@@ -20,9 +20,7 @@ namespace {
 
 class FlashReader : public est::BlobReader {
  public:
-  void read(uint16_t offset, void* dst, uint8_t n) const override {
-    memcpy_P(dst, MODEL_BLOB + offset, n);
-  }
+  void read(uint16_t offset, void* dst, uint8_t n) const override { memcpy_P(dst, MODEL_BLOB + offset, n); }
 };
 
 class EepromReader : public est::BlobReader {
@@ -33,7 +31,8 @@ class EepromReader : public est::BlobReader {
 };
 
 int uart_putchar(char c, FILE*) {
-  while (!(UCSR0A & _BV(UDRE0))) {}
+  while (!(UCSR0A & _BV(UDRE0))) {
+  }
   UDR0 = c;
   return 0;
 }
@@ -52,7 +51,8 @@ int main() {
   fdev_setup_stream(&uart_out, uart_putchar, NULL, _FDEV_SETUP_WRITE);
   stdout = &uart_out;
 #if MODEL_IN_EEPROM
-  for (uint16_t i = 0; i < MODEL_LEN; ++i) eeprom_update_byte(reinterpret_cast<uint8_t*>(est::layout::kAreaBase + i), pgm_read_byte(MODEL_BLOB + i));
+  for (uint16_t i = 0; i < MODEL_LEN; ++i)
+    eeprom_update_byte(reinterpret_cast<uint8_t*>(est::layout::kAreaBase + i), pgm_read_byte(MODEL_BLOB + i));
   static EepromReader reader;
 #else
   static FlashReader reader;
@@ -79,7 +79,9 @@ int main() {
     for (uint16_t t = 0; t < MODEL_STEPS; ++t) {
       // Inputs: steps between -80 % and +5 % with alternating signs per channel.
       int16_t level = (t / 16) & 1 ? -8000 : 500;
-      in[0] = level; in[1] = int16_t(-level / 2); in[2] = int16_t(level + 37 * (t & 7));
+      in[0] = level;
+      in[1] = int16_t(-level / 2);
+      in[2] = int16_t(level + 37 * (t & 7));
       cli();
       TCNT1 = 0;
       TIFR1 = _BV(TOV1);
@@ -104,7 +106,8 @@ int main() {
            (unsigned long)(sum / steps), steps, (unsigned)sizeof(estimator), (unsigned long)check,
            (unsigned long)ctl_max);
   }
-  while (!(UCSR0A & _BV(TXC0))) {}
+  while (!(UCSR0A & _BV(TXC0))) {
+  }
   cli();
   sleep_enable();
   sleep_cpu();

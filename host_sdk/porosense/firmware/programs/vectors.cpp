@@ -24,7 +24,8 @@ class FlashReader : public est::BlobReader {
 };
 
 int uart_putchar(char c, FILE*) {
-  while (!(UCSR0A & _BV(UDRE0))) {}
+  while (!(UCSR0A & _BV(UDRE0))) {
+  }
   UDR0 = c;
   return 0;
 }
@@ -59,7 +60,8 @@ int main() {
     }
     printf("case %u check=%lu\n", c, (unsigned long)check);
   }
-  while (!(UCSR0A & _BV(TXC0))) {}
+  while (!(UCSR0A & _BV(TXC0))) {
+  }
   cli();
   sleep_enable();
   sleep_cpu();

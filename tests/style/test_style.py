@@ -1,0 +1,56 @@
+"""The repository's code style, checked as part of the suite: ruff (lint and format, settings
+in ruff.toml) over every Python file, clang-format (.clang-format) over the firmware, its host
+tests and the simboard harness. A failure lists the files and the command that fixes them."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+# Generated files keep the generator's layout.
+GENERATED = {"firmware/lib/core/protocol_messages.h", "firmware/lib/core/model_layout.h"}
+C_GLOBS = (
+    "firmware/*.c",
+    "firmware/*.cpp",
+    "firmware/*.h",
+    "tools/*.c",
+    "tools/*.cpp",
+    "tools/*.h",
+    "tests/core/*.cpp",
+    "tests/core/*.h",
+    "host_sdk/porosense/firmware/programs/*.cpp",
+)
+
+
+def _ruff(*args: str) -> subprocess.CompletedProcess:
+    exe = shutil.which("ruff", path=str(Path(sys.executable).parent)) or shutil.which("ruff")
+    if exe is None:
+        pytest.fail("ruff is not installed: run tools/bootstrap.sh (it is pinned in host_sdk/requirements.lock)")
+    return subprocess.run([exe, *args], cwd=ROOT, capture_output=True, text=True, timeout=300)
+
+
+def test_ruff_lint_passes():
+    proc = _ruff("check", "--no-cache", ".")
+    assert proc.returncode == 0, f"ruff check found problems (fix: ruff check --fix .):\n{proc.stdout[-4000:]}"
+
+
+def test_ruff_format_is_applied():
+    proc = _ruff("format", "--no-cache", "--check", ".")
+    assert proc.returncode == 0, f"files not formatted (fix: ruff format .):\n{proc.stdout[-4000:]}"
+
+
+def test_clang_format_is_applied():
+    exe = shutil.which("clang-format")
+    if exe is None:
+        pytest.fail("clang-format is not installed: run tools/bootstrap.sh (Debian package clang-format)")
+    listed = subprocess.run(["git", "ls-files", *C_GLOBS], cwd=ROOT, capture_output=True, text=True, check=True)
+    files = [f for f in listed.stdout.split() if f not in GENERATED]
+    assert len(files) > 50, f"only {len(files)} C/C++ files found: is this a git checkout?"
+    proc = subprocess.run([exe, "--dry-run", "--Werror", *files], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    bad = sorted({line.split(":")[0] for line in proc.stderr.splitlines() if ": error:" in line})
+    assert proc.returncode == 0, f"{len(bad)} files not formatted (fix: clang-format -i FILE): {bad[:20]}"

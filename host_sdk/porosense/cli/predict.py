@@ -17,6 +17,7 @@ from porosense.cli._data import (
     say,
 )
 from porosense.errors import InputError, ModelError
+from porosense.ident.scoring import format_percent
 
 TIME_COLUMNS = ("t", "time", "t_s")
 
@@ -56,7 +57,7 @@ def run(args) -> int:
     import numpy as np
 
     from porosense.data import time_column
-    from porosense.ident import fit_percent, rms_percent
+    from porosense.ident.scoring import score_simulation
 
     normalise_json_args(args)
     for opt in ("out", "plot"):
@@ -87,10 +88,12 @@ def run(args) -> int:
         )
     outputs = [model.output] if hasattr(model, "output") else list(model.outputs)
     scores = {}
-    for j, o in enumerate(outputs):
-        if o in table.columns and np.all(np.isfinite(table.columns[o])):
-            y = table.columns[o]
-            scores[o] = {"fit": fit_percent(y, yhat[:, j]), "rms": rms_percent(y, yhat[:, j])}
+    measured = [o for o in outputs if o in table.columns and np.all(np.isfinite(table.columns[o]))]
+    if measured:
+        # The one fit every command prints (porosense.ident.simulation_fit): from rest, every sample.
+        cols = [outputs.index(o) for o in measured]
+        scored = score_simulation(yhat[:, cols], np.column_stack([table.columns[o] for o in measured]), measured)
+        scores = {o: {"fit": scored.fit[o], "rms": scored.rms[o]} for o in measured}
     tcol = time_column(table)
     t = table.columns[tcol] if tcol else np.arange(len(table)) * ts
     written = []
@@ -119,7 +122,10 @@ def run(args) -> int:
         written.append(str(args.plot))
         say(args, f"figure written to {args.plot}")
     for o, s in scores.items():
-        say(args, f"{o}: fit {s['fit']:.2f} %, RMS {s['rms']:.2f} % of max |{o}|")
+        say(
+            args,
+            f"{o}: fit {format_percent(s['fit'])}, RMS {format_percent(s['rms'])} of max |{o}| (simulated from rest)",
+        )
     if not scores:
         say(args, f"{args.data} holds no measured {', '.join(outputs)}: no fit to report")
     if not written and not scores:

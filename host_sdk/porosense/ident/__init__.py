@@ -18,6 +18,7 @@ from porosense.ident.models import (
     make_model,
     save_models,
 )
+from porosense.ident.scoring import SimulationFit, format_percent, simulation_fit
 from porosense.ident.search import (
     CRITERIA,
     Candidate,
@@ -40,10 +41,12 @@ __all__ = [
     "Model",
     "ModelSet",
     "SearchResult",
+    "SimulationFit",
     "Wiener",
     "WienerHammerstein",
     "approx_blob_bytes",
     "fit_percent",
+    "format_percent",
     "information_criteria",
     "load_model",
     "make_model",
@@ -52,4 +55,5 @@ __all__ = [
     "rmse",
     "save_models",
     "search",
+    "simulation_fit",
 ]

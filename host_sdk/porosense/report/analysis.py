@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from porosense.errors import InputError
-from porosense.ident.metrics import fit_percent, rms_percent
+from porosense.ident.scoring import model_outputs, simulation_fit
 from porosense.report.figures import mean_and_se
 
 
@@ -65,12 +65,9 @@ class CompareResult:
         }
 
 
-def model_outputs(model) -> list[str]:
-    return [model.output] if hasattr(model, "output") else list(model.outputs)
-
-
 def compare(model, tables, name: str = "model") -> CompareResult:
-    """Simulate ``model`` from rest on each table and score every output the table holds.
+    """Simulate ``model`` from rest on each table and score every output the table holds
+    (:func:`porosense.ident.simulation_fit`, the one fit every command prints).
 
     Raises InputError when a table lacks an input or an output, or holds non-finite cells.
     """
@@ -85,11 +82,9 @@ def compare(model, tables, name: str = "model") -> CompareResult:
             raise InputError(f"{table.path}: no column(s) {', '.join(missing)} (columns: {', '.join(table.names)})")
         table.require_finite(list(model.inputs) + outputs)
         u = np.column_stack([table.columns[c] for c in model.inputs])
-        yhat = model.predict(u=u)
-        yhat = yhat[:, None] if yhat.ndim == 1 else yhat
-        fit[key] = {o: fit_percent(table.columns[o], yhat[:, j]) for j, o in enumerate(outputs)}
-        rms[key] = {o: rms_percent(table.columns[o], yhat[:, j]) for j, o in enumerate(outputs)}
-        preds[key] = yhat
+        y = np.column_stack([table.columns[o] for o in outputs])
+        scored = simulation_fit(model, u, y, outputs=outputs)
+        fit[key], rms[key], preds[key] = scored.fit, scored.rms, scored.yhat
         files.append(key)
     return CompareResult(name, files, outputs, fit, rms, preds)
 

@@ -7,7 +7,7 @@ Usage:
 
 Outputs:
     firmware/lib/core/model_layout.h         (namespace est::layout, constexpr only)
-    host_sdk/porosense/quant/layout.py       (constants and struct formats)
+    host_sdk/porosense/protocol/model_layout.py       (constants and struct formats)
 
 It sits beside generate.py because the blob is, like the messages, a byte format that the
 board and the host must read identically (it travels in MODEL_CHUNK and MODEL_READ).
@@ -26,7 +26,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 SOURCE = ROOT / "protocol" / "model_layout.toml"
 CPP_OUT = ROOT / "firmware" / "lib" / "core" / "model_layout.h"
-PY_OUT = ROOT / "host_sdk" / "porosense" / "quant" / "layout.py"
+PY_OUT = ROOT / "host_sdk" / "porosense" / "protocol" / "model_layout.py"
 
 SCALARS = {
     "u8": (1, "B"),

@@ -364,9 +364,9 @@ def identify_outputs(
     from functools import partial
 
     from porosense.ident import search
-    from porosense.quant.blob import MAX_BLOB_LEN
+    from porosense.protocol.model_blob import MAX_BLOB_LEN
+    from porosense.protocol.model_layout import FLASH_BLOB_MAX
     from porosense.quant.design import blob_size
-    from porosense.quant.layout import FLASH_BLOB_MAX
 
     inputs, outputs, _ = SIGNALS[actuator]
     paper = PAPER_ORDERS.get(actuator)
@@ -416,8 +416,8 @@ def quantize_model(chosen: list, recs: dict, actuator: str, val_names: list[str]
     """One MISO chain per output in a single on-device structure, quantized against the
     validation recordings; returns (structure, QuantResult). Paper-order sets are quantized for
     a flash store slot (full tables when they fit 1,016 bytes), the others for the EEPROM."""
+    from porosense.protocol.model_layout import FLASH_BLOB_MAX, MAX_BLOB_LEN
     from porosense.quant import quantize
-    from porosense.quant.layout import FLASH_BLOB_MAX, MAX_BLOB_LEN
     from porosense.structure import EstimatorStructure
 
     inputs, outputs, _ = SIGNALS[actuator]
@@ -443,7 +443,7 @@ def store_model(dev, blob: bytes, upload=None, *, log=print):
     not running, next commit counter). Returns the board's MODEL_INFO afterwards."""
     from porosense.errors import ModelError
     from porosense.firmware.flash_store import upload as flash_upload
-    from porosense.quant.layout import AREA_LEN
+    from porosense.protocol.model_layout import AREA_LEN
 
     running = dev.model_info()
     room = AREA_LEN - running.length if running.valid and running.store == "eeprom" else AREA_LEN

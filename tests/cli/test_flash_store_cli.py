@@ -13,7 +13,7 @@ import pytest
 
 from porosense.cli import main
 from porosense.firmware.flash_store import FLASH_SLOT0, SLOT_PAGES, pages_from_hex
-from porosense.quant import layout as L
+from porosense.protocol import model_layout as L
 
 
 @pytest.fixture(scope="module")

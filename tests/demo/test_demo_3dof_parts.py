@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from porosense import demo
-from porosense.quant import layout as L
+from porosense.protocol import model_layout as L
 
 ROOT = Path(__file__).resolve().parents[2]
 ELF = ROOT / "firmware" / "build" / "porosense.elf"

@@ -16,8 +16,8 @@ import pytest
 
 from porosense.device import Device
 from porosense.firmware.flash_store import FLASH_SLOT0, SLOT_PAGES, pages_from_hex, plan_upload
+from porosense.protocol import model_layout as L
 from porosense.quant import FixedPointEstimator, ModelBlob, quantize
-from porosense.quant import layout as L
 from porosense.quant.random_models import random_structure
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -13,7 +13,7 @@ from porosense.device import NakError
 from porosense.device.client import MODEL_CHUNK_BYTES, blob_crc
 from porosense.protocol import Result, StatusFlag
 from porosense.protocol import _messages as m
-from porosense.quant.layout import AREA_LEN
+from porosense.protocol.model_layout import AREA_LEN
 
 
 def begin(dev, blob, crc=None):

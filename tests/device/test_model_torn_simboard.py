@@ -17,7 +17,7 @@ from models import make_blob, reference_run
 from porosense.device import Device
 from porosense.device.client import blob_crc
 from porosense.errors import DeviceError
-from porosense.quant.layout import MAX_BLOB_LEN
+from porosense.protocol.model_layout import MAX_BLOB_LEN
 
 ROOT = Path(__file__).resolve().parents[2]
 ELF = ROOT / "firmware" / "build" / "porosense.elf"

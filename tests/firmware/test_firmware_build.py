@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from porosense.bench import firmware as fw
-from porosense.quant.layout import MAX_BLOB_LEN
+from porosense.protocol.model_layout import MAX_BLOB_LEN
 
 pytestmark = pytest.mark.xdist_group("firmware-build")
 

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 import vectors
 
-from porosense.quant import FixedPointEstimator, avr_cycles
-from porosense.quant.blob import numerator_limit
+from porosense.firmware import avr_cycles
+from porosense.protocol.model_blob import numerator_limit
+from porosense.quant import FixedPointEstimator
 
 pytestmark = pytest.mark.skipif(avr_cycles.available() is not None, reason=f"missing {avr_cycles.available()}")
 

@@ -8,8 +8,8 @@ import pytest
 
 from porosense.errors import ModelError
 from porosense.protocol.framing import crc16
+from porosense.protocol.model_blob import FORMAT_VERSION, HEADER_OFFSETS, MAX_BLOB_LEN
 from porosense.quant import ModelBlob, c_header, quantize
-from porosense.quant.blob import FORMAT_VERSION, HEADER_OFFSETS, MAX_BLOB_LEN
 from porosense.quant.random_models import random_structure
 
 

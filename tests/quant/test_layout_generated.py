@@ -1,13 +1,13 @@
 """The blob / EEPROM store layout is generated from protocol/model_layout.toml for both sides:
-the committed model_layout.h and quant/layout.py must be what the generator writes now, and the
+the committed model_layout.h and protocol/model_layout.py must be what the generator writes now, and the
 Python blob must follow the generated layout."""
 
 import subprocess
 import sys
 from pathlib import Path
 
-from porosense.quant import layout
-from porosense.quant.blob import ModelBlob
+from porosense.protocol import model_layout as layout
+from porosense.protocol.model_blob import ModelBlob
 
 ROOT = Path(__file__).resolve().parents[2]
 GENERATOR = ROOT / "protocol" / "gen_model_layout.py"

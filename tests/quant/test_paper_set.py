@@ -6,8 +6,8 @@ the whole -100..100 % range so that every breakpoint is kept."""
 import numpy as np
 import pytest
 
+from porosense.protocol.model_blob import MAX_BLOB_LEN, ModelBlob
 from porosense.quant import FixedPointEstimator, fit_percent, quantize
-from porosense.quant.blob import MAX_BLOB_LEN, ModelBlob
 from porosense.quant.design import blob_size, compact_tables, design_blob
 from porosense.quant.random_models import random_structure, step_inputs
 

@@ -3,7 +3,7 @@
 import pytest
 
 from porosense.bench import quant as bench
-from porosense.quant.blob import MAX_BLOB_LEN
+from porosense.protocol.model_blob import MAX_BLOB_LEN
 
 pytestmark = pytest.mark.bench
 
@@ -73,8 +73,9 @@ def test_paper_set_from_the_flash_store_within_budget():
     flash: bit-exact and inside the 48,000-cycle budget."""
     import numpy as np
 
-    from porosense.quant import avr_cycles, quantize
-    from porosense.quant import layout as L
+    from porosense.firmware import avr_cycles
+    from porosense.protocol import model_layout as L
+    from porosense.quant import quantize
     from porosense.quant.random_models import random_structure
 
     if avr_cycles.available():
@@ -92,7 +93,7 @@ def test_heaviest_flash_slot_model_within_budget():
     .heaviest_storable_blob, 927 B), read from flash: bit-exact, within the cycle budget
     (36,850 cycles measured; with the 1,144-byte slots it was a 1,129 B model at 56,392)."""
     from porosense.bench import firmware as fw
-    from porosense.quant import avr_cycles
+    from porosense.firmware import avr_cycles
 
     if avr_cycles.available():
         pytest.skip(f"missing: {avr_cycles.available()}")

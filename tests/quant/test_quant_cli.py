@@ -5,8 +5,8 @@ import json
 import pytest
 
 from porosense.cli import main
+from porosense.protocol.model_blob import MAX_BLOB_LEN
 from porosense.quant import ModelBlob
-from porosense.quant.blob import MAX_BLOB_LEN
 
 
 @pytest.fixture(scope="module")

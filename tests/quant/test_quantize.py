@@ -7,8 +7,8 @@ import pytest
 from scipy import signal
 
 from porosense.errors import ModelError
+from porosense.protocol.model_blob import MAX_BLOB_LEN
 from porosense.quant import FixedPointEstimator, quantize
-from porosense.quant.blob import MAX_BLOB_LEN
 from porosense.quant.random_models import random_structure, step_inputs
 from porosense.structure import Branch, EstimatorStructure, OutputChain, SOSCascade
 

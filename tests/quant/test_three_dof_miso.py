@@ -5,8 +5,8 @@ inputs, and the report measures exactly what the device computes, noise included
 import numpy as np
 import pytest
 
+from porosense.protocol.model_blob import MAX_BLOB_LEN
 from porosense.quant import FixedPointEstimator, fit_percent, quantize
-from porosense.quant.blob import MAX_BLOB_LEN
 from porosense.quant.quantize import device_inputs
 from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade
 

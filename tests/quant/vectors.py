@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from porosense.protocol.model_blob import MAX_BLOB_LEN, BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit
 from porosense.quant import FixedPointEstimator, quantize
-from porosense.quant.blob import MAX_BLOB_LEN, BranchQ, ModelBlob, OutputQ, PwlQ, SectionQ, numerator_limit
 from porosense.quant.design import compact_tables
 from porosense.quant.random_models import random_structure, step_inputs
 

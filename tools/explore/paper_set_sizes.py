@@ -9,7 +9,7 @@ Run: .venv/bin/python tools/explore/paper_set_sizes.py
 
 import numpy as np
 
-from porosense.quant import layout
+from porosense.protocol import model_layout as layout
 from porosense.quant.quantize import quantize
 from porosense.quant.random_models import random_structure
 

@@ -1,6 +1,6 @@
 // The model blob: the fixed-point estimator's coefficients as stored in EEPROM.
 // Layout and number formats: MODEL_FORMAT.md (this directory). The Python twin
-// is porosense.quant.blob; both sides must agree byte for byte.
+// is porosense.protocol.model_blob; both sides must agree byte for byte.
 // Pure C++ (no Arduino header, no heap, no float in the hot path).
 #pragma once
 #include <stdint.h>

@@ -23,7 +23,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from porosense.firmware.files import elf_path, source_tree
-from porosense.quant.layout import MAX_BLOB_LEN
+from porosense.protocol.model_layout import MAX_BLOB_LEN
 
 _TREE = source_tree()
 FIRMWARE_DIR = _TREE / "firmware" if _TREE else None  # None: installed, nothing to rebuild
@@ -39,7 +39,7 @@ ESTIMATOR_OFF = 1 << 3  # status flag: no model loaded
 MODEL_REGION_BYTES = MAX_BLOB_LEN  # the EEPROM model area (one model alone)
 FLASH_SLOT_BYTES = 1016  # blob bytes of one flash store slot (layout.FLASH_BLOB_MAX)
 # Candidates for the heaviest model a flash slot holds, most expensive first (3 x 3 WH; poles in
-# H1, poles in H2, breakpoints); measured from flash (porosense.quant.avr_cycles, seed 1) when
+# H1, poles in H2, breakpoints); measured from flash (porosense.firmware.avr_cycles, seed 1) when
 # the slots held 1,144 B: 10/10/3 (compact tables, 60 sections) 56,392 cycles, 10/8/4 55,207,
 # 10/10/2 48,652. A 1,016-byte slot holds the first that fits there: 927 B, 36,850 cycles.
 FLASH_HEAVY_CANDIDATES = ((10, 10, 3), (10, 8, 4), (10, 10, 2), (8, 8, 6), (4, 4, 10))
@@ -120,14 +120,14 @@ def measure_size(elf: Path = ELF) -> SizeReport:
 
 def estimator_cycles() -> dict:
     """Cycles of one estimator step on the ATmega328P (simavr), measured with the
-    quantization area's harness (porosense.quant.avr_cycles): the heaviest model that fits
+    quantization area's harness (porosense.firmware.avr_cycles): the heaviest model that fits
     the EEPROM, read from EEPROM; the heaviest a flash store slot holds, read from flash; the
     issue's nominal worst case (3 x 3, 10 poles per block, 16 breakpoints), which no store
     holds, from flash."""
     try:
-        from porosense.quant import avr_cycles
+        from porosense.firmware import avr_cycles
     except ImportError as exc:
-        return {"status": "pending", "reason": f"porosense.quant.avr_cycles not available ({exc})"}
+        return {"status": "pending", "reason": f"porosense.firmware.avr_cycles not available ({exc})"}
     missing = avr_cycles.available()
     if missing:
         return {"status": "pending", "reason": f"missing: {missing}"}

@@ -105,8 +105,9 @@ def _most_sections_that_fit():
 
 
 def run(size: str = "small") -> dict:
-    from porosense.quant import FixedPointEstimator, avr_cycles, quantize
-    from porosense.quant.blob import MAX_BLOB_LEN
+    from porosense.firmware import avr_cycles
+    from porosense.protocol.model_blob import MAX_BLOB_LEN
+    from porosense.quant import FixedPointEstimator, quantize
     from porosense.quant.design import design_blob
 
     full = size == "full"

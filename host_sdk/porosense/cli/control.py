@@ -162,7 +162,7 @@ def run_tune(args) -> int:
     tau_cl = float(args.tau_cl)
     if args.model:
         from porosense.control.tuning import board_tau_cl
-        from porosense.quant import ModelBlob
+        from porosense.protocol.model_blob import ModelBlob
 
         if not Path(args.model).is_file():
             raise InputError(f"model blob {args.model} not found")

@@ -55,7 +55,7 @@ def register(sub) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     from porosense.device import Device
-    from porosense.quant import ModelBlob
+    from porosense.protocol.model_blob import ModelBlob
 
     path = Path(args.blob)
     if not path.is_file():
@@ -91,8 +91,8 @@ def _run_flash_store(args, data: bytes) -> int:
     from porosense.errors import DeviceError
     from porosense.firmware import upload as avr_upload
     from porosense.firmware.flash_store import plan_upload
-    from porosense.quant import ModelBlob
-    from porosense.quant.layout import FLASH_BLOB_MAX
+    from porosense.protocol.model_blob import ModelBlob
+    from porosense.protocol.model_layout import FLASH_BLOB_MAX
 
     blob = ModelBlob.from_bytes(data, max_length=FLASH_BLOB_MAX)  # refuse a bad file first
     with Device.open(args.port) as dev:

@@ -92,7 +92,7 @@ def run(args) -> int:
     per_percent = structure.input_lsb() / 0.01
     input_range = None if args.input_range is None else [v * per_percent for v in args.input_range]
     recs = [_scaled(t, structure, per_percent) for t in tables]
-    from porosense.quant.layout import FLASH_BLOB_MAX, MAX_BLOB_LEN
+    from porosense.protocol.model_layout import FLASH_BLOB_MAX, MAX_BLOB_LEN
 
     result = quantize(
         structure,

@@ -37,8 +37,8 @@ def run(args) -> int:
 
     from porosense.data import read_table
     from porosense.device import Device
+    from porosense.protocol.model_layout import FLASH_BLOB_MAX
     from porosense.quant import FixedPointEstimator, ModelBlob
-    from porosense.quant.layout import FLASH_BLOB_MAX
 
     path = Path(args.blob)
     if not path.is_file():
@@ -115,7 +115,7 @@ def _check_stored_header(dev, blob) -> None:
     import struct
 
     from porosense.errors import ModelError
-    from porosense.quant.layout import HEADER_LEN, HEADER_OFFSETS
+    from porosense.protocol.model_layout import HEADER_LEN, HEADER_OFFSETS
 
     head = dev.read_model_bytes(0, HEADER_LEN)
     ts_us = struct.unpack_from("<I", head, HEADER_OFFSETS["ts_us"])[0]

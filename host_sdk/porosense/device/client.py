@@ -300,7 +300,7 @@ class Device:
     ) -> ModelInfo:
         """MODEL_BEGIN, MODEL_CHUNKs of 112 bytes, MODEL_COMMIT, then MODEL_INFO; checks the CRC.
 
-        The blob is checked first exactly as the firmware checks it (porosense.quant.ModelBlob:
+        The blob is checked first exactly as the firmware checks it (porosense.protocol.model_blob.ModelBlob:
         format, CRC, structure, size): a bad blob raises ModelError before anything is sent.
         The device writes it beside the running model, which keeps running until the new one is
         whole and checked. Two models share the EEPROM's 776-byte model area; when the new one
@@ -309,7 +309,7 @@ class Device:
         default) does the same with a warning. ``validate=False`` sends the blob as it is (to test
         the device's own checks)."""
         from porosense.errors import ModelError
-        from porosense.quant.blob import ModelBlob, blob_crc
+        from porosense.protocol.model_blob import ModelBlob, blob_crc
 
         blob = bytes(blob)
         if validate:
@@ -357,8 +357,8 @@ class Device:
         A mismatch raises ModelError, or with ``set_rate`` sets and saves the board's
         SAMPLE_RATE_HZ to the model's rate (which must be a whole number of Hz)."""
         from porosense.errors import ModelError
-        from porosense.quant.blob import ModelBlob
-        from porosense.quant.layout import FLASH_BLOB_MAX
+        from porosense.protocol.model_blob import ModelBlob
+        from porosense.protocol.model_layout import FLASH_BLOB_MAX
 
         model = ModelBlob.from_bytes(bytes(blob), max_length=FLASH_BLOB_MAX)  # either store's
         board = self.sample_rate_hz()
@@ -794,7 +794,7 @@ def _config_key(key) -> int:
 
 def blob_crc(blob: bytes) -> int:
     """The CRC that identifies a model blob (MODEL_BEGIN.crc, MODEL_INFO.crc): see
-    porosense.quant.blob.blob_crc, the one routine for it."""
-    from porosense.quant.blob import blob_crc as crc
+    porosense.protocol.model_blob.blob_crc, the one routine for it."""
+    from porosense.protocol.model_blob import blob_crc as crc
 
     return crc(blob)

@@ -143,7 +143,7 @@ class FirmwareCore:
     def program_flash(self, pages, n_pages: int | None = None) -> int:
         """Write (flash address, bytes) pages into the flash model store as an upload would,
         stopping after ``n_pages`` (a torn upload); the caller reboots. Returns pages written."""
-        from porosense.quant.layout import FLASH_BASE, FLASH_SLOT_SIZE, FLASH_SLOTS
+        from porosense.protocol.model_layout import FLASH_BASE, FLASH_SLOT_SIZE, FLASH_SLOTS
 
         size = FLASH_SLOTS * FLASH_SLOT_SIZE
         mem = C.cast(self._lib.ps_flash_store(self._h), C.POINTER(_u8 * size)).contents
@@ -158,7 +158,7 @@ class FirmwareCore:
 
     def flash_store(self) -> bytes:
         """The flash model store's bytes (from layout.FLASH_BASE)."""
-        from porosense.quant.layout import FLASH_SLOT_SIZE, FLASH_SLOTS
+        from porosense.protocol.model_layout import FLASH_SLOT_SIZE, FLASH_SLOTS
 
         return bytes(
             C.cast(self._lib.ps_flash_store(self._h), C.POINTER(_u8 * (FLASH_SLOTS * FLASH_SLOT_SIZE))).contents

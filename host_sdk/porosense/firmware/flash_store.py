@@ -16,9 +16,9 @@ import struct
 from dataclasses import dataclass
 
 from porosense.errors import ModelError
+from porosense.protocol import model_layout as L
 from porosense.protocol.framing import crc16
-from porosense.quant import layout as L
-from porosense.quant.blob import ModelBlob
+from porosense.protocol.model_blob import ModelBlob
 
 #: Slot numbers MODEL_INFO reports: 0, 1 EEPROM; FLASH_SLOT0 + k flash slot k.
 FLASH_SLOT0 = L.SLOTS

@@ -8,7 +8,7 @@
 Formats: firmware/lib/core/MODEL_FORMAT.md.
 """
 
-from porosense.quant.blob import FORMAT_VERSION, MAX_BLOB_LEN, ModelBlob
+from porosense.protocol.model_blob import FORMAT_VERSION, MAX_BLOB_LEN, ModelBlob
 from porosense.quant.cheader import c_header
 from porosense.quant.design import orders_that_fit
 from porosense.quant.fixed import FixedPointEstimator

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import re
 
-from porosense.quant.blob import ModelBlob
+from porosense.protocol.model_blob import ModelBlob
 
 
 def c_header(blob: ModelBlob, name: str = "porosense_model") -> str:

@@ -29,7 +29,7 @@ import numpy as np
 from scipy import signal
 
 from porosense.errors import ModelError
-from porosense.quant.blob import (
+from porosense.protocol.model_blob import (
     CRC_LEN,
     HEADER_LEN,
     MAX_BLOB_LEN,

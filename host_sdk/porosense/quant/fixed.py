@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from porosense.errors import InputError
-from porosense.quant.blob import STATE_FRAC, STATE_MAX, STATE_MIN, ModelBlob, PwlQ, SectionQ
+from porosense.protocol.model_blob import STATE_FRAC, STATE_MAX, STATE_MIN, ModelBlob, PwlQ, SectionQ
 
 DELAY_LEN = 16
 SATURATED = 0x01

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from porosense.errors import InputError, ModelError
-from porosense.quant.blob import MAX_BLOB_LEN, ModelBlob
+from porosense.protocol.model_blob import MAX_BLOB_LEN, ModelBlob
 from porosense.quant.design import DEFAULT_INPUT_LSB, FULL_SCALE, check_size, compact_tables, design_blob
 from porosense.quant.fixed import FixedPointEstimator
 from porosense.quant.report import QuantReport, RecordingFit, fit_percent

@@ -74,7 +74,7 @@ int main() {
     controller.start(0x07);
     int16_t command[3];
     uint16_t steps = 0;
-    uint32_t check = 0;  // compared with the Python reference by porosense.quant.avr_cycles
+    uint32_t check = 0;  // compared with the Python reference by porosense.firmware.avr_cycles
     int16_t in[3], out[3];
     for (uint16_t t = 0; t < MODEL_STEPS; ++t) {
       // Inputs: steps between -80 % and +5 % with alternating signs per channel.

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from porosense.firmware.files import core_dir, programs_dir  # noqa: E402
-from porosense.quant.blob import ModelBlob
+from porosense.protocol.model_blob import ModelBlob
 from porosense.quant.fixed import FixedPointEstimator
 
 CORE = core_dir()

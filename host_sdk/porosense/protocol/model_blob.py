@@ -1,6 +1,6 @@
 """The model blob: fixed-point coefficients of the estimator, byte for byte as in EEPROM.
 
-Layout (all little-endian; generated constants in layout.py from protocol/model_layout.toml;
+Layout (all little-endian; generated constants in model_layout.py from protocol/model_layout.toml;
 firmware/lib/core/MODEL_FORMAT.md is the reference)::
 
     header (32 bytes): magic "PW", format version (2), n_inputs, n_outputs, reserved 0,
@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 from porosense.errors import ModelError
 from porosense.protocol.framing import crc16
-from porosense.quant.layout import (  # noqa: F401  (re-exported: the blob's constants)
+from porosense.protocol.model_layout import (  # noqa: F401  (re-exported: the blob's constants)
     BRANCH_FORMAT,
     BRANCH_HAS_F,
     CRC_LEN,

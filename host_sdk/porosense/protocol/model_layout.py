@@ -3,29 +3,18 @@
 The model blob's header and records and the EEPROM model store's layout (number formats:
 firmware/lib/core/MODEL_FORMAT.md)."""
 
-MAGIC = b"PW"
+MAGIC = b'PW'
 FORMAT_VERSION = 2
 HEADER_LEN = 32
-HEADER_FORMAT = "<2BBBBBHI3fIf"  # magic, format_version, n_inputs, n_outputs, reserved, length, model_id, out_scale, ts_us, input_lsb
-HEADER_OFFSETS = {
-    "magic": 0,
-    "format_version": 2,
-    "n_inputs": 3,
-    "n_outputs": 4,
-    "reserved": 5,
-    "length": 6,
-    "model_id": 8,
-    "out_scale": 12,
-    "ts_us": 24,
-    "input_lsb": 28,
-}
+HEADER_FORMAT = '<2BBBBBHI3fIf'  # magic, format_version, n_inputs, n_outputs, reserved, length, model_id, out_scale, ts_us, input_lsb
+HEADER_OFFSETS = {'magic': 0, 'format_version': 2, 'n_inputs': 3, 'n_outputs': 4, 'reserved': 5, 'length': 6, 'model_id': 8, 'out_scale': 12, 'ts_us': 24, 'input_lsb': 28}
 CRC_LEN = 2
 INPUT_LSB_PERCENT = 0.01  # dR % per device input LSB
-OUTPUT_FORMAT = "<BBh"  # n_branches, flags, offset
+OUTPUT_FORMAT = '<BBh'  # n_branches, flags, offset
 OUTPUT_LEN = 4
-BRANCH_FORMAT = "<BBhBB"  # input, delay, u_offset, flags, n_sections
+BRANCH_FORMAT = '<BBhBB'  # input, delay, u_offset, flags, n_sections
 BRANCH_LEN = 6
-SECTION_FIXED_FORMAT = "<BBBB"  # flags, sb, n1, n2
+SECTION_FIXED_FORMAT = '<BBBB'  # flags, sb, n1, n2
 SECTION_FIXED_LEN = 4
 OUT_HAS_G = 0x01
 OUT_HAS_H2 = 0x02
@@ -46,7 +35,7 @@ STORE_REGION = 792
 SLOTS = 2
 SLOT_MAGIC = 0x4D
 SLOT_HEADER_LEN = 8
-SLOT_HEADER_FORMAT = "<BBHHH"  # magic, seq, length, crc, header_crc
+SLOT_HEADER_FORMAT = '<BBHHH'  # magic, seq, length, crc, header_crc
 AREA_BASE = 80
 AREA_LEN = 776
 MAX_BLOB_LEN = 776  # one model in an empty store

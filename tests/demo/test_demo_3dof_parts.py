@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from porosense import demo
 from porosense.protocol import model_layout as L
+from porosense.workflows import demo
 
 ROOT = Path(__file__).resolve().parents[2]
 ELF = ROOT / "firmware" / "build" / "porosense.elf"

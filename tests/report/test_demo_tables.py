@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from porosense import ident
-from porosense.report.demo_report import search_tables
+from porosense.workflows.demo_report import search_tables
 
 
 def test_search_table_has_one_row_per_structure_and_the_search_numbers():

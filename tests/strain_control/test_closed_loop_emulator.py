@@ -62,16 +62,16 @@ def test_commands_stay_within_the_regulator_limit(loads):
 
 
 def test_tracking_a_trajectory(setup):
-    from porosense.control.boards import open_control_board
+    from porosense.boards import open_board
     from porosense.control.metrics import tracking_metrics
     from porosense.control.runner import prepare_board
     from porosense.control.session import run_closed_loop
 
     t = np.array([0, 2, 6, 8, 12, 14, 18, 20.0])
     y = np.array([4, 4, 16, 16, 8, 8, 20, 20.0])  # ramps at 3 %/s and holds
-    with open_control_board("emulator", seed=3) as (dev, truth):
-        rate, scale = prepare_board(dev, simulated=True, model=setup.blob, gains=setup.gains)
-        rec = run_closed_loop(dev, [], rate_hz=rate, out_scale=scale, truth=truth, trajectory=(t, y))
+    with open_board("emulator", seed=3) as board:
+        rate, scale = prepare_board(board.device, simulated=True, model=setup.blob, gains=setup.gains)
+        rec = run_closed_loop(board.device, [], rate_hz=rate, out_scale=scale, truth=board.truth, trajectory=(t, y))
     skip = rec.t < 2.0  # the first target starts from rest
     tr = tracking_metrics(rec["target_0"], rec["strain_0"], skip=skip)
     print(f"trajectory: RMS {tr.rms:.3f} % strain, peak {tr.peak:.3f} ({tr.rms_pct_of_target:.1f} % of the target)")

@@ -1,8 +1,12 @@
-"""Argument parsers shared by the data-driven subcommands (identify, diagnose)."""
+"""Argument parsers and choices shared by the subcommands."""
 
 from __future__ import annotations
 
 from porosense.errors import InputError
+
+#: The simulated actuators, as porosense.sim.ACTUATORS names them (written out so that --help does
+#: not load the simulator; tests/cli/test_actuator_names.py holds the two equal).
+ACTUATORS = ("contractor", "bending", "3dof")
 
 
 def parse_range(text: str | None) -> slice | None:

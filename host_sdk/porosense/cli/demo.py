@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from porosense.cli._args import ACTUATORS
+
 
 def register(sub) -> argparse.ArgumentParser:
     p = sub.add_parser(
@@ -30,7 +32,7 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--actuator",
         default="contractor",
-        choices=("bending", "contractor", "3dof", "all"),
+        choices=(*ACTUATORS, "all"),
         help="which actuator (default: contractor)",
     )
     p.add_argument(
@@ -70,8 +72,8 @@ def _rate_limits() -> tuple[int, int]:
 
 
 def run(args) -> int:
-    from porosense.demo import ACTUATORS, run_demo
     from porosense.errors import InputError
+    from porosense.workflows.demo import run_demo
 
     lo, hi = _rate_limits()
     if not lo <= args.rate <= hi:

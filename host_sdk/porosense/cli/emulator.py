@@ -6,6 +6,8 @@ import argparse
 import sys
 import time
 
+from porosense.cli._args import ACTUATORS
+
 
 def register(sub) -> argparse.ArgumentParser:
     p = sub.add_parser(
@@ -35,7 +37,7 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--actuator",
         default="contractor",
-        choices=("contractor", "bending", "3dof"),
+        choices=ACTUATORS,
         help="simulated actuator (default: %(default)s)",
     )
     p.add_argument("--porosity", type=float, default=None, help="porosity in %% (default: the actuator's)")

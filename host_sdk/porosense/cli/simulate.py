@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-ACTUATOR_CHOICES = ("contractor", "bending", "3dof")
+from porosense.cli._args import ACTUATORS
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -26,7 +26,7 @@ def register(sub) -> argparse.ArgumentParser:
             "--load 500 --rate 100 --seed 1 --out runs/"
         ),
     )
-    p.add_argument("actuator", choices=ACTUATOR_CHOICES, help="which actuator to simulate")
+    p.add_argument("actuator", choices=ACTUATORS, help="which actuator to simulate")
     p.add_argument(
         "--experiment",
         "-e",

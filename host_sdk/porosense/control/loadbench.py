@@ -133,14 +133,15 @@ def steady_errors(rec, segments, hold_s, lead_s=1.0, *, board_timed: bool = Fals
 
 def measure_load(setup: Setup, load_g: float, targets, hold_s: float, *, seed: int = 0, port: str = "emulator") -> dict:
     """Closed and open loop for one load on a fresh simulated board; errors against the truth."""
-    from porosense.control.boards import open_control_board
+    from porosense.boards import open_board
     from porosense.control.runner import prepare_board
     from porosense.control.session import check_not_vented, run_closed_loop, run_open_loop
 
     segs = _segments(targets, hold_s)
     vac = [float(setup.smap.vacuum_for(v)) for v in targets]
     t0 = time.perf_counter()
-    with open_control_board(port, load_g=load_g, seed=seed) as (dev, truth):
+    with open_board(port, load_g=load_g, seed=seed) as board:
+        dev, truth = board.device, board.truth
         rate, scale = prepare_board(dev, simulated=True, model=setup.blob, gains=setup.gains)
         duration = segs[-1][0] + hold_s
         closed = run_closed_loop(

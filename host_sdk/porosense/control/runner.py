@@ -12,14 +12,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from porosense.boards import SIM_WATCHDOG_MS, open_board
 from porosense.control.metrics import StepMetrics, TrackingMetrics, step_metrics, tracking_metrics
 from porosense.control.tuning import PiGains
 from porosense.errors import DeviceError
 
 #: Rest streamed before a constant target (s): the start of the step is measured there.
 LEAD_S = 1.0
-#: Host-link watchdog of a simulated board (ms of board time).
-SIM_WATCHDOG_MS = 10000
 
 
 @dataclass
@@ -145,12 +144,11 @@ def prepare_board(dev, *, simulated: bool, model: bytes | None, gains: PiGains |
 
 def execute_run(req: RunRequest, log=print) -> RunResult:
     """Run ``req`` (see :class:`RunRequest`) and measure it."""
-    from porosense.control.boards import open_control_board, parse_port
     from porosense.control.session import run_closed_loop
 
-    kind, _ = parse_port(req.port)
-    with open_control_board(req.port, load_g=req.load_g, seed=req.seed) as (dev, truth):
-        rate, scale = prepare_board(dev, simulated=kind != "url", model=req.model, gains=req.gains)
+    with open_board(req.port, load_g=req.load_g, seed=req.seed) as board:
+        dev, truth = board.device, board.truth
+        rate, scale = prepare_board(dev, simulated=board.simulated, model=req.model, gains=req.gains)
         on_board = [g.__dict__ if hasattr(g, "__dict__") else str(g) for g in _gains_on_board(dev)]
         if req.trajectory is not None:
             t_s, targets = req.trajectory

@@ -11,6 +11,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from porosense.boards import SIM_WATCHDOG_MS
 from porosense.control.metrics import step_metrics, tracking_metrics
 from porosense.control.plant import fit_fopdt
 from porosense.control.tuning import DEFAULT_TAU_CL_S, board_tau_cl, lambda_pi, predict_step
@@ -83,8 +84,6 @@ def run_segment(dev, truth, recs: dict, output: str, out_scale: float, rate_hz: 
         f"(lambda rule, tau_cl {tau:.3g} s); predicted step settles in {pred.settling_s:.2f} s"
     )
     if truth is not None:  # a simulated board: its clock runs faster than this computer's
-        from porosense.control.runner import SIM_WATCHDOG_MS
-
         dev.set_watchdog(SIM_WATCHDOG_MS)
     dev.set_control_gains(ControlGains(gains.kp_kpa, gains.ki_kpa_per_s, gains.slew_per_s))
     segs = [(LEAD_S + i * HOLD_S, v) for i, v in enumerate(targets)]

@@ -20,16 +20,15 @@ For one actuator, on a board (the emulator by default, the simboard, or a real b
 
 from __future__ import annotations
 
-import contextlib
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from porosense.boards import open_board
 from porosense.errors import DeviceError, InputError
-
-ACTUATORS = ("bending", "contractor", "3dof")
+from porosense.sim import ACTUATORS
 
 #: Inputs and outputs per actuator (docs/conventions.md).
 SIGNALS = {
@@ -50,9 +49,6 @@ SINGLE = {"staircase", "two_level"}
 #: Actuators identified at the paper's orders instead of an order search: (poles, zeros, breakpoints)
 #: of every structure in the table; the WH model is the one flashed (the paper's 3-DoF table).
 PAPER_ORDERS = {"3dof": (2, 1, 10)}
-
-#: Device time runs this many times faster than wall time on the emulator.
-EMULATOR_SPEED = 10.0
 
 
 @dataclass
@@ -89,47 +85,6 @@ class DemoResult:
             "seconds": self.seconds,
             "control": self.control,
         }
-
-
-# ------------------------------------------------------------------------------ boards
-
-
-@contextlib.contextmanager
-def open_board(board: str, actuator: str, *, seed: int = 0):
-    """Yield (Device, truth function or None, upload or None) for ``board``: emulator, simboard
-    or a URL. ``upload(pages)`` programs flash pages and resets the board, as avrdude -D does
-    (None for a real board: `porosense flash --store flash` uploads there)."""
-    from porosense.device import Device
-
-    if board == "emulator":
-        from porosense.emulator import Emulator
-
-        # A busy host computer delays samples but never skips them: the recordings stay regular.
-        with Emulator(
-            actuator, realtime=True, speed=EMULATOR_SPEED, seed=seed, truth_log=True, max_catch_up_s=3600.0
-        ) as emu:
-            with Device.open(emu.url) as dev:
-                yield dev, emu.truth, emu.program_flash
-    elif board == "simboard":
-        from porosense.simboard import DEFAULT_ELF, SimBoard
-
-        with SimBoard(DEFAULT_ELF, actuator=actuator, seed=seed) as sb:
-            with Device.open(sb.url, timeout_scale=4.0) as dev:
-                yield dev, _simboard_truth(sb), sb.program_flash
-    else:
-        with Device.open(board) as dev:
-            yield dev, None, None
-
-
-def _simboard_truth(sb):
-    def truth(t_us: np.ndarray) -> dict:
-        cols = sb.truth_columns()
-        t = cols.pop("t")
-        # The firmware's microsecond clock counts AVR time since the latest reset (an upload
-        # resets the board); the truth log counts it since power-on.
-        return {k: np.interp(t_us * 1e-6 + sb.last_reset_s, t, v) for k, v in cols.items() if v.dtype.kind == "f"}
-
-    return truth
 
 
 # ------------------------------------------------------------------------------ steps
@@ -225,7 +180,8 @@ def run_demo(
     clock = {}
     t0 = time.perf_counter()
     log(f"[{actuator}] board: {board}")
-    with open_board(board, actuator, seed=seed) as (dev, truth, upload):
+    with open_board(board, actuator=actuator, seed=seed) as opened:
+        dev, truth, upload = opened.device, opened.truth, opened.upload
         hello = dev.hello()
         log(f"  {hello}")
         dev.calibrate_r0(n_samples=32, channels=(1 << len(inputs)) - 1)
@@ -291,7 +247,7 @@ def run_demo(
 
         control_run = control = None
         if len(inputs) == 1:
-            from porosense.control.demo_segment import run_segment
+            from porosense.workflows.control_segment import run_segment
 
             t4 = time.perf_counter()
             control, control_run = run_segment(dev, truth, recs, outputs[0], float(blob.out_scale[0]), rate_hz, log=log)
@@ -334,7 +290,7 @@ def run_demo(
         clock,
         control.to_dict() if control else None,
     )
-    from porosense.report.demo_report import write_demo_report
+    from porosense.workflows.demo_report import write_demo_report
 
     t3 = time.perf_counter()
     result.report_dir = write_demo_report(

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import signal
 
+from porosense.dsp import fold_delay, split_delay
 from porosense.errors import ModelError
 
 MAX_INPUTS = 3
@@ -92,8 +93,7 @@ class SOSCascade:
         if len(a) == 0 or a[0] == 0:
             raise ModelError("the denominator must start with a non-zero coefficient")
         b, a = b / a[0], a / a[0]
-        delay = int(np.argmax(b != 0))
-        b = b[delay:]
+        delay, b = split_delay(b)
         zeros = np.roots(b) if len(b) > 1 else np.array([])
         poles = np.roots(a) if len(a) > 1 else np.array([])
         n_pairs = max(1, (max(len(zeros), len(poles)) + 1) // 2)
@@ -102,15 +102,7 @@ class SOSCascade:
         poles = np.concatenate([poles, np.zeros(2 * n_pairs - len(poles))])
         sos = signal.zpk2sos(zeros, poles, b[0], pairing="nearest")
         sos = sos[np.any(sos != [1, 0, 0, 1, 0, 0], axis=1)] if len(sos) > 1 else sos
-        # Put each delay into a section with a free numerator slot, else add a delay section.
-        for _ in range(delay):
-            free = np.flatnonzero(sos[:, 2] == 0)
-            if len(free):
-                i = free[-1]
-                sos[i, :3] = [0.0, sos[i, 0], sos[i, 1]]
-            else:
-                sos = np.vstack([sos, [0.0, 1.0, 0.0, 1.0, 0.0, 0.0]])
-        return cls(sos)
+        return cls(fold_delay(sos, delay))
 
     def to_tf(self) -> tuple[np.ndarray, np.ndarray]:
         """As (b, a), coefficients of z^-1 in ascending powers."""

@@ -15,7 +15,7 @@ import pytest
 from porosense.bench import diagnose as bench
 from porosense.bench import hidden_effects as he
 from porosense.cli import main
-from porosense.diagnose.metrics import fit_percent
+from porosense.dsp.metrics import fit_percent
 
 COLUMNS = ("u", "y", "u_aux", "load")
 #: seeds of these tests: apart from the bench seeds (figures) and the development seeds

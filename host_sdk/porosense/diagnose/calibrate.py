@@ -77,7 +77,7 @@ def _at_limit(y: np.ndarray, min_count: int = 10) -> np.ndarray:
 
 def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float) -> Calibration:
     """Fit porosity, scale and offset of ``actuator``'s ``output`` to the estimation records."""
-    from porosense.diagnose.metrics import fit_percent
+    from porosense.dsp.metrics import fit_percent
 
     ys = np.concatenate([np.asarray(y, float) for y in y_list])
     # samples piled up exactly at a record's extreme are clipped (ADC or divider limit): they

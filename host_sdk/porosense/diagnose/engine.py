@@ -46,7 +46,7 @@ import numpy as np
 
 from porosense.diagnose import extensions, signals, stats
 from porosense.diagnose.catalogue import CAUSES, EXPRESSIBLE, NONE
-from porosense.diagnose.metrics import fit_percent, rms_percent
+from porosense.dsp.metrics import fit_percent, rms_percent
 from porosense.errors import InputError
 
 

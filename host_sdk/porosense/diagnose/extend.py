@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from porosense.diagnose import stats
-from porosense.diagnose.metrics import fit_percent, rms_percent
+from porosense.dsp.metrics import fit_percent, rms_percent
 from porosense.errors import ModelError
 from porosense.ident.extended import ExtendedModel, design, predict_settled, settle_samples
 

@@ -14,6 +14,7 @@ import numpy as np
 from scipy.stats import binom as sps_binom
 
 from porosense.diagnose import signals, stats
+from porosense.dsp import laguerre_bank, play_operator
 
 LAGUERRE_ORDER = 4
 POLE_GRID = (0.3, 0.5, 0.7, 0.8, 0.9, 0.95, 0.975, 0.99, 0.995)
@@ -75,7 +76,7 @@ class Context:
     def lag_bank(self, x: np.ndarray, order: int = LAGUERRE_ORDER, pole: float | None = None) -> np.ndarray:
         """Laguerre bank of x started in steady state at x[0] (as if x had been x[0] for ever)."""
         a = self.pole if pole is None else pole
-        return signals.laguerre_bank(x - x[0], a, order) + x[0] * np.sqrt(1.0 - a * a) / (1.0 - a)
+        return laguerre_bank(x, a, order, settled=True)
 
     def generic(self, rec) -> np.ndarray:
         """G0: Laguerre bank of every used input and a constant (retunes the linear dynamics)."""
@@ -303,10 +304,10 @@ def _play_set(ctx: Context):
     def z_h(r):
         cols = []
         for f in fractions:
-            d = signals.play_operator(r.yhat, f * span) - r.yhat
+            d = play_operator(r.yhat, f * span) - r.yhat
             cols += [d, ctx.base_filter(d)]
             for i in range(ctx.n_in):
-                cols.append(ctx.base_filter(signals.play_operator(r.u[:, i], f * spans_u[i]) - r.u[:, i]))
+                cols.append(ctx.base_filter(play_operator(r.u[:, i], f * spans_u[i]) - r.u[:, i]))
         return np.column_stack(cols)
 
     return z_h

@@ -11,24 +11,6 @@ import numpy as np
 from scipy import signal
 
 
-def laguerre_bank(x: np.ndarray, pole: float, order: int) -> np.ndarray:
-    """Outputs (N, order) of a discrete Laguerre filter bank with real ``pole`` (0 <= pole < 1).
-
-    The first filter is sqrt(1 - a^2) / (1 - a q^-1); each next one multiplies by the all-pass
-    (q^-1 - a) / (1 - a q^-1). Any stable linear response dominated by time constants near
-    -ts / ln(pole) is a short linear combination of these outputs.
-    """
-    x = np.asarray(x, dtype=float)
-    a = float(pole)
-    out = np.empty((len(x), order))
-    cur = signal.lfilter([np.sqrt(1.0 - a * a)], [1.0, -a], x)
-    for k in range(order):
-        out[:, k] = cur
-        if k + 1 < order:
-            cur = signal.lfilter([-a, 1.0], [1.0, -a], cur)
-    return out
-
-
 def first_order_lag(x: np.ndarray, pole: float) -> np.ndarray:
     """Unit-DC-gain first-order lag (1 - a) / (1 - a q^-1) of ``x``; a = exp(-ts / tau)."""
     return signal.lfilter([1.0 - pole], [1.0, -pole], np.asarray(x, dtype=float))
@@ -44,25 +26,6 @@ def quantile_knots(x: np.ndarray, n: int) -> np.ndarray:
     """``n`` knots at evenly spaced inner quantiles of ``x`` (unique, increasing)."""
     q = np.linspace(0.0, 1.0, n + 2)[1:-1]
     return np.unique(np.quantile(x, q))
-
-
-def play_operator(x: np.ndarray, radius: float) -> np.ndarray:
-    """Play (backlash) operator of half-width ``radius``, starting centred on x[0].
-
-    The output follows x only after x has moved ``radius`` in the new direction: the
-    elementary rate-independent hysteresis (Prandtl-Ishlinskii building block).
-    """
-    x = np.asarray(x, dtype=float)
-    out = np.empty_like(x)
-    z = x[0] if len(x) else 0.0
-    r = float(radius)
-    for k, xk in enumerate(x.tolist()):
-        if xk - z > r:
-            z = xk - r
-        elif z - xk > r:
-            z = xk + r
-        out[k] = z
-    return out
 
 
 def cosine_trend_basis(n: int, n_terms: int) -> np.ndarray:

@@ -16,6 +16,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
+from porosense.dsp import fold_delay
+
 # |k| < _K_MAX keeps every pole a margin inside the unit circle in floating point too.
 _K_MAX = 1.0 - 1e-10
 
@@ -132,14 +134,7 @@ def sos_rows(b, den) -> np.ndarray:
         rows[i, :3] = q
     rows[: len(den), 3:] = den
     rows[0, :3] *= gain
-    for _ in range(delay):
-        free = np.flatnonzero(rows[:, 2] == 0)
-        if len(free):
-            i = free[-1]
-            rows[i, :3] = [0.0, rows[i, 0], rows[i, 1]]
-        else:
-            rows = np.vstack([rows, [0.0, 1.0, 0.0, 1.0, 0.0, 0.0]])
-    return rows
+    return fold_delay(rows, delay)
 
 
 def stabilise(a) -> np.ndarray:

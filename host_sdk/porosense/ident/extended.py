@@ -19,8 +19,8 @@ import json
 from pathlib import Path
 
 import numpy as np
-from scipy import signal
 
+from porosense.dsp import laguerre_bank, play_operator
 from porosense.errors import InputError, ModelError
 
 FORMAT = "porosense.ident.extended"
@@ -30,33 +30,6 @@ FORMAT_VERSION = 1
 # -- terms ---------------------------------------------------------------------------------------
 
 
-def laguerre_settled(x: np.ndarray, pole: float, order: int) -> np.ndarray:
-    """(N, order) discrete Laguerre bank of x at ``pole``, started in steady state at x[0]."""
-    x = np.asarray(x, float)
-    a = float(pole)
-    out = np.empty((len(x), order))
-    cur = signal.lfilter([np.sqrt(1.0 - a * a)], [1.0, -a], x - x[0])
-    for k in range(order):
-        out[:, k] = cur
-        if k + 1 < order:
-            cur = signal.lfilter([-a, 1.0], [1.0, -a], cur)
-    out += x[0] * np.sqrt(1.0 - a * a) / (1.0 - a)
-    return out
-
-
-def play(x: np.ndarray, radius: float) -> np.ndarray:
-    """Play (backlash) operator of half-width ``radius`` started centred on x[0]."""
-    out = np.empty(len(x))
-    z = float(x[0]) if len(x) else 0.0
-    for k, xk in enumerate(np.asarray(x, float).tolist()):
-        if xk - z > radius:
-            z = xk - radius
-        elif z - xk > radius:
-            z = xk + radius
-        out[k] = z
-    return out
-
-
 def term_columns(term: dict, u: np.ndarray, yhat: np.ndarray, ts: float) -> np.ndarray:
     """Columns (N, k) of one term. u: (N, n_inputs + n_columns) in the model's input order."""
     kind = term["type"]
@@ -64,13 +37,13 @@ def term_columns(term: dict, u: np.ndarray, yhat: np.ndarray, ts: float) -> np.n
     if kind == "const":
         return np.ones((n, 1))
     if kind == "laguerre":
-        return laguerre_settled(u[:, term["input"]], term["pole"], term["order"])
+        return laguerre_bank(u[:, term["input"]], term["pole"], term["order"], settled=True)
     if kind == "play_output":
-        return (play(yhat, term["radius"]) - yhat)[:, None]
+        return (play_operator(yhat, term["radius"]) - yhat)[:, None]
     if kind == "play_input":
         i = term["input"]
-        d = play(u[:, i], term["radius"]) - u[:, i]
-        return laguerre_settled(d, term["pole"], term["order"])
+        d = play_operator(u[:, i], term["radius"]) - u[:, i]
+        return laguerre_bank(d, term["pole"], term["order"], settled=True)
     if kind == "hinge_output":
         return np.maximum(0.0, yhat[:, None] - np.asarray(term["knots"], float)[None, :])
     if kind == "output":

@@ -28,6 +28,7 @@ import math
 import numpy as np
 from scipy import signal
 
+from porosense.dsp import fold_delay, split_delay
 from porosense.errors import ModelError
 from porosense.protocol.model_blob import (
     CRC_LEN,
@@ -61,9 +62,8 @@ def regroup(sos: np.ndarray) -> np.ndarray:
         b = np.trim_zeros(row[:3], "b")
         if len(b) == 0:
             return sos  # a zero block: nothing to re-pair
-        lead = int(np.argmax(b != 0))
+        lead, b = split_delay(b)
         delay += lead
-        b = b[lead:]
         gain *= b[0]
         zeros.extend(np.roots(b) if len(b) > 1 else [])
         a = np.trim_zeros(row[3:], "b")
@@ -78,13 +78,7 @@ def regroup(sos: np.ndarray) -> np.ndarray:
         new = new[np.any(new != [1, 0, 0, 1, 0, 0], axis=1)]
         if len(new) == 0:
             new = np.array([[gain, 0, 0, 1, 0, 0]])
-    for _ in range(delay):
-        free = np.flatnonzero(new[:, 2] == 0)
-        if len(free):
-            i = free[-1]
-            new[i, :3] = [0.0, new[i, 0], new[i, 1]]
-        else:
-            new = np.vstack([new, [0.0, 1.0, 0.0, 1.0, 0.0, 0.0]])
+    new = fold_delay(new, delay)
     if len(new) > len(sos) or not _same_response(sos, new):
         return sos
     return new

@@ -5,16 +5,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass, field
 
-import numpy as np
-
-
-def fit_percent(y, yhat) -> float:
-    """NRMSE fit (docs/design.md): 100 (1 - ||y - yhat|| / ||y - mean(y)||), in percent."""
-    y, yhat = np.asarray(y, dtype=float), np.asarray(yhat, dtype=float)
-    den = np.linalg.norm(y - np.mean(y))
-    if den == 0:
-        return float("nan")
-    return float(100.0 * (1.0 - np.linalg.norm(y - yhat) / den))
+from porosense.dsp.metrics import fit_percent  # noqa: F401  (part of quant's API)
 
 
 @dataclass

@@ -103,7 +103,7 @@ def plot_reconstruction(
     """Measured output against each model's estimate over time (s), like the paper's
     reconstruction figures. ``estimates`` maps a model name to its simulated output; the
     legend (beside the axes) gives each model's NRMSE fit in %."""
-    from porosense.ident.metrics import fit_percent
+    from porosense.dsp.metrics import fit_percent
 
     plt = _plt()
     fig, ax = plt.subplots(figsize=(9.5, 3.6), layout="constrained")
@@ -125,7 +125,7 @@ def plot_compare(
 ):
     """MATLAB's ``compare``: one panel per output, measured (when known) and predicted against
     time (s), the fit (%) in the legend. ``measured``/``predicted`` map output names to arrays."""
-    from porosense.ident.metrics import fit_percent
+    from porosense.dsp.metrics import fit_percent
 
     plt = _plt()
     names = list(predicted)

@@ -1,6 +1,6 @@
 """Every listed CLI failure: one line on stderr, the documented exit code, no traceback.
 
-Exit codes (README): 0 ok, 1 no command, 2 bad input or usage, 3 device problem, 4 model problem.
+Exit codes (docs/cli.md): 0 ok, 1 no command, 2 bad input or usage, 3 device problem, 4 model problem.
 The cases that used to succeed with wrong results (a disagreeing --ts, a NaN model or NaN data,
 a replay of 0 samples, --max-poles beyond 20, a 33-bit model id, negative geometry, an unknown
 inner model version) must now fail.

@@ -7,7 +7,7 @@ random strengths (hidden_effects.STRENGTHS). The harness is the bench's
 (porosense.bench.diagnose): the nominal linear OE model at the trial's nominal order from
 porosense.ident, u_aux and load offered as condition columns.
 
-Seeds: these tests use 9000 onwards, the bench figure (README) uses BENCH_SEED onwards,
+Seeds: these tests use 9000 onwards, the bench figure (docs/figures.md) uses BENCH_SEED onwards,
 development used 7000 onwards. Bounds are the issue's: top-1 >= 90 % over all causes and
 none on clean data in >= 95 % (asserted on the slow run; the quick run checks the rules that
 hold for every trial).

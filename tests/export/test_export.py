@@ -94,7 +94,7 @@ def test_c_export_compiles_and_matches_predict(models, kind, tmp_path):
         errs[real] = float(np.max(np.abs(got - expected)) / max(1.0, np.max(np.abs(expected))))
     print(f"{kind}: max error relative to max |y|: double {errs['double']:.2e}, float {errs['float']:.2e}")
     assert errs["double"] <= 1e-6
-    assert errs["float"] <= 1e-3  # single precision: measured, stated in the README
+    assert errs["float"] <= 1e-3  # single precision: measured, stated in docs/figures.md
 
 
 def test_python_control_export_round_trips(models, tmp_path):

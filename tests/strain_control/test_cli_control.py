@@ -1,5 +1,5 @@
 """``porosense control``: tune end to end on simulated recordings; every user mistake is one
-line with the documented exit code (README: 2 bad input, 3 device problem), no traceback."""
+line with the documented exit code (docs/cli.md: 2 bad input, 3 device problem), no traceback."""
 
 from __future__ import annotations
 

@@ -14,7 +14,7 @@ unmodelled_dynamics shows 0 here) and the seconds per trial.
 
 Seeds: the bench uses ``BENCH_SEED``, ``BENCH_SEED + 1``, ...; development work looks only at
 ``DEV_SEED`` onwards, so the figures come from data the detector was not tuned on.
-small: 2 trials per kind (CI); full: 10 trials per kind (the README figure).
+small: 2 trials per kind (CI); full: 10 trials per kind (the figure in docs/figures.md).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """What every data-driven subcommand shares: reading recordings, Ts, models, and JSON output.
 
-The conventions (README "Command-line conventions"):
+The conventions (docs/cli.md):
 
 - ``--json`` prints the command's result as JSON on stdout (and nothing else there);
 - ``--json-out FILE`` (or ``--report FILE`` where a command names it so) writes it to a file;

@@ -236,6 +236,13 @@ def gen_cpp(cat: dict) -> str:
         "",
         "// Payload structs. encode() writes the payload and returns its length;",
         "// decode() returns false when the length does not fit the message.",
+        "// On the AVR (no alignment padding, little-endian) a fixed-length payload is the struct's",
+        "// bytes in field order; elsewhere each field is written on its own.",
+        "#if defined(__AVR__)",
+        "#define POROSENSE_WIRE_IS_STRUCT 1",
+        "#else",
+        "#define POROSENSE_WIRE_IS_STRUCT 0",
+        "#endif",
     ]
     for m in cat["messages"]:
         s = _camel(m.name)
@@ -253,6 +260,21 @@ def gen_cpp(cat: dict) -> str:
                 out.append(f"  uint8_t {f.name}_count;")
             else:
                 out.append(f"  {ct} {f.name}[{f.count}];{comment}")
+        # A fixed-length payload on a byte-aligned little-endian target (the AVR) is the
+        # struct's own bytes: one copy instead of a store per field (flash).
+        if not m.variable:
+            out.append("#if POROSENSE_WIRE_IS_STRUCT")
+            if m.fields:
+                out.append("  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }")
+                out.append("  bool decode(const uint8_t* buf, uint8_t len) {")
+                out.append("    if (len != kMinLen) return false;")
+                out.append("    memcpy(this, buf, kMinLen);")
+                out.append("    return true;")
+                out.append("  }")
+            else:
+                out.append("  uint8_t encode(uint8_t*) const { return 0; }")
+                out.append("  bool decode(const uint8_t*, uint8_t len) { return len == 0; }")
+            out.append("#else")
         # encode
         out.append("  uint8_t encode(uint8_t* buf) const {")
         out.append("    uint8_t n = 0;")
@@ -293,7 +315,13 @@ def gen_cpp(cat: dict) -> str:
                 )
         out.append("    return true;")
         out.append("  }")
+        if not m.variable:
+            out.append("#endif")
         out.append("};")
+        if not m.variable and m.fields:
+            out.append("#if POROSENSE_WIRE_IS_STRUCT")
+            out.append(f'static_assert(sizeof({s}) == {s}::kMinLen, "{s}: struct layout differs from the wire");')
+            out.append("#endif")
         out.append("")
     out.append("// Expected payload length bounds of a message type; false for an unknown type.")
     out.append("inline bool payload_bounds(uint8_t type, uint8_t* min_len, uint8_t* max_len) {")

@@ -7,7 +7,7 @@
 
 class AvrEeprom : public est::Eeprom {
  public:
-  uint8_t read(uint16_t addr) override;
-  void write(uint16_t addr, uint8_t value) override;
-  void read_block(uint16_t addr, uint8_t* dst, uint8_t n) override;
+  uint8_t read(uint16_t addr) PORT_OVERRIDE;
+  void write(uint16_t addr, uint8_t value) PORT_OVERRIDE;
+  void read_block(uint16_t addr, uint8_t* dst, uint8_t n) PORT_OVERRIDE;
 };

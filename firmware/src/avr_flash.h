@@ -7,5 +7,5 @@
 
 class AvrFlash : public est::FlashRom {
  public:
-  void read_block(uint16_t addr, uint8_t* dst, uint8_t n) override;
+  void read_block(uint16_t addr, uint8_t* dst, uint8_t n) PORT_OVERRIDE;
 };

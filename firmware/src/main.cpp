@@ -27,6 +27,10 @@ dev::ModelLink g_model(g_eeprom, &g_flash);
 dev::Device g_device(g_board, g_model);
 uint16_t g_clock_rate = 0;
 
+// The image's end in flash: avr-libc's linker script puts the initial values of .data last,
+// so the byte after them is the first one the image does not use.
+extern "C" char __data_load_end[];
+
 void drain_serial() { g_device.poll_rx(); }
 
 bool work_pending() { return g_device.frame_pending() || sample_clock::pending(); }
@@ -44,7 +48,7 @@ void setup() {
   wdt_enable(WDTO_1S);
   idle::set_hook(drain_serial);
   g_board.begin();
-  g_model.boot();
+  g_model.boot((uint16_t)(uintptr_t)__data_load_end);
   g_device.begin();
   sample_clock::begin();
   sync_sample_clock();

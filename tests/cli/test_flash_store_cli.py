@@ -6,6 +6,7 @@ rate check fails loudly when the advertised rate is not the measured one."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -119,3 +120,62 @@ def test_bench_fails_when_advertised_rate_is_not_the_measured_one(monkeypatch, c
     assert len(err.splitlines()) == 1 and "set SAMPLE_RATE_HZ max" in err
     monkeypatch.setattr(fw, "run", measured(fw.advertised_max_rate_hz()))
     assert main(["bench", "firmware", "--size", "full"]) == 0
+
+
+def test_flash_store_needs_a_board_that_reads_it(paper_blob, capsys, monkeypatch):
+    """A board that does not set FLASH_STORE (an image reaching into the store, or firmware
+    older than protocol 2.2, which does not say) is refused before anything is written."""
+    from porosense.device.results import HelloInfo
+    from porosense.emulator import Emulator
+    from porosense.errors import DeviceError
+    from porosense.firmware.flash_store import require_flash_store
+
+    def hello(minor, caps):
+        return HelloInfo(2, minor, "1.0.0", caps, 3, "none", 0, False, 0)
+
+    require_flash_store(hello(2, ["ADC", "FLASH_STORE"]))
+    with pytest.raises(DeviceError, match="reaches into the flash model store"):
+        require_flash_store(hello(2, ["ADC", "ESTIMATOR"]))
+    with pytest.raises(DeviceError, match="does not say"):
+        require_flash_store(hello(1, ["ADC", "ESTIMATOR"]))
+    path, _, _ = paper_blob
+    hex_out = path.parent / "old_board.hex"
+    # A board of protocol 2.1 (the emulator claims it; such firmware never sets FLASH_STORE).
+    plain = HelloInfo.from_message.__func__
+
+    def without_flash_store(cls, msg):
+        info = plain(cls, msg)
+        return dataclasses.replace(info, capabilities=[c for c in info.capabilities if c != "FLASH_STORE"])
+
+    monkeypatch.setattr(HelloInfo, "from_message", classmethod(without_flash_store))
+    with Emulator("3dof", proto_version=(2, 1)) as emu:
+        code = main(["flash", "--port", emu.url, str(path), "--store", "flash", "--hex-out", str(hex_out)])
+    err = capsys.readouterr().err.strip()
+    assert code == 3 and len(err.splitlines()) == 1 and "does not say" in err, err
+    assert not hex_out.exists()
+
+
+def test_firmware_upload_refuses_an_image_over_the_store(tmp_path, capsys):
+    from intelhex import IntelHex
+
+    def hex_file(name, start, n):
+        ih = IntelHex()
+        ih.frombytes(bytes(range(256)) * (n // 256) + bytes(n % 256), offset=start)
+        path = tmp_path / name
+        ih.write_hex_file(str(path))
+        return path
+
+    over = hex_file("over.hex", 0, L.FLASH_BASE + 1)
+    code = main(["firmware", "upload", "--port", "/dev/null", "--hex", str(over)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "inside the flash model store" in err, err
+    assert "1 B over its budget" in err
+    (tmp_path / "junk.hex").write_bytes(b"\x00\xff not hex")
+    code = main(["firmware", "upload", "--port", "/dev/null", "--hex", str(tmp_path / "junk.hex")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "not an Intel HEX file" in err, err
+    # An image that ends exactly at the store's base passes the check (and then needs avrdude).
+    fits = hex_file("fits.hex", 0, L.FLASH_BASE)
+    code = main(["firmware", "upload", "--port", "/dev/null", "--hex", str(fits), "--avrdude", "/bin/false"])
+    err = capsys.readouterr().err.strip()
+    assert "flash model store" not in err and code == 3, err

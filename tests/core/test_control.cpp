@@ -68,6 +68,7 @@ struct FakeModel : dev::ModelPort {
   }
   uint8_t status() override { return 1; }
   uint16_t crc() override { return 0xBEEF; }
+  bool flash_store() override { return false; }
   bool estimator_loaded() override { return true; }
   void estimator_reset() override {}
   uint8_t estimator_step(const int16_t*, int16_t out[3]) override {

@@ -107,6 +107,7 @@ struct FakeModel : dev::ModelPort {
   void info(proto::ModelInfoReply* o) override { memset(o, 0, sizeof *o); }
   uint8_t status() override { return loaded ? 1 : 0; }
   uint16_t crc() override { return 0xBEEF; }
+  bool flash_store() override { return false; }
   bool estimator_loaded() override { return loaded; }
   void estimator_reset() override { ++resets; }
   uint8_t estimator_step(const int16_t in[3], int16_t out[3]) override {

@@ -158,12 +158,34 @@ int main() {
               "MODEL_INFO slot %u seq %u", info.slot, info.seq);
     uint8_t buf[16];
     CHECK_MSG(st.read(0, 16, buf) == res::OK && memcmp(buf, A.data, 16) == 0, "MODEL_READ from flash");
+    // An image that ends exactly at the store's base leaves the store in use.
+    est::Estimator e_at_base;
+    est::ModelStore at_base(ee, e_at_base, &fl);
+    at_base.set_image_end(L::kFlashBase);
+    at_base.boot();
+    CHECK_MSG(at_base.flash_usable() && at_base.active_slot() == F0, "image ending at the store's base: slot %u",
+              at_base.active_slot());
     CHECK_MSG(st.room() == L::kAreaLen, "EEPROM room beside a flash model: %u", st.room());
     // Without a flash store the same EEPROM holds nothing.
     est::Estimator e2;
     est::ModelStore st2(ee, e2);
     st2.boot();
     CHECK_MSG(st2.status() == 0 && !e2.loaded(), "no flash store: no model");
+  }
+
+  // A firmware image that reaches into the store (a build over its budget): its code would be
+  // read as slot bytes, so the store is ignored (HELLO then lacks the FLASH_STORE capability).
+  {
+    Eeprom ee;
+    Flash fl;
+    upload(fl, 0, A, 5);
+    est::Estimator e;
+    est::ModelStore st(ee, e, &fl);
+    st.set_image_end(uint16_t(L::kFlashBase + 1));
+    st.boot();
+    CHECK_MSG(!st.flash_usable() && st.active_slot() == NONE && !e.loaded(),
+              "overlapping image: store ignored (slot %u)", st.active_slot());
+    CHECK_MSG(flash_eeprom(st, B) && st.active_slot() == 0 && runs_like(e, B), "EEPROM store still works");
   }
   // Counter ordering: the later of two flash slots runs, modulo 256.
   {

@@ -354,6 +354,7 @@ void Device::cmd_hello() {
   h.capabilities = proto::cap::ESTIMATOR | proto::cap::PWM_OUT | proto::cap::LINE_MODE;
   if (hal_.adc_present()) h.capabilities |= proto::cap::ADC;
   if (hal_.imu_present()) h.capabilities |= proto::cap::IMU;
+  if (model_.flash_store()) h.capabilities |= proto::cap::FLASH_STORE;
   h.n_channels = kChannels;
   h.model_status = model_.status();
   h.model_crc = model_.crc();

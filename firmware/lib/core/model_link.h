@@ -10,26 +10,32 @@
 
 namespace dev {
 
-class ModelLink : public ModelPort {
+class ModelLink final : public ModelPort {
  public:
   explicit ModelLink(est::Eeprom& eeprom, est::FlashRom* flash = 0) : store_(eeprom, estimator_, flash) {}
-  void boot() { store_.boot(); }  // load and check the stored model; a bad one stays off
+  // Load and check the stored model (a bad one stays off); image_end: the firmware image's end
+  // in flash, bytes (ModelStore::set_image_end).
+  void boot(uint16_t image_end = 0) {
+    store_.set_image_end(image_end);
+    store_.boot();
+  }
 
-  uint8_t begin(uint16_t length, uint16_t crc, uint8_t format_version, int16_t* detail) override {
+  uint8_t begin(uint16_t length, uint16_t crc, uint8_t format_version, int16_t* detail) PORT_OVERRIDE {
     return store_.begin(length, crc, format_version, detail);
   }
-  uint8_t chunk(uint16_t offset, const uint8_t* data, uint8_t n, int16_t* detail) override {
+  uint8_t chunk(uint16_t offset, const uint8_t* data, uint8_t n, int16_t* detail) PORT_OVERRIDE {
     return store_.chunk(offset, data, n, detail);
   }
-  uint8_t commit(int16_t* detail) override { return store_.commit(detail); }
-  uint8_t erase() override { return store_.erase(); }
-  uint8_t read(uint16_t offset, uint8_t n, uint8_t* dst) override { return store_.read(offset, n, dst); }
-  void info(proto::ModelInfoReply* out) override { store_.info(out); }
-  uint8_t status() override { return store_.status(); }
-  uint16_t crc() override { return store_.crc(); }
-  bool estimator_loaded() override { return estimator_.loaded(); }
-  void estimator_reset() override { estimator_.reset(); }
-  uint8_t estimator_step(const int16_t dr_centi[3], int16_t estimate[3]) override {
+  uint8_t commit(int16_t* detail) PORT_OVERRIDE { return store_.commit(detail); }
+  uint8_t erase() PORT_OVERRIDE { return store_.erase(); }
+  uint8_t read(uint16_t offset, uint8_t n, uint8_t* dst) PORT_OVERRIDE { return store_.read(offset, n, dst); }
+  void info(proto::ModelInfoReply* out) PORT_OVERRIDE { store_.info(out); }
+  uint8_t status() PORT_OVERRIDE { return store_.status(); }
+  uint16_t crc() PORT_OVERRIDE { return store_.crc(); }
+  bool flash_store() PORT_OVERRIDE { return store_.flash_usable(); }
+  bool estimator_loaded() PORT_OVERRIDE { return estimator_.loaded(); }
+  void estimator_reset() PORT_OVERRIDE { estimator_.reset(); }
+  uint8_t estimator_step(const int16_t dr_centi[3], int16_t estimate[3]) PORT_OVERRIDE {
     return estimator_.step(dr_centi, estimate);
   }
 

@@ -74,7 +74,7 @@ void ModelStore::boot() {
   active_ = kNoSlot;
   SlotHeader h[kAllSlots];
   bool present[kAllSlots];
-  const uint8_t n_slots = flash_ ? kAllSlots : L::kSlots;
+  const uint8_t n_slots = flash_usable() ? kAllSlots : L::kSlots;
   for (uint8_t s = 0; s < n_slots; ++s) {
     uint8_t b[L::kSlotHeaderLen];
     read_header(s, b);

@@ -22,6 +22,7 @@
 
 #include "estimator.h"
 #include "model_layout.h"
+#include "ports.h"
 #include "protocol_messages.h"
 
 namespace est {
@@ -30,18 +31,22 @@ namespace est {
 // whole section record in one call on the AVR (eeprom_read_block); the default loops.
 class Eeprom {
  public:
-  virtual uint8_t read(uint16_t addr) = 0;
-  virtual void write(uint16_t addr, uint8_t value) = 0;  // may skip unchanged bytes
+  PORT_FN uint8_t read(uint16_t addr) PORT_ABSTRACT;
+  PORT_FN void write(uint16_t addr, uint8_t value) PORT_ABSTRACT;  // may skip unchanged bytes
+#if PORTS_STATIC
+  void read_block(uint16_t addr, uint8_t* dst, uint8_t n);
+#else
   virtual void read_block(uint16_t addr, uint8_t* dst, uint8_t n) {
     for (uint8_t i = 0; i < n; ++i) dst[i] = read(uint16_t(addr + i));
   }
+#endif
 };
 
 // The store's only view of the flash model slots: read-only, addresses from layout::kFlashBase
 // (memcpy_P on the AVR, a plain array on the host).
 class FlashRom {
  public:
-  virtual void read_block(uint16_t addr, uint8_t* dst, uint8_t n) = 0;
+  PORT_FN void read_block(uint16_t addr, uint8_t* dst, uint8_t n) PORT_ABSTRACT;
 };
 
 // ModelStore's plain state, value-initialised as one block (one clearing loop in flash).
@@ -52,6 +57,7 @@ struct ModelStoreState {
   uint16_t length_, crc_;  // of the running model
   uint8_t target_;         // slot of the write in progress
   uint16_t expect_len_, expect_crc_, next_offset_;
+  uint16_t image_end_;  // end of the firmware image in flash (0: none, a host build)
 };
 
 class ModelStore : private ModelStoreState {
@@ -65,6 +71,13 @@ class ModelStore : private ModelStoreState {
   enum Status : uint8_t { kNone = 0, kValid = 1, kInvalid = 2 };
 
   ModelStore(Eeprom& ee, Estimator& estimator, FlashRom* flash = 0);
+  // The firmware image's end in flash (bytes), before boot(): an image that reaches the flash
+  // store's base (a build over its budget) would be read as model slots, so the store is then
+  // left alone.
+  void set_image_end(uint16_t end) { image_end_ = end; }
+  // True when the flash store's slots are read: a FlashRom is attached and the image ends
+  // below the store.
+  bool flash_usable() const { return flash_ && image_end_ <= layout::kFlashBase; }
   // At power-up: check both slots and load the estimator from the newest valid one.
   void boot();
   // Commands; each returns a proto::result code and sets *detail as NAK.detail expects

@@ -13,8 +13,8 @@
 namespace proto {
 
 constexpr uint8_t kVersionMajor = 2;
-constexpr uint8_t kVersionMinor = 1;
-constexpr uint8_t kVersionByte = 33;
+constexpr uint8_t kVersionMinor = 2;
+constexpr uint8_t kVersionByte = 34;
 constexpr uint8_t kMaxPayload = 120;
 
 namespace msg {
@@ -99,6 +99,7 @@ constexpr uint16_t IMU = 1u << 1;  // BNO055 detected.
 constexpr uint16_t ESTIMATOR = 1u << 2;  // Fixed-point estimator built in.
 constexpr uint16_t PWM_OUT = 1u << 3;  // Analogue (PWM) output of the estimate.
 constexpr uint16_t LINE_MODE = 1u << 4;  // Human-readable CSV line mode.
+constexpr uint16_t FLASH_STORE = 1u << 5;  // Flash model store in use: the firmware image ends at or below the store's base. A board whose image reaches into the store ignores the store's slots (they would hold its own code) and leaves this bit off.
 constexpr uint16_t EMULATED = 1u << 7;  // The emulator: the firmware core on a host computer, not a board.
 }  // namespace cap
 
@@ -171,10 +172,21 @@ inline float get_f32(const uint8_t* p) { uint32_t u = get_u32(p); float v; memcp
 
 // Payload structs. encode() writes the payload and returns its length;
 // decode() returns false when the length does not fit the message.
+// On the AVR (no alignment padding, little-endian) a fixed-length payload is the struct's
+// bytes in field order; elsewhere each field is written on its own.
+#if defined(__AVR__)
+#define POROSENSE_WIRE_IS_STRUCT 1
+#else
+#define POROSENSE_WIRE_IS_STRUCT 0
+#endif
 struct Hello {
   static constexpr uint8_t kType = 0x01;
   static constexpr uint8_t kMinLen = 0;
   static constexpr uint8_t kMaxLen = 0;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t*) const { return 0; }
+  bool decode(const uint8_t*, uint8_t len) { return len == 0; }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     (void)buf;
@@ -185,6 +197,7 @@ struct Hello {
     (void)buf;
     return true;
   }
+#endif
 };
 
 struct HelloReply {
@@ -203,6 +216,14 @@ struct HelloReply {
   uint8_t streaming;
   uint32_t uptime_ms;  // ms
   uint16_t session;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, proto_major); n += 1;
@@ -236,13 +257,25 @@ struct HelloReply {
     session = get_u16(buf + n); n += 2;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(HelloReply) == HelloReply::kMinLen, "HelloReply: struct layout differs from the wire");
+#endif
 
 struct Ping {
   static constexpr uint8_t kType = 0x02;
   static constexpr uint8_t kMinLen = 4;
   static constexpr uint8_t kMaxLen = 4;
   uint32_t nonce;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u32(buf + n, nonce); n += 4;
@@ -254,7 +287,11 @@ struct Ping {
     nonce = get_u32(buf + n); n += 4;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(Ping) == Ping::kMinLen, "Ping: struct layout differs from the wire");
+#endif
 
 struct Pong {
   static constexpr uint8_t kType = 0x82;
@@ -262,6 +299,14 @@ struct Pong {
   static constexpr uint8_t kMaxLen = 8;
   uint32_t nonce;
   uint32_t device_time_us;  // us
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u32(buf + n, nonce); n += 4;
@@ -275,13 +320,25 @@ struct Pong {
     device_time_us = get_u32(buf + n); n += 4;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(Pong) == Pong::kMinLen, "Pong: struct layout differs from the wire");
+#endif
 
 struct Ack {
   static constexpr uint8_t kType = 0x80;
   static constexpr uint8_t kMinLen = 1;
   static constexpr uint8_t kMaxLen = 1;
   uint8_t acked_type;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, acked_type); n += 1;
@@ -293,7 +350,11 @@ struct Ack {
     acked_type = get_u8(buf + n); n += 1;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(Ack) == Ack::kMinLen, "Ack: struct layout differs from the wire");
+#endif
 
 struct Nak {
   static constexpr uint8_t kType = 0x8F;
@@ -302,6 +363,14 @@ struct Nak {
   uint8_t acked_type;
   uint8_t code;
   int16_t detail;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, acked_type); n += 1;
@@ -317,7 +386,11 @@ struct Nak {
     detail = get_i16(buf + n); n += 2;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(Nak) == Nak::kMinLen, "Nak: struct layout differs from the wire");
+#endif
 
 struct SetOutputs {
   static constexpr uint8_t kType = 0x10;
@@ -328,6 +401,14 @@ struct SetOutputs {
   uint8_t valve_mask;
   uint16_t session;
   uint16_t counter;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     for (uint8_t i = 0; i < 3; ++i) { put_i16(buf + n, setpoint_dkpa[i]); n += 2; }
@@ -347,13 +428,25 @@ struct SetOutputs {
     counter = get_u16(buf + n); n += 2;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(SetOutputs) == SetOutputs::kMinLen, "SetOutputs: struct layout differs from the wire");
+#endif
 
 struct SetWatchdog {
   static constexpr uint8_t kType = 0x11;
   static constexpr uint8_t kMinLen = 2;
   static constexpr uint8_t kMaxLen = 2;
   uint16_t timeout_ms;  // ms
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u16(buf + n, timeout_ms); n += 2;
@@ -365,7 +458,11 @@ struct SetWatchdog {
     timeout_ms = get_u16(buf + n); n += 2;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(SetWatchdog) == SetWatchdog::kMinLen, "SetWatchdog: struct layout differs from the wire");
+#endif
 
 struct StartStream {
   static constexpr uint8_t kType = 0x12;
@@ -373,6 +470,14 @@ struct StartStream {
   static constexpr uint8_t kMaxLen = 3;
   uint16_t rate_hz;  // Hz
   uint8_t channel_mask;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u16(buf + n, rate_hz); n += 2;
@@ -386,12 +491,20 @@ struct StartStream {
     channel_mask = get_u8(buf + n); n += 1;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(StartStream) == StartStream::kMinLen, "StartStream: struct layout differs from the wire");
+#endif
 
 struct StopStream {
   static constexpr uint8_t kType = 0x13;
   static constexpr uint8_t kMinLen = 0;
   static constexpr uint8_t kMaxLen = 0;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t*) const { return 0; }
+  bool decode(const uint8_t*, uint8_t len) { return len == 0; }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     (void)buf;
@@ -402,6 +515,7 @@ struct StopStream {
     (void)buf;
     return true;
   }
+#endif
 };
 
 struct Sample {
@@ -415,6 +529,14 @@ struct Sample {
   int16_t dr_centi[3];  // 0.01 %
   int16_t euler_16[3];  // 1/16 deg
   int16_t estimate[3];  // model LSB
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u32(buf + n, t_us); n += 4;
@@ -438,7 +560,11 @@ struct Sample {
     for (uint8_t i = 0; i < 3; ++i) { estimate[i] = get_i16(buf + n); n += 2; }
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(Sample) == Sample::kMinLen, "Sample: struct layout differs from the wire");
+#endif
 
 struct ModelBegin {
   static constexpr uint8_t kType = 0x20;
@@ -447,6 +573,14 @@ struct ModelBegin {
   uint16_t length;  // bytes
   uint16_t crc;
   uint8_t format_version;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u16(buf + n, length); n += 2;
@@ -462,7 +596,11 @@ struct ModelBegin {
     format_version = get_u8(buf + n); n += 1;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(ModelBegin) == ModelBegin::kMinLen, "ModelBegin: struct layout differs from the wire");
+#endif
 
 struct ModelChunk {
   static constexpr uint8_t kType = 0x21;
@@ -491,6 +629,10 @@ struct ModelCommit {
   static constexpr uint8_t kType = 0x22;
   static constexpr uint8_t kMinLen = 0;
   static constexpr uint8_t kMaxLen = 0;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t*) const { return 0; }
+  bool decode(const uint8_t*, uint8_t len) { return len == 0; }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     (void)buf;
@@ -501,12 +643,17 @@ struct ModelCommit {
     (void)buf;
     return true;
   }
+#endif
 };
 
 struct ModelInfo {
   static constexpr uint8_t kType = 0x23;
   static constexpr uint8_t kMinLen = 0;
   static constexpr uint8_t kMaxLen = 0;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t*) const { return 0; }
+  bool decode(const uint8_t*, uint8_t len) { return len == 0; }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     (void)buf;
@@ -517,6 +664,7 @@ struct ModelInfo {
     (void)buf;
     return true;
   }
+#endif
 };
 
 struct ModelInfoReply {
@@ -533,6 +681,14 @@ struct ModelInfoReply {
   float out_scale[3];
   uint8_t slot;
   uint8_t seq;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, status); n += 1;
@@ -562,12 +718,20 @@ struct ModelInfoReply {
     seq = get_u8(buf + n); n += 1;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(ModelInfoReply) == ModelInfoReply::kMinLen, "ModelInfoReply: struct layout differs from the wire");
+#endif
 
 struct ModelErase {
   static constexpr uint8_t kType = 0x24;
   static constexpr uint8_t kMinLen = 0;
   static constexpr uint8_t kMaxLen = 0;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t*) const { return 0; }
+  bool decode(const uint8_t*, uint8_t len) { return len == 0; }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     (void)buf;
@@ -578,6 +742,7 @@ struct ModelErase {
     (void)buf;
     return true;
   }
+#endif
 };
 
 struct ModelRead {
@@ -586,6 +751,14 @@ struct ModelRead {
   static constexpr uint8_t kMaxLen = 3;
   uint16_t offset;  // bytes
   uint8_t length;  // bytes
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u16(buf + n, offset); n += 2;
@@ -599,7 +772,11 @@ struct ModelRead {
     length = get_u8(buf + n); n += 1;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(ModelRead) == ModelRead::kMinLen, "ModelRead: struct layout differs from the wire");
+#endif
 
 struct ModelData {
   static constexpr uint8_t kType = 0x85;
@@ -676,6 +853,14 @@ struct CalibrateR0 {
   static constexpr uint8_t kMaxLen = 2;
   uint8_t n_samples;
   uint8_t channel_mask;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, n_samples); n += 1;
@@ -689,13 +874,25 @@ struct CalibrateR0 {
     channel_mask = get_u8(buf + n); n += 1;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(CalibrateR0) == CalibrateR0::kMinLen, "CalibrateR0: struct layout differs from the wire");
+#endif
 
 struct R0Reply {
   static constexpr uint8_t kType = 0x87;
   static constexpr uint8_t kMinLen = 12;
   static constexpr uint8_t kMaxLen = 12;
   float r0_ohm[3];  // ohm
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     for (uint8_t i = 0; i < 3; ++i) { put_f32(buf + n, r0_ohm[i]); n += 4; }
@@ -707,7 +904,11 @@ struct R0Reply {
     for (uint8_t i = 0; i < 3; ++i) { r0_ohm[i] = get_f32(buf + n); n += 4; }
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(R0Reply) == R0Reply::kMinLen, "R0Reply: struct layout differs from the wire");
+#endif
 
 struct SetR0 {
   static constexpr uint8_t kType = 0x28;
@@ -715,6 +916,14 @@ struct SetR0 {
   static constexpr uint8_t kMaxLen = 13;
   uint8_t channel_mask;
   float r0_ohm[3];  // ohm
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, channel_mask); n += 1;
@@ -728,12 +937,20 @@ struct SetR0 {
     for (uint8_t i = 0; i < 3; ++i) { r0_ohm[i] = get_f32(buf + n); n += 4; }
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(SetR0) == SetR0::kMinLen, "SetR0: struct layout differs from the wire");
+#endif
 
 struct Status {
   static constexpr uint8_t kType = 0x29;
   static constexpr uint8_t kMinLen = 0;
   static constexpr uint8_t kMaxLen = 0;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t*) const { return 0; }
+  bool decode(const uint8_t*, uint8_t len) { return len == 0; }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     (void)buf;
@@ -744,6 +961,7 @@ struct Status {
     (void)buf;
     return true;
   }
+#endif
 };
 
 struct StatusReply {
@@ -765,6 +983,14 @@ struct StatusReply {
   uint32_t rx_frames;
   uint32_t tx_frames;
   uint32_t uptime_ms;  // ms
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u16(buf + n, flags); n += 2;
@@ -804,7 +1030,11 @@ struct StatusReply {
     uptime_ms = get_u32(buf + n); n += 4;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(StatusReply) == StatusReply::kMinLen, "StatusReply: struct layout differs from the wire");
+#endif
 
 struct Error {
   static constexpr uint8_t kType = 0xE0;
@@ -813,6 +1043,14 @@ struct Error {
   uint8_t code;
   int16_t detail;
   uint32_t t_us;  // us
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, code); n += 1;
@@ -828,13 +1066,25 @@ struct Error {
     t_us = get_u32(buf + n); n += 4;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(Error) == Error::kMinLen, "Error: struct layout differs from the wire");
+#endif
 
 struct ConfigGet {
   static constexpr uint8_t kType = 0x30;
   static constexpr uint8_t kMinLen = 1;
   static constexpr uint8_t kMaxLen = 1;
   uint8_t key;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, key); n += 1;
@@ -846,7 +1096,11 @@ struct ConfigGet {
     key = get_u8(buf + n); n += 1;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(ConfigGet) == ConfigGet::kMinLen, "ConfigGet: struct layout differs from the wire");
+#endif
 
 struct ConfigValue {
   static constexpr uint8_t kType = 0x8A;
@@ -854,6 +1108,14 @@ struct ConfigValue {
   static constexpr uint8_t kMaxLen = 5;
   uint8_t key;
   int32_t value;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, key); n += 1;
@@ -867,7 +1129,11 @@ struct ConfigValue {
     value = get_i32(buf + n); n += 4;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(ConfigValue) == ConfigValue::kMinLen, "ConfigValue: struct layout differs from the wire");
+#endif
 
 struct ConfigSet {
   static constexpr uint8_t kType = 0x31;
@@ -875,6 +1141,14 @@ struct ConfigSet {
   static constexpr uint8_t kMaxLen = 5;
   uint8_t key;
   int32_t value;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, key); n += 1;
@@ -888,12 +1162,20 @@ struct ConfigSet {
     value = get_i32(buf + n); n += 4;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(ConfigSet) == ConfigSet::kMinLen, "ConfigSet: struct layout differs from the wire");
+#endif
 
 struct ConfigSave {
   static constexpr uint8_t kType = 0x32;
   static constexpr uint8_t kMinLen = 0;
   static constexpr uint8_t kMaxLen = 0;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t*) const { return 0; }
+  bool decode(const uint8_t*, uint8_t len) { return len == 0; }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     (void)buf;
@@ -904,12 +1186,17 @@ struct ConfigSave {
     (void)buf;
     return true;
   }
+#endif
 };
 
 struct ConfigReset {
   static constexpr uint8_t kType = 0x33;
   static constexpr uint8_t kMinLen = 0;
   static constexpr uint8_t kMaxLen = 0;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t*) const { return 0; }
+  bool decode(const uint8_t*, uint8_t len) { return len == 0; }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     (void)buf;
@@ -920,12 +1207,17 @@ struct ConfigReset {
     (void)buf;
     return true;
   }
+#endif
 };
 
 struct Reset {
   static constexpr uint8_t kType = 0x3F;
   static constexpr uint8_t kMinLen = 0;
   static constexpr uint8_t kMaxLen = 0;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t*) const { return 0; }
+  bool decode(const uint8_t*, uint8_t len) { return len == 0; }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     (void)buf;
@@ -936,6 +1228,7 @@ struct Reset {
     (void)buf;
     return true;
   }
+#endif
 };
 
 struct ControlGains {
@@ -948,6 +1241,14 @@ struct ControlGains {
   uint16_t model_crc;
   uint16_t rate_hz;  // Hz
   uint8_t save;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, kp_q16[i]); n += 2; }
@@ -969,12 +1270,20 @@ struct ControlGains {
     save = get_u8(buf + n); n += 1;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(ControlGains) == ControlGains::kMinLen, "ControlGains: struct layout differs from the wire");
+#endif
 
 struct ControlGainsGet {
   static constexpr uint8_t kType = 0x41;
   static constexpr uint8_t kMinLen = 0;
   static constexpr uint8_t kMaxLen = 0;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t*) const { return 0; }
+  bool decode(const uint8_t*, uint8_t len) { return len == 0; }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     (void)buf;
@@ -985,6 +1294,7 @@ struct ControlGainsGet {
     (void)buf;
     return true;
   }
+#endif
 };
 
 struct ControlGainsReply {
@@ -997,6 +1307,14 @@ struct ControlGainsReply {
   uint16_t model_crc;
   uint16_t rate_hz;  // Hz
   uint8_t stored;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     for (uint8_t i = 0; i < 3; ++i) { put_u16(buf + n, kp_q16[i]); n += 2; }
@@ -1018,7 +1336,11 @@ struct ControlGainsReply {
     stored = get_u8(buf + n); n += 1;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(ControlGainsReply) == ControlGainsReply::kMinLen, "ControlGainsReply: struct layout differs from the wire");
+#endif
 
 struct ControlStart {
   static constexpr uint8_t kType = 0x42;
@@ -1029,6 +1351,14 @@ struct ControlStart {
   int16_t target[3];  // model LSB
   uint16_t session;
   uint16_t counter;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u8(buf + n, mode); n += 1;
@@ -1048,12 +1378,20 @@ struct ControlStart {
     counter = get_u16(buf + n); n += 2;
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(ControlStart) == ControlStart::kMinLen, "ControlStart: struct layout differs from the wire");
+#endif
 
 struct ControlStop {
   static constexpr uint8_t kType = 0x43;
   static constexpr uint8_t kMinLen = 0;
   static constexpr uint8_t kMaxLen = 0;
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t*) const { return 0; }
+  bool decode(const uint8_t*, uint8_t len) { return len == 0; }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     (void)buf;
@@ -1064,6 +1402,7 @@ struct ControlStop {
     (void)buf;
     return true;
   }
+#endif
 };
 
 struct TrajectoryChunk {
@@ -1105,6 +1444,14 @@ struct ControlSample {
   int16_t estimate[3];  // model LSB
   int16_t target[3];  // model LSB
   int16_t command_dkpa[3];  // 0.1 kPa
+#if POROSENSE_WIRE_IS_STRUCT
+  uint8_t encode(uint8_t* buf) const { memcpy(buf, this, kMinLen); return kMinLen; }
+  bool decode(const uint8_t* buf, uint8_t len) {
+    if (len != kMinLen) return false;
+    memcpy(this, buf, kMinLen);
+    return true;
+  }
+#else
   uint8_t encode(uint8_t* buf) const {
     uint8_t n = 0;
     put_u32(buf + n, t_us); n += 4;
@@ -1132,7 +1479,11 @@ struct ControlSample {
     for (uint8_t i = 0; i < 3; ++i) { command_dkpa[i] = get_i16(buf + n); n += 2; }
     return true;
   }
+#endif
 };
+#if POROSENSE_WIRE_IS_STRUCT
+static_assert(sizeof(ControlSample) == ControlSample::kMinLen, "ControlSample: struct layout differs from the wire");
+#endif
 
 // Expected payload length bounds of a message type; false for an unknown type.
 inline bool payload_bounds(uint8_t type, uint8_t* min_len, uint8_t* max_len) {

@@ -90,12 +90,13 @@ def _run_flash_store(args, data: bytes) -> int:
     from porosense.device import Device
     from porosense.errors import DeviceError
     from porosense.firmware import upload as avr_upload
-    from porosense.firmware.flash_store import plan_upload
+    from porosense.firmware.flash_store import plan_upload, require_flash_store
     from porosense.protocol.model_blob import ModelBlob
     from porosense.protocol.model_layout import FLASH_BLOB_MAX
 
     blob = ModelBlob.from_bytes(data, max_length=FLASH_BLOB_MAX)  # refuse a bad file first
     with Device.open(args.port) as dev:
+        require_flash_store(dev.info)
         rate = dev.check_model_rate(data, set_rate=args.set_rate)
         plan = plan_upload(data, dev.model_info())
     hex_text = plan.to_hex()
@@ -121,7 +122,7 @@ def _run_flash_store(args, data: bytes) -> int:
     with tempfile.TemporaryDirectory(prefix="porosense-flash-") as tmp:
         hex_file = Path(tmp) / "model_slot.hex"
         hex_file.write_text(hex_text)
-        avr_upload.upload(args.port, hex_file, avrdude=args.avrdude)
+        avr_upload.upload(args.port, hex_file, avrdude=args.avrdude, image=False)
     with Device.open(args.port) as dev:
         info = dev.model_info()
     if not info.valid or info.crc != blob.crc or info.slot != 2 + plan.slot:

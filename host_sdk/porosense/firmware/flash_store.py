@@ -15,7 +15,7 @@ import io
 import struct
 from dataclasses import dataclass
 
-from porosense.errors import ModelError
+from porosense.errors import DeviceError, ModelError
 from porosense.protocol import model_layout as L
 from porosense.protocol.framing import crc16
 from porosense.protocol.model_blob import ModelBlob
@@ -86,6 +86,36 @@ class FlashUpload:
         }
 
 
+def require_flash_store(hello) -> None:
+    """Refuse an upload into the flash store of a board that does not read it.
+
+    Parameters
+    ----------
+    hello : HelloInfo
+        The board's handshake. Firmware of protocol 2.2 or later sets the FLASH_STORE
+        capability when its image ends at or below the store's base (byte 30,208); an image
+        that reaches into the store ignores it, and an upload there would overwrite its code.
+
+    Raises
+    ------
+    DeviceError
+        When the capability is absent, naming why and what to do.
+    """
+    if "FLASH_STORE" in hello.capabilities:
+        return
+    if (hello.proto_major, hello.proto_minor) < (2, 2):
+        raise DeviceError(
+            f"the board's firmware {hello.firmware} (protocol {hello.proto_major}.{hello.proto_minor}) does not say "
+            "whether its image leaves the flash model store free: upload the packaged firmware first "
+            "(porosense firmware upload --port PORT) or use --store eeprom"
+        )
+    raise DeviceError(
+        f"the board's firmware image reaches into the flash model store (from byte {L.FLASH_BASE:,}), so the board "
+        "does not use it and an upload would overwrite the firmware: use --store eeprom, or upload a firmware "
+        "that fits its budget (porosense firmware upload)"
+    )
+
+
 def plan_upload(blob: bytes, info) -> FlashUpload:
     """The upload of ``blob`` beside the running model described by ``info`` (a ModelInfo):
     the flash slot that is not running, counter = the running one's + 1 (0 without a model)."""
@@ -119,6 +149,7 @@ def upload(dev, blob: bytes, program) -> tuple[FlashUpload, object]:
     """Store ``blob`` in the flash store of the board ``dev`` talks to: plan the slot from its
     MODEL_INFO, ``program(pages)`` (SimBoard.program_flash, Emulator.program_flash: an upload
     that resets the board), handshake again. Returns the plan and the board's MODEL_INFO."""
+    require_flash_store(dev.info)
     plan = plan_upload(blob, dev.model_info())
     program(plan.pages())
     dev.after_reset()

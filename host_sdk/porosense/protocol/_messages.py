@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 VERSION_MAJOR = 2
-VERSION_MINOR = 1
-VERSION_BYTE = 33
+VERSION_MINOR = 2
+VERSION_BYTE = 34
 MAX_PAYLOAD = 120
 
 
@@ -108,6 +108,7 @@ class Capability(enum.IntFlag):
     ESTIMATOR = 1 << 2  # Fixed-point estimator built in.
     PWM_OUT = 1 << 3  # Analogue (PWM) output of the estimate.
     LINE_MODE = 1 << 4  # Human-readable CSV line mode.
+    FLASH_STORE = 1 << 5  # Flash model store in use: the firmware image ends at or below the store's base. A board whose image reaches into the store ignores the store's slots (they would hold its own code) and leaves this bit off.
     EMULATED = 1 << 7  # The emulator: the firmware core on a host computer, not a board.
 
 

@@ -120,7 +120,8 @@ void Device::poll() {
 }
 
 void Device::guard_link() {
-  // Standalone control has no host to lose; everything else needs a live link.
+  // Standalone control (AUTOSTART 2, no host heard since boot) has no host to lose; everything
+  // else needs a live link.
   const bool guarded = outputs_active() && !(control_mode_ & kCtlStandalone);
   if (!link_.expired(hal_.millis(), guarded)) return;
   if (control_.active()) sticky_flags_ |= f::CONTROL_ABORTED;
@@ -141,8 +142,13 @@ void Device::poll_rx() {
       counters_.rx_frames = sat_inc32(counters_.rx_frames);
       // Only a host command keeps the outputs alive, never a device-to-host type: the board's
       // own frames echoed back (a TX-RX loopback, an echoing adapter). The decoder has
-      // already dropped unknown types and wrong lengths.
-      if (!(decoder_.type() & 0x80)) link_.feed(hal_.millis());
+      // already dropped unknown types and wrong lengths. A host that speaks to a board
+      // running standalone takes it over: from its first command the link watchdog guards the
+      // outputs as in hosted mode, so a host that goes silent cannot leave the pumps running.
+      if (!(decoder_.type() & 0x80)) {
+        link_.feed(hal_.millis());
+        control_mode_ = (uint8_t)(control_mode_ & ~kCtlStandalone);
+      }
     }
   }
   guard_link();

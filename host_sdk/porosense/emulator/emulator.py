@@ -39,6 +39,9 @@ FAST_BATCH_BYTES = 1024
 MAX_CATCH_UP_S = 1.0
 WRAP_US = float(1 << 32)  # the device's microsecond clock wraps here
 IDLE_WAIT_S = 0.02
+# The board's loop runs the link watchdog about every millisecond; while the emulated board
+# drives an output, its loop wakes as often, so that outputs are cut when a real board would.
+DRIVING_WAIT_S = 0.001
 LOCKSTEP_LEAD_S = 1.0  # device s a driving board may run ahead of the host's last frame
 
 
@@ -290,7 +293,7 @@ class Emulator:
             last_wall = wall
 
             # Wait for input, room to write, or the next event.
-            wait = IDLE_WAIT_S
+            wait = DRIVING_WAIT_S if core.driving else IDLE_WAIT_S
             if core.streaming:
                 if lockstep and not self._out and self._may_lead(core, wall):
                     wait = 0.0

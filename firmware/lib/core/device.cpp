@@ -113,9 +113,11 @@ void Device::poll() {
     frame_ready_ = false;
   }
   guard_link();
-  if (trip_unreported_) {
+  // The trip's ERROR waits for room in the transmit buffer (telemetry may fill it) rather than
+  // being dropped like a SAMPLE: header, 7-byte payload, CRC, COBS overhead and delimiter.
+  if (trip_unreported_ && hal_.serial_tx_free() >= proto::kHeaderLen + proto::Error::kMaxLen + 2 + 2 + 1) {
     trip_unreported_ = 0;
-    send_error(r::BAD_STATE, (int16_t)f::WATCHDOG_TRIPPED, hal_.micros());
+    send_error(r::BAD_STATE, (int16_t)f::WATCHDOG_TRIPPED, trip_us_);
   }
 }
 
@@ -130,6 +132,7 @@ void Device::guard_link() {
   sticky_flags_ |= f::WATCHDOG_TRIPPED;
   counters_.watchdog_trips = sat_add16(counters_.watchdog_trips, 1);
   trip_unreported_ = 1;
+  trip_us_ = hal_.micros();
 }
 
 void Device::poll_rx() {

@@ -56,6 +56,7 @@ struct DeviceState {
   uint16_t sample_flags_;    // sensor flags of the latest sample
   uint8_t pending_overrun_;  // an overrun happened since the previous SAMPLE
   uint8_t trip_unreported_;  // the watchdog cut the outputs; poll() sends the ERROR
+  uint32_t trip_us_;         // when it did: the ERROR carries this time, however late it leaves
   // CSV line mode of this session: on at boot when LINE_MODE is stored as 1, off after any
   // valid frame from a host, switched by CONFIG_SET LINE_MODE.
   uint8_t line_state_;

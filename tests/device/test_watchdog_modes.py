@@ -5,8 +5,8 @@ host: a plain handshake, a refused model write, a control start), a host that go
 outputs cut within the watchdog period plus one sample period.
 
 The cut time is measured on the device's clock: from the last command (a PING, whose PONG
-carries the device time it was handled at) to the ERROR the board sends when the watchdog
-trips (its t_us is taken after the outputs were cut, so it bounds the cut from above). Each
+carries the device time it was handled at) to the time of the cut, which the ERROR the board
+sends when the watchdog trips carries. Each
 test prints its figure; both back-ends run every mode, each in real time (the emulator with
 realtime=True, the simboard at max_speed 1), so that the host's own pauses between commands
 during the set-up stay far below the watchdog period."""
@@ -86,9 +86,10 @@ def _check_cut(dev, board, mode: str, bound_ms: float) -> None:
     cut_ms = _silent_until_trip(dev, 5.0 * board.timeout_scale)
     st = dev.status()
     print(f"watchdog cut, {board.name}, {mode}: {cut_ms:.1f} ms after the last command (bound {bound_ms:.0f} ms)")
-    # The watchdog counts whole milliseconds from the command's arrival, a little before the
-    # PONG's time stamp: the cut may come up to 1 ms earlier than the period after that stamp.
-    assert WATCHDOG_MS - 1 <= cut_ms <= bound_ms, cut_ms
+    # The watchdog counts from the PING's arrival; the PONG is stamped when the command is
+    # handled, which can wait for a sample being processed (less than one period, or the board
+    # would count overruns): the cut may come up to that much before the period after the stamp.
+    assert WATCHDOG_MS - PERIOD_MS <= cut_ms <= bound_ms, cut_ms
     assert not st.has(StatusFlag.OUTPUTS_ACTIVE) and not st.has(StatusFlag.CONTROL_ACTIVE)
     assert st.has(StatusFlag.WATCHDOG_TRIPPED)
 
@@ -132,7 +133,7 @@ def _autostart(dev, blob: bytes, autostart: int) -> dict:
     dev.config_save()
     dev.write_trajectory([0.0, 1.0, 3.0], [0.0, 800 * scale, 800 * scale], repeat=True)
     dev.set_control_gains(GAINS, save=True)  # made for SAMPLE_RATE_HZ: the autostart rate
-    dev.reset()
+    dev.reset(wait_s=10.0)  # a loaded machine may run the simboard slower than real time
     return keep
 
 

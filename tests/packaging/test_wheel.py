@@ -166,3 +166,13 @@ def test_installed_wheel_runs_the_simboard(installed):
     out = json.loads(_run([str(py), "-c", SIMBOARD], work, env).stdout.strip().splitlines()[-1])
     assert py.parent.parent in Path(out["elf"]).parents
     assert out["fw"].startswith("1.") and out["emulated"] is False
+
+
+def test_installed_wheel_carries_the_one_version(installed):
+    """pyproject.toml reads the version from porosense/_version.py: the installed metadata, the
+    module and `porosense --version` agree."""
+    py, work, env = installed
+    code = "import importlib.metadata as m, porosense; print(m.version('porosense'), porosense.__version__)"
+    meta, module = _run([str(py), "-c", code], work, env).stdout.split()
+    cli = _run([str(py), "-m", "porosense", "--version"], work, env).stdout.split()[-1]
+    assert meta == module == cli, (meta, module, cli)

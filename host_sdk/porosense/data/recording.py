@@ -219,7 +219,7 @@ class Recording:
 
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        content = {"t": self.t.reshape(-1, 1)}
+        content: dict[str, object] = {"t": self.t.reshape(-1, 1)}
         for name, values in self.columns.items():
             content[name] = values.reshape(-1, 1)
         content["units"] = {k.replace(".", "_"): v for k, v in self.units.items()}
@@ -240,7 +240,7 @@ class Recording:
         path = Path(path)
         if not path.is_file():
             raise InputError(f"{path}: no such file")
-        content = {} if _is_hdf5(path) else None
+        content: dict | None = {} if _is_hdf5(path) else None
         if content is None:
             try:
                 content = loadmat(path)

@@ -195,10 +195,10 @@ class FrameDecoder:
                 self.counters["frames"] += 1
                 return frame
         for start in range(first, len(chunk) - MIN_ENCODED_LEN + 1):
-            frame = _valid_suffix(chunk, start)
-            if frame is not None:
+            found = _valid_suffix(chunk, start)
+            if found is not None:
                 self.counters["frames"] += 1
-                return frame
+                return found
         return None
 
     @property

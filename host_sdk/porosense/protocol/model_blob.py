@@ -314,7 +314,7 @@ class ModelBlob:
                 f = _read_pwl(r) if bflags & BRANCH_HAS_F else None
                 branches.append(BranchQ(inp, _read_cascade(r, ns), f, delay, u_off))
             g = _read_pwl(r) if oflags & OUT_HAS_G else None
-            h2 = ()
+            h2: tuple[SectionQ, ...] = ()
             if oflags & OUT_HAS_H2:
                 (ns,) = r.unpack("<B")
                 h2 = _read_cascade(r, ns)

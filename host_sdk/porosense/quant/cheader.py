@@ -23,8 +23,8 @@ def c_header(blob: ModelBlob, name: str = "porosense_model") -> str:
         f"#define {ident.upper()}_N_INPUTS {blob.n_inputs}",
         f"#define {ident.upper()}_N_OUTPUTS {blob.n_outputs}",
     ]
-    for j, s in enumerate(blob.out_scale):
-        lines.append(f"#define {ident.upper()}_OUT_SCALE_{j} {s!r}f  // output units per LSB")
+    for j, scale in enumerate(blob.out_scale):
+        lines.append(f"#define {ident.upper()}_OUT_SCALE_{j} {scale!r}f  // output units per LSB")
     lines.append("")
     for j, out in enumerate(blob.outputs):
         lines.append(f"// output {j}: offset {out.offset} LSB")

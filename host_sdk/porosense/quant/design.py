@@ -57,7 +57,9 @@ DEFAULT_INPUT_LSB = 0.01  # structure input units (dR in %) per 0.01 % LSB
 def regroup(sos: np.ndarray) -> np.ndarray:
     """Re-pair poles and zeros (nearest) and order sections by pole radius; keeps delays."""
     sos = np.atleast_2d(np.asarray(sos, dtype=float))
-    zeros, poles, gain, delay = [], [], 1.0, 0
+    zeros: list[complex] = []
+    poles: list[complex] = []
+    gain, delay = 1.0, 0
     for row in sos:
         b = np.trim_zeros(row[:3], "b")
         if len(b) == 0:
@@ -139,7 +141,7 @@ def quantize_section(row: np.ndarray, s_in: float, s_out: float, notes: list[str
     alpha1, alpha0 = 2.0 + a1, 1.0 + a1 + a2
     if a2 != 0.0 and abs(alpha1) < DELTA_LIMIT and abs(alpha0) < DELTA_LIMIT:
         (k1, n1), (k2, n2) = _quantize_residue(-alpha1), _quantize_residue(-alpha0)
-        sec = SectionQ(tuple(bq), (k1, k2), sb, (n1, n2), wide, True, (0, 0))
+        sec = SectionQ((int(bq[0]), int(bq[1]), int(bq[2])), (k1, k2), sb, (n1, n2), wide, True, (0, 0))
         form = f"delta form (alpha1={alpha1:.3g}, alpha0={alpha0:.3g})"
     else:
         m1, m2 = int(np.clip(round(-a1), -2, 2)), int(np.clip(round(-a2), -1, 1))
@@ -149,7 +151,7 @@ def quantize_section(row: np.ndarray, s_in: float, s_out: float, notes: list[str
         if round(r2 * 65536) > 32767:
             m2, r2 = m2 + 1, r2 - 1
         (k1, n1), (k2, n2) = _quantize_residue(r1), _quantize_residue(r2)
-        sec = SectionQ(tuple(bq), (k1, k2), sb, (n1, n2), wide, False, (m1, m2))
+        sec = SectionQ((int(bq[0]), int(bq[1]), int(bq[2])), (k1, k2), sb, (n1, n2), wide, False, (m1, m2))
         form = f"direct form (m={m1},{m2})"
     qb, qa = sec.real()
     poles = np.roots(qa)
@@ -383,7 +385,7 @@ def blob_size(
     quantizer will encode compactly when the whole does not fit with full tables)."""
     sizes = []
     for compact in (False, True):
-        size = HEADER_LEN + CRC_LEN
+        size: float = HEADER_LEN + CRC_LEN
         for out in structure.outputs:
             size += 4
             for br in out.branches:
@@ -432,7 +434,7 @@ def orders_that_fit(
                 ):
                     fits.append((s1, s2 or 0, bp or 0))
     # For each table size, the largest pole budget (balanced between H1 and H2 on ties).
-    out = []
+    out: list[tuple[int, int, int]] = []
     for bp in sorted({c[2] for c in fits}, reverse=True):
         best = max((c for c in fits if c[2] == bp), key=lambda c: (c[0] + c[1], -abs(c[0] - c[1])))
         if out and out[-1][:2] == best[:2]:

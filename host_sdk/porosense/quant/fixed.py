@@ -174,4 +174,5 @@ class FixedPointEstimator:
             prev = (yh[0] >> STATE_FRAC, yh[1] >> STATE_FRAC)
             y = _section(s, x, xh, yh, sat)
             x, xh = y >> STATE_FRAC, prev
+        assert y is not None, "a cascade has at least one section"
         return y

@@ -12,7 +12,8 @@ from porosense.structure import Branch, EstimatorStructure, OutputChain, Piecewi
 def random_cascade(rng: np.random.Generator, n_poles: int, slow: float = 0.999, gain: float = 1.0) -> SOSCascade:
     """Stable cascade of ``n_poles`` poles (radius 0.9..slow, some complex with small angles),
     fewer zeros, and the given DC gain."""
-    poles, zeros = [], []
+    poles: list[complex] = []
+    zeros: list[complex] = []
     while len(poles) < n_poles:
         r = 1.0 - 10 ** rng.uniform(np.log10(1 - slow), -1)
         if n_poles - len(poles) >= 2 and rng.random() < 0.4:

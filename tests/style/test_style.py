@@ -4,6 +4,7 @@ tests and the simboard harness. A failure lists the files and the command that f
 
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 import sys
@@ -54,3 +55,21 @@ def test_clang_format_is_applied():
     proc = subprocess.run([exe, "--dry-run", "--Werror", *files], cwd=ROOT, capture_output=True, text=True, timeout=300)
     bad = sorted({line.split(":")[0] for line in proc.stderr.splitlines() if ": error:" in line})
     assert proc.returncode == 0, f"{len(bad)} files not formatted (fix: clang-format -i FILE): {bad[:20]}"
+
+
+def test_pre_commit_hooks_run_the_suites_checks():
+    """.pre-commit-config.yaml runs the same tools with the same settings as this folder's tests,
+    and every tool it names is where it says (the pinned .venv or the Debian package)."""
+    config = (ROOT / ".pre-commit-config.yaml").read_text()
+    entries = [line.split("entry:", 1)[1].split() for line in config.splitlines() if "entry:" in line]
+    tools = {Path(e[0]).name for e in entries}
+    assert {"ruff", "clang-format", "lint-imports", "mypy"} <= tools, tools
+    for entry in entries:
+        exe = ROOT / entry[0] if "/" in entry[0] else shutil.which(entry[0])
+        assert exe and Path(exe).exists(), f"pre-commit hook tool missing: {entry[0]}"
+    # The clang-format hook covers the files the suite checks (C_GLOBS), minus the generated ones.
+    pattern = re.search(r"files: (\S+)", config).group(1)
+    listed = subprocess.run(["git", "ls-files", *C_GLOBS], cwd=ROOT, capture_output=True, text=True, check=True)
+    files = [f for f in listed.stdout.split() if f not in GENERATED]
+    missed = [f for f in files if not re.match(pattern, f)]
+    assert not missed, f"clang-format hook misses: {missed[:10]}"

@@ -7,8 +7,11 @@ import math
 from pathlib import Path
 
 from porosense.cli._data import add_data_options, add_json_options, emit_json, output_file, say
-from porosense.control.tuning import DEFAULT_TAU_CL_S
 from porosense.errors import InputError
+
+#: porosense.control.tuning.DEFAULT_TAU_CL_S (s), written out so that --help loads no solver;
+#: tests/cli/test_startup_constants.py holds the two equal.
+DEFAULT_TAU_CL_S = 0.5
 
 TUNE_RULE_HELP = (
     "Rule: lambda (IMC) tuning of a PI on a first-order-plus-dead-time (FOPDT) model of commanded "

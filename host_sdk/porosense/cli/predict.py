@@ -17,7 +17,6 @@ from porosense.cli._data import (
     say,
 )
 from porosense.errors import InputError, ModelError
-from porosense.ident.scoring import format_percent
 
 TIME_COLUMNS = ("t", "time", "t_s")
 
@@ -57,7 +56,7 @@ def run(args) -> int:
     import numpy as np
 
     from porosense.data import time_column
-    from porosense.ident.scoring import score_simulation
+    from porosense.ident.scoring import format_percent, score_simulation
 
     normalise_json_args(args)
     for opt in ("out", "plot"):

@@ -13,9 +13,30 @@ Subpackages (one concept each; lower layers never import higher ones):
 - ``porosense.emulator``  the board without hardware: the firmware core over the simulator
 - ``porosense.report``    figures and reports
 - ``porosense.cli``       the ``porosense`` command
+
+For MATLAB users: ``porosense.Dataset`` (iddata), ``porosense.fit``, ``predict``, ``compare`` and
+``resid`` (docs/matlab.md).
 """
 
 from porosense._version import __version__
 from porosense.errors import PorosenseError
 
-__all__ = ["__version__", "PorosenseError"]
+# MATLAB-style commands on a Dataset (iddata), imported on first use: `import porosense` stays light
+# (the command line starts from it) until one of them is asked for.
+_LAZY = {
+    "Dataset": "porosense.data.dataset",
+    "fit": "porosense.ident.iddata",
+    "predict": "porosense.ident.iddata",
+    "compare": "porosense.ident.iddata",
+    "resid": "porosense.ident.iddata",
+}
+
+__all__ = ["__version__", "PorosenseError", *_LAZY]
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'porosense' has no attribute {name!r}")

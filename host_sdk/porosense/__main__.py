@@ -1,5 +1,3 @@
-import sys
+from porosense._console import run
 
-from porosense.cli import main
-
-sys.exit(main())
+run()

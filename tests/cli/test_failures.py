@@ -46,7 +46,7 @@ def work(tmp_path_factory):
     doc = json.loads((d / "model.json").read_text())
     doc["models"][0]["version"] = 99
     (d / "v99.json").write_text(json.dumps(doc))
-    assert main(["quantize", str(d / "model.json"), "--out", str(d / "model.bin")]) == 0
+    assert main(["quantize", "--model", str(d / "model.json"), "--out", str(d / "model.bin")]) == 0
     slow_rows = "\n".join(f"{2 * a!r},{b!r},{c!r}" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist()))
     (d / "run_50hz.csv").write_text("t,dR_0,strain_0\n" + slow_rows + "\n")  # the 100 Hz model's data at 50 Hz
     (d / "exists").write_text("a file\n")
@@ -66,23 +66,23 @@ CASES = [
     ("predict --model {d}/model.json --data {d}/run.csv --ts 0.5", 2, "disagrees"),
     ("predict --model {d}/model.json --data {d}/run_50hz.csv", 2, "differs from the model's"),
     ("compare --model {d}/model.json --data {d}/run_50hz.csv", 2, "differs from the model's"),
-    ("quantize {d}/model.json --out {d}/absent/m.bin", 2, "does not exist"),
-    ("quantize {d}/model.json --out {d}/m.bin --input-range nan 1", 2, "finite"),
-    ("quantize {d}/model.json --out {d}/m.bin --data {d}/nan.csv", 2, "line 9"),
-    ("quantize {d}/nan_model.json --out {d}/m.bin", 4, "non-finite"),
-    ("quantize {d}/model.json --out {d}/m.bin --model-id 0x1FFFFFFFF", 2, "32 bits"),
+    ("quantize --model {d}/model.json --out {d}/absent/m.bin", 2, "does not exist"),
+    ("quantize --model {d}/model.json --out {d}/m.bin --input-range nan 1", 2, "finite"),
+    ("quantize --model {d}/model.json --out {d}/m.bin --data {d}/nan.csv", 2, "line 9"),
+    ("quantize --model {d}/nan_model.json --out {d}/m.bin", 4, "non-finite"),
+    ("quantize --model {d}/model.json --out {d}/m.bin --model-id 0x1FFFFFFFF", 2, "32 bits"),
     ("simulate contractor -e step_10 --rate 1e9 --out {d}/sim", 2, "Hz"),
     ("simulate contractor -e step_10 --out {d}/exists", 2, "is a file"),
     ("emulator --listen tcp://127.0.0.1:99999 --duration 1", 2, "0..65535"),
     ("emulator --duration -1", 2, ">= 0"),
     ("emulator --realtime --speed 0 --duration 1", 2, "positive"),
-    ("verify --port socket://127.0.0.1:1 {d}/model.bin --data {d}/header_only.csv", 2, "no samples"),
+    ("verify --port socket://127.0.0.1:1 --model {d}/model.bin --data {d}/header_only.csv", 2, "no data rows"),
     ("diagnose --data {d}/run.csv --input dR_0 --output strain_0 --ts inf --baseline linear", 2, "positive finite"),
     ("diagnose --data {d}/run.csv --input dR_0 --output strain_0 --ts 1 --baseline linear", 2, "disagrees"),
     ("infoam calibrate --coil-radii {d}/radii.csv", 2, "positive"),
-    ("compare --model {d}/model.json --data {d}/header_only.csv", 2, "0 samples"),
-    ("predict --model {d}/model.json --data {d}/header_only.csv", 2, "no samples"),
-    ("export {d}/model.json", 2, "--c"),
+    ("compare --model {d}/model.json --data {d}/header_only.csv", 2, "no data rows"),
+    ("predict --model {d}/model.json --data {d}/header_only.csv", 2, "no data rows"),
+    ("export --model {d}/model.json", 2, "--c"),
     ("report --data {d}/run.csv --model {d}/nan_model.json --out {d}/rep", 4, "non-finite"),
 ]
 

@@ -50,6 +50,7 @@ def test_hex_out_upload_and_verify_from_flash(paper_blob, tmp_path, capsys):
                     "flash",
                     "--port",
                     emu.url,
+                    "--model",
                     str(path),
                     "--store",
                     "flash",
@@ -65,7 +66,7 @@ def test_hex_out_upload_and_verify_from_flash(paper_blob, tmp_path, capsys):
             assert len(pages) == SLOT_PAGES and pages[0][0] == L.FLASH_BASE + slot * L.FLASH_SLOT_SIZE
             assert b"".join(p for _, p in pages)[: len(data)] == data
             emu.program_flash(pages)
-        code = main(["verify", "--port", emu.url, str(path), "--data", str(csv), "--json"])
+        code = main(["verify", "--port", emu.url, "--model", str(path), "--data", str(csv), "--json"])
         cap = capsys.readouterr()
         assert code == 0, cap.err
         result = json.loads(cap.out)
@@ -79,14 +80,23 @@ def test_flash_store_refusals_are_one_line(paper_blob, tmp_path, capsys):
     path, _, _ = paper_blob
     with Emulator("3dof") as emu:
         cases = [
-            (["flash", "--port", emu.url, str(path)], 4, f"exceeds the {L.MAX_BLOB_LEN}-byte"),  # EEPROM: too large
-            (["flash", "--port", emu.url, str(path), "--store", "flash", "--set-rate"], 2, "no bootloader"),
-            (["flash", "--port", emu.url, str(path), "--hex-out", str(tmp_path / "x.hex")], 2, "--store flash"),
+            (
+                ["flash", "--port", emu.url, "--model", str(path)],
+                4,
+                f"exceeds the {L.MAX_BLOB_LEN}-byte",
+            ),  # EEPROM: too large
+            (["flash", "--port", emu.url, "--model", str(path), "--store", "flash", "--set-rate"], 2, "no bootloader"),
+            (
+                ["flash", "--port", emu.url, "--model", str(path), "--hex-out", str(tmp_path / "x.hex")],
+                2,
+                "--store flash",
+            ),
             (
                 [
                     "flash",
                     "--port",
                     emu.url,
+                    "--model",
                     str(path),
                     "--store",
                     "flash",

@@ -56,7 +56,7 @@ def _identify(path, tmp_path, name):
             "--zeros",
             "1",
             "--quiet",
-            "--save",
+            "--out",
             str(out),
             "--json-out",
             str(tmp_path / "r.json"),

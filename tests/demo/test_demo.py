@@ -25,7 +25,7 @@ CHROMIUM_FLAGS = [
 def demo(tmp_path_factory, repo_root):
     out = tmp_path_factory.mktemp("demo")
     proc = subprocess.run(
-        ["make", "-s", "demo", f"DEMO_ARGS=--out {out} --json --no-progress"],
+        ["make", "-s", "demo", f"DEMO_ARGS=--out {out} --json --quiet"],
         cwd=repo_root,
         capture_output=True,
         text=True,

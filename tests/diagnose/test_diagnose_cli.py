@@ -54,9 +54,9 @@ def test_cli_sim_finds_a_hidden_periodic_disturbance_and_writes_the_report(tmp_p
             "contractor",
             "--condition",
             "load_g",
-            "--json",
+            "--json-out",
             str(out),
-            "--report",
+            "--out",
             str(tmp_path / "rep"),
         ]
     )
@@ -108,7 +108,7 @@ def test_cli_baseline_and_model_paths(tmp_path):
             "0:1440",
             "--validation",
             "1440:",
-            "--json",
+            "--json-out",
             str(out),
         ]
     )
@@ -139,7 +139,7 @@ def test_cli_baseline_and_model_paths(tmp_path):
             "0:1440",
             "--validation",
             "1440:",
-            "--json",
+            "--json-out",
             str(out2),
         ]
     )
@@ -163,7 +163,7 @@ def test_cli_errors_are_one_line(tmp_path, capsys):
             "0.1",
             "--baseline",
             "linear",
-            "--json",
+            "--json-out",
             str(tmp_path / "o.json"),
         ]
     )

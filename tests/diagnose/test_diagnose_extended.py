@@ -111,19 +111,19 @@ def test_delay_extension_saved_predicted_quantised_flashed_and_verified(tmp_path
                 str(tmp_path / "ext.bin"),
                 "--data",
                 str(tmp_path / "val.csv"),
-                "--report",
+                "--json-out",
                 str(tmp_path / "q.json"),
             ]
         )
         == 0
     )
-    rep = json.loads((tmp_path / "q.json").read_text())
+    rep = json.loads((tmp_path / "q.json").read_text())["report"]
     assert abs(rep["fits"][0]["loss_points"]) <= 1.0
     pytest.importorskip("porosense.emulator")
     from porosense.emulator import Emulator
 
     with Emulator(actuator="contractor") as emu:
-        assert main(["flash", "--port", emu.url, "--set-rate", str(tmp_path / "ext.bin")]) == 0
+        assert main(["flash", "--port", emu.url, "--set-rate", "--model", str(tmp_path / "ext.bin")]) == 0
         capsys.readouterr()
         assert (
             main(
@@ -131,10 +131,11 @@ def test_delay_extension_saved_predicted_quantised_flashed_and_verified(tmp_path
                     "verify",
                     "--port",
                     emu.url,
+                    "--model",
                     str(tmp_path / "ext.bin"),
                     "--data",
                     str(tmp_path / "val.csv"),
-                    "--inputs",
+                    "--input",
                     "u",
                     "--json",
                 ]
@@ -152,7 +153,7 @@ def test_drift_extension_runs_on_the_host_and_quantize_says_why_not(tmp_path, ca
     fit_ext = _predicted_fit(tmp_path, trial, tmp_path / "ext.json")
     assert np.isfinite(fit_ext)
     capsys.readouterr()
-    rc = main(["quantize", str(tmp_path / "ext.json"), "--out", str(tmp_path / "ext.bin")])
+    rc = main(["quantize", "--model", str(tmp_path / "ext.json"), "--out", str(tmp_path / "ext.bin")])
     err = capsys.readouterr().err
     assert rc == 4 and "drift" in err and "Traceback" not in err
     assert not (tmp_path / "ext.bin").exists()

@@ -70,7 +70,7 @@ def test_c_export_compiles_and_matches_predict(models, kind, tmp_path):
         pytest.skip("no host C compiler")
     path, u = models[kind]
     c_file = tmp_path / "model.c"
-    assert main(["export", str(path), "--c", "--c-out", str(c_file), "--name", "m", "--json"]) == 0
+    assert main(["export", "--model", str(path), "--c", "--c-out", str(c_file), "--name", "m", "--json"]) == 0
     csv = tmp_path / "in.csv"
     csv.write_text("t,a,b\n" + "\n".join(f"{k * 0.02!r},{a!r},{b!r}" for k, (a, b) in enumerate(u.tolist())))
     pred = tmp_path / "pred.csv"
@@ -103,8 +103,8 @@ def test_python_control_export_round_trips(models, tmp_path):
     path, u = models["linear"]
     model = ident.load_model(path)
     js, pk = tmp_path / "tf.json", tmp_path / "tf.pkl"
-    assert main(["export", str(path), "--python-control", "--control-out", str(js)]) == 0
-    assert main(["export", str(path), "--python-control", "--control-out", str(pk)]) == 0
+    assert main(["export", "--model", str(path), "--python-control", "--control-out", str(js)]) == 0
+    assert main(["export", "--model", str(path), "--python-control", "--control-out", str(pk)]) == 0
     doc = json.loads(js.read_text())
     blocks = pickle.loads(pk.read_bytes())["y"]
     chain = model.output_chain()

@@ -52,9 +52,9 @@ def test_identify_then_predict(csv_files, tmp_path, capsys):
             "0:500",
             "--validation",
             "500:",
-            "--save",
+            "--out",
             str(model),
-            "--json",
+            "--json-out",
             str(report),
             "--quiet",
         ]
@@ -86,7 +86,7 @@ def test_identify_reports_a_missing_column_in_one_line(csv_files, tmp_path, caps
             "linear",
             "--poles",
             "1",
-            "--save",
+            "--out",
             str(tmp_path / "m.json"),
         ]
     )
@@ -112,7 +112,7 @@ def test_bad_range_is_a_user_error(csv_files, tmp_path, capsys):
             "1",
             "--estimation",
             "a:b",
-            "--save",
+            "--out",
             str(tmp_path / "m.json"),
         ]
     )
@@ -152,7 +152,7 @@ def _identify(files, tmp_path, *extra):
             "2",
             "--zeros",
             "1",
-            "--save",
+            "--out",
             str(tmp_path / "m.json"),
             "--quiet",
             *extra,
@@ -161,7 +161,7 @@ def _identify(files, tmp_path, *extra):
 
 
 def test_default_selection_holds_out_the_last_quarter_and_prints_the_rule(csv_files, tmp_path, capsys):
-    assert _identify(csv_files, tmp_path, "--json", str(tmp_path / "r.json")) == 0
+    assert _identify(csv_files, tmp_path, "--json-out", str(tmp_path / "r.json")) == 0
     out = capsys.readouterr().out
     assert "hold-out: the last 25 % of every file" in out
     assert "selected row: linear" in out and "validation fit" in out and "rule:" in out
@@ -173,7 +173,7 @@ def test_default_selection_holds_out_the_last_quarter_and_prints_the_rule(csv_fi
 def test_three_files_leave_the_last_one_out(csv_files, tmp_path, capsys):
     third = tmp_path / "rec2.csv"
     third.write_text(csv_files[0].read_text())
-    assert _identify([*csv_files, third], tmp_path, "--json", str(tmp_path / "r.json")) == 0
+    assert _identify([*csv_files, third], tmp_path, "--json-out", str(tmp_path / "r.json")) == 0
     assert "the last file" in capsys.readouterr().out
     best = json.loads((tmp_path / "r.json").read_text())["results"][0]["best"]
     assert len(best["fit_estimation"]) == 2 and len(best["fit_validation"]) == 1
@@ -188,7 +188,7 @@ def test_validation_data_files_and_criterion(csv_files, tmp_path, capsys):
             str(csv_files[1]),
             "--criterion",
             "bic",
-            "--json",
+            "--json-out",
             str(tmp_path / "r.json"),
         )
         == 0
@@ -209,7 +209,7 @@ def test_validation_data_files_and_criterion(csv_files, tmp_path, capsys):
 def test_selection_input_errors_are_one_line(csv_files, tmp_path, capsys, extra, words):
     if "MISSING_COLUMNS" in extra:
         bad = tmp_path / "other.csv"
-        bad.write_text("t,x\n0,1\n1,2\n")
+        bad.write_text("t,x\n0,1\n0.02,2\n")
         extra = ("--validation-data", str(bad))
     rc = _identify(csv_files, tmp_path, *extra)
     err = capsys.readouterr().err.strip().splitlines()
@@ -247,7 +247,7 @@ def test_identify_process_noise_then_predict_expected(csv_files, tmp_path, capsy
             "--process-noise",
             "--smoothness",
             "0",
-            "--save",
+            "--out",
             str(model),
             "--quiet",
         ]
@@ -276,7 +276,7 @@ def test_identify_process_noise_then_predict_expected(csv_files, tmp_path, capsy
                 "linear",
                 "--poles",
                 "1",
-                "--save",
+                "--out",
                 str(plain),
                 "--quiet",
             ]

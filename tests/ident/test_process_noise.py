@@ -358,9 +358,9 @@ def test_identify_says_how_the_noise_level_was_decided(tmp_path, capsys, periodi
             "--smoothness",
             "0",
             "--process-noise",
-            "--save",
+            "--out",
             str(tmp_path / "m.json"),
-            "--json",
+            "--json-out",
             str(report),
         ]
     )

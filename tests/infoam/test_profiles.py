@@ -150,7 +150,7 @@ def test_negative_coil_radius_gives_no_gcode(tmp_path, capsys):
     assert "must be positive" in capsys.readouterr().err
     # A calibration file edited to a negative radius: no G-code, exit 2, one line.
     cal = tmp_path / "cal.json"
-    assert main(["infoam", "calibrate", "--save", str(cal)]) == 0
+    assert main(["infoam", "calibrate", "--out", str(cal)]) == 0
     capsys.readouterr()
     data = json.loads(cal.read_text())
     data["model"]["coil"]["b"] = -2.0

@@ -134,15 +134,15 @@ def test_installed_wheel_identifies_quantizes_and_talks_to_the_emulator(installe
             "0.01",
             "--max-poles",
             "2",
-            "--save",
+            "--out",
             "model.json",
-            "--json",
+            "--json-out",
             "ident.json",
         ],
         work,
         env,
     )
-    _run([cli, "quantize", "model.json", "--out", "model.bin", "--report", "quant.json"], work, env)
+    _run([cli, "quantize", "--model", "model.json", "--out", "model.bin", "--json-out", "quant.json"], work, env)
     blob = (work / "model.bin").read_bytes()
     assert len(blob) > 26
     out = json.loads(_run([str(py), "-c", EXCHANGE, "model.bin"], work, env).stdout.strip().splitlines()[-1])

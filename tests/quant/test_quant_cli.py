@@ -32,7 +32,7 @@ def test_quantize_writes_blob_report_and_header(model_file, capsys):
             str(d / "model.json"),
             "--out",
             str(d / "m.bin"),
-            "--report",
+            "--json-out",
             str(d / "r.json"),
             "--header",
             str(d / "m.h"),
@@ -42,7 +42,7 @@ def test_quantize_writes_blob_report_and_header(model_file, capsys):
     )
     assert rc == 0
     blob = ModelBlob.from_bytes((d / "m.bin").read_bytes())
-    rep = json.loads((d / "r.json").read_text())
+    rep = json.loads((d / "r.json").read_text())["report"]
     assert rep["blob_bytes"] == blob.length <= MAX_BLOB_LEN
     assert abs(rep["fits"][0]["loss_points"]) <= 0.5 and rep["saturated_samples"] == 0
     assert f"M_LEN {blob.length}" in (d / "m.h").read_text()
@@ -50,7 +50,7 @@ def test_quantize_writes_blob_report_and_header(model_file, capsys):
 
 
 def test_quantize_refuses_a_missing_model(tmp_path, capsys):
-    rc = main(["quantize", str(tmp_path / "none.json"), "--out", str(tmp_path / "x.bin")])
+    rc = main(["quantize", "--model", str(tmp_path / "none.json"), "--out", str(tmp_path / "x.bin")])
     err = capsys.readouterr().err
     assert rc == 4 and "not found" in err and "Traceback" not in err
 
@@ -61,10 +61,13 @@ def test_flash_and_verify_on_the_emulator(model_file, capsys):
 
     d = model_file
     if not (d / "m.bin").exists():
-        main(["quantize", str(d / "model.json"), "--out", str(d / "m.bin")])
+        main(["quantize", "--model", str(d / "model.json"), "--out", str(d / "m.bin")])
     with Emulator(actuator="contractor") as emu:
-        assert main(["flash", "--port", emu.url, str(d / "m.bin")]) == 0
-        assert main(["verify", "--port", emu.url, str(d / "m.bin"), "--data", str(d / "step_20.csv"), "--json"]) == 0
+        assert main(["flash", "--port", emu.url, "--model", str(d / "m.bin")]) == 0
+        assert (
+            main(["verify", "--port", emu.url, "--model", str(d / "m.bin"), "--data", str(d / "step_20.csv"), "--json"])
+            == 0
+        )
     out = capsys.readouterr().out
     result = json.loads(out[out.index("{") :])
     assert result["identical"] and result["mismatched_values"] == 0 and result["samples"] > 1000

@@ -36,7 +36,7 @@ def test_record_from_board_recording_and_video(scene, tmp_path, capfd):
         str(base / "layout.json"),
         "--out",
         str(out),
-        "--no-progress",
+        "--quiet",
         "--json",
         "--preview",
         str(tmp_path / "preview.avi"),
@@ -76,7 +76,7 @@ def test_without_indicator_warns_with_expected_error(scene, tmp_path, capfd):
         str(tmp_path / "layout.json"),
         "--out",
         str(tmp_path / "r.csv"),
-        "--no-progress",
+        "--quiet",
         "--video-start",
         f"{scene.lead_s:.1f}",
     )
@@ -148,7 +148,7 @@ def test_no_marker_found(scene, tmp_path, capfd):
         str(tmp_path / "layout.json"),
         "--out",
         str(tmp_path / "r.csv"),
-        "--no-progress",
+        "--quiet",
     )
     assert code == 2
     _one_line_error(err, "no marker found")
@@ -169,7 +169,7 @@ def test_video_shorter_than_recording(scene, tmp_path, capfd):
         str(base / "layout.json"),
         "--out",
         str(tmp_path / "r.csv"),
-        "--no-progress",
+        "--quiet",
     )
     assert code == 2
     _one_line_error(err, "s too short")
@@ -195,7 +195,7 @@ def test_board_run_on_the_emulator_with_a_too_short_video(scene, tmp_path, capfd
                 "step_10",
                 "--out",
                 str(tmp_path / "r.csv"),
-                "--no-progress",
+                "--quiet",
             ]
         )
     _, err = capfd.readouterr()

@@ -67,7 +67,7 @@ def user_files(tmp_path_factory):
                     "--starts",
                     "1",
                     "--quiet",
-                    "--save",
+                    "--out",
                     str(d / f"{kind}.json"),
                 ]
             )

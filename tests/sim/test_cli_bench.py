@@ -18,7 +18,7 @@ def test_simulate_writes_recordings(tmp_path, capsys):
             "step_40",
             "--porosity",
             "86",
-            "--load",
+            "--load-g",
             "200",
             "--rate",
             "50",

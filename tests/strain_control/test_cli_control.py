@@ -57,14 +57,14 @@ def test_tune_writes_gains_and_a_predicted_step(work, capsys):
 
 
 CASES = [
-    ("control tune {d}/nocmd.csv", 2, "p_cmd_0"),
-    ("control tune {d}/step_10.csv --output strain_9", 2, "strain_9"),
-    ("control tune {d}/step_10.csv --tau-cl 0", 2, "--tau-cl"),
-    ("control tune {d}/step_10.csv --tau-cl -2", 2, "--tau-cl"),
-    ("control tune {d}/step_10.csv --slew nan", 2, "--slew"),
-    ("control tune {d}/flat.csv", 2, "never changes"),
-    ("control tune {d}/absent.csv", 2, "not found"),
-    ("control tune {d}/step_10.csv --out {d}/nodir/g.json", 2, "does not exist"),
+    ("control tune --data {d}/nocmd.csv", 2, "p_cmd_0"),
+    ("control tune --data {d}/step_10.csv --output strain_9", 2, "strain_9"),
+    ("control tune --data {d}/step_10.csv --tau-cl 0", 2, "--tau-cl"),
+    ("control tune --data {d}/step_10.csv --tau-cl -2", 2, "--tau-cl"),
+    ("control tune --data {d}/step_10.csv --slew nan", 2, "--slew"),
+    ("control tune --data {d}/flat.csv", 2, "never changes"),
+    ("control tune --data {d}/absent.csv", 2, "not found"),
+    ("control tune --data {d}/step_10.csv --out {d}/nodir/g.json", 2, "does not exist"),
     ("control run --port emulator --target 10 --trajectory {d}/traj_bad.csv", 2, "either"),
     ("control run --port emulator --trajectory {d}/traj_bad.csv", 2, "increase"),
     ("control run --port emulator --trajectory {d}/traj_nocol.csv", 2, "target"),

@@ -69,6 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 SIGPIPE_EXIT = 141  # 128 + SIGPIPE, what a shell reports for a tool stopped by a closed pipe
+INTERRUPTED_EXIT = 130  # 128 + SIGINT, what a shell reports for a tool stopped by Ctrl-C
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -80,22 +81,38 @@ def main(argv: list[str] | None = None) -> int:
         # and keep the interpreter's final flush from writing into the closed pipe.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return SIGPIPE_EXIT
+    except KeyboardInterrupt:  # before a command started: while the parser was being built
+        return _interrupted("porosense")
+
+
+def _interrupted(who: str) -> int:
+    """One line for Ctrl-C; a second Ctrl-C while it is printed is ignored."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    print(f"{who}: interrupted", file=sys.stderr)
+    return INTERRUPTED_EXIT
 
 
 def _run(argv: list[str] | None) -> int:
+    from porosense.cli._outputs import OutputGuard
+
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 1
+    who = f"porosense {args.command}"
+    guard = OutputGuard(args)
     try:
-        return int(args.func(args) or 0)
+        with guard:
+            status = int(args.func(args) or 0)
     except PorosenseError as exc:
-        print(f"porosense {args.command}: error: {exc}", file=sys.stderr)
+        print(f"{who}: error: {exc}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
-        print(f"porosense {args.command}: interrupted", file=sys.stderr)
-        return 130
+        return _interrupted(who)
+    return status
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -17,18 +17,49 @@ import sys
 from pathlib import Path
 
 from porosense.errors import InputError, ModelError
+from porosense.files import write_text
 
 
-def add_data_options(p, *, ts_help: str = "sample period in s (default: from the t column, sidecar or Ts)") -> None:
-    """--ts, --ts-override, --separator, --decimal."""
+def add_data_options(p, *, ts_help: str = "sample period in s (default: from the time column, sidecar or Ts)") -> None:
+    """The options that say how to read recordings (docs/cli.md, "Reading data")."""
     p.add_argument("--ts", type=float, metavar="SECONDS", help=ts_help)
     p.add_argument(
         "--ts-override",
         action="store_true",
-        help="use --ts even where it disagrees with the data's own time column or Ts",
+        help="use --ts even where it disagrees with the data's own time column or Ts (or with the model's period)",
+    )
+    p.add_argument(
+        "--time-unit",
+        choices=("s", "ms", "us"),
+        help="unit of the time column (default: from its name, a units row, the sidecar, or inferred and stated)",
+    )
+    p.add_argument(
+        "--resample",
+        action="store_true",
+        help="interpolate records with gaps or repeated time stamps onto a uniform grid (default: refuse them)",
     )
     p.add_argument("--separator", choices=(",", ";", "tab", "space"), help="CSV separator (default: detected)")
     p.add_argument("--decimal", choices=(".", ","), help="CSV decimal mark (default: detected)")
+    p.add_argument(
+        "--skip-rows", type=int, default=0, metavar="N", help="lines to skip before a CSV's header (default 0)"
+    )
+
+
+def add_column_options(p, *, outputs: bool = True) -> None:
+    """--input COL... and --output COL...: the data columns that stand for the model's inputs and outputs."""
+    p.add_argument(
+        "--input",
+        nargs="+",
+        metavar="COL",
+        help="the data columns fed to the model's inputs, in order (default: the model's input names)",
+    )
+    if outputs:
+        p.add_argument(
+            "--output",
+            nargs="+",
+            metavar="COL",
+            help="the data columns holding the measured outputs, in order (default: the model's output names)",
+        )
 
 
 def add_json_options(p, what: str = "the result", *, legacy_path: bool = False) -> None:
@@ -44,7 +75,7 @@ def add_json_options(p, what: str = "the result", *, legacy_path: bool = False) 
             const=True,
             default=False,
             metavar="FILE",
-            help=f"print {what} as JSON on stdout (--json FILE: same as --json-out FILE)",
+            help=f"print {what} as JSON on stdout",
         )
     else:
         p.add_argument("--json", action="store_true", help=f"print {what} as JSON on stdout")
@@ -57,6 +88,9 @@ def normalise_json_args(args, make_folder: bool = False) -> None:
     if isinstance(value, str):
         if getattr(args, "json_out", None):
             raise InputError("give the JSON file once: --json-out FILE")
+        from porosense.cli._args import deprecation
+
+        deprecation(f"porosense {getattr(args, 'command', '')}".strip(), "--json FILE", "--json-out FILE")
         args.json_out, args.json = value, False
     if getattr(args, "json_out", None):
         if make_folder:
@@ -65,11 +99,48 @@ def normalise_json_args(args, make_folder: bool = False) -> None:
 
 
 def read_tables(files, args):
-    """Tables of ``files`` with the dialect options of ``args``."""
+    """Tables of ``files`` read with the data options of ``args``, each one's time base checked
+    (porosense.data.check_sampling) and stated in one line per distinct finding."""
     from porosense.data import load_data
 
     sep = {"tab": "\t", "space": " "}.get(getattr(args, "separator", None), getattr(args, "separator", None))
-    return [load_data(f, separator=sep, decimal=getattr(args, "decimal", None)) for f in files]
+    tables = [
+        load_data(
+            f,
+            separator=sep,
+            decimal=getattr(args, "decimal", None),
+            time_unit=getattr(args, "time_unit", None),
+            resample=getattr(args, "resample", False),
+            skip_rows=getattr(args, "skip_rows", 0) or 0,
+        )
+        for f in files
+    ]
+    _state_sampling(tables, args)
+    return tables
+
+
+def _state_sampling(tables, args) -> None:
+    """State the time base: one line per group of files read alike, every resampled file on its own."""
+    groups: dict = {}
+    for table in tables:
+        s = table.sampling
+        if s is None:
+            continue
+        key = (
+            id(s)
+            if s.resampled
+            else (
+                s.time_column,
+                s.time_unit,
+                s.unit_source,
+                s.ts_source if not s.time_column else "",
+                round(s.ts or 0, 12),
+            )
+        )
+        groups.setdefault(key, []).append(s)
+    for members in groups.values():
+        more = len(members) - 1
+        say(args, members[0].describe() + (f" (and {more} more file{'s' if more > 1 else ''} alike)" if more else ""))
 
 
 def sample_period(tables, args) -> float:
@@ -79,23 +150,65 @@ def sample_period(tables, args) -> float:
     return resolve_ts(tables, getattr(args, "ts", None), getattr(args, "ts_override", False))
 
 
-def model_period(tables, model, args) -> float:
+def model_period(tables, model, args, what: str = "the model") -> float:
     """The Ts (s) to run ``model`` on ``tables``: the data's own (checked against --ts) when they state
-    one, else the model's; a data period more than 1 % off the model's is an InputError unless
-    --ts-override (a model runs per sample: on data at another rate it simulates the wrong dynamics)."""
+    one, else the model's (and the command says so); a data period more than 1 % off the model's is an
+    InputError unless --ts-override (a model runs per sample: on data at another rate it simulates the
+    wrong dynamics). ``model`` is anything with ``ts`` (s): a model, a model set, a blob."""
+    model_ts = float(model.ts)
     if not (getattr(args, "ts", None) or any(t.ts for t in tables)):
-        return model.ts
+        names = ", ".join(str(t.path) for t in tables)
+        say(
+            args,
+            f"{names}: no time column and no stated period: taking {what}'s {model_ts * 1000:.4g} ms "
+            f"({1 / model_ts:.4g} Hz); pass --ts if the data were sampled otherwise",
+        )
+        return model_ts
     ts = sample_period(tables, args)
-    if abs(ts - model.ts) > 0.01 * model.ts and not getattr(args, "ts_override", False):
+    if abs(ts - model_ts) > 0.01 * model_ts and not getattr(args, "ts_override", False):
         raise InputError(
-            f"the data's sample period {ts:g} s differs from the model's {model.ts:g} s: "
-            "resample the data, or add --ts-override"
+            f"the data's sample period {ts * 1000:.4g} ms ({1 / ts:.4g} Hz) differs from {what}'s "
+            f"{model_ts * 1000:.4g} ms ({1 / model_ts:.4g} Hz): resample the data to the model's rate, "
+            "or add --ts-override"
         )
     return ts
 
 
+def bind_columns(tables, args, inputs, outputs=()) -> None:
+    """Give the data columns named by ``--input``/``--output`` the model's names, in order (docs/cli.md).
+
+    Without the options the model's own names are used as they are; with them, each table gets
+    the model's input (output) names as copies of the named columns, so that everything after
+    reads the model's names."""
+    from porosense.cli._args import columns
+
+    for option, names in (("input", list(inputs)), ("output", list(outputs))):
+        given = getattr(args, option, None)
+        if not given:
+            continue
+        cols = columns(given, option, args)
+        if len(cols) != len(names):
+            raise InputError(
+                f"--{option} names {len(cols)} column{'s' if len(cols) > 1 else ''}; the model has "
+                f"{len(names)} {option}{'s' if len(names) != 1 else ''} ({', '.join(names)})"
+            )
+        for table in tables:
+            require_columns(table, cols)
+            for model_name, data_name in zip(names, cols):
+                table.columns[model_name] = table.columns[data_name]
+                if data_name in table.units:
+                    table.units[model_name] = table.units[data_name]
+
+
 def require_columns(table, names) -> None:
+    """InputError naming the absent columns (and why a .mat variable of that name was left out)."""
     missing = [n for n in names if n not in table.columns]
+    skipped = [n for n in missing if n in (getattr(table, "skipped", None) or {})]
+    if skipped:
+        n = skipped[0]
+        raise InputError(
+            f"{table.path}: variable '{n}' has {table.skipped[n]}: the signals of one record must have one length"
+        )
     if missing:
         raise InputError(
             f"{table.path}: no column{'s' if len(missing) > 1 else ''} "
@@ -159,7 +272,7 @@ def emit_json(doc, args) -> None:
     normalise_json_args(args)
     text = json.dumps(_finite(doc), indent=1, default=_plain, allow_nan=False)
     if getattr(args, "json_out", None):
-        output_file(args.json_out, "--json-out").write_text(text + "\n")
+        write_text(output_file(args.json_out, "--json-out"), text + "\n")
     if getattr(args, "json", False):
         sys.stdout.write(text + "\n")
 
@@ -193,5 +306,5 @@ def _plain(value):
 
 
 def say(args, text: str) -> None:
-    """Human-readable progress: stdout normally, stderr when stdout carries --json."""
+    """Human-readable text: stdout normally, stderr when stdout carries --json."""
     print(text, file=sys.stderr if getattr(args, "json", False) is True else sys.stdout)

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import os
 
 from porosense.bench import AREAS
+from porosense.cli._data import add_json_options, emit_json
 from porosense.errors import InputError
 
 
@@ -24,7 +24,7 @@ def register(sub) -> argparse.ArgumentParser:
         epilog="example: porosense bench protocol --json",
     )
     p.add_argument("area", choices=AREAS, help="what to benchmark")
-    p.add_argument("--json", action="store_true", help="print the figures as one JSON object")
+    add_json_options(p, "the figures")
     p.add_argument(
         "--size",
         choices=("small", "full"),
@@ -41,9 +41,8 @@ def run(args) -> int:
     except ModuleNotFoundError as exc:
         raise InputError(f"benchmark area '{args.area}' is not available in this build") from exc
     result = module.run(args.size)
-    if args.json:
-        print(json.dumps(result, indent=2, default=float))
-    else:
+    emit_json(result, args)
+    if not args.json:
         for line in result.get("summary", []):
             print(line)
     if args.area == "firmware" and args.size == "full" and result.get("advertised_equals_measured") is False:

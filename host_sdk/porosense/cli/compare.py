@@ -5,14 +5,17 @@ from __future__ import annotations
 import argparse
 
 from porosense.cli._data import (
+    add_column_options,
     add_data_options,
     add_json_options,
+    bind_columns,
     emit_json,
     load_model_checked,
     model_period,
     normalise_json_args,
     output_file,
     read_tables,
+    require_columns,
     say,
 )
 
@@ -31,6 +34,7 @@ def register(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--model", required=True, metavar="MODEL.json", help="model file (porosense identify --save)")
     p.add_argument("--data", nargs="+", required=True, metavar="FILE", help="recordings with the model's columns")
+    add_column_options(p)
     p.add_argument("--plot", metavar="FILE.png", help="plot measured and predicted for the first file")
     add_data_options(p, ts_help="sample period in s (default: the data's; checked against the model's)")
     add_json_options(p, "the scores")
@@ -40,6 +44,7 @@ def register(sub) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     from porosense.cli.predict import model_label
+    from porosense.ident.scoring import model_outputs
     from porosense.report.analysis import compare
 
     normalise_json_args(args)
@@ -48,6 +53,9 @@ def run(args) -> int:
     model = load_model_checked(args.model)
     tables = read_tables(args.data, args)
     model_period(tables, model, args)
+    bind_columns(tables, args, model.inputs, model_outputs(model))
+    for table in tables:
+        require_columns(table, list(model.inputs) + model_outputs(model))
     result = compare(model, tables, name=model_label(model))
     if args.plot:
         import numpy as np
@@ -55,7 +63,7 @@ def run(args) -> int:
         from porosense.report.figures import plot_compare
 
         t0 = tables[0]
-        time = t0.columns["t"] if "t" in t0.columns else np.arange(len(t0)) * model.ts
+        time = t0.time if t0.time is not None else np.arange(len(t0)) * model.ts
         pred = result.predictions[str(t0.path)]
         plot_compare(
             time,

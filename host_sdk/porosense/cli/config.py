@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 import textwrap
 
+from porosense.cli._data import add_json_options, emit_json
 from porosense.errors import DeviceError, InputError
 
 # Unit of each key's value (the catalogue states it in prose; the table is printed from this).
@@ -52,7 +52,7 @@ def register(sub) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--port", required=True, metavar="URL", help="serial port or pyserial URL")
-    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    add_json_options(p, "the configuration")
     p.add_argument(
         "action",
         nargs="?",
@@ -157,19 +157,11 @@ def run(args) -> int:
     rows = config_table(values)
     if only is not None:
         rows = [r for r in rows if str(r.get("key", "")).upper() == only]
+    emit_json(
+        {"port": args.port, "action": args.action, "config_defaults": defaults_in_use, "notes": note, "keys": rows},
+        args,
+    )
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "port": args.port,
-                    "action": args.action,
-                    "config_defaults": defaults_in_use,
-                    "notes": note,
-                    "keys": rows,
-                },
-                indent=2,
-            )
-        )
         return 0
     print(format_table(rows))
     if defaults_in_use:

@@ -6,6 +6,7 @@ import argparse
 import math
 from pathlib import Path
 
+from porosense.cli._args import add_deprecated, add_legacy_positional, columns, take_positional
 from porosense.cli._data import add_data_options, add_json_options, emit_json, output_file, say
 from porosense.errors import InputError
 
@@ -33,8 +34,8 @@ def register(sub) -> argparse.ArgumentParser:
         ),
         epilog=(
             "examples:\n"
-            "  porosense control tune step_10.csv step_20.csv step_40.csv step_60.csv --model model.bin --out gains.json "
-            "--json\n"
+            "  porosense control tune --data step_10.csv step_20.csv step_40.csv step_60.csv --model model.bin "
+            "--out gains.json --json\n"
             "  porosense control run --port emulator --model model.bin --gains gains.json --target 15 --hold 10 "
             "--out ctl_run.csv --plot ctl_run.png"
         ),
@@ -62,23 +63,31 @@ def _register_tune(csub) -> None:
             "Identify the commanded-vacuum-to-output dynamics from recordings (the paper's steps and "
             "staircase as 'porosense simulate' or 'porosense demo' write them, or your own CSV/.mat with the "
             "command and the output), pick PI gains, predict the closed-loop step response (python-control) "
-            "and print its settling time (2 %% band) and overshoot; write the gains, the plant model and the "
-            "rule to JSON. " + TUNE_RULE_HELP.replace("%", "%%") + " The closed-loop time constant --tau-cl is "
+            "and print its settling time (2 % band) and overshoot; write the gains, the plant model and the "
+            "rule to JSON. " + TUNE_RULE_HELP.replace("%", "%") + " The closed-loop time constant --tau-cl is "
             "the one knob: larger is slower and more robust. Gains are in kPa of vacuum per output unit (the "
-            "model's output unit, %% strain for the contractor): the output used here must be in the unit of "
+            "model's output unit, % strain for the contractor): the output used here must be in the unit of "
             "the estimate the board controls."
         ),
-        epilog="example: porosense control tune step_10.csv step_20.csv step_40.csv step_60.csv --model model.bin "
-        "--out gains.json --tau-cl 0.5 --plot step.png",
+        epilog="example: porosense control tune --data step_10.csv step_20.csv step_40.csv step_60.csv "
+        "--model model.bin --out gains.json --tau-cl 0.5 --plot step.png",
     )
-    t.add_argument("data", nargs="+", metavar="DATA", help="recordings (CSV or .mat) with the command and the output")
+    t.add_argument("--data", nargs="+", metavar="FILE", help="recordings (CSV or .mat) with the command and the output")
+    add_legacy_positional(t, "data", nargs="*")
     t.add_argument(
-        "--command",
-        default="p_cmd_0",
+        "--input",
+        nargs="+",
+        default=["p_cmd_0"],
+        metavar="COL",
         help="commanded regulator pressure column, kPa gauge (vacuum negative; default p_cmd_0)",
     )
+    add_deprecated(t, "--command", "--input", "input", nargs="+")
     t.add_argument(
-        "--output", default=None, help="output column (default: strain_0, else the on-device estimate est_strain_0)"
+        "--output",
+        nargs="+",
+        default=None,
+        metavar="COL",
+        help="output column (default: strain_0, else the on-device estimate est_strain_0)",
     )
     t.add_argument(
         "--tau-cl",
@@ -120,7 +129,7 @@ def _tune_columns(tables, args) -> tuple[str, str]:
 
     for tb in tables:
         require_columns(tb, [args.command])
-    output = args.output
+    output = args.output[0] if args.output else None
     if output is None:
         for name in ("strain_0", "est_strain_0"):
             if all(name in tb for tb in tables):
@@ -136,6 +145,16 @@ def _tune_columns(tables, args) -> tuple[str, str]:
     return args.command, output
 
 
+def _one_column(args, option: str) -> str | None:
+    value = getattr(args, option)
+    if value is None:
+        return None
+    cols = columns(value, option, args)
+    if len(cols) != 1:
+        raise InputError(f"--{option} {' '.join(cols)}: control tune takes one {option} column")
+    return cols[0]
+
+
 def run_tune(args) -> int:
     import numpy as np
 
@@ -143,6 +162,9 @@ def run_tune(args) -> int:
     from porosense.control import fit_fopdt, lambda_pi, predict_step, save_gains
     from porosense.control.tuning import RULE
 
+    take_positional(args, "data", "--data")
+    args.command = _one_column(args, "input")
+    args.output = [_one_column(args, "output")] if args.output else None
     if not (math.isfinite(args.tau_cl) and args.tau_cl > 0):
         raise InputError(f"--tau-cl {args.tau_cl} must be a positive number of seconds")
     if not (math.isfinite(args.slew) and args.slew > 0):
@@ -217,10 +239,10 @@ def _register_run(csub) -> None:
             "target (--target, held --hold s) or a trajectory (--trajectory FILE.csv with columns t_s,target "
             "or t_s,target0..target2, piecewise linear), stream the target, the on-device estimate, the "
             "vacuum command and, where the back-end knows it, the true output; vent at the end. Reports the "
-            "tracking error (RMS and peak, in output units and %% of the largest target) against the truth "
-            "(else the estimate), and for a constant target the settling time (2 %% band) and the overshoot. "
+            "tracking error (RMS and peak, in output units and % of the largest target) against the truth "
+            "(else the estimate), and for a constant target the settling time (2 % band) and the overshoot. "
             "--port emulator[:ACTUATOR] and simboard[:ACTUATOR] start a simulated board here (with the true "
-            "strain; --load sets its hanging load); any other value is a serial URL."
+            "strain; --load-g sets its hanging load); any other value is a serial URL."
         ),
         epilog="example: porosense control run --port emulator --model model.bin --gains gains.json --target 15 "
         "--hold 10 --out ctl_run.csv --plot ctl_run.png",
@@ -237,12 +259,13 @@ def _register_run(csub) -> None:
     r.add_argument("--gains", metavar="FILE.json", help="gains file from 'porosense control tune'")
     r.add_argument("--model", metavar="MODEL.bin", help="flash this model first (the board's rate is set to it)")
     r.add_argument(
-        "--load",
+        "--load-g",
         type=float,
         default=0.0,
         metavar="GRAMS",
         help="hanging load of a simulated board, g (0..500; default 0)",
     )
+    add_deprecated(r, "--load", "--load-g", "load_g", type=float)
     r.add_argument("--seed", type=int, default=0, help="seed of a simulated board (default 0)")
     r.add_argument("--out", metavar="FILE.csv", help="write the run (target, estimate, truth, command) as CSV")
     r.add_argument("--plot", metavar="FILE.png", help="figure: target, estimate and true output against time")
@@ -258,7 +281,7 @@ def read_trajectory(path) -> tuple:
 
     if not Path(path).is_file():
         raise InputError(f"trajectory {path} not found")
-    tb = load_data(path)
+    tb = load_data(path, check=False)  # way points, not a sampled record
     if "t_s" not in tb:
         raise InputError(f"{path}: no column t_s (columns: {', '.join(tb.names)}; read as {tb.dialect})")
     if "target" in tb:
@@ -284,8 +307,8 @@ def run_run(args) -> int:
         raise InputError(f"--hold {args.hold} must be a positive number of seconds")
     if args.target is not None and not math.isfinite(args.target):
         raise InputError(f"--target {args.target} is not a number")
-    if not 0.0 <= args.load <= 500.0:
-        raise InputError(f"--load {args.load} g outside 0..500")
+    if not 0.0 <= args.load_g <= 500.0:
+        raise InputError(f"--load-g {args.load_g:g} g outside 0..500")
     out = output_file(args.out, "--out") if args.out else None
     plot = output_file(args.plot, "--plot") if args.plot else None
     trajectory = read_trajectory(args.trajectory) if args.trajectory else None
@@ -306,7 +329,7 @@ def run_run(args) -> int:
         trajectory=trajectory,
         gains=gains,
         model=model,
-        load_g=args.load,
+        load_g=args.load_g,
         seed=args.seed,
     )
     result = execute_run(req, log=lambda text: say(args, text))

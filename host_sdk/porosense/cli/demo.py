@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 
-from porosense.cli._args import ACTUATORS
+from porosense.cli._args import ACTUATORS, add_deprecated
+from porosense.cli._data import add_json_options, emit_json
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -57,8 +57,9 @@ def register(sub) -> argparse.ArgumentParser:
         help="largest number of poles in the order search, 1..10 (default 3; the paper's grid is 10)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated actuator (default 0)")
-    p.add_argument("--json", action="store_true", help="print the results as JSON at the end")
-    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    add_json_options(p, "the results")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_deprecated(p, "--no-progress", "--quiet", "quiet", nargs=0)
     p.set_defaults(func=run)
     return p
 
@@ -90,11 +91,10 @@ def run(args) -> int:
             rate_hz=args.rate,
             max_poles=args.max_poles,
             seed=args.seed,
-            progress=not args.no_progress,
+            progress=not args.quiet,
             log=log,
         )
         for a in actuators
     ]
-    if args.json:
-        print(json.dumps([r.to_dict() for r in results], indent=2, default=float))
+    emit_json([r.to_dict() for r in results], args)
     return 0

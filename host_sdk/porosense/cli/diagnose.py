@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import argparse
 
-from porosense.cli._args import parse_columns, parse_range
+from porosense.cli._args import add_deprecated, columns, parse_range
 from porosense.cli._data import (
     add_data_options,
     add_json_options,
     emit_json,
+    load_model_checked,
+    model_period,
     normalise_json_args,
     output_file,
     read_tables,
@@ -40,12 +42,12 @@ def register(sub) -> argparse.ArgumentParser:
         ),
         epilog=(
             "example: porosense diagnose --data run.csv --input p_cmd_0 --output dR_0 "
-            "--sim contractor --condition load_g --json-out diag.json --report diag/"
+            "--sim contractor --condition load_g --json-out diag.json --out diag/"
         ),
     )
     p.add_argument("--data", nargs="+", required=True, metavar="FILE", help="recordings: CSV or MATLAB .mat files")
-    p.add_argument("--input", required=True, metavar="COL[,COL...]", help="input column(s) the model uses")
-    p.add_argument("--output", required=True, metavar="COL", help="the measured output column")
+    p.add_argument("--input", required=True, nargs="+", metavar="COL", help="input column(s) the model uses")
+    p.add_argument("--output", required=True, nargs="+", metavar="COL", help="the measured output column (one)")
     what = p.add_mutually_exclusive_group(required=True)
     what.add_argument(
         "--sim",
@@ -82,7 +84,8 @@ def register(sub) -> argparse.ArgumentParser:
     )
     add_data_options(p)
     add_json_options(p, "the findings", legacy_path=True)
-    p.add_argument("--report", metavar="DIR", help="write figures and a Markdown summary into DIR")
+    p.add_argument("--out", metavar="DIR", help="write figures and a Markdown summary into DIR")
+    add_deprecated(p, "--report", "--out", "out")
     p.add_argument(
         "--unit", metavar="UNIT", help="the output's unit on the figures (default: from the recording's sidecar)"
     )
@@ -192,7 +195,11 @@ def run(args) -> int:
     from porosense.diagnose import Record, diagnose
 
     normalise_json_args(args, make_folder=True)
-    inputs = parse_columns(args.input, "input")
+    inputs = columns(args.input, "input", args)
+    outs = columns(args.output, "output", args)
+    if len(outs) != 1:
+        raise InputError(f"--output {' '.join(outs)}: diagnose takes one output column")
+    args.output = outs[0]
     conditions = [c for c in args.condition if c not in inputs and c != args.output]
     if not 0 < args.alpha < 1:
         raise InputError("--alpha must be between 0 and 1")
@@ -203,6 +210,8 @@ def run(args) -> int:
     tables = read_tables(args.data, args)
     vtables = read_tables(args.validation_data, args) if args.validation_data else []
     args.ts = sample_period(tables + vtables, args)
+    if args.model:  # a model runs per sample: on data at another rate it simulates other dynamics
+        model_period(tables + vtables, load_model_checked(args.model), args)
     est, val = _split(args, inputs, conditions, tables, vtables)
     predict, nominal, what = _predictor(args, inputs, est)
     records = [[Record(u, y, predict(u), args.ts, cond) for u, y, cond in part] for part in (est, val)]
@@ -211,11 +220,11 @@ def run(args) -> int:
     if not _all_finite(doc):
         raise InputError("the diagnosis holds non-finite numbers (NaN or inf): check --ts and the data")
     emit_json(doc, args)
-    if args.report:
+    if args.out:
         from porosense.diagnose import report
 
         unit = args.unit or next((t.units[args.output] for t in tables if args.output in t.units), "output unit")
-        report.write_report(result, args.report, title=f"Diagnosis of {what}", unit=unit)
+        report.write_report(result, args.out, title=f"Diagnosis of {what}", unit=unit)
     say(args, f"diagnosed: {what}")
     say(args, str(result))
     if args.save_extended:

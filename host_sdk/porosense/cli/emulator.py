@@ -7,6 +7,7 @@ import sys
 import time
 
 from porosense.cli._args import ACTUATORS
+from porosense.cli._data import add_json_options, emit_json
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -60,7 +61,7 @@ def register(sub) -> argparse.ArgumentParser:
         metavar="N",
         help="cut the power after N bytes of a model write reach the EEPROM",
     )
-    p.add_argument("--json", action="store_true", help="announce the board's URL as one JSON line")
+    add_json_options(p, "the board's URL (one line, before it serves)")
     p.add_argument(
         "--duration", type=float, default=None, metavar="S", help="stop after S seconds (default: run until Ctrl-C)"
     )
@@ -105,11 +106,14 @@ def run(args) -> int:
         faults=faults,
     )
     mode = f"real time x{args.speed:g}" if args.realtime else "lockstep (as fast as the host reads)"
+    announcement = {"url": emu.url, "actuator": args.actuator, "mode": mode}
     if args.json:  # one line that scripts can read before connecting
         import json
 
-        print(json.dumps({"url": emu.url, "actuator": args.actuator, "mode": mode}), flush=True)
-    else:
+        print(json.dumps(announcement), flush=True)
+    if getattr(args, "json_out", None):
+        emit_json(announcement, argparse.Namespace(json=False, json_out=args.json_out))
+    if not args.json:
         print(f"porosense emulator: {args.actuator} board at {emu.url} ({mode}); Ctrl-C stops", flush=True)
     if args.duration is None:
         emu.serve_forever()

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import json
+
+from porosense.cli._data import add_json_options, emit_json
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -21,7 +22,7 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--port", default=None, help="upload: serial port of the Uno (e.g. /dev/ttyACM0)")
     p.add_argument("--hex", default=None, help="upload: another Intel HEX file (default: the packaged one)")
     p.add_argument("--avrdude", default=None, help="upload: path of avrdude (default: found on PATH)")
-    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    add_json_options(p, "the result")
     p.set_defaults(func=run)
     return p
 
@@ -36,7 +37,9 @@ def run(args) -> int:
         if not args.port:
             raise InputError("upload needs --port (e.g. --port /dev/ttyACM0; `porosense ports` lists them)")
         result = upload(args.port, args.hex, args.avrdude)
-        print(json.dumps(result.to_dict()) if args.json else result)
+        emit_json(result.to_dict(), args)
+        if not args.json:
+            print(result)
         return 0
     paths = {
         "hex": files.hex_path(),
@@ -45,9 +48,8 @@ def run(args) -> int:
         "simboard": files.harness_path(),
     }
     info = {k: {"path": str(v), "present": v.exists()} for k, v in paths.items()}
-    if args.json:
-        print(json.dumps(info))
-    else:
+    emit_json(info, args)
+    if not args.json:
         for k, v in info.items():
             print(f"{k:9s} {v['path']}{'' if v['present'] else '  (absent)'}")
     return 0

@@ -5,7 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from porosense.cli._args import add_legacy_positional, take_positional
+from porosense.cli._data import add_json_options, emit_json, normalise_json_args
 from porosense.errors import InputError
+from porosense.files import write_text
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -28,10 +31,11 @@ def register(sub) -> argparse.ArgumentParser:
             "socket:// port have no bootloader: write the HEX with --hex-out (the Python API uploads into "
             "the simboard and the emulator: SimBoard.program_flash, Emulator.program_flash)."
         ),
-        epilog="example: porosense flash --port socket://127.0.0.1:5000 model.bin",
+        epilog="example: porosense flash --port socket://127.0.0.1:5000 --model model.bin",
     )
     p.add_argument("--port", required=True, metavar="URL", help="serial port or pyserial URL")
-    p.add_argument("blob", metavar="MODEL.bin", help="model blob")
+    p.add_argument("--model", metavar="MODEL.bin", help="model blob (porosense quantize --out)")
+    add_legacy_positional(p, "model")
     p.add_argument(
         "--set-rate",
         action="store_true",
@@ -48,7 +52,7 @@ def register(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--hex-out", metavar="FILE.hex", help="--store flash: write the slot's Intel HEX here, no upload")
     p.add_argument("--avrdude", default=None, help="--store flash: path of avrdude (default: found on PATH)")
-    p.add_argument("--json", action="store_true", help="print the stored model's info as JSON")
+    add_json_options(p, "the stored model's info")
     p.set_defaults(func=run)
     return p
 
@@ -57,7 +61,9 @@ def run(args) -> int:
     from porosense.device import Device
     from porosense.protocol.model_blob import ModelBlob
 
-    path = Path(args.blob)
+    take_positional(args, "model", "--model")
+    normalise_json_args(args)
+    path = Path(args.model)
     if not path.is_file():
         raise InputError(f"model blob {path} not found")
     data = path.read_bytes()
@@ -69,10 +75,8 @@ def run(args) -> int:
     with Device.open(args.port) as dev:
         rate = dev.check_model_rate(data, set_rate=args.set_rate)
         info = dev.write_model(data, replace=None if args.replace else False)
+    emit_json({"port": args.port, "bytes": len(data), "rate_hz": rate, **info.to_dict()}, args)
     if args.json:
-        import json
-
-        print(json.dumps({"port": args.port, "bytes": len(data), "rate_hz": rate, **info.to_dict()}, default=float))
         return 0
     print(
         f"flashed {len(data)} bytes to {args.port}: model 0x{info.model_id:08X}, CRC 0x{info.crc:04X}, "
@@ -84,7 +88,6 @@ def run(args) -> int:
 
 def _run_flash_store(args, data: bytes) -> int:
     """--store flash: plan the slot from the running model, write the HEX, upload it."""
-    import json
     import tempfile
 
     from porosense.device import Device
@@ -104,11 +107,10 @@ def _run_flash_store(args, data: bytes) -> int:
         out = Path(args.hex_out)
         if not out.parent.is_dir():
             raise InputError(f"folder {out.parent} does not exist")
-        out.write_text(hex_text)
+        write_text(out, hex_text)
         result = {"port": args.port, "bytes": len(data), "hex": str(out), **plan.to_dict()}
-        if args.json:
-            print(json.dumps(result))
-        else:
+        emit_json(result, args)
+        if not args.json:
             print(
                 f"wrote {out}: {len(data)}-byte model into flash slot {plan.slot} (counter {plan.seq}, "
                 f"{plan.to_dict()['pages']} pages at 0x{plan.address:04X}); upload with avrdude -D"
@@ -127,13 +129,8 @@ def _run_flash_store(args, data: bytes) -> int:
         info = dev.model_info()
     if not info.valid or info.crc != blob.crc or info.slot != 2 + plan.slot:
         raise DeviceError(f"uploaded flash slot {plan.slot} but the board runs: {info}")
+    emit_json({"port": args.port, "bytes": len(data), "rate_hz": rate, **plan.to_dict(), **info.to_dict()}, args)
     if args.json:
-        print(
-            json.dumps(
-                {"port": args.port, "bytes": len(data), "rate_hz": rate, **plan.to_dict(), **info.to_dict()},
-                default=float,
-            )
-        )
         return 0
     print(
         f"flashed {len(data)} bytes to flash slot {plan.slot} of {args.port} (counter {plan.seq}): "

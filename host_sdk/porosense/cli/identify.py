@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from porosense.cli._args import parse_columns, parse_range
+from porosense.cli._args import add_deprecated, columns, parse_range
 from porosense.cli._data import (
     add_data_options,
     add_json_options,
@@ -46,7 +46,7 @@ def register(sub) -> argparse.ArgumentParser:
         epilog=(
             "example: porosense identify --data step_10.csv step_60.csv --input dR_0 --output strain_0 "
             "--structure wh --poles 4 --zeros 2 --estimation 0:2000 --validation 2000: "
-            "--save model.json --json-out report.json"
+            "--out model.json --json-out report.json"
         ),
     )
     p.add_argument(
@@ -56,8 +56,8 @@ def register(sub) -> argparse.ArgumentParser:
         metavar="FILE",
         help="recordings, one per file: CSV (any common dialect) or MATLAB .mat",
     )
-    p.add_argument("--input", required=True, metavar="COL[,COL...]", help="input column names (1 to 3)")
-    p.add_argument("--output", required=True, metavar="COL[,COL...]", help="output column name(s)")
+    p.add_argument("--input", required=True, nargs="+", metavar="COL", help="input column names (1 to 3)")
+    p.add_argument("--output", required=True, nargs="+", metavar="COL", help="output column name(s)")
     p.add_argument("--structure", choices=STRUCTURE_CHOICES, default="all", help="model structure (default all)")
     p.add_argument("--poles", type=int, metavar="N", help="number of poles (default: search 1..--max-poles)")
     p.add_argument("--zeros", type=int, metavar="N", help="number of zeros, < poles (default: search)")
@@ -136,8 +136,9 @@ def register(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--jobs", type=int, metavar="N", help="worker processes of the order search (default: all cores)")
     p.add_argument(
-        "--save", default="model.json", metavar="MODEL.json", help="where to write the model (default model.json)"
+        "--out", default="model.json", metavar="MODEL.json", help="where to write the model (default model.json)"
     )
+    add_deprecated(p, "--save", "--out", "out")
     add_data_options(p)
     add_json_options(p, "the search report", legacy_path=True)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -225,10 +226,14 @@ def run(args) -> int:
     from porosense import ident
 
     normalise_json_args(args)
-    inputs = parse_columns(args.input, "input")
-    outputs = parse_columns(args.output, "output")
+    inputs = columns(args.input, "input", args)
+    outputs = columns(args.output, "output", args)
     if len(inputs) > 3:
         raise InputError(f"{len(inputs)} input columns; at most 3")
+    if set(inputs) & set(outputs):
+        from porosense.ident.excitation import check_identifiable
+
+        check_identifiable([], [], inputs, outputs)
     if args.max_poles > MAX_POLES_UNFORCED and not args.force:
         raise InputError(
             f"--max-poles {args.max_poles} searches beyond {MAX_POLES_UNFORCED} poles (hours of work); "
@@ -236,7 +241,7 @@ def run(args) -> int:
         )
     if args.max_poles < 1:
         raise InputError("--max-poles must be >= 1")
-    output_file(args.save, "--save")
+    output_file(args.out, "--out")
     tables = read_tables(args.data, args)
     args.ts = sample_period(tables, args)
     if args.poles is not None and not 0 <= args.poles <= 10:
@@ -276,6 +281,9 @@ def run(args) -> int:
     else:
         est_u, est_y, est_skip, val = load_with_tail_holdout(tables, inputs, outputs, est_range)
         holdout = "hold-out: the last 25 % of every file left out of estimation"
+    from porosense.ident.excitation import check_identifiable
+
+    check_identifiable(est_u, est_y, inputs, outputs)
     say(args, holdout if holdout.startswith("hold-out") else f"validation: {holdout}")
     input_units, output_units = data_units(tables, inputs, outputs)
     structures = tuple(ident.KINDS) if args.structure == "all" else (args.structure,)
@@ -361,8 +369,8 @@ def run(args) -> int:
         if executor is not None:
             executor.shutdown()
     model = models[0] if len(models) == 1 else ident.ModelSet(models)
-    model.save(args.save)
-    say(args, f"model saved to {args.save}")
+    model.save(args.out)
+    say(args, f"model saved to {args.out}")
     report = {
         "files": list(args.data),
         "inputs": inputs,
@@ -373,7 +381,7 @@ def run(args) -> int:
         "validation_data": args.validation_data,
         "holdout": holdout,
         "criterion": args.criterion,
-        "model": str(args.save),
+        "model": str(args.out),
         "results": reports,
     }
     emit_json(report, args)

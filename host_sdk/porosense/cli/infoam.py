@@ -6,7 +6,10 @@ import argparse
 import json
 from pathlib import Path
 
+from porosense.cli._args import add_deprecated
+from porosense.cli._data import add_json_options, emit_json
 from porosense.errors import InputError
+from porosense.files import write_text
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -49,8 +52,9 @@ def register(sub) -> argparse.ArgumentParser:
     )
     c.add_argument("--bulk-density", type=float, default=0.97, help="g/cm^3 (default 0.97, cTPE)")
     c.add_argument("--nozzle", type=float, default=0.6, help="nozzle diameter in mm (default 0.6)")
-    c.add_argument("--save", metavar="CAL.json", help="write the calibration for 'infoam gcode --calibration'")
-    c.add_argument("--json", action="store_true", help="print the calibration as JSON")
+    c.add_argument("--out", metavar="CAL.json", help="write the calibration for 'infoam gcode --calibration'")
+    add_deprecated(c, "--save", "--out", "out")
+    add_json_options(c, "the calibration")
     c.set_defaults(func=run_calibrate)
 
     d = s.add_parser("design", help="write a built-in example design as editable JSON")
@@ -78,9 +82,9 @@ def register(sub) -> argparse.ArgumentParser:
         "(default pellet-ender5plus, the paper's printer)",
     )
     g.add_argument("--preview", metavar="PNG", help="also draw the toolpath coloured by porosity")
-    g.add_argument("--calibration", metavar="CAL.json", help="calibration from 'infoam calibrate --save'")
+    g.add_argument("--calibration", metavar="CAL.json", help="calibration from 'infoam calibrate --out'")
     g.add_argument("--coil-density", type=float, default=3.0, help="coils per coil diameter of travel (default 3)")
-    g.add_argument("--json", action="store_true", help="print the plan as JSON")
+    add_json_options(g, "the plan")
     g.set_defaults(func=run_gcode)
 
     m = s.add_parser(
@@ -90,7 +94,7 @@ def register(sub) -> argparse.ArgumentParser:
         "print it (exit 2 with one line naming the problem when it is wrong).",
     )
     m.add_argument("profile", nargs="?", help="profile name or TOML file to check")
-    m.add_argument("--json", action="store_true", help="print as JSON")
+    add_json_options(m, "the machine profile(s)")
     m.set_defaults(func=run_machines)
 
     pa = s.add_parser(
@@ -107,7 +111,7 @@ def register(sub) -> argparse.ArgumentParser:
         help="machine the PLA parts are printed on, for the bed-size check (default filament-ender5plus)",
     )
     pa.add_argument("--only", nargs="+", metavar="PART", help="write only these parts")
-    pa.add_argument("--json", action="store_true", help="print the part list as JSON")
+    add_json_options(pa, "the part list")
     pa.set_defaults(func=run_parts)
 
     pl = s.add_parser(
@@ -127,7 +131,7 @@ def register(sub) -> argparse.ArgumentParser:
         default="filament-ender5plus",
         help="printer for the PLA fixtures, for the bed-size check (default filament-ender5plus)",
     )
-    pl.add_argument("--json", action="store_true", help="print plan.json")
+    add_json_options(pl, "plan.json")
     pl.set_defaults(func=run_plan)
 
     f = s.add_parser(
@@ -140,8 +144,9 @@ def register(sub) -> argparse.ArgumentParser:
 
     r = s.add_parser("predict", help="expected stroke and dR at -10, -20, -40, -60 kPa")
     r.add_argument("design", help="design JSON, or a built-in example: contractor, bending, segment")
-    r.add_argument("--load", type=float, default=0.0, help="external load in g (default 0)")
-    r.add_argument("--json", action="store_true", help="print the prediction as JSON")
+    r.add_argument("--load-g", type=float, default=0.0, metavar="GRAMS", help="external load in g (default 0)")
+    add_deprecated(r, "--load", "--load-g", "load_g", type=float)
+    add_json_options(r, "the prediction")
     r.set_defaults(func=run_predict)
     return p
 
@@ -185,15 +190,14 @@ def run_calibrate(args) -> int:
     model = _calibration(args)
     data = model.to_dict()
     data["porosity_at_paper_heights"] = {f"{h:g}": float(model.porosity(h)) for h in PAPER_HEIGHTS_MM}
-    if args.save:
+    if args.out:
         text = (
             json.dumps({"format": "porosense-infoam-calibration", "version": 1, "model": model.to_dict()}, indent=2)
             + "\n"
         )
-        _write(args.save, lambda path: Path(path).write_text(text))
-    if args.json:
-        print(json.dumps(data, indent=2))
-    else:
+        _write(args.out, lambda path: write_text(path, text))
+    emit_json(data, args)
+    if not args.json:
         print(f"coil radius: Rc = {model.coil.a:.4f} H {model.coil.b:+.4f} mm (R^2 {model.coil.r2:.4f})")
         print(f"porosity: solid = {model.c_mm:.4f} N / (2 Rc + {model.nozzle_mm:g} {model.e_mm:+.4f}) (mm)")
         for h, phi in data["porosity_at_paper_heights"].items():
@@ -212,7 +216,7 @@ def _load_calibration(path):
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
     except (KeyError, TypeError, ValueError) as exc:
-        raise InputError(f"{path}: not a calibration written by 'infoam calibrate --save' ({exc!r})") from None
+        raise InputError(f"{path}: not a calibration written by 'infoam calibrate --out' ({exc!r})") from None
 
 
 def run_design(args) -> int:
@@ -238,9 +242,8 @@ def run_gcode(args) -> int:
         from porosense.infoam.preview import plot_toolpath
 
         _write(args.preview, lambda path: plot_toolpath(job, path))
-    if args.json:
-        print(json.dumps(job.to_dict(args.out), indent=2))
-    else:
+    emit_json(job.to_dict(args.out), args)
+    if not args.json:
         print("\n".join(job.summary()))
         print(f"wrote {args.out}" + (f" and {args.preview}" if args.preview else ""))
     return 0
@@ -268,9 +271,8 @@ def run_machines(args) -> int:
 
     if args.profile:
         m = load_machine(args.profile)
-        if args.json:
-            print(json.dumps(m.to_dict(), indent=2))
-        else:
+        emit_json(m.to_dict(), args)
+        if not args.json:
             e = m.extruder
             print(f"{m.name}: {m.description}")
             print(
@@ -280,9 +282,8 @@ def run_machines(args) -> int:
             print(f"  extruder {e.kind}, E unit {e.e_unit} = {m.mm3_per_e:.4g} mm^3 of melt")
         return 0
     names = list_machines()
-    if args.json:
-        print(json.dumps(names))
-    else:
+    emit_json(names, args)
+    if not args.json:
         for name in names:
             print(f"{name:22s} {load_machine(name).description}")
     return 0
@@ -300,9 +301,8 @@ def run_parts(args) -> int:
     out = _out_dir(args.out)
     parts = build_parts(names, machine)
     rows = [p.write(out) for p in parts]
-    if args.json:
-        print(json.dumps(rows, indent=2))
-    else:
+    emit_json(rows, args)
+    if not args.json:
         for r in rows:
             x, y, z = r["size_mm"]
             print(
@@ -323,9 +323,8 @@ def run_plan(args) -> int:
         _out_dir(args.out),
         fixture_machine=load_machine(args.fixture_machine),
     )
-    if args.json:
-        print(json.dumps(plan.to_dict(), indent=2))
-    else:
+    emit_json(plan.to_dict(), args)
+    if not args.json:
         print("\n".join(plan.summary()))
     return 0
 
@@ -341,11 +340,10 @@ def run_figures(args) -> int:
 def run_predict(args) -> int:
     from porosense.infoam import get_design, predict
 
-    if not 0 <= args.load <= 2000:
-        raise InputError(f"--load {args.load} g outside 0..2000 g")
-    pred = predict(get_design(args.design), load_g=args.load)
-    if args.json:
-        print(json.dumps(pred.to_dict(), indent=2))
-    else:
+    if not 0 <= args.load_g <= 2000:
+        raise InputError(f"--load-g {args.load_g:g} g outside 0..2000 g")
+    pred = predict(get_design(args.design), load_g=args.load_g)
+    emit_json(pred.to_dict(), args)
+    if not args.json:
         print("\n".join(pred.summary()))
     return 0

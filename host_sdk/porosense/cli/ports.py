@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import json
+
+from porosense.cli._data import add_json_options, emit_json
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -18,7 +19,7 @@ def register(sub) -> argparse.ArgumentParser:
         ),
         epilog="example: porosense ports --json",
     )
-    p.add_argument("--json", action="store_true", help="print the ports as a JSON list")
+    add_json_options(p, "the ports (a list)")
     p.set_defaults(func=run)
     return p
 
@@ -27,8 +28,8 @@ def run(args) -> int:
     from porosense.device.ports import list_ports
 
     ports = list_ports()
+    emit_json([p.to_dict() for p in ports], args)
     if args.json:
-        print(json.dumps([p.to_dict() for p in ports], indent=2))
         return 0
     if not ports:
         print("no serial ports found (for the emulator use: porosense emulator --listen tcp://127.0.0.1:5000)")

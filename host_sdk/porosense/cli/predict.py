@@ -5,8 +5,10 @@ from __future__ import annotations
 import argparse
 
 from porosense.cli._data import (
+    add_column_options,
     add_data_options,
     add_json_options,
+    bind_columns,
     emit_json,
     load_model_checked,
     model_period,
@@ -17,8 +19,7 @@ from porosense.cli._data import (
     say,
 )
 from porosense.errors import InputError, ModelError
-
-TIME_COLUMNS = ("t", "time", "t_s")
+from porosense.files import write_text
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -38,7 +39,10 @@ def register(sub) -> argparse.ArgumentParser:
         epilog="example: porosense predict --model model.json --data step_20.csv --out pred.csv --plot pred.png",
     )
     p.add_argument("--model", required=True, metavar="MODEL.json", help="model file")
-    p.add_argument("--data", required=True, metavar="FILE", help="CSV or .mat file with the model's input columns")
+    p.add_argument(
+        "--data", required=True, nargs="+", metavar="FILE", help="one CSV or .mat file with the model's input columns"
+    )
+    add_column_options(p)
     p.add_argument("--out", metavar="PRED.csv", help="write the predictions here (default: not written)")
     p.add_argument("--plot", metavar="FILE.png", help="plot measured and predicted output against time")
     p.add_argument(
@@ -56,19 +60,21 @@ def run(args) -> int:
     import numpy as np
 
     from porosense.data import time_column
-    from porosense.ident.scoring import format_percent, score_simulation
+    from porosense.ident.scoring import format_percent, model_outputs, score_simulation
 
     normalise_json_args(args)
     for opt in ("out", "plot"):
         if getattr(args, opt):
             output_file(getattr(args, opt), f"--{opt}")
+    if len(args.data) != 1:
+        raise InputError(f"--data names {len(args.data)} files; predict takes one (porosense compare scores many)")
+    args.data = args.data[0]
     model = load_model_checked(args.model)
     (table,) = read_tables([args.data], args)
-    require_columns(table, list(model.inputs))
-    if len(table) == 0:
-        raise InputError(f"{args.data}: no samples (only a header?)")
-    table.require_finite(list(model.inputs))
     ts = model_period([table], model, args)
+    bind_columns([table], args, model.inputs, model_outputs(model) if args.output else ())
+    require_columns(table, list(model.inputs))
+    table.require_finite(list(model.inputs))
     u = np.column_stack([table.columns[c] for c in model.inputs])
     from porosense.ident import ModelSet
 
@@ -85,7 +91,7 @@ def run(args) -> int:
             f"{args.model}: the simulation diverges on {args.data} "
             f"({int(np.sum(~np.isfinite(yhat)))} non-finite values)"
         )
-    outputs = [model.output] if hasattr(model, "output") else list(model.outputs)
+    outputs = model_outputs(model)
     scores = {}
     measured = [o for o in outputs if o in table.columns and np.all(np.isfinite(table.columns[o]))]
     if measured:
@@ -94,16 +100,14 @@ def run(args) -> int:
         scored = score_simulation(yhat[:, cols], np.column_stack([table.columns[o] for o in measured]), measured)
         scores = {o: {"fit": scored.fit[o], "rms": scored.rms[o]} for o in measured}
     tcol = time_column(table)
-    t = table.columns[tcol] if tcol else np.arange(len(table)) * ts
+    t = table.time if table.time is not None else np.arange(len(table)) * ts
     written = []
     if args.out:
         names = ([tcol] if tcol else []) + [f"{o}_pred" for o in outputs]
         cols = ([table.columns[tcol]] if tcol else []) + [yhat[:, j] for j in range(yhat.shape[1])]
         data = np.column_stack(cols)
-        with open(args.out, "w") as fh:
-            fh.write(",".join(names) + "\n")
-            for row in data:
-                fh.write(",".join(repr(float(v)) for v in row) + "\n")
+        rows = [",".join(names)] + [",".join(repr(float(v)) for v in row) for row in data]
+        write_text(args.out, "\n".join(rows) + "\n")
         written.append(str(args.out))
         say(args, f"{len(data)} samples of {', '.join(n for n in names if n.endswith('_pred'))} written to {args.out}")
     if args.plot:

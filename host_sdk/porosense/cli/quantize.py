@@ -5,6 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from porosense.cli._args import add_deprecated, add_legacy_positional, take_positional
+from porosense.cli._data import add_column_options, add_data_options, add_json_options
+from porosense.files import write_bytes, write_text
+
 
 def register(sub) -> argparse.ArgumentParser:
     p = sub.add_parser(
@@ -20,19 +24,21 @@ def register(sub) -> argparse.ArgumentParser:
             "(output unit per LSB). --data recordings set the input range and give the fit of the "
             "fixed-point reference against the float model and the data in the report."
         ),
-        epilog="example: porosense quantize model.json --out model.bin --report quant.json --data step_20.csv",
+        epilog="example: porosense quantize --model model.json --out model.bin --json-out quant.json --data step_20.csv",
     )
-    p.add_argument("model", metavar="MODEL.json", help="identified model file")
+    p.add_argument("--model", metavar="MODEL.json", help="identified model file (porosense identify --out)")
+    add_legacy_positional(p, "model")
     p.add_argument("--out", metavar="MODEL.bin", help="where to write the blob (default: MODEL.bin beside the model)")
-    p.add_argument("--report", metavar="R.json", help="write the quantization report as JSON")
+    add_deprecated(p, "--report", "--json-out", "report")
     p.add_argument("--header", metavar="MODEL.h", help="also write a C header with the coefficients")
     p.add_argument(
         "--data",
-        nargs="*",
+        nargs="+",
         default=[],
         metavar="FILE",
         help="recordings (CSV or .mat with the model's columns) for the range and the fit report",
     )
+    add_column_options(p, outputs=False)
     p.add_argument(
         "--input-range",
         nargs=2,
@@ -53,7 +59,8 @@ def register(sub) -> argparse.ArgumentParser:
         help="model store the blob is for: eeprom (776 B, shared by two models) or flash "
         "(1,016 B per slot; flash --store flash)",
     )
-    p.add_argument("--json", action="store_true", help="print the quantization report as JSON")
+    add_json_options(p, "the blob's facts and the quantization report")
+    add_data_options(p, ts_help="sample period of the data in s (default: the data's; checked against the model's)")
     p.set_defaults(func=run)
     return p
 
@@ -62,11 +69,23 @@ def run(args) -> int:
     import dataclasses
     import math
 
-    from porosense.cli._data import load_model_checked, output_file, read_tables, require_columns
+    from porosense.cli._data import (
+        bind_columns,
+        emit_json,
+        load_model_checked,
+        model_period,
+        normalise_json_args,
+        output_file,
+        read_tables,
+        require_columns,
+    )
     from porosense.errors import InputError, ModelError
     from porosense.quant import c_header, quantize
 
+    take_positional(args, "model", "--model")
+    normalise_json_args(args)
     args.out = args.out or str(Path(args.model).with_suffix(".bin"))
+    args.report = getattr(args, "report", None)  # the old spelling of --json-out (quantization report only)
     for opt in ("out", "report", "header"):
         if getattr(args, opt):
             output_file(getattr(args, opt), f"--{opt}")
@@ -85,6 +104,9 @@ def run(args) -> int:
             )
         structure = dataclasses.replace(structure, input_units=(args.input_unit,) * len(structure.inputs))
     tables = read_tables(args.data, args)
+    if tables:
+        model_period(tables, structure, args)
+        bind_columns(tables, args, structure.inputs)
     for table in tables:
         require_columns(table, list(structure.inputs))
         table.require_finite(list(structure.inputs))
@@ -101,29 +123,22 @@ def run(args) -> int:
         model_id=args.model_id,
         capacity=FLASH_BLOB_MAX if args.store == "flash" else MAX_BLOB_LEN,
     )
-    Path(args.out).write_bytes(result.to_bytes())
+    write_bytes(args.out, result.to_bytes())
     if args.report:
         result.report.to_json(args.report)
     if args.header:
-        Path(args.header).write_text(c_header(result.blob, Path(args.header).stem))
+        write_text(args.header, c_header(result.blob, Path(args.header).stem))
+    doc = {
+        "out": str(args.out),
+        "bytes": result.blob.length,
+        "crc": result.blob.crc,
+        "ts_us": result.blob.ts_us,
+        "input_lsb_percent": result.blob.input_lsb,
+        "model_id": result.blob.model_id,
+        "report": result.report.to_dict(),
+    }
+    emit_json(doc, args)
     if args.json:
-        import json
-
-        print(
-            json.dumps(
-                {
-                    "out": str(args.out),
-                    "bytes": result.blob.length,
-                    "crc": result.blob.crc,
-                    "ts_us": result.blob.ts_us,
-                    "input_lsb_percent": result.blob.input_lsb,
-                    "model_id": result.blob.model_id,
-                    "report": result.report.to_dict(),
-                },
-                indent=2,
-                default=float,
-            )
-        )
         return 0
     for line in result.report.lines():
         print(line)

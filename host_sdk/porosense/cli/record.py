@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
 
+from porosense.cli._args import add_deprecated
+from porosense.cli._data import add_json_options, emit_json
 from porosense.errors import InputError
 
 #: Host-timestamp alignment error with a live camera: a webcam's capture-to-delivery latency
@@ -69,8 +70,9 @@ def register(sub) -> argparse.ArgumentParser:
     )
     cal.add_argument("--pattern", default="9x6", metavar="CxR", help="inner corners (default 9x6)")
     cal.add_argument("--square-mm", type=float, default=None, help="checkerboard square size in mm")
-    p.add_argument("--no-progress", action="store_true", help="no progress bars")
-    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_deprecated(p, "--no-progress", "--quiet", "quiet", nargs=0)
+    add_json_options(p, "the result")
     p.set_defaults(func=run)
     return p
 
@@ -101,7 +103,7 @@ def run(args) -> int:
     layout = Layout.load(args.layout)
     calibration = Calibration.load(args.calibration) if args.calibration else None
     out = Path(args.out)
-    progress = not args.no_progress
+    progress = not args.quiet
     # Check the inputs before a long experiment runs.
     if args.video:
         open_video(args.video)[0].release()
@@ -157,9 +159,8 @@ def run(args) -> int:
         "track": track.to_dict(),
         "samples_without_truth": missing,
     }
-    if args.json:
-        print(json.dumps(result, indent=2, default=float))
-    else:
+    emit_json(result, args)
+    if not args.json:
         print(f"{track!r}")
         print(str(clock))
         if missing:
@@ -193,9 +194,8 @@ def _calibrate(args) -> int:
         images.append(img)
     cal = calibrate(images, (cols, rows), args.square_mm)
     path = cal.save(args.out)
-    if args.json:
-        print(json.dumps({"calibration": str(path), "rms_px": cal.rms_px}))
-    else:
+    emit_json({"calibration": str(path), "rms_px": cal.rms_px}, args)
+    if not args.json:
         print(f"calibrated from {len(images)} images: reprojection rms {cal.rms_px:.3f} px; wrote {path}")
     return 0
 

@@ -6,12 +6,16 @@ import argparse
 from pathlib import Path
 
 from porosense.cli._data import (
+    add_column_options,
     add_data_options,
     add_json_options,
+    bind_columns,
     emit_json,
     load_model_checked,
+    model_period,
     normalise_json_args,
     read_tables,
+    require_columns,
     say,
 )
 from porosense.errors import InputError
@@ -32,6 +36,7 @@ def register(sub) -> argparse.ArgumentParser:
         epilog="example: porosense report --data step_20.csv step_40.csv --model model.json --out report/",
     )
     p.add_argument("--data", nargs="+", required=True, metavar="FILE", help="recordings (CSV or .mat)")
+    add_column_options(p)
     p.add_argument(
         "--model",
         nargs="+",
@@ -56,6 +61,7 @@ def register(sub) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
+    from porosense.ident.scoring import model_outputs
     from porosense.report.user_report import write_user_report
 
     normalise_json_args(args)
@@ -78,10 +84,12 @@ def run(args) -> int:
     if len({tuple(m.inputs) for m in models.values()}) > 1:
         raise InputError("the models take different inputs; report models of one estimator together")
     tables = read_tables(args.data, args)
-    if any(t.ts for t in tables) or args.ts:
-        from porosense.data import resolve_ts
-
-        resolve_ts(tables, args.ts, args.ts_override)
+    for label, model in models.items():
+        model_period(tables, model, args, what=f"model {label}")
+    first = next(iter(models.values()))
+    bind_columns(tables, args, first.inputs, model_outputs(first))
+    for table in tables:
+        require_columns(table, list(first.inputs))
     page = write_user_report(tables, models, args.out, units=units, pressure=args.pressure, title=args.title)
     say(args, f"report written to {page}")
     emit_json(

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from porosense.cli._args import ACTUATORS
+from porosense.cli._args import ACTUATORS, add_deprecated
+from porosense.cli._data import add_json_options, emit_json
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -23,7 +24,7 @@ def register(sub) -> argparse.ArgumentParser:
         ),
         epilog=(
             "example: porosense simulate contractor --experiment step_60 --porosity 86 "
-            "--load 500 --rate 100 --seed 1 --out runs/"
+            "--load-g 500 --rate 50 --seed 1 --out runs/"
         ),
     )
     p.add_argument("actuator", choices=ACTUATORS, help="which actuator to simulate")
@@ -41,8 +42,9 @@ def register(sub) -> argparse.ArgumentParser:
         default=None,
         help="porosity in %% (60-90; default 82 contractor, 84 bending, 76 3dof)",
     )
-    p.add_argument("--load", type=float, default=0.0, help="hanging load in g (0-500, default 0)")
-    p.add_argument("--rate", type=float, default=100.0, help="sample rate in Hz (default 100)")
+    p.add_argument("--load-g", type=float, default=0.0, metavar="GRAMS", help="hanging load in g (0-500, default 0)")
+    add_deprecated(p, "--load", "--load-g", "load_g", type=float)
+    p.add_argument("--rate", type=float, default=50.0, metavar="HZ", help="sample rate in Hz (default 50)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
     p.add_argument(
         "--repeats", type=int, default=1, help="recordings per experiment with seeds seed, seed+1, ... (default 1)"
@@ -60,7 +62,7 @@ def register(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--no-noise", action="store_true", help="noiseless sensors (for checks)")
     p.add_argument("--out", default="recordings", help="output directory (created if needed; default recordings/)")
-    p.add_argument("--json", action="store_true", help="print the files written as JSON")
+    add_json_options(p, "the files written")
     p.set_defaults(func=run)
     return p
 
@@ -124,7 +126,7 @@ def run(args) -> int:
             args.actuator,
             name,
             porosity=args.porosity,
-            load_g=args.load,
+            load_g=args.load_g,
             rate_hz=args.rate,
             seed=seed,
             effects=effects,
@@ -142,8 +144,5 @@ def run(args) -> int:
             )
             if not args.json:
                 print(f"{path}  ({len(rec)} samples, {rec.duration:.1f} s)")
-    if args.json:
-        import json
-
-        print(json.dumps(listing, indent=2))
+    emit_json(listing, args)
     return 0

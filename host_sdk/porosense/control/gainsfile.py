@@ -13,6 +13,7 @@ from pathlib import Path
 from porosense.control.plant import Fopdt
 from porosense.control.tuning import PiGains
 from porosense.errors import InputError
+from porosense.files import write_text
 
 FORMAT = "porosense-control-gains"
 VERSION = 1
@@ -41,7 +42,7 @@ def save_gains(
         "predicted": predicted or {},
         "sources": [str(s) for s in sources],
     }
-    Path(path).write_text(json.dumps(doc, indent=1) + "\n")
+    write_text(path, json.dumps(doc, indent=1) + "\n")
     return doc
 
 

@@ -16,6 +16,7 @@ from porosense.boards import SIM_WATCHDOG_MS, open_board
 from porosense.control.metrics import StepMetrics, TrackingMetrics, step_metrics, tracking_metrics
 from porosense.control.tuning import PiGains
 from porosense.errors import DeviceError
+from porosense.files import save_figure
 
 #: Rest streamed before a constant target (s): the start of the step is measured there.
 LEAD_S = 1.0
@@ -108,7 +109,7 @@ def plot_run(rec, path, *, output: str = "strain_0", title: str = "closed-loop r
     ax2.set_ylabel("command (kPa)")
     ax2.set_xlabel("time (s)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 

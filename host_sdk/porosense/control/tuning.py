@@ -23,6 +23,7 @@ import numpy as np
 
 from porosense.control.plant import Fopdt
 from porosense.errors import InputError
+from porosense.files import save_figure
 
 RULE = (
     "lambda (IMC) tuning of a PI on the FOPDT: kp = T / (K (tau_cl + theta + Ts/2)), "
@@ -114,7 +115,7 @@ class StepPrediction:
         ax2.set_ylabel("vacuum command (kPa)")
         ax2.set_xlabel("time (s)")
         fig.tight_layout()
-        fig.savefig(path, dpi=110)
+        save_figure(fig, path, dpi=110)
         plt.close(fig)
 
 

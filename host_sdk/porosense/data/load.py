@@ -2,8 +2,8 @@
 
 Like MATLAB's ``iddata``: the signals come from a CSV of any common dialect or a ``.mat``
 file, and the sample period Ts (s) comes from the data when the data states it -- a time
-column (``t``, ``time``, ``t_s``), the JSON sidecar of a porosense recording, or a ``Ts``
-variable in a .mat file. A ``--ts`` given by the user must agree with it (within 1 %), unless
+column (``t``, ``time``, ``t_ms``, ...; its unit checked by :func:`check_sampling`), the JSON
+sidecar of a porosense recording, or a ``Ts`` variable in a .mat file. A ``--ts`` given by the user must agree with it (within 1 %), unless
 the user says to override it: a wrong Ts silently scales every time constant.
 """
 
@@ -13,97 +13,102 @@ import json
 import math
 from pathlib import Path
 
-import numpy as np
-
+from porosense.data.sampling import check_sampling
 from porosense.data.table import Table, read_table
 from porosense.errors import InputError
 
-TIME_COLUMNS = ("t", "time", "t_s", "Time")
 TS_TOLERANCE = 0.01  # relative disagreement accepted between --ts and the data's own Ts
 
 
-def _ts_from_sidecar(path: Path) -> float | None:
+def _sidecar(path: Path) -> dict:
     side = path.with_suffix(".json")
     if not side.is_file():
-        return None
+        return {}
     try:
         doc = json.loads(side.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError, OSError):
-        return None
-    meta = doc.get("meta", {}) if isinstance(doc, dict) else {}
+        return {}
+    return doc if isinstance(doc, dict) else {}
+
+
+def _ts_from_meta(meta) -> float | None:
     if not isinstance(meta, dict):
         return None
-    if isinstance(meta.get("ts"), (int, float)) and meta["ts"] > 0:
-        return float(meta["ts"])
-    if isinstance(meta.get("rate_hz"), (int, float)) and meta["rate_hz"] > 0:
-        return 1.0 / float(meta["rate_hz"])
+    ts, rate = meta.get("ts"), meta.get("rate_hz")
+    if isinstance(ts, (int, float)) and math.isfinite(ts) and ts > 0:
+        return float(ts)
+    if isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0:
+        return 1.0 / float(rate)
     return None
 
 
-def time_column(table: Table) -> str | None:
-    """Name of the table's time column (s), or None."""
-    return next((c for c in TIME_COLUMNS if c in table.columns), None)
-
-
-def _stated_ts(table: Table) -> tuple[float | None, str]:
-    """(Ts in s, where it came from) as the file states it, or (None, '')."""
-    tcol = time_column(table)
-    if tcol is not None and len(table) >= 2:
-        t = table.columns[tcol]
-        if np.all(np.isfinite(t)):
-            step = np.diff(t)
-            ts = float(np.median(step))
-            if ts > 0:
-                return ts, f"the '{tcol}' column of {table.path.name}"
-    if table.ts:
-        return table.ts, table.ts_source
-    side = _ts_from_sidecar(Path(table.path))
-    if side:
-        return side, f"{Path(table.path).with_suffix('.json').name}"
-    return None, ""
-
-
-def load_data(path, *, separator: str | None = None, decimal: str | None = None) -> Table:
+def load_data(
+    path,
+    *,
+    separator: str | None = None,
+    decimal: str | None = None,
+    time_unit: str | None = None,
+    resample: bool = False,
+    skip_rows: int = 0,
+    check: bool = True,
+) -> Table:
     """Read a recording (``.mat`` v5/v7.3, or a text table of any common dialect) as a Table.
 
-    The Table's ``ts``/``ts_source`` hold the sample period the file states (None when it
-    states none).
+    Parameters
+    ----------
+    path : str or Path
+        The file. A JSON sidecar beside it (``name.json``) adds units and metadata.
+    separator, decimal : str, optional
+        Override the detected CSV dialect.
+    time_unit : {'s', 'ms', 'us'}, optional
+        Unit of the time column (default: stated by the file or inferred, see check_sampling).
+    resample : bool
+        Interpolate a record with gaps or repeated stamps onto a uniform grid (else refused).
+    skip_rows : int
+        Lines to skip before a CSV's header.
+    check : bool
+        Check the time base with :func:`porosense.data.check_sampling` (default; off only for
+        tables that are not sampled records, such as a trajectory's way points).
+
+    Returns
+    -------
+    Table
+        Columns, ``ts``/``ts_source`` (the sample period in s the file states, None when it
+        states none), ``units``, ``meta``, ``time`` (the time column in s) and ``sampling``.
     """
     path = Path(path)
-    if path.suffix.lower() == ".mat":
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    if _is_matlab(path):
         from porosense.data.matfile import read_mat
 
         table = read_mat(path)
     else:
-        if path.is_file():
-            with open(path, "rb") as fh:
-                head = fh.read(128)
-            if head.startswith(b"MATLAB") or head[:8] == b"\x89HDF\r\n\x1a\n":
-                from porosense.data.matfile import read_mat
-
-                table = read_mat(path)
-                ts, source = _stated_ts(table)
-                table.ts, table.ts_source = ts, source
-                return table
-        table = read_table(path, separator=separator, decimal=decimal)
-    table.ts, table.ts_source = _stated_ts(table)
-    table.units, table.meta = _sidecar_units_meta(path)
+        table = read_table(path, separator=separator, decimal=decimal, skip_rows=skip_rows)
+    side = _sidecar(path)
+    units, meta = side.get("units", {}), side.get("meta", {})
+    if isinstance(units, dict) and units:
+        stated = {str(k): str(v) for k, v in units.items()}
+        table.units = {**stated, **table.units}  # the file's own units row wins over the sidecar
+        table.units_source = table.units_source or f"the sidecar {path.with_suffix('.json').name}"
+    table.meta = meta if isinstance(meta, dict) else {}
+    if not table.ts:
+        side_ts = _ts_from_meta(table.meta)
+        if side_ts:
+            table.ts, table.ts_source = side_ts, path.with_suffix(".json").name
+    if check:
+        check_sampling(table, time_unit=time_unit, resample=resample)
     return table
 
 
-def _sidecar_units_meta(path: Path) -> tuple[dict, dict]:
-    side = path.with_suffix(".json")
-    try:
-        doc = json.loads(side.read_text(encoding="utf-8")) if side.is_file() else {}
-    except (json.JSONDecodeError, UnicodeDecodeError, OSError):
-        return {}, {}
-    if not isinstance(doc, dict):
-        return {}, {}
-    units, meta = doc.get("units", {}), doc.get("meta", {})
-    return (
-        {str(k): str(v) for k, v in units.items()} if isinstance(units, dict) else {},
-        meta if isinstance(meta, dict) else {},
-    )
+def _is_matlab(path: Path) -> bool:
+    if path.suffix.lower() == ".mat":
+        return True
+    if not path.is_file():
+        return False
+    with open(path, "rb") as fh:
+        head = fh.read(520)
+    return head.startswith(b"MATLAB") or b"\x89HDF\r\n\x1a\n" in (head[:8], head[512:520])
 
 
 def resolve_ts(tables, ts: float | None, override: bool = False) -> float:

@@ -22,6 +22,7 @@ from porosense.data.table import Table
 from porosense.errors import InputError
 
 TS_NAMES = ("Ts", "ts", "dt", "Ts_s")
+TIME_UNIT_NAMES = ("TimeUnit", "time_unit", "t_unit", "Ts_unit")  # iddata's TimeUnit, saved as text
 SKIPPED = ("units", "meta", "recording_json")
 
 
@@ -77,6 +78,8 @@ def _read_v73(path: Path) -> dict:
             return {k: convert(node[k]) for k in node if not k.startswith("#")}
         cls = node.attrs.get("MATLAB_class", b"double")
         cls = cls.decode() if isinstance(cls, bytes) else str(cls)
+        if cls == "char" and node.dtype.kind in "iu" and not node.attrs.get("MATLAB_empty", 0):
+            return "".join(chr(int(c)) for c in np.asarray(node[()]).T.ravel())  # UTF-16 code units
         if cls in ("char", "cell", "function_handle") or node.dtype.kind not in "biuf":
             return None
         if node.attrs.get("MATLAB_empty", 0):
@@ -120,6 +123,8 @@ def read_mat(path) -> Table:
             "save the signals as vectors or a struct of vectors (MATLAB tables, timetables and "
             "iddata objects cannot be read: save(f, '-struct', 's') of their columns)"
         )
+    units = _text_fields(content.get("units"))
+    time_unit = next((str(content[k]) for k in TIME_UNIT_NAMES if isinstance(content.get(k), str)), None)
     lengths = [max(v.shape) for v in vectors.values()]
     n = max(set(lengths), key=lambda L: (lengths.count(L), L))
     # Signals stored as rows (k x N) read as columns.
@@ -129,9 +134,10 @@ def read_mat(path) -> Table:
     for name in vectors:
         base = name.rsplit(".", 1)[-1]
         short[name] = base if sum(1 for m in vectors if m.rsplit(".", 1)[-1] == base) == 1 else name
-    names, columns, groups = [], {}, {}
+    names, columns, groups, skipped = [], {}, {}, {}
     for name, v in vectors.items():
         if v.shape[0] != n:
+            skipped[short[name]] = f"{max(v.shape)} samples where the other variables have {n}"
             continue
         label = short[name]
         if v.shape[1] == 1:
@@ -152,5 +158,16 @@ def read_mat(path) -> Table:
         dialect=f"MATLAB {version} file",
         ts=ts,
         ts_source=f"variable Ts in {path.name}" if ts else "",
+        units={k: v for k, v in units.items() if k in columns or k == "t"},
+        units_source=f"the units struct in {path.name}" if units else "",
+        time_unit=time_unit,
+        skipped=skipped,
     )
     return table
+
+
+def _text_fields(value) -> dict:
+    """{field: text} of a struct of strings (a ``units`` struct), else {}."""
+    if not isinstance(value, dict):
+        return {}
+    return {str(k): str(v) for k, v in value.items() if isinstance(v, str)}

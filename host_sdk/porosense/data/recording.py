@@ -23,6 +23,7 @@ import numpy as np
 
 from porosense.data.table import read_table
 from porosense.errors import InputError
+from porosense.files import atomic_path, write_text
 
 FORMAT = "porosense.recording/1"
 
@@ -176,8 +177,8 @@ class Recording:
         ]
         lines = [",".join(names)]
         lines.extend(",".join(row) for row in zip(*as_text))
-        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-        path.with_suffix(".json").write_text(json.dumps(self._sidecar(), indent=1), encoding="utf-8")
+        write_text(path, "\n".join(lines) + "\n")
+        write_text(path.with_suffix(".json"), json.dumps(self._sidecar(), indent=1))
         return path
 
     @classmethod
@@ -225,7 +226,8 @@ class Recording:
         content["units"] = {k.replace(".", "_"): v for k, v in self.units.items()}
         content["meta"] = {k: v for k, v in self.meta.items() if isinstance(v, (int, float, str)) and k.isidentifier()}
         content["recording_json"] = json.dumps(self._sidecar())
-        savemat(path, content, do_compression=True, oned_as="column")
+        with atomic_path(path) as tmp:
+            savemat(tmp, content, do_compression=True, oned_as="column")
         return path
 
     @classmethod

@@ -42,6 +42,11 @@ class Table:
     ts_source: str = ""  # where ts came from
     units: dict = field(default_factory=dict)  # column -> unit, when the file states them
     meta: dict = field(default_factory=dict)  # the sidecar's metadata (porosity, load_g, ...)
+    units_source: str = ""  # where the units came from ("the units row", "the sidecar", ...)
+    time_unit: str | None = None  # unit of a stated Ts without a time column (a .mat TimeUnit)
+    time: np.ndarray | None = field(default=None, repr=False)  # the time column in s (check_sampling)
+    sampling: object = field(default=None, repr=False)  # the Sampling check_sampling found
+    skipped: dict = field(default_factory=dict)  # variables left out, name -> why (.mat files)
 
     def __len__(self) -> int:
         return len(next(iter(self.columns.values()))) if self.columns else 0
@@ -168,6 +173,8 @@ def sniff_dialect(lines: list[str]) -> Dialect:
         cells = [c.strip().strip('"') for ln in body for c in split(ln)]
         if any(_DECIMAL_COMMA.match(c) for c in cells):
             decimal = ","
+    elif any(_DECIMAL_COMMA.match(c) for row in csv.reader(body) for c in row):
+        decimal = ","  # quoted decimal commas with comma separators: "0,01","1,5"
     first = [c.strip().strip('"') for c in split(sample[0]) if c.strip()]
     if decimal == ",":
         first = [c.replace(",", ".") for c in first]
@@ -180,6 +187,12 @@ def _normalise(text: str, dialect: Dialect) -> str:
     if dialect.separator == "," and dialect.decimal == ".":
         return text
     out = []
+    if dialect.separator == "," and dialect.decimal == ",":
+        # Decimal commas inside quoted cells ("1,5","2,25"): the csv module keeps quotes apart.
+        for ln in text.splitlines():
+            cells = next(csv.reader([ln]), [])
+            out.append(",".join(c.strip().replace(",", ".") for c in cells))
+        return "\n".join(out) + "\n"
     for ln in text.splitlines():
         if dialect.decimal == ",":
             ln = ln.replace(",", ".")
@@ -188,55 +201,97 @@ def _normalise(text: str, dialect: Dialect) -> str:
     return "\n".join(out) + "\n"
 
 
+def _blank_skipped(text: str, skip_rows: int, comment: str | None) -> str:
+    """``text`` with its first ``skip_rows`` lines and its comment lines blanked (line numbers kept)."""
+    lines = text.split("\n")
+    for k, ln in enumerate(lines):
+        if k < skip_rows or (comment and ln.lstrip().startswith(comment)):
+            lines[k] = ""
+    return "\n".join(lines)
+
+
+def _units_row(cells: list[str]) -> bool:
+    """A row of units under the header: some text, and no cell that reads as a number."""
+    texts = [c.strip().strip('"') for c in cells]
+    return any(texts) and not any(_NUMBER.match(c) or _DECIMAL_COMMA.match(c) for c in texts if c)
+
+
 def _parse_cell(text: str) -> float:
     text = text.strip()
     return float(text) if text else _NAN
 
 
-def read_table(path, *, separator: str | None = None, decimal: str | None = None) -> Table:
+def read_table(
+    path,
+    *,
+    separator: str | None = None,
+    decimal: str | None = None,
+    skip_rows: int = 0,
+    comment: str | None = "#",
+) -> Table:
     """Read the numeric text table at ``path`` into a :class:`Table`.
 
     The dialect is sniffed (:func:`sniff_dialect`): comma, semicolon, tab or whitespace
     separators, decimal commas, with or without a header row (without one, columns are
     named ``col1, col2, ...`` as MATLAB's readtable does with ``Var1``). ``separator`` and
-    ``decimal`` override the guess. Raises :class:`InputError` for an absent or empty file,
-    a row with the wrong number of cells, or a cell that is not a number; the message names
-    file, line, column and the dialect that was read.
+    ``decimal`` override the guess (a comma separator with a decimal comma needs the numbers
+    quoted: ``"1,5","2,25"``). The first ``skip_rows`` lines and lines starting with
+    ``comment`` are skipped; a row of units right under the header (no cell a number) fills
+    ``Table.units``. Raises :class:`InputError` for an absent, binary or empty file, a row with
+    the wrong number of cells, or a cell that is not a number; the message names file, line,
+    column and the dialect that was read.
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        raw = path.read_bytes()
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
+    except IsADirectoryError:
+        raise InputError(f"{path}: a folder, not a file") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read ({exc.strerror or type(exc).__name__})") from None
+    if b"\x00" in raw[:4096]:
         raise InputError(
-            f"{path}: cannot read as text (a binary file? MATLAB files need the .mat suffix): {type(exc).__name__}"
+            f"{path}: a binary file, not a recording (--data takes CSV or MATLAB .mat files"
+            f"{'; a .bin is a model blob from quantize' if path.suffix.lower() == '.bin' else ''})"
+        )
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(
+            f"{path}: byte {exc.start} is not UTF-8 text: not a CSV (save it as UTF-8 text, or as a .mat file)"
         ) from None
-    guess = sniff_dialect(text.splitlines()[:51])
+    if skip_rows < 0:
+        raise InputError(f"--skip-rows {skip_rows}: give a count of lines >= 0")
+    text = _blank_skipped(text, skip_rows, comment)
+    guess = sniff_dialect(text.splitlines()[: 51 + skip_rows])
     dialect = Dialect(
         separator if separator is not None else guess.separator,
         decimal if decimal is not None else guess.decimal,
         guess.header,
     )
-    if dialect.decimal == "," and dialect.separator == ",":
-        raise InputError(f"{path}: decimal commas need another separator (';' or tab); pass --separator")
     seen = dialect.describe()
     hint = "; pass --separator and --decimal if this is not how the file is written"
     text = _normalise(text, dialect)
     if not dialect.header:
-        first = next((ln for ln in text.splitlines() if ln.strip()), "")
+        first_at = next((k for k, ln in enumerate(text.splitlines()) if ln.strip()), 0)
+        first = text.splitlines()[first_at] if text.strip() else ""
         n = len(first.split(","))
-        text = ",".join(f"col{k}" for k in range(1, n + 1)) + "\n" + text
+        lines_ = text.split("\n")
+        lines_.insert(first_at, ",".join(f"col{k}" for k in range(1, n + 1)))
+        text = "\n".join(lines_)
     rows = csv.reader(io.StringIO(text))
+    line_shift = 0 if dialect.header else -1  # the header we added is not in the file
     try:
         header = next(rows)
+        while not header:  # blank, comment or skipped lines above the header
+            header = next(rows)
     except StopIteration:
         raise InputError(f"{path}: empty file, expected a header row") from None
     except csv.Error as exc:
-        raise InputError(f"{path}: line 1: {exc}") from None
-    line_shift = 0 if dialect.header else -1  # the header we added is not in the file
+        raise InputError(f"{path}: line {rows.line_num}: {exc}") from None
     if not any(c.strip() for c in header):
-        raise InputError(f"{path}: line 1: empty header row")
+        raise InputError(f"{path}: line {rows.line_num + line_shift}: empty header row")
     # A trailing comma in the header leaves one empty cell: it names nothing.
     trailing_empty = len(header) > 1 and not header[-1].strip()
     width = len(header)
@@ -245,11 +300,15 @@ def read_table(path, *, separator: str | None = None, decimal: str | None = None
 
     data: list[list[float]] = []
     lines: list[int] = []
+    units: dict[str, str] = {}
     try:
         for row in rows:
             line = rows.line_num + line_shift
             if not row or (len(row) == 1 and not row[0].strip()):
                 continue  # blank line
+            if not data and not units and dialect.header and _units_row(row[:n_named]):
+                units = {n: c.strip().strip('"') for n, c in zip(names, row[:n_named]) if c.strip().strip('"')}
+                continue
             if len(row) not in (width, n_named) and not (len(row) == width + 1 and not row[-1].strip()):
                 raise InputError(
                     f"{path}: line {line}: expected {n_named} cells, found {len(row)} (read as {seen}{hint})"
@@ -261,9 +320,10 @@ def read_table(path, *, separator: str | None = None, decimal: str | None = None
                     try:
                         _parse_cell(cell)
                     except ValueError:
+                        tip = "; pass --decimal ," if _DECIMAL_COMMA.match(cell) else hint
                         raise InputError(
                             f"{path}: line {line}, column {col} ('{names[col - 1]}'): "
-                            f"'{cell.strip()}' is not a number (read as {seen}{hint})"
+                            f"'{cell.strip()}' is not a number (read as {seen}{tip})"
                         ) from None
                 raise
             if trailing_empty and len(row) == width and row[-1].strip():
@@ -275,4 +335,13 @@ def read_table(path, *, separator: str | None = None, decimal: str | None = None
 
     array = np.array(data, dtype=float).reshape(len(data), n_named)
     columns = {name: np.ascontiguousarray(array[:, k]) for k, name in enumerate(names)}
-    return Table(path=path, names=names, columns=columns, groups=groups, lines=np.array(lines, dtype=int), dialect=seen)
+    return Table(
+        path=path,
+        names=names,
+        columns=columns,
+        groups=groups,
+        lines=np.array(lines, dtype=int),
+        dialect=seen,
+        units=units,
+        units_source="the units row" if units else "",
+    )

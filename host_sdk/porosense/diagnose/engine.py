@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import json
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -48,6 +47,7 @@ from porosense.diagnose import extensions, signals, stats
 from porosense.diagnose.catalogue import CAUSES, EXPRESSIBLE, NONE
 from porosense.dsp.metrics import fit_percent, rms_percent
 from porosense.errors import InputError
+from porosense.files import write_text
 
 
 @dataclass
@@ -142,7 +142,7 @@ class Diagnosis:
         return {"top": self.top, "findings": [f.to_dict() for f in self.findings], "ties": self.ties}
 
     def to_json(self, path) -> None:
-        Path(path).write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        write_text(path, json.dumps(self.to_dict(), indent=2) + "\n")
 
     def finding(self, cause: str) -> Finding:
         return next(f for f in self.findings if f.cause == cause)

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from porosense.files import save_figure, write_text
+
 
 def _plt():
     import matplotlib
@@ -47,7 +49,7 @@ def write_figures(diag, directory, unit: str = "output unit") -> list:
     axes[1].legend()
     fig.tight_layout()
     paths.append(d / "correlations.png")
-    fig.savefig(paths[-1], dpi=110)
+    save_figure(fig, paths[-1], dpi=110)
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(6, 4))
@@ -63,7 +65,7 @@ def write_figures(diag, directory, unit: str = "output unit") -> list:
     ax.legend()
     fig.tight_layout()
     paths.append(d / "level_direction.png")
-    fig.savefig(paths[-1], dpi=110)
+    save_figure(fig, paths[-1], dpi=110)
     plt.close(fig)
 
     sp = cv["spectrum"]
@@ -74,7 +76,7 @@ def write_figures(diag, directory, unit: str = "output unit") -> list:
     ax.legend()
     fig.tight_layout()
     paths.append(d / "spectrum.png")
-    fig.savefig(paths[-1], dpi=110)
+    save_figure(fig, paths[-1], dpi=110)
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(10, 4))
@@ -88,7 +90,7 @@ def write_figures(diag, directory, unit: str = "output unit") -> list:
     ax.legend(fontsize=8)
     fig.tight_layout()
     paths.append(d / "fits.png")
-    fig.savefig(paths[-1], dpi=110)
+    save_figure(fig, paths[-1], dpi=110)
     plt.close(fig)
     return paths
 
@@ -125,5 +127,5 @@ def write_report(diag, directory, title: str = "Diagnosis", unit: str = "output 
     d = Path(directory)
     write_figures(diag, d, unit)
     path = d / "summary.md"
-    path.write_text(summary_markdown(diag, title))
+    write_text(path, summary_markdown(diag, title))
     return path

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from porosense.files import write_bytes, write_text
+
 
 def control_blocks(model) -> dict:
     """``{output: {"h1[input]": TransferFunction, "h2": ..., "f[input]"/"g": {"x": [...], "y": [...]}}}``.
@@ -44,7 +46,7 @@ def write_control(model, path) -> Path:
     path = Path(path)
     blocks = control_blocks(model)
     if path.suffix in (".pkl", ".pickle"):
-        path.write_bytes(pickle.dumps(blocks))
+        write_bytes(path, pickle.dumps(blocks))
         return path
     doc = {
         "format": "porosense.control/1",
@@ -52,5 +54,5 @@ def write_control(model, path) -> Path:
         "inputs": list(model.inputs),
         "outputs": {o: {k: (_tf_dict(v) if hasattr(v, "num") else v) for k, v in b.items()} for o, b in blocks.items()},
     }
-    path.write_text(json.dumps(doc, indent=1))
+    write_text(path, json.dumps(doc, indent=1))
     return path

@@ -22,6 +22,7 @@ import numpy as np
 
 from porosense.dsp import laguerre_bank, play_operator
 from porosense.errors import InputError, ModelError
+from porosense.files import write_text
 
 FORMAT = "porosense.ident.extended"
 FORMAT_VERSION = 1
@@ -170,7 +171,7 @@ class ExtendedModel:
 
     def save(self, path) -> Path:
         path = Path(path)
-        path.write_text(json.dumps(self.to_dict(), indent=1, allow_nan=False))
+        write_text(path, json.dumps(self.to_dict(), indent=1, allow_nan=False))
         return path
 
     def __repr__(self) -> str:

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from porosense.errors import InputError, ModelError
+from porosense.files import write_text
 from porosense.ident import estimate
 from porosense.ident.blocks import sos_rows
 from porosense.ident.chain import Chain, ChainSpec
@@ -639,7 +640,7 @@ class ModelSet:
 def save_models(models, path) -> Path:
     path = Path(path)
     doc = {"format": FORMAT, "version": FORMAT_VERSION, "models": [m.to_dict() for m in models]}
-    path.write_text(json.dumps(doc, indent=1, allow_nan=False))
+    write_text(path, json.dumps(doc, indent=1, allow_nan=False))
     return path
 
 

@@ -12,6 +12,7 @@ import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from porosense.files import write_text
 from porosense.infoam.design import get_design
 from porosense.infoam.gcode import PrintSettings, generate
 from porosense.infoam.parts import SLEEVE_MM, build_parts
@@ -105,5 +106,5 @@ def build_plan(actuator: str, machine: Machine, folder, fixture_machine: Machine
         )
     for name, n in SUPPLIES:
         plan.items.append(BuildItem(name.split(",")[0], "supply", "-", n * bodies, name))
-    (folder / "plan.json").write_text(json.dumps(plan.to_dict(), indent=2) + "\n")
+    write_text(folder / "plan.json", json.dumps(plan.to_dict(), indent=2) + "\n")
     return plan

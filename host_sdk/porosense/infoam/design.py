@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from porosense.errors import InputError
+from porosense.files import write_text
 
 #: Porosity (%) up to which a region is printed with conventional lines instead of coils.
 BULK_LIMIT_PCT = 50.0
@@ -187,7 +188,7 @@ class Design:
 
     def save(self, path) -> Path:
         path = Path(path)
-        path.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        write_text(path, json.dumps(self.to_dict(), indent=2) + "\n")
         return path
 
     @classmethod

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from porosense.files import save_figure
 from porosense.infoam import design as D
 from porosense.infoam.parts import SLEEVE_MM, build_part, cup_inner_diameter
 
@@ -357,7 +358,7 @@ def parts_overview(path=None):
 
 def _save(fig, path, dpi: int = 120):
     if path is not None:
-        fig.savefig(Path(path), dpi=dpi)
+        save_figure(fig, Path(path), dpi=dpi)
         _plt().close(fig)
     return fig
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from porosense.errors import InputError
+from porosense.files import write_text
 from porosense.infoam.calibration import PorosityModel, paper_calibration
 from porosense.infoam.design import Design, Region
 from porosense.infoam.profiles import DEFAULT_MACHINE, Machine, Material, load_machine, load_material
@@ -167,8 +168,7 @@ class PrintJob:
         }
 
     def write(self, path) -> None:
-        with open(path, "w") as fh:
-            fh.write(self.gcode)
+        write_text(path, self.gcode)
 
 
 def plan_region(region: Region, s: PrintSettings) -> RegionPlan:

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from porosense.files import save_figure
 from porosense.infoam.gcode import PrintJob
 
 
@@ -41,6 +42,6 @@ def plot_toolpath(job: PrintJob, path=None):
     fig.colorbar(cm.ScalarMappable(norm=norm, cmap=cmap), ax=(side, top), label="target porosity (%)", shrink=0.8)
     fig.suptitle(f"{job.design.name}: nozzle paths of extruding moves")
     if path is not None:
-        fig.savefig(Path(path), dpi=130)
+        save_figure(fig, Path(path), dpi=130)
         plt.close(fig)
     return fig

@@ -6,6 +6,7 @@ import json
 from dataclasses import asdict, dataclass, field
 
 from porosense.dsp.metrics import fit_percent  # noqa: F401  (part of quant's API)
+from porosense.files import write_text
 
 
 @dataclass
@@ -80,8 +81,7 @@ class QuantReport:
     def to_json(self, path=None) -> str:
         text = json.dumps(self.to_dict(), indent=2, default=float)
         if path is not None:
-            with open(path, "w") as fh:
-                fh.write(text + "\n")
+            write_text(path, text + "\n")
         return text
 
     def lines(self) -> list[str]:

@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 
 from porosense.errors import InputError
+from porosense.files import write_text
 
 
 @dataclass
@@ -48,7 +49,7 @@ class Calibration:
 
     def save(self, path) -> Path:
         path = Path(path)
-        path.write_text(json.dumps(self.to_dict(), indent=1), encoding="utf-8")
+        write_text(path, json.dumps(self.to_dict(), indent=1))
         return path
 
     @classmethod

@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
 from porosense.errors import InputError
+from porosense.files import write_text
 
 REGIONS = ("stripes", "marker", "indicator", "reference")
 
@@ -67,7 +68,7 @@ class Layout:
 
     def save(self, path) -> Path:
         path = Path(path)
-        path.write_text(json.dumps(self.to_dict(), indent=1), encoding="utf-8")
+        write_text(path, json.dumps(self.to_dict(), indent=1))
         return path
 
     def to_dict(self) -> dict:

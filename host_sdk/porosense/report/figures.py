@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from porosense.files import save_figure
+
 # A fixed colour per model structure so every figure of a report agrees.
 STRUCTURE_COLOURS = {"linear": "#7f7f7f", "hammerstein": "#1f77b4", "wiener": "#2ca02c", "wh": "#d62728"}
 
@@ -66,7 +68,7 @@ def _finish(fig, path):
     if path is not None:
         import json
 
-        fig.savefig(Path(path), dpi=110, metadata={LABELS_KEY: json.dumps(figure_labels(fig))})
+        save_figure(fig, Path(path), dpi=110, metadata={LABELS_KEY: json.dumps(figure_labels(fig))})
         _plt().close(fig)
     return fig
 

@@ -15,6 +15,8 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from porosense.files import write_text
+
 
 @dataclass
 class DataTable:
@@ -127,7 +129,7 @@ def write_report(
                 "",
             ]
     md_path = directory / f"{name}.md"
-    md_path.write_text("\n".join(md))
+    write_text(md_path, "\n".join(md))
 
     parts = [
         "<!DOCTYPE html>",
@@ -167,5 +169,5 @@ def write_report(
     )
     parts.append("</body></html>")
     html_path = directory / f"{name}.html"
-    html_path.write_text("\n".join(parts))
+    write_text(html_path, "\n".join(parts))
     return md_path, html_path

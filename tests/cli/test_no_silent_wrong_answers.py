@@ -1,0 +1,201 @@
+"""The mistakes that used to end with exit 0 and a wrong result (issue 32), each as a user makes it.
+
+Every refusal is checked for its exit code, one line on stderr naming the problem, and that no
+output file was written (or an existing one changed). The recordings come from an independent
+generator: a first-order lag (pole 0.9) of a random staircase, with noise, at 50 Hz.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from porosense import ident
+from porosense.cli import main
+
+RATE_HZ = 50.0
+
+
+def _signals(n=1500, seed=5):
+    from scipy import signal
+
+    rng = np.random.default_rng(seed)
+    u = np.repeat(rng.uniform(-80, 0, n // 50), 50)
+    y = signal.lfilter([0.03], [1, -0.9], -u) + rng.normal(0, 0.02, n)
+    return u, y
+
+
+def _write(path, t, u, y, header="t,dR_0,strain_0", units_row=None):
+    lines = [header] + ([units_row] if units_row else [])
+    lines += [f"{a!r},{b!r},{c!r}" for a, b, c in zip(np.asarray(t, float).tolist(), u.tolist(), y.tolist())]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.fixture(scope="module")
+def work(tmp_path_factory):
+    d = tmp_path_factory.mktemp("silent")
+    u, y = _signals()
+    t = np.arange(len(u)) / RATE_HZ
+    _write(d / "run.csv", t, u, y)
+    _write(d / "run_ms.csv", t * 1000, u, y)
+    _write(d / "run_time_ms.csv", t * 1000, u, y, header="time_ms,dR_0,strain_0")
+    _write(d / "run_20hz.csv", np.arange(len(u)) / 20.0, u, y)
+    gap = t.copy()
+    gap[900:] += 0.2
+    _write(d / "gap.csv", gap, u, y)
+    dup = np.insert(t, 700, t[700])
+    _write(d / "dup.csv", dup, np.insert(u, 700, u[700]), np.insert(y, 700, y[700]))
+    _write(d / "const.csv", t, np.full_like(u, -20.0), y)
+    (d / "header_only.csv").write_text("t,dR_0,strain_0\n")
+    m = ident.make_model("linear", n_poles=1, n_zeros=0).fit(
+        u=u[:, None], y=y, ts=1 / RATE_HZ, inputs=("dR_0",), output="strain_0"
+    )
+    m.save(d / "model.json")
+    return d
+
+
+def _run(capsys, argv):
+    rc = main([str(a) for a in argv])
+    cap = capsys.readouterr()
+    return rc, cap.out, cap.err.strip()
+
+
+def _identify(d, data, out, *extra):
+    return ["identify", "--data", *data, "--input", "dR_0", "--output", "strain_0"] + [
+        "--structure",
+        "linear",
+        "--poles",
+        "1",
+        "--zeros",
+        "0",
+        "--out",
+        out,
+        *extra,
+    ]
+
+
+@pytest.mark.parametrize("name", ["run_ms.csv", "run_time_ms.csv"])
+def test_time_in_ms_makes_a_50_hz_model_and_a_50_hz_blob(work, capsys, name):
+    out = work / f"m_{name}.json"
+    rc, text, err = _run(capsys, _identify(work, [work / name], out))
+    assert rc == 0, err
+    assert "in ms" in text  # the unit used is stated
+    assert json.loads(out.read_text())["models"][0]["ts"] == pytest.approx(1 / RATE_HZ)
+    rc, text, err = _run(capsys, ["quantize", "--model", out, "--out", work / f"{name}.bin"])
+    assert rc == 0 and "50 Hz" in text, err
+
+
+@pytest.mark.parametrize(
+    "data,extra,words",
+    [
+        ("gap.csv", [], ["line 902", "gap of 0.22 s", "--resample"]),
+        ("dup.csv", [], ["line 703", "repeats", "--resample"]),
+        ("header_only.csv", [], ["no data rows"]),
+        ("const.csv", [], ["input 'dR_0' is constant at -20", "16-bit"]),
+        ("run.csv", ["--input", "strain_0"], ["both an input and an output"]),
+    ],
+)
+def test_identify_refuses_and_writes_nothing(work, capsys, data, extra, words):
+    out = work / "refused.json"
+    argv = _identify(work, [work / data], out)
+    if extra:
+        argv[argv.index("--input") + 1] = extra[1]
+    rc, _, err = _run(capsys, argv)
+    assert rc == 2 and len(err.splitlines()) == 1, err
+    assert all(w in err for w in words), err
+    assert not out.exists()
+
+
+def test_resample_fills_the_gap_and_says_so(work, capsys):
+    out = work / "resampled.json"
+    rc, text, err = _run(capsys, _identify(work, [work / "gap.csv"], out, "--resample"))
+    assert rc == 0, err
+    assert "resampled 1500 samples onto 1510 at 20 ms" in text and out.is_file()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["predict", "--model", "{d}/model.json", "--data", "{d}/run_20hz.csv"],
+        ["compare", "--model", "{d}/model.json", "--data", "{d}/run_20hz.csv"],
+        ["report", "--model", "{d}/model.json", "--data", "{d}/run_20hz.csv", "--out", "{d}/rep20"],
+        ["quantize", "--model", "{d}/model.json", "--data", "{d}/run_20hz.csv", "--out", "{d}/q20.bin"],
+        ["diagnose", "--model", "{d}/model.json", "--data", "{d}/run_20hz.csv"]
+        + ["--input", "dR_0", "--output", "strain_0", "--out", "{d}/diag20"],
+    ],
+    ids=lambda a: a[0],
+)
+def test_a_50_hz_model_on_20_hz_data_is_refused_everywhere(work, capsys, argv):
+    argv = [a.replace("{d}", str(work)) for a in argv]
+    rc, _, err = _run(capsys, argv)
+    assert rc == 2 and len(err.splitlines()) == 1, err
+    assert "50 Hz" in err and "20 Hz" in err, err
+    for path in ("rep20", "q20.bin", "diag20"):
+        assert not (work / path).exists()
+
+
+def test_data_without_time_takes_the_models_period_and_says_so(work, capsys):
+    u, y = _signals()
+    (work / "notime.csv").write_text(
+        "dR_0,strain_0\n" + "\n".join(f"{a!r},{b!r}" for a, b in zip(u.tolist(), y.tolist())) + "\n"
+    )
+    rc, text, err = _run(capsys, ["predict", "--model", work / "model.json", "--data", work / "notime.csv"])
+    assert rc == 0, err
+    assert "no time column" in text and "taking the model's 20 ms (50 Hz)" in text
+
+
+def test_one_fit_number_from_predict_compare_and_report(work, capsys):
+    """The same model on the same file: the same fit to the printed digit, everywhere."""
+    rc, text, err = _run(capsys, ["predict", "--model", work / "model.json", "--data", work / "run.csv", "--json"])
+    assert rc == 0, err
+    fit_predict = json.loads(text)["scores"]["strain_0"]["fit"]
+    rc, text, err = _run(capsys, ["compare", "--model", work / "model.json", "--data", work / "run.csv", "--json"])
+    fit_compare = json.loads(text)["per_file"][0]["strain_0"]["fit"]
+    rc2, text2, err2 = _run(
+        capsys, ["report", "--model", work / "model.json", "--data", work / "run.csv", "--out", work / "rep1"]
+    )
+    assert rc == 0 and rc2 == 0, err + err2
+    table1 = (work / "rep1" / "report.md").read_text()
+    assert fit_predict == pytest.approx(fit_compare, abs=1e-12)
+    assert f"{fit_predict:.2f}" in table1 or f"{fit_predict:.1f}" in table1
+    assert 0 < fit_predict < 100  # a real score: the generator's noise keeps it below 100
+
+
+def test_binary_file_and_unequal_mat_vectors_are_named(work, capsys, tmp_path):
+    from tests.data.matlab_files import write_mat_v5
+
+    (tmp_path / "model.bin").write_bytes(bytes(range(256)))
+    rc, _, err = _run(capsys, ["predict", "--model", work / "model.json", "--data", tmp_path / "model.bin"])
+    assert rc == 2 and "binary file" in err and "UnicodeDecodeError" not in err
+    write_mat_v5(tmp_path / "r.mat", {"t": np.arange(100) * 0.02, "dR_0": np.ones(100), "strain_0": np.ones(99)})
+    rc, _, err = _run(capsys, ["compare", "--model", work / "model.json", "--data", tmp_path / "r.mat"])
+    assert rc == 2 and "'strain_0' has 99 samples where the other variables have 100" in err, err
+
+
+def test_verify_reads_a_mat_file(work, capsys, tmp_path):
+    """verify reads .mat data like every command (it used to say 'MATLAB files need the .mat suffix')."""
+    from tests.data.matlab_files import write_mat_v5
+
+    u, y = _signals(400)
+    write_mat_v5(tmp_path / "x.mat", {"t": np.arange(400) / RATE_HZ, "dR_0": u, "strain_0": y})
+    assert main(["quantize", "--model", str(work / "model.json"), "--out", str(tmp_path / "m.bin")]) == 0
+    capsys.readouterr()
+    rc, _, err = _run(
+        capsys,
+        ["verify", "--port", "socket://127.0.0.1:1", "--model", tmp_path / "m.bin", "--data", tmp_path / "x.mat"],
+    )
+    assert rc == 3 and "MATLAB" not in err, err  # the data were read; the absent board is what failed
+
+
+def test_quoted_decimal_commas_units_row_and_comments(work, capsys, tmp_path):
+    u, y = _signals(600)
+    rows = [f'"{k / RATE_HZ:.2f}","{a:.4f}","{b:.4f}"'.replace(".", ",") for k, (a, b) in enumerate(zip(u, y))]
+    (tmp_path / "eu.csv").write_text("# logger export\nt,dR_0,strain_0\ns,%,%\n" + "\n".join(rows) + "\n")
+    rc, text, err = _run(
+        capsys, ["predict", "--model", work / "model.json", "--data", tmp_path / "eu.csv", "--decimal", ","]
+    )
+    assert rc == 0, err
+    assert "units row" in text and "fit" in text

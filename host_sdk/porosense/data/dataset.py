@@ -20,9 +20,7 @@ from porosense.data.sampling import SECONDS_PER, unit_of
 from porosense.errors import InputError
 
 
-def _matrix(values, what: str) -> np.ndarray | None:
-    if values is None:
-        return None
+def _matrix(values, what: str) -> np.ndarray:
     a = np.asarray(values, dtype=float)
     if a.ndim == 1:
         a = a[:, None]
@@ -61,7 +59,7 @@ class Dataset:
 
     def __post_init__(self):
         self.u = _matrix(self.u, "u")
-        self.y = _matrix(self.y, "y")
+        self.y = None if self.y is None else _matrix(self.y, "y")
         unit = unit_of(self.time_unit)
         if unit is None:
             raise InputError(f"time_unit {self.time_unit!r}: give s, ms or us")

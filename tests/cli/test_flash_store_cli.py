@@ -159,7 +159,7 @@ def test_flash_store_needs_a_board_that_reads_it(paper_blob, capsys, monkeypatch
 
     monkeypatch.setattr(HelloInfo, "from_message", classmethod(without_flash_store))
     with Emulator("3dof", proto_version=(2, 1)) as emu:
-        code = main(["flash", "--port", emu.url, str(path), "--store", "flash", "--hex-out", str(hex_out)])
+        code = main(["flash", "--port", emu.url, "--model", str(path), "--store", "flash", "--hex-out", str(hex_out)])
     err = capsys.readouterr().err.strip()
     assert code == 3 and len(err.splitlines()) == 1 and "does not say" in err, err
     assert not hex_out.exists()

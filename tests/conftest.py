@@ -11,7 +11,6 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 SHARED_DATA = Path(os.environ.get("POROSENSE_SHARED_DATA", ROOT.parent / "shared" / "data"))
-IN_CI = bool(os.environ.get("CI"))
 
 
 @pytest.fixture(scope="session")

@@ -7,7 +7,6 @@ Every conformance test takes ``dev`` (an open Device on a freshly reset board) a
 
 from __future__ import annotations
 
-import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +20,6 @@ from porosense.protocol._messages import CONFIG_SPECS, ConfigKey  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 ELF = ROOT / "firmware" / "build" / "porosense.elf"
-IN_CI = bool(os.environ.get("CI"))
 ACTUATOR = "contractor"
 
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import importlib.util
 import json
-import os
 import sys
 from functools import cache
 from pathlib import Path
@@ -77,6 +76,3 @@ def candidates_in_chunk(chunk: bytes, overlong: bool = False) -> int:
     """How many of the suffixes the decoder tries in a bad chunk are plausible but for the CRC."""
     first = 0 if overlong else 1
     return sum(plausible_except_crc(chunk[s:]) for s in range(first, len(chunk) - framing.MIN_ENCODED_LEN + 1))
-
-
-IN_CI = bool(os.environ.get("CI"))

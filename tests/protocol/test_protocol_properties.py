@@ -1,6 +1,8 @@
 """Property tests of the Python codec (hypothesis, derandomized: the same cases every run).
 
-Default runs keep the example counts small; the slow-marked twins run many more.
+Default runs keep the example counts small; the slow-marked twins run ten times more (600: a
+property that fails on 1 % of inputs is found with probability 1 - 0.99^600 = 99.8 %), the
+same count in CI and on any machine.
 """
 
 from __future__ import annotations
@@ -9,7 +11,7 @@ import pytest
 from cobs import cobs
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from protocol_testing import IN_CI, catalogue, flip_burst, vectors
+from protocol_testing import catalogue, flip_burst, vectors
 
 from porosense.protocol import MESSAGES, FrameDecoder, encode_frame, encode_message
 from porosense.protocol.framing import CRC_LEN, HEADER_LEN
@@ -17,7 +19,7 @@ from porosense.protocol.framing import CRC_LEN, HEADER_LEN
 FAST = settings(
     max_examples=60, derandomize=True, database=None, deadline=None, suppress_health_check=[HealthCheck.too_slow]
 )
-SLOW = settings(FAST, max_examples=600 if IN_CI else 3000)
+SLOW = settings(FAST, max_examples=600)
 
 INT_RANGES = {
     "u8": (0, 0xFF),

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import time
 
+from porosense.control.loadbench import HOLD_S, TARGETS, run_loads
+
 GOAL_RATIO = 1.0 / 3.0
 
 
@@ -23,7 +25,6 @@ MODEL_LOADS = {"0 g estimator": (0.0,), "0 + 500 g estimator": (0.0, 500.0)}
 
 
 def _variant(name: str, size: str) -> tuple[dict, list[str]]:
-    from porosense.control.loadbench import run_loads
 
     res = run_loads(size, model_loads=MODEL_LOADS[name])
     setup = res["setup"]
@@ -61,7 +62,6 @@ def _variant(name: str, size: str) -> tuple[dict, list[str]]:
 
 
 def run(size: str = "full") -> dict:
-    from porosense.control.loadbench import HOLD_S, TARGETS
 
     t0 = time.perf_counter()
     lines = [

@@ -14,7 +14,17 @@ from __future__ import annotations
 import statistics
 import time
 
+import numpy as np
+
+from porosense.device import Device
+from porosense.emulator import BoardCore, Emulator
+from porosense.firmware.files import elf_path
+from porosense.protocol import _messages as m
+from porosense.protocol import encode_message
 from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
+from porosense.quant import quantize
+from porosense.sim import make_plant
+from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade
 
 SIZES = {
     "small": {"samples": 4000, "pings": 200, "sim_s": 2.0},
@@ -47,8 +57,6 @@ def _stream(dev, n: int, rate_hz: int) -> dict:
 
 
 def emulator_figures(size: str) -> dict:
-    from porosense.device import Device
-    from porosense.emulator import Emulator
 
     cfg = SIZES[size]
     with Emulator(actuator="contractor", seed=0) as emu, Device.open(emu.url) as dev:
@@ -59,10 +67,6 @@ def emulator_figures(size: str) -> dict:
 
 def board_cpu_figures(size: str) -> dict:
     """Samples per CPU second of BoardCore.sample with a model loaded (best of 3 runs)."""
-    from porosense.emulator import BoardCore
-    from porosense.protocol import _messages as m
-    from porosense.protocol import encode_message
-    from porosense.sim import make_plant
 
     blob = _one_output_blob()
     n = SIZES[size]["samples"]
@@ -83,11 +87,7 @@ def board_cpu_figures(size: str) -> dict:
 
 def _one_output_blob() -> bytes:
     """A one-output WH blob (f, 2nd-order H1, g, 2nd-order H2) from porosense.quant."""
-    import numpy as np
     from scipy import signal
-
-    from porosense.quant import quantize
-    from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade
 
     f = PiecewiseLinear(np.array([-1.0, -0.5, 0.0, 0.5]), np.array([-0.8, -0.45, 0.0, 0.4]))
     g = PiecewiseLinear(np.array([-2.0, -0.5, 0.0, 1.0]), np.array([40.0, 12.0, 0.0, -5.0]))
@@ -107,12 +107,10 @@ def simboard_figures(size: str) -> dict | None:
         from porosense.simboard import SimBoard
     except ImportError:
         return None
-    from porosense.firmware.files import elf_path
 
     elf = elf_path()
     if not elf.is_file():
         return None
-    from porosense.device import Device
 
     cfg = SIZES[size]
     with SimBoard(elf=str(elf), actuator="contractor") as board:

@@ -24,7 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from porosense import ident
 from porosense.bench import hidden_effects as he
+from porosense.diagnose import Record, diagnose
 
 BENCH_SEED = 20261124
 DEV_SEED = 7000
@@ -65,7 +67,6 @@ def fit_nominal(u: np.ndarray, y: np.ndarray, ts: float, order: int):
     The record is prefixed by its first input held for n_pre samples (simulated, not scored:
     ``skip``), n_pre at least 10 time constants of the identified model's slowest pole.
     """
-    from porosense import ident
 
     n_pre = 200
     for _ in range(3):
@@ -97,7 +98,6 @@ class TrialResult:
 
 def diagnose_trial(trial, **kwargs):
     """Identify the nominal model on ``trial`` and diagnose it; returns the Diagnosis."""
-    from porosense.diagnose import Record, diagnose
 
     est, val = trial.estimation, trial.validation
     model, n_pre = fit_nominal(est["u"], est["y"], trial.ts, trial.nominal_order)

@@ -22,8 +22,15 @@ import subprocess
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+import numpy as np
+
 from porosense.firmware.files import elf_path, source_tree
+from porosense.firmware.flash_store import upload
+from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
 from porosense.protocol.model_layout import MAX_BLOB_LEN
+from porosense.quant.design import design_blob
+from porosense.quant.quantize import quantize
+from porosense.quant.random_models import random_structure
 
 _TREE = source_tree()
 FIRMWARE_DIR = _TREE / "firmware" if _TREE else None  # None: installed, nothing to rebuild
@@ -160,10 +167,6 @@ def estimator_cycles() -> dict:
 def worst_case_blob():
     """The issue's worst case: 3 inputs x 3 outputs, 10 poles in every H1 and H2, 16
     breakpoints in every f and g. Too large for the EEPROM, so it is measured from flash."""
-    import numpy as np
-
-    from porosense.quant.design import design_blob
-    from porosense.quant.random_models import random_structure
 
     s = random_structure(np.random.default_rng(1), 3, 3, h1_poles=10, h2_poles=10, breakpoints=16, kind="wh")
     blob, _ = design_blob(s, [(-100.0, 100.0)] * 3, 0.01, 1, [])
@@ -173,10 +176,6 @@ def worst_case_blob():
 def heaviest_storable_blob(seed: int = 1) -> bytes:
     """The most expensive model a flash store slot holds (1,016 bytes): the first of
     FLASH_HEAVY_CANDIDATES that fits (3 x 3 WH, 10 + 10 poles, 3 breakpoints: 1,129 bytes)."""
-    import numpy as np
-
-    from porosense.quant.quantize import quantize
-    from porosense.quant.random_models import random_structure
 
     for h1, h2, bp in FLASH_HEAVY_CANDIDATES:
         s = random_structure(np.random.default_rng(seed), 3, 3, h1_poles=h1, h2_poles=h2, breakpoints=bp, kind="wh")
@@ -190,7 +189,6 @@ def heaviest_storable_blob(seed: int = 1) -> bytes:
 def store_in_flash(board, dev, blob: bytes) -> None:
     """Upload ``blob`` into the simboard's flash model store (the slot not running) and check
     that it runs."""
-    from porosense.firmware.flash_store import upload
 
     _, info = upload(dev, blob, board.program_flash)
     if not (info.valid and info.store == "flash" and info.length == len(blob)):
@@ -201,10 +199,6 @@ def heavy_model_blob(seed: int = 1) -> bytes:
     """The most expensive model that fits the EEPROM model area (776 bytes): 3 inputs x
     3 outputs, Wiener-Hammerstein with 4 poles in every H1 and H2 and 6 breakpoints in every
     f and g, or the next smaller candidate that fits (2 + 2 poles: 733 bytes)."""
-    import numpy as np
-
-    from porosense.quant.quantize import quantize
-    from porosense.quant.random_models import random_structure
 
     blob = b""
     for h1, h2, bp in ((4, 4, 6), (4, 2, 6), (2, 2, 6)):
@@ -274,7 +268,6 @@ RATE_CONFIGS = (
 def advertised_max_rate_hz() -> int:
     """SAMPLE_RATE_HZ maximum of the protocol catalogue: what HELLO-era hosts and the
     firmware (START_STREAM, CONFIG_SET) accept."""
-    from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
 
     return int(CONFIG_SPECS[ConfigKey.SAMPLE_RATE_HZ].max)
 

@@ -33,7 +33,8 @@ from pathlib import Path
 import numpy as np
 from scipy import signal
 
-from porosense.ident import Linear, fit_percent, search
+from porosense.data import read_table
+from porosense.ident import Linear, WienerHammerstein, fit_percent, rmse, search
 from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade
 
 FS_HZ = 50.0
@@ -186,7 +187,6 @@ def scaling_benchmark(size: str) -> dict:
 
 
 def _test_rmse(model, u, y, skip=0, periodic=False):
-    from porosense.ident import rmse
 
     if periodic:  # one steady-state period: simulate two, score the second
         n = len(y)
@@ -214,7 +214,6 @@ def _real_search(us, ys, vus, vys, ts, skip):
 def _noise_level_benchmark(us, ys, ts, skip, tu, ty) -> dict:
     """WH with the process-noise level measured from the realisations' two periods (6 poles /
     3 zeros, 10 breakpoints, the default 200 evaluations) against linear 6 poles / 5 zeros."""
-    from porosense.ident import Linear, WienerHammerstein
 
     t0, c0 = time.perf_counter(), _cpu()
     lin = Linear(n_poles=6, n_zeros=5, skip=skip).fit(u=us, y=ys, ts=ts)
@@ -236,7 +235,6 @@ def _noise_level_benchmark(us, ys, ts, skip, tu, ty) -> dict:
 
 def real_data_benchmark() -> dict:
     """Measured benchmarks: test RMSE of the selected and of the best linear model."""
-    from porosense.data import read_table
 
     folder = shared_data_folder()
     if folder is None:

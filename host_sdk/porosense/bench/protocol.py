@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from porosense.firmware.files import source_tree
+from porosense.protocol import FrameDecoder, Sample, encode_message
 
 BAUD = 115200
 BITS_PER_BYTE = 10  # 8N1: start bit, 8 data bits, stop bit
@@ -46,7 +47,6 @@ class ProtocolBenchResult:
 
 
 def _samples(n: int):
-    from porosense.protocol import Sample
 
     return [
         Sample(
@@ -64,7 +64,6 @@ def _samples(n: int):
 
 def sample_frame_bytes() -> int:
     """Largest SAMPLE frame on the wire over extreme contents (all 0x00, no 0x00, mixed)."""
-    from porosense.protocol import Sample, encode_message
 
     cases = [
         Sample(),
@@ -83,7 +82,6 @@ def sample_frame_bytes() -> int:
 
 
 def _python_rates(n: int) -> tuple[float, float]:
-    from porosense.protocol import FrameDecoder, encode_message
 
     samples = _samples(min(n, 1024))
     t0 = time.perf_counter()
@@ -141,7 +139,6 @@ def _avr_cycles() -> tuple[dict | None, str]:
 
 def run(size: str = "small") -> dict:
     """Run the benchmark; returns the figures as a dict with a ``summary`` of lines."""
-    from porosense.protocol import Sample
 
     if size not in SIZES:
         raise ValueError(f"size must be one of {sorted(SIZES)}")

@@ -7,17 +7,22 @@ reference speed and the AVR cycle count of the estimator step (simavr).
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from porosense.errors import ModelError
+from porosense.firmware import avr_cycles
+from porosense.protocol.model_blob import MAX_BLOB_LEN
+from porosense.quant import FixedPointEstimator, quantize
+from porosense.quant.design import design_blob
+from porosense.quant.random_models import random_structure, step_inputs
+from porosense.structure import PiecewiseLinear, SOSCascade
 
 CYCLE_BUDGET = 48_000
 
 
 def _fit_figures(n_models: int, n_samples: int) -> dict:
-    from porosense.quant import quantize
-    from porosense.quant.random_models import random_structure, step_inputs
 
     losses, fixed_vs_float, sats = [], [], 0
     kinds = ("linear", "hammerstein", "wiener", "wh")
@@ -43,17 +48,12 @@ def _fit_figures(n_models: int, n_samples: int) -> dict:
 
 
 def _worst_case_structure():
-    from porosense.quant.random_models import random_structure
 
     return random_structure(np.random.default_rng(1), 3, 3, h1_poles=10, h2_poles=10, breakpoints=16, kind="wh")
 
 
 def _largest_fitting(structure):
     """The worst-case structure cut to the largest uniform orders that fit the EEPROM."""
-    from dataclasses import replace
-
-    from porosense.quant import quantize
-    from porosense.structure import PiecewiseLinear, SOSCascade
 
     def cut(s1, s2, bp):
         outs = []
@@ -82,10 +82,6 @@ def _largest_fitting(structure):
 def _most_sections_that_fit():
     """The storable model with the most sections (the device's real cycle worst case): 3x3 with
     H1 and H2 but no tables, H2 then H1 cut until the blob fits."""
-    from dataclasses import replace
-
-    from porosense.quant import quantize
-    from porosense.quant.random_models import random_structure
 
     # H2 cut first, then H1, until the blob fits the model area (776 B since the controller's
     # gains and trajectory took the top of the EEPROM).
@@ -105,10 +101,6 @@ def _most_sections_that_fit():
 
 
 def run(size: str = "small") -> dict:
-    from porosense.firmware import avr_cycles
-    from porosense.protocol.model_blob import MAX_BLOB_LEN
-    from porosense.quant import FixedPointEstimator, quantize
-    from porosense.quant.design import design_blob
 
     full = size == "full"
     out: dict = {"size": size}
@@ -175,7 +167,6 @@ def run(size: str = "small") -> dict:
 
 
 def _one_output():
-    from porosense.quant.random_models import random_structure
 
     return random_structure(np.random.default_rng(3), 1, 1, h1_poles=6, h2_poles=2, breakpoints=10, kind="wh")
 

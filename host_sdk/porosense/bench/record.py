@@ -15,6 +15,10 @@ from pathlib import Path
 import numpy as np
 
 from porosense.errors import InputError
+from porosense.record.layout import Layout
+from porosense.record.sync import fit_clock
+from porosense.record.tracker import track_video
+from porosense.record.truth import add_truth
 
 RENDERER = Path(__file__).resolve().parents[3] / "tests" / "record" / "render.py"
 
@@ -32,10 +36,6 @@ def load_renderer():
 
 def measure(scene) -> dict:
     """Track ``scene`` (a rendered video) and compare with its truth; figures as a dict."""
-    from porosense.record.layout import Layout
-    from porosense.record.sync import fit_clock
-    from porosense.record.tracker import track_video
-    from porosense.record.truth import add_truth
 
     layout = Layout(**scene.layout)
     track = track_video(scene.video, layout)

@@ -12,9 +12,11 @@ import time
 
 import numpy as np
 
+from porosense.sim import make_plant, run_experiment
+from porosense.sim.analysis import fit_power_law, hold_mean, normalised_loop_area, release_overshoots
+
 
 def _speed(repeats: int) -> dict:
-    from porosense.sim import make_plant, run_experiment
 
     names = ["step_10", "step_20", "step_40", "step_60", "staircase"]
     run_experiment("contractor", "step_10")  # warm-up (imports, caches)
@@ -48,8 +50,6 @@ def _speed(repeats: int) -> dict:
 
 
 def _figures() -> dict:
-    from porosense.sim import run_experiment
-    from porosense.sim.analysis import fit_power_law, hold_mean, normalised_loop_area, release_overshoots
 
     porosities = [68, 76, 82, 86]
     strain, dr, strain_500 = [], [], []

@@ -21,10 +21,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from porosense.boards import open_board
 from porosense.control.metrics import step_metrics
 from porosense.control.plant import Fopdt, fit_fopdt
+from porosense.control.runner import prepare_board
+from porosense.control.session import check_not_vented, run_closed_loop, run_open_loop
 from porosense.control.staticmap import StaticMap, static_map
 from porosense.control.tuning import DEFAULT_TAU_CL_S, PiGains, board_tau_cl, lambda_pi
+from porosense.ident import WienerHammerstein, fit_percent
+from porosense.quant import quantize
+from porosense.sim import run_experiment
+from porosense.sim.schedules import Schedule
+from porosense.sim.steady import steady_state
 
 OUTPUT = "strain_0"
 LOADS_G = (0.0, 200.0, 500.0)
@@ -58,9 +66,6 @@ def identify_setup(
     ``model_loads`` (g): the loads of the recordings the on-board estimator is identified on
     (each the same three estimation experiments, new seeds); the plant, the gains and the open
     loop's static map stay those of 0 g."""
-    from porosense.ident import WienerHammerstein, fit_percent
-    from porosense.quant import quantize
-    from porosense.sim import run_experiment
 
     t0 = time.perf_counter()
     ts = 1.0 / rate_hz
@@ -92,7 +97,6 @@ def identify_setup(
 
 def map_schedule(step_kpa: float = MAP_STEP_KPA, hold_s: float = MAP_HOLD_S, top_kpa: float = 60.0):
     """Holds at 0, step, 2 step, ... top kPa of vacuum, ``hold_s`` each, after a 5 s rest."""
-    from porosense.sim.schedules import Schedule
 
     levels = np.arange(step_kpa, top_kpa + 1e-9, step_kpa)
     changes = tuple((5.0 + i * hold_s, -float(v)) for i, v in enumerate(levels))
@@ -102,7 +106,6 @@ def map_schedule(step_kpa: float = MAP_STEP_KPA, hold_s: float = MAP_HOLD_S, top
 
 def measure_static_map(rate_hz: int, seed: int = 0, load_g: float = 0.0) -> StaticMap:
     """The settled true strain at each hold of :func:`map_schedule` on the simulated contractor."""
-    from porosense.sim import run_experiment
 
     rec = run_experiment("contractor", map_schedule(), load_g=load_g, rate_hz=rate_hz, seed=seed)
     return static_map([(rec.t, -rec["p_cmd_0"], rec[OUTPUT])])
@@ -133,9 +136,6 @@ def steady_errors(rec, segments, hold_s, lead_s=1.0, *, board_timed: bool = Fals
 
 def measure_load(setup: Setup, load_g: float, targets, hold_s: float, *, seed: int = 0, port: str = "emulator") -> dict:
     """Closed and open loop for one load on a fresh simulated board; errors against the truth."""
-    from porosense.boards import open_board
-    from porosense.control.runner import prepare_board
-    from porosense.control.session import check_not_vented, run_closed_loop, run_open_loop
 
     segs = _segments(targets, hold_s)
     vac = [float(setup.smap.vacuum_for(v)) for v in targets]
@@ -205,7 +205,6 @@ def load_floor(targets, load_g: float, *, step_kpa: float = 0.25) -> list[float]
     target under the load, and the true strain there. Independent of the controller and of the
     identified model: it is the share of the error that the load's effect on the resistance
     (contacts held open, porosense.sim.piezo load_contact_coupling) puts beyond feedback."""
-    from porosense.sim.steady import steady_state
 
     ps = np.arange(0.0, 80.0 + 1e-9, step_kpa)
     m0 = np.array([[steady_state("contractor", vacuum_kpa=-p)[k] for k in ("strain_pct", "dR_pct")] for p in ps])

@@ -14,8 +14,10 @@ import numpy as np
 
 from porosense.boards import SIM_WATCHDOG_MS, open_board
 from porosense.control.metrics import StepMetrics, TrackingMetrics, step_metrics, tracking_metrics
+from porosense.control.session import run_closed_loop
 from porosense.control.tuning import PiGains
-from porosense.errors import DeviceError
+from porosense.device import ControlGains
+from porosense.errors import DeviceError, InputError
 from porosense.files import save_figure
 
 #: Rest streamed before a constant target (s): the start of the step is measured there.
@@ -114,10 +116,27 @@ def plot_run(rec, path, *, output: str = "strain_0", title: str = "closed-loop r
 
 
 def prepare_board(dev, *, simulated: bool, model: bytes | None, gains: PiGains | None) -> tuple[int, float]:
-    """Flash ``model`` (setting the board's rate to it), calibrate R0 on a simulated board, send
-    ``gains``; returns (rate Hz, out_scale of output 0)."""
-    from porosense.device import ControlGains
+    """Make a board ready for a control run.
 
+    Parameters
+    ----------
+    dev : Device
+        The board.
+    simulated : bool
+        A simulated board: calibrate R0 at rest and set the longest link watchdog.
+    model : bytes or None
+        A model blob to flash first (the board's rate is set to the model's); None keeps the
+        board's model.
+    gains : PiGains or None
+        Gains to send; None keeps the board's.
+
+    Returns
+    -------
+    rate_hz : int
+        The board's sample rate (Hz).
+    out_scale : float
+        Output units per estimate LSB of output 0.
+    """
     dev.hello()
     if model is not None:
         dev.check_model_rate(model, set_rate=True)
@@ -131,8 +150,6 @@ def prepare_board(dev, *, simulated: bool, model: bytes | None, gains: PiGains |
         # pause of this computer would be seconds of board time, past the 1 s default. RAM only.
         dev.set_watchdog(SIM_WATCHDOG_MS)
     if gains is not None:
-        from porosense.errors import InputError
-
         try:
             dev.set_control_gains(ControlGains(gains.kp_kpa, gains.ki_kpa_per_s, gains.slew_per_s))
         except InputError as exc:
@@ -144,9 +161,20 @@ def prepare_board(dev, *, simulated: bool, model: bytes | None, gains: PiGains |
 
 
 def execute_run(req: RunRequest, log=print) -> RunResult:
-    """Run ``req`` (see :class:`RunRequest`) and measure it."""
-    from porosense.control.session import run_closed_loop
+    """Run a control request on the board it names and measure it.
 
+    Parameters
+    ----------
+    req : RunRequest
+        The board, the target or trajectory, the gains and the model.
+    log : callable
+        Receives one line before the run.
+
+    Returns
+    -------
+    RunResult
+        The recording and its metrics against the truth (simulated boards) or the estimate.
+    """
     with open_board(req.port, load_g=req.load_g, seed=req.seed) as board:
         dev, truth = board.device, board.truth
         rate, scale = prepare_board(dev, simulated=board.simulated, model=req.model, gains=req.gains)

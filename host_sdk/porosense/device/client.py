@@ -19,6 +19,7 @@ from collections.abc import Iterator, Sequence
 
 import numpy as np
 
+from porosense.device import control
 from porosense.device.link import SerialLink
 from porosense.device.results import (
     DeviceStatus,
@@ -29,7 +30,7 @@ from porosense.device.results import (
     Sample,
     SampleBlock,
 )
-from porosense.errors import DeviceError
+from porosense.errors import DeviceError, ModelError
 from porosense.protocol import (
     MESSAGES,
     FrameDecoder,
@@ -42,6 +43,9 @@ from porosense.protocol import (
 )
 from porosense.protocol import _messages as m
 from porosense.protocol._messages import VERSION_BYTE, ConfigKey
+from porosense.protocol.model_blob import ModelBlob
+from porosense.protocol.model_blob import blob_crc as crc
+from porosense.protocol.model_layout import FLASH_BLOB_MAX
 
 DEFAULT_BAUD = 115200
 MODEL_CHUNK_BYTES = 112
@@ -308,7 +312,6 @@ class Device:
         erases the running model first (the board has none until the write completes), None (the
         default) does the same with a warning. ``validate=False`` sends the blob as it is (to test
         the device's own checks)."""
-        from porosense.errors import ModelError
         from porosense.protocol.model_blob import ModelBlob, blob_crc
 
         blob = bytes(blob)
@@ -356,9 +359,6 @@ class Device:
 
         A mismatch raises ModelError, or with ``set_rate`` sets and saves the board's
         SAMPLE_RATE_HZ to the model's rate (which must be a whole number of Hz)."""
-        from porosense.errors import ModelError
-        from porosense.protocol.model_blob import ModelBlob
-        from porosense.protocol.model_layout import FLASH_BLOB_MAX
 
         model = ModelBlob.from_bytes(bytes(blob), max_length=FLASH_BLOB_MAX)  # either store's
         board = self.sample_rate_hz()
@@ -508,7 +508,6 @@ class Device:
         units per second). Quantised to the board's fixed point for the running model and the
         sample rate (the stream's, else SAMPLE_RATE_HZ); ``save`` stores them on the board
         (versioned, CRC) for AUTOSTART 2. Needs a valid model (DeviceError otherwise)."""
-        from porosense.device import control
 
         gains = control.per_channel(gains)
         scale, crc = self._control_model()
@@ -522,7 +521,6 @@ class Device:
     def control_gains(self):
         """The gains on the board, per channel, as quantised there (porosense.device.ControlGains,
         in the model's output units)."""
-        from porosense.device import control
 
         r = self._exchange(m.ControlGainsGet())
         scale, crc = self._control_model()
@@ -535,7 +533,6 @@ class Device:
 
     def _refresh_gains(self) -> tuple[float, ...]:
         """Resend the host's gains when the model or the rate changed since they were sent."""
-        from porosense.device import control
 
         scale, crc = self._control_model()
         rate = self._control_rate_hz()
@@ -565,7 +562,6 @@ class Device:
         Needs a valid model and streaming with estimates (NakError NO_MODEL / BAD_STATE); a
         target outside the model's output range is refused (NakError OUT_OF_RANGE). Arms the
         host-link watchdog like set_outputs: keep sending commands (e.g. ping)."""
-        from porosense.device import control
 
         scale = self._refresh_gains() or (1.0,) * 3
         self._control_start(0, control.to_lsb(targets, scale, int(channels)), channels)
@@ -574,7 +570,6 @@ class Device:
         """Store piecewise-linear targets on the board: ``t_s`` (n,) increasing from 0 (s),
         ``targets`` (n,) or (n, 3) in output units; chunked and CRC-checked, kept over resets
         (a torn write keeps the previous one). ``repeat`` loops it. Not while streaming."""
-        from porosense.device import control
 
         scale, _ = self._control_model()
         if not scale:
@@ -795,6 +790,5 @@ def _config_key(key) -> int:
 def blob_crc(blob: bytes) -> int:
     """The CRC that identifies a model blob (MODEL_BEGIN.crc, MODEL_INFO.crc): see
     porosense.protocol.model_blob.blob_crc, the one routine for it."""
-    from porosense.protocol.model_blob import blob_crc as crc
 
     return crc(blob)

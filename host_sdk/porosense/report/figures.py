@@ -6,10 +6,12 @@ closed. Units are the caller's column units, passed in the labels.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
 
+from porosense.dsp.metrics import fit_percent
 from porosense.files import save_figure
 
 # A fixed colour per model structure so every figure of a report agrees.
@@ -75,7 +77,6 @@ def _finish(fig, path):
 
 def read_labels(path) -> dict:
     """The labels :func:`_finish` stored in the PNG at ``path`` ({} when it holds none)."""
-    import json
 
     from PIL import Image
 
@@ -105,7 +106,6 @@ def plot_reconstruction(
     """Measured output against each model's estimate over time (s), like the paper's
     reconstruction figures. ``estimates`` maps a model name to its simulated output; the
     legend (beside the axes) gives each model's NRMSE fit in %."""
-    from porosense.dsp.metrics import fit_percent
 
     plt = _plt()
     fig, ax = plt.subplots(figsize=(9.5, 3.6), layout="constrained")
@@ -127,7 +127,6 @@ def plot_compare(
 ):
     """MATLAB's ``compare``: one panel per output, measured (when known) and predicted against
     time (s), the fit (%) in the legend. ``measured``/``predicted`` map output names to arrays."""
-    from porosense.dsp.metrics import fit_percent
 
     plt = _plt()
     names = list(predicted)

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from porosense.files import write_text
+from porosense.report.figures import read_labels
 
 
 @dataclass
@@ -101,7 +102,6 @@ STYLE = (
 
 
 def _labels(path: Path) -> dict:
-    from porosense.report.figures import read_labels
 
     return read_labels(path)
 

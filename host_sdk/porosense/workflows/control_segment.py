@@ -14,7 +14,9 @@ import numpy as np
 from porosense.boards import SIM_WATCHDOG_MS
 from porosense.control.metrics import step_metrics, tracking_metrics
 from porosense.control.plant import fit_fopdt
+from porosense.control.session import VENT_FLAGS, run_closed_loop
 from porosense.control.tuning import DEFAULT_TAU_CL_S, board_tau_cl, lambda_pi, predict_step
+from porosense.device import ControlGains
 
 #: Targets as fractions of the largest output recorded, each held HOLD_S.
 FRACTIONS = (0.35, 0.7, 0.5)
@@ -56,12 +58,36 @@ class DemoControl:
 
 
 def run_segment(dev, truth, recs: dict, output: str, out_scale: float, rate_hz: int, log=print):
-    """Tune on ``recs`` (name -> Recording with p_cmd_0 and ``output``), set the gains on ``dev``
-    and run the steps; returns (DemoControl, run Recording)."""
+    """Tune PI gains on the demo's recordings, send them and run a few targets on the board.
+
+    Parameters
+    ----------
+    dev : Device
+        The board, running the demo's model.
+    truth : TruthSource or None
+        True outputs by device time (a simulated board; its watchdog is then set to
+        SIM_WATCHDOG_MS), else None.
+    recs : dict of str to Recording
+        Recordings with the vacuum command ``p_cmd_0`` (kPa) and ``output``.
+    output : str
+        The controlled output (``strain_0`` in %, ``curvature`` in 1/m).
+    out_scale : float
+        Output units per estimate LSB of the board's model.
+    rate_hz : int
+        Sample rate (Hz).
+    log : callable
+        Receives the segment's lines.
+
+    Returns
+    -------
+    control : DemoControl
+        The plant, the gains, the predicted step and per target the settling time (s),
+        overshoot (%) and steady-state error (output units).
+    run : Recording
+        The closed-loop run.
+    """
     # Recordings in which the board cut the outputs (its link watchdog, on a busy computer) do
     # not show what the command did: tune on the others.
-    from porosense.control.session import VENT_FLAGS, run_closed_loop
-    from porosense.device import ControlGains
 
     clean = [n for n in recs if not np.any(np.asarray(recs[n]["status"], dtype=int) & VENT_FLAGS)]
     names = clean or list(recs)

@@ -22,13 +22,23 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 from porosense.boards import open_board
-from porosense.errors import DeviceError, InputError
-from porosense.sim import ACTUATORS
+from porosense.errors import DeviceError, InputError, ModelError
+from porosense.experiment import run_schedule
+from porosense.firmware.flash_store import upload as flash_upload
+from porosense.ident import fit_percent, search
+from porosense.protocol.model_blob import MAX_BLOB_LEN
+from porosense.protocol.model_layout import AREA_LEN, FLASH_BLOB_MAX
+from porosense.quant import FixedPointEstimator, quantize
+from porosense.quant.design import blob_size
+from porosense.sim import ACTUATORS, schedule
+from porosense.structure import EstimatorStructure
+from porosense.workflows.demo_report import write_demo_report
 
 #: Inputs and outputs per actuator (docs/conventions.md).
 SIGNALS = {
@@ -91,10 +101,28 @@ class DemoResult:
 
 
 def record_protocol(dev, actuator: str, truth, *, rate_hz: int, progress: bool, log) -> dict:
-    """Run the paper's protocol on ``dev``; returns {name: Recording} in protocol order."""
-    from porosense.experiment import run_schedule
-    from porosense.sim import schedule
+    """Run the paper's identification protocol on a board.
 
+    Parameters
+    ----------
+    dev : Device
+        The board, R0 calibrated.
+    actuator : str
+        ``contractor``, ``bending`` or ``3dof`` (PROTOCOL names its experiments).
+    truth : TruthSource or None
+        True outputs by device time (a simulated board), else None.
+    rate_hz : int
+        Sample rate (Hz).
+    progress : bool
+        Show a progress bar per experiment.
+    log : callable
+        Receives one line per recording.
+
+    Returns
+    -------
+    dict of str to Recording
+        One recording per run, in protocol order (``step_10_a``, ``step_10_b``, ...).
+    """
     est, val = PROTOCOL[actuator]
     n_ch = len(SIGNALS[actuator][0])
     recs = {}
@@ -125,8 +153,24 @@ def _io(recs: dict, actuator: str, names: list[str], j: int):
 def paper_table(
     searches: list, est_names: list[str], val_names: list[str], output_names: list[str], chosen: list | None = None
 ) -> str:
-    """Fit % / RMS % per structure (best of its order search) and recording; '*' marks the one
-    kept (``chosen``: one candidate per output; default each search's best)."""
+    """The paper-style table: fit % / RMS % per structure (the best of its order search) and recording.
+
+    Parameters
+    ----------
+    searches : list of SearchResult
+        One order search per output.
+    est_names, val_names : list of str
+        Estimation and validation recordings, in the searches' order.
+    output_names : list of str
+        One name per output.
+    chosen : list of Candidate, optional
+        The candidate kept per output (default each search's best); marked with ``*``.
+
+    Returns
+    -------
+    str
+        The table as text, one block per output.
+    """
     lines = []
     names = est_names + val_names
     for k, (out, res) in enumerate(zip(output_names, searches)):
@@ -167,10 +211,35 @@ def run_demo(
     progress: bool = True,
     log=print,
 ) -> DemoResult:
-    """Run the whole pipeline for one actuator; see the module docstring. ``max_poles`` bounds
-    the order search (the paper's grid is 10; 3 keeps the demo within minutes)."""
-    from porosense.ident import fit_percent
+    """Run the whole pipeline for one actuator (see the module docstring).
 
+    Parameters
+    ----------
+    actuator : str
+        ``contractor``, ``bending`` or ``3dof``.
+    board : str
+        ``emulator``, ``simboard`` or a serial URL (:func:`porosense.boards.open_board`); a real
+        board gives no truth, so the demo records and stops.
+    out_dir : str or Path
+        Report folder; the actuator's results go to ``out_dir/actuator``.
+    rate_hz : int
+        Sample rate (Hz).
+    max_poles : int
+        Largest number of poles of the order search (the paper's grid is 10; 3 keeps the demo
+        within minutes).
+    seed : int
+        Noise seed of a simulated actuator.
+    progress : bool
+        Show progress bars.
+    log : callable
+        Receives the demo's lines.
+
+    Returns
+    -------
+    DemoResult
+        The recordings, the table, the selected models, the quantization, the verification,
+        the on-device and float fits (%), the control segment and the time of each step (s).
+    """
     if actuator not in ACTUATORS:
         raise InputError(f"unknown actuator {actuator!r}; choose one of {', '.join(ACTUATORS)}")
     out = Path(out_dir) / actuator
@@ -290,7 +359,6 @@ def run_demo(
         clock,
         control.to_dict() if control else None,
     )
-    from porosense.workflows.demo_report import write_demo_report
 
     t3 = time.perf_counter()
     result.report_dir = write_demo_report(
@@ -313,17 +381,36 @@ def identify_outputs(
     progress: bool = False,
     log=print,
 ):
-    """One search per output; returns (searches, chosen candidates). The 3-DoF segment is
-    fitted at the paper's orders (PAPER_ORDERS: every structure at 2 poles / 1 zero / 10
-    breakpoints for the table, WH kept); the others by the order search up to ``max_poles``,
-    best mean fit kept, each output's chain sized to share the EEPROM's model area."""
-    from functools import partial
+    """Identify every output of an actuator.
 
-    from porosense.ident import search
-    from porosense.protocol.model_blob import MAX_BLOB_LEN
-    from porosense.protocol.model_layout import FLASH_BLOB_MAX
-    from porosense.quant.design import blob_size
+    The 3-DoF segment is fitted at the paper's orders (PAPER_ORDERS: every structure at 2 poles
+    / 1 zero / 10 breakpoints for the table, WH kept); the others by the order search up to
+    ``max_poles``, best mean fit kept, each output's chain sized to share the EEPROM's model area.
 
+    Parameters
+    ----------
+    recs : dict of str to Recording
+        The protocol's recordings.
+    actuator : str
+        Names the signals (SIGNALS) and the orders (PAPER_ORDERS).
+    est_names, val_names : list of str
+        Estimation and validation recordings.
+    rate_hz : int
+        Sample rate of the recordings (Hz).
+    max_poles : int
+        Largest number of poles of the order search.
+    progress : bool
+        Show the searches' progress.
+    log : callable
+        Receives one line per output.
+
+    Returns
+    -------
+    searches : list of SearchResult
+        One per output.
+    chosen : list of Candidate
+        The candidate kept per output.
+    """
     inputs, outputs, _ = SIGNALS[actuator]
     paper = PAPER_ORDERS.get(actuator)
     if paper:
@@ -369,13 +456,31 @@ def identify_outputs(
 
 
 def quantize_model(chosen: list, recs: dict, actuator: str, val_names: list[str], rate_hz: int):
-    """One MISO chain per output in a single on-device structure, quantized against the
-    validation recordings; returns (structure, QuantResult). Paper-order sets are quantized for
-    a flash store slot (full tables when they fit 1,016 bytes), the others for the EEPROM."""
-    from porosense.protocol.model_layout import FLASH_BLOB_MAX, MAX_BLOB_LEN
-    from porosense.quant import quantize
-    from porosense.structure import EstimatorStructure
+    """Quantize the chosen models as one on-device structure (one MISO chain per output).
 
+    Paper-order sets are quantized for a flash store slot (full tables when they fit 1,016
+    bytes), the others for the EEPROM.
+
+    Parameters
+    ----------
+    chosen : list of Candidate
+        One per output.
+    recs : dict of str to Recording
+        The recordings; the validation ones judge the fixed-point loss.
+    actuator : str
+        Names the signals.
+    val_names : list of str
+        Validation recordings.
+    rate_hz : int
+        Sample rate (Hz).
+
+    Returns
+    -------
+    structure : EstimatorStructure
+        The floating-point structure.
+    result : QuantResult
+        The blob and its report.
+    """
     inputs, outputs, _ = SIGNALS[actuator]
     chains = [c.model.to_structure() for c in chosen]
     structure = EstimatorStructure(
@@ -394,13 +499,29 @@ def quantize_model(chosen: list, recs: dict, actuator: str, val_names: list[str]
 
 
 def store_model(dev, blob: bytes, upload=None, *, log=print):
-    """Store ``blob`` on the board: over the protocol into the EEPROM when it fits there beside
-    the running model, else into the flash model store with ``upload(pages)`` (the slot that is
-    not running, next commit counter). Returns the board's MODEL_INFO afterwards."""
-    from porosense.errors import ModelError
-    from porosense.firmware.flash_store import upload as flash_upload
-    from porosense.protocol.model_layout import AREA_LEN
+    """Store a model blob on the board.
 
+    Over the protocol into the EEPROM when it fits there beside the running model, else into
+    the flash model store with ``upload(pages)`` (the slot that is not running, next commit
+    counter).
+
+    Parameters
+    ----------
+    dev : Device
+        The board.
+    blob : bytes
+        The model blob.
+    upload : callable, optional
+        ``upload(pages)`` of a simulated board (:attr:`porosense.boards.OpenBoard.upload`); a
+        blob that needs the flash store cannot be stored without it.
+    log : callable
+        Receives one line.
+
+    Returns
+    -------
+    ModelInfo
+        The board's MODEL_INFO afterwards.
+    """
     running = dev.model_info()
     room = AREA_LEN - running.length if running.valid and running.store == "eeprom" else AREA_LEN
     if len(blob) <= room:
@@ -421,10 +542,33 @@ def store_model(dev, blob: bytes, upload=None, *, log=print):
 
 
 def verify_by_replay(dev, blob, rec, inputs, *, n_max: int = 1000, log=print) -> dict:
-    """Replay up to ``n_max`` samples of ``rec``'s inputs through the board's estimator and the
-    bit-exact reference; DeviceError on any difference."""
-    from porosense.quant import FixedPointEstimator
+    """Replay a recording's inputs through the board's estimator and the bit-exact reference.
 
+    Parameters
+    ----------
+    dev : Device
+        The board, running ``blob``.
+    blob : ModelBlob
+        The model the board runs.
+    rec : Recording
+        Its input columns (dR, %) are replayed.
+    inputs : list of str
+        The input columns.
+    n_max : int
+        Samples replayed at most.
+    log : callable
+        Receives one line.
+
+    Returns
+    -------
+    dict
+        ``samples`` replayed, ``mismatches`` (0) and ``bit_exact`` (True).
+
+    Raises
+    ------
+    DeviceError
+        When any estimate differs from the reference.
+    """
     dr_centi = np.zeros((len(rec), 3), dtype=np.int16)
     for i, c in enumerate(inputs):
         dr_centi[:, i] = np.round(rec[c] * 100).astype(np.int16)
@@ -440,7 +584,6 @@ def verify_by_replay(dev, blob, rec, inputs, *, n_max: int = 1000, log=print) ->
 
 def _live_fit(outputs):
     """Running fit (%) of the on-device estimates against the truth, for the progress bar."""
-    from porosense.ident import fit_percent
 
     def monitor(rows: dict) -> str:
         parts = []

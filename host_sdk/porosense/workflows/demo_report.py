@@ -19,8 +19,24 @@ PAPER_POROSITIES = (68.0, 76.0, 82.0, 86.0)
 
 
 def search_tables(searches, names, outputs, kept=None) -> list:
-    """Per output: fit % and RMS % of each structure's best model per recording, and the mean;
-    ``kept``: the structure kept per output (default each search's best)."""
+    """The demo's fit tables, one per output.
+
+    Parameters
+    ----------
+    searches : list of SearchResult
+        One order search per output.
+    names : list of str
+        The recordings, in the searches' order.
+    outputs : list of str
+        One name per output.
+    kept : list of str, optional
+        The structure kept per output (default each search's best).
+
+    Returns
+    -------
+    list of DataTable
+        Fit % and RMS % of each structure's best model per recording, and the mean.
+    """
     tables = []
     for k, (o, res) in enumerate(zip(outputs, searches)):
         best = kept[k] if kept else res.best.structure

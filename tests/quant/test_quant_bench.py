@@ -18,6 +18,9 @@ def test_fit_and_size_figures(figures):
     assert figures["saturated_samples"] == 0
     assert "bytes too large" in figures["worst_case_refusal"]
     assert figures["largest_fitting_3dof"]["blob_bytes"] <= MAX_BLOB_LEN
+    # The paper's 3-DoF set fits a flash slot (compact tables), twice in the store.
+    paper = figures["paper_3dof_set"]
+    assert paper["flash_slot_bytes"][1] <= paper["flash_slot_capacity"] < paper["full_tables_bytes"][0]
     assert figures["summary"] and all(isinstance(line, str) for line in figures["summary"])
 
 

@@ -14,6 +14,7 @@ import numpy as np
 from porosense.errors import ModelError
 from porosense.firmware import avr_cycles
 from porosense.protocol.model_blob import MAX_BLOB_LEN
+from porosense.protocol.model_layout import FLASH_BLOB_MAX
 from porosense.quant import FixedPointEstimator, quantize
 from porosense.quant.design import design_blob
 from porosense.quant.random_models import random_structure, step_inputs
@@ -100,6 +101,25 @@ def _most_sections_that_fit():
     raise ModelError("no table-free 3x3 model fits")
 
 
+def _paper_set_sizes(n_seeds: int) -> dict:
+    """Blob sizes (B) of the paper's 3-DoF model set (three 3-input WH models, f + H1 + g + H2, 2
+    poles per block, 10 breakpoints; random structures, seeds 0..n_seeds-1) quantised on
+    (-90, 10) % dR with full tables (no capacity limit) and for a flash slot (compact tables
+    when full ones do not fit)."""
+    full, slot = [], []
+    for seed in range(n_seeds):
+        s = random_structure(np.random.default_rng(seed), 3, 3, h1_poles=2, h2_poles=2, breakpoints=10, kind="wh")
+        full.append(quantize(s, input_range=(-90.0, 10.0), capacity=4096, noise_lsb=0).blob.length)
+        slot.append(quantize(s, input_range=(-90.0, 10.0), capacity=FLASH_BLOB_MAX, noise_lsb=0).blob.length)
+    return {
+        "seeds": n_seeds,
+        "full_tables_bytes": [min(full), max(full)],
+        "flash_slot_bytes": [min(slot), max(slot)],
+        "flash_slot_capacity": FLASH_BLOB_MAX,
+        "fit_eeprom_alone": sum(n <= MAX_BLOB_LEN for n in slot),
+    }
+
+
 def run(size: str = "small") -> dict:
 
     full = size == "full"
@@ -116,6 +136,7 @@ def run(size: str = "small") -> dict:
     worst_blob, _ = design_blob(worst, [(-100.0, 100.0)] * 3, 0.01, 1, notes)
     out["worst_case_blob_bytes"] = worst_blob.length
     fitting, orders = _largest_fitting(worst)
+    out["paper_3dof_set"] = _paper_set_sizes(20)  # 1.5 s of CPU: the same in both sizes
     out["largest_fitting_3dof"] = {
         "h1_poles": orders[0],
         "h2_poles": orders[1],
@@ -180,6 +201,9 @@ def _summary(r: dict) -> list[str]:
         + ("refused: " + r["worst_case_refusal"] if r["worst_case_refusal"] else "fits"),
         "largest fitting 3x3 WH: H1 {h1_poles} poles, H2 {h2_poles} poles, {breakpoints} breakpoints, "
         "{blob_bytes}/{capacity} bytes".format(**r["largest_fitting_3dof"]),
+        "paper 3-DoF set ({seeds} seeds): full tables {full_tables_bytes[0]}..{full_tables_bytes[1]} B, for a "
+        "{flash_slot_capacity}-byte flash slot {flash_slot_bytes[0]}..{flash_slot_bytes[1]} B; the EEPROM "
+        "area alone holds {fit_eeprom_alone}".format(**r["paper_3dof_set"]),
         f"Python reference: {r['python_samples_per_s_wh_1x1']:.0f} samples/s (1x1 WH), "
         f"{r['python_samples_per_s_fitting_3x3']:.0f} samples/s (3x3)",
     ]

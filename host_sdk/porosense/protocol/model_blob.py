@@ -218,7 +218,18 @@ class ModelBlob:
     # -- serialisation --------------------------------------------------------------
 
     def to_bytes(self) -> bytes:
-        """The blob as stored in EEPROM (raises ModelError if a field is out of range)."""
+        """Serialise the blob as the model stores hold it.
+
+        Returns
+        -------
+        bytes
+            Header, records and CRC trailer (:attr:`length` bytes).
+
+        Raises
+        ------
+        ModelError
+            When a field is out of its format's range.
+        """
         try:
             body = bytearray()
             for out in self.outputs:
@@ -261,9 +272,26 @@ class ModelBlob:
 
     @classmethod
     def from_bytes(cls, data: bytes, max_length: int = MAX_BLOB_LEN) -> ModelBlob:
-        """Parse and check a blob exactly as the firmware does; ModelError says what is wrong.
+        """Parse and check a blob exactly as the firmware does.
 
-        ``max_length`` is the EEPROM limit; larger only for blobs that stay in RAM."""
+        Parameters
+        ----------
+        data : bytes
+            The blob as MODEL_BEGIN / MODEL_CHUNK send it, CRC trailer included.
+        max_length : int
+            Largest accepted length (bytes): the EEPROM area by default, FLASH_BLOB_MAX for the
+            flash store, larger only for blobs that stay in RAM.
+
+        Returns
+        -------
+        ModelBlob
+            The parsed model.
+
+        Raises
+        ------
+        ModelError
+            What is wrong with the blob (magic, version, length, CRC, a record out of range).
+        """
         data = bytes(data)
         if data[:2] != MAGIC:
             raise ModelError("not a porosense model blob (bad magic)")

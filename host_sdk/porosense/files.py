@@ -59,8 +59,36 @@ def write_bytes(path, data: bytes) -> Path:
     return Path(path)
 
 
+LABELS_KEY = "porosense.labels"  # PNG text chunk holding figure_labels() as JSON
+
+
+def figure_labels(fig) -> dict:
+    """Titles, axis labels and legend entries of every axes of ``fig`` (colour bars included)."""
+    axes = []
+    for ax in fig.axes:
+        legend = ax.get_legend()
+        axes.append(
+            {
+                "title": ax.get_title(),
+                "xlabel": ax.get_xlabel(),
+                "ylabel": ax.get_ylabel(),
+                "legend": [t.get_text() for t in legend.get_texts()] if legend else [],
+            }
+        )
+    suptitle = getattr(fig, "_suptitle", None)
+    return {"title": suptitle.get_text() if suptitle else "", "axes": axes}
+
+
 def save_figure(fig, path, **kwargs) -> Path:
-    """``fig.savefig(path, **kwargs)`` whole or not at all (the format from the suffix); returns the path."""
+    """``fig.savefig(path, **kwargs)`` whole or not at all (the format from the suffix); returns the path.
+
+    A PNG carries the figure's text (:func:`figure_labels`) as JSON in a text chunk, so that a report
+    page and its tests read what every figure says."""
+    import json
+
+    path = Path(path)
+    if path.suffix.lower() == ".png":
+        kwargs["metadata"] = {LABELS_KEY: json.dumps(figure_labels(fig)), **(kwargs.get("metadata") or {})}
     with atomic_path(path) as tmp:
         fig.savefig(tmp, **kwargs)
-    return Path(path)
+    return path

@@ -74,6 +74,14 @@ def test_demo_report_renders_in_chromium(demo, tmp_path):
     n_ok, n_all = (int(v) for v in loaded.split("/"))
     print(f"figures loaded: {n_ok}/{n_all}")
     assert n_all >= 5 and n_ok == n_all
+    # Every figure's text as a reviewer reads it (tests/report/figure_text.py), from the matplotlib objects.
+    from tests.report.figure_text import page_problems
+
+    found = page_problems(sorted((out / "contractor" / "figures").glob("*.png")))
+    assert not found, "\n".join(found)
+    import re
+
+    assert not re.search(r"\bnan\b", dom), "the page prints nan"
     shot = tmp_path / "page.png"
     subprocess.run(
         [browser, *flags, f"--screenshot={shot}", "--window-size=1200,2400", page.as_uri()],

@@ -221,10 +221,13 @@ def run(args) -> int:
         raise InputError("the diagnosis holds non-finite numbers (NaN or inf): check --ts and the data")
     emit_json(doc, args)
     if args.out:
+        from porosense.data.units import NOT_STATED, column_unit
         from porosense.diagnose import report
 
-        unit = args.unit or next((t.units[args.output] for t in tables if args.output in t.units), "output unit")
+        unit = args.unit or column_unit(args.output, *(t.units for t in tables)) or NOT_STATED
         report.write_report(result, args.out, title=f"Diagnosis of {what}", unit=unit)
+        page = _write_page(result, args.out, f"Diagnosis of {what}")
+        say(args, f"report written to {page}")
     say(args, f"diagnosed: {what}")
     say(args, str(result))
     if args.save_extended:
@@ -235,6 +238,32 @@ def run(args) -> int:
             top = result.findings[0]
             say(args, f"extended model ({top.cause}) written to {args.save_extended}; on the device: {top.on_device}")
     return 0
+
+
+def _write_page(result, folder, title: str):
+    """The diagnosis as one self-contained HTML page (and Markdown) beside its figures: the ranked
+    causes with their fits (nominal first, then with the extension), the evidence and every figure."""
+    from pathlib import Path
+
+    from porosense.report.page import DataTable, Section, write_report
+
+    rows = [
+        [f.cause, f"{f.confidence:.2f}", f"{f.fit_before:.1f}", f"{f.fit_after:.1f}", f"{f.gain:+.1f}"]
+        for f in result.findings
+    ]
+    table = DataTable(
+        "Causes ranked (fits on the validation range, %)",
+        ["cause", "confidence", "fit, nominal model", "fit, with the extension", "gain (points)"],
+        rows,
+    )
+    evidence = "\n\n".join(f"{f.cause}: {f.evidence}" for f in result.findings[:3])
+    figures = [Path(folder) / f"{n}.png" for n in ("correlations", "level_direction", "spectrum", "fits")]
+    sections = [
+        Section("Findings", evidence, tables=[table]),
+        Section("Figures", "Residual tests and the validation fits.", figures=[f for f in figures if f.exists()]),
+    ]
+    _, page = write_report(folder, title, sections, intro=f"Most likely cause: {result.top}.", name="diagnosis")
+    return page
 
 
 def _all_finite(value) -> bool:

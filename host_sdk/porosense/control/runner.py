@@ -100,11 +100,21 @@ def plot_run(rec, path, *, output: str = "strain_0", title: str = "closed-loop r
     import matplotlib.pyplot as plt
 
     fig, (ax, ax2) = plt.subplots(2, 1, sharex=True, figsize=(8, 5), height_ratios=(2, 1))
+    from porosense.data.units import axis_label
+    from porosense.dsp.metrics import fit_percent
+
     ax.plot(rec.t, rec["target_0"], "k--", label="target")
-    ax.plot(rec.t, rec[f"est_{output}"], label="on-device estimate")
+    est = np.asarray(rec[f"est_{output}"], float)
+    label = "on-device estimate"
     if output in rec:
-        ax.plot(rec.t, rec[output], label="true", alpha=0.8)
-    ax.set_ylabel(output)
+        true = np.asarray(rec[output], float)
+        ok = np.isfinite(est) & np.isfinite(true)
+        if ok.sum() > 2 and np.ptp(true[ok]) > 0:
+            label += f" (fit {fit_percent(true[ok], est[ok]):.1f} % to the true {output})"
+    ax.plot(rec.t, est, label=label)
+    if output in rec:
+        ax.plot(rec.t, rec[output], label=f"true {output}", alpha=0.8)
+    ax.set_ylabel(axis_label(output, rec.units))
     ax.legend(loc="best", fontsize=8)
     ax.set_title(title)
     ax2.plot(rec.t, rec["cmd_kpa_0"], color="C3")

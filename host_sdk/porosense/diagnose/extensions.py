@@ -190,6 +190,7 @@ class Context:
             "yhat_val": self.yhat_val,
             "extended_val": {c: r.yhat_val for c, r in results.items() if r.yhat_val is not None},
             "spectrum": results["periodic_disturbance"].test.detail,
+            "spectrum_significant": bool(results["periodic_disturbance"].test.significant),
         }
 
 

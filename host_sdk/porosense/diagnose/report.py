@@ -71,9 +71,13 @@ def write_figures(diag, directory, unit: str = "output unit") -> list:
     sp = cv["spectrum"]
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.semilogy(sp["freqs"][1:], np.asarray(sp["power"])[1:] + 1e-300, lw=0.8)
-    ax.axvline(sp["freq_hz"], color="r", ls="--", lw=1, label=f"largest line {sp['freq_hz']:.3g} Hz")
-    ax.set(title="residual spectrum (Hann periodogram)", xlabel="frequency (Hz)", ylabel=f"power (({unit})²/Hz)")
-    ax.legend()
+    if cv.get("spectrum_significant", False):
+        ax.axvline(sp["freq_hz"], color="r", ls="--", lw=1, label=f"significant line {sp['freq_hz']:.3g} Hz")
+        ax.legend()
+        title = "residual spectrum (Hann periodogram)"
+    else:
+        title = "residual spectrum (Hann periodogram): no significant line"
+    ax.set(title=title, xlabel="frequency (Hz)", ylabel=f"power (({unit})²/Hz)")
     fig.tight_layout()
     paths.append(d / "spectrum.png")
     save_figure(fig, paths[-1], dpi=110)
@@ -82,7 +86,9 @@ def write_figures(diag, directory, unit: str = "output unit") -> list:
     fig, ax = plt.subplots(figsize=(10, 4))
     t = np.arange(len(cv["y_val"])) * cv["ts"]
     ax.plot(t, cv["y_val"], "k", lw=0.8, label="measured")
-    ax.plot(t, cv["yhat_val"], lw=0.8, label="before")
+    from porosense.dsp.metrics import fit_percent
+
+    ax.plot(t, cv["yhat_val"], lw=0.8, label=f"nominal model (fit {fit_percent(cv['y_val'], cv['yhat_val']):.1f} %)")
     shown = [f for f in diag.findings if f.cause in cv["extended_val"]][:2]
     for f in shown:
         ax.plot(t, cv["extended_val"][f.cause], lw=0.8, label=f"with {f.cause} ({f.fit_after:.1f} %)")

@@ -139,17 +139,20 @@ def fit_exponential(x, y) -> tuple[float, float, float]:
     return a, b, r_squared(y, a * np.exp(b * x))
 
 
-def hysteresis_branches(x, y, *, degree: int = 3, smooth: int = 5) -> dict:
-    """Split a loop into loading (x rising) and unloading (x falling) and fit a polynomial of
-    ``degree`` to each: ``{direction: {"coef", "r2", "x", "y"}}`` with (x, y) the fitted curve.
+def hysteresis_branches(x, y, *, degree: int = 3, smooth: int = 5, load=None) -> dict:
+    """Split a loop into loading and unloading and fit a polynomial of ``degree`` to each:
+    ``{direction: {"coef", "r2", "x", "y"}}`` with (x, y) the fitted curve.
 
-    The direction comes from the sign of the slope of x smoothed over ``smooth`` samples;
-    samples where x stands still are left out.
+    Loading is ``load`` rising (default: x rising). For a vacuum actuator pass the applied vacuum
+    (minus the gauge pressure command) or the output: its resistance falls as it is loaded, so
+    "dR rising" is its unloading. The direction comes from the sign of the slope of ``load``
+    smoothed over ``smooth`` samples; samples where it stands still are left out.
     """
     x, y = np.asarray(x, float), np.asarray(y, float)
-    xs = np.convolve(x, np.ones(smooth) / smooth, mode="same")
+    drive = x if load is None else np.asarray(load, float)
+    xs = np.convolve(drive, np.ones(smooth) / smooth, mode="same")
     dx = np.gradient(xs)
-    moving = np.abs(dx) > 1e-3 * max(np.ptp(x), 1e-12) / max(smooth, 1)
+    moving = np.abs(dx) > 1e-3 * max(np.ptp(drive), 1e-12) / max(smooth, 1)
     out = {}
     for name, mask in (("loading", moving & (dx > 0)), ("unloading", moving & (dx < 0))):
         if mask.sum() <= degree + 2:
@@ -174,6 +177,11 @@ def poles_zeros(model) -> list[dict]:
         for name, tf in m.linear_blocks().items():
             poles = np.asarray(tf.poles())
             zeros = np.asarray(tf.zeros())
+            # Second-order sections pad a first-order block with a pole and a zero at z = 0 that
+            # cancel: neither is dynamics. Poles left at the origin are delays, zeros there advances.
+            at_origin = int(min(np.sum(np.abs(poles) < 1e-9), np.sum(np.abs(zeros) < 1e-9)))
+            if at_origin:
+                poles = np.delete(poles, np.argsort(np.abs(poles))[:at_origin])
             zeros = zeros[np.abs(zeros) > 1e-12]  # the z^-k delays are not zeros of the dynamics
             real = poles[(np.abs(poles.imag) < 1e-9) & (poles.real > 0) & (poles.real < 1)].real
             rows.append(

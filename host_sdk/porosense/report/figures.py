@@ -45,32 +45,14 @@ def _plt():
     return plt
 
 
-def figure_labels(fig) -> dict:
-    """Axis labels, titles and legend entries of every axes of ``fig`` (colour bars included)."""
-    axes = []
-    for ax in fig.axes:
-        legend = ax.get_legend()
-        axes.append(
-            {
-                "title": ax.get_title(),
-                "xlabel": ax.get_xlabel(),
-                "ylabel": ax.get_ylabel(),
-                "legend": [t.get_text() for t in legend.get_texts()] if legend else [],
-            }
-        )
-    return {"title": fig._suptitle.get_text() if fig._suptitle else "", "axes": axes}
-
-
-LABELS_KEY = "porosense.labels"  # PNG text chunk holding figure_labels() as JSON
+from porosense.files import LABELS_KEY, figure_labels  # noqa: E402,F401  (the labels every PNG carries)
 
 
 def _finish(fig, path):
     """Save as PNG, with the figure's labels and legends as JSON in a PNG text chunk (the report
     page shows them to browsers and tests), and close it."""
     if path is not None:
-        import json
-
-        save_figure(fig, Path(path), dpi=110, metadata={LABELS_KEY: json.dumps(figure_labels(fig))})
+        save_figure(fig, Path(path), dpi=110)
         _plt().close(fig)
     return fig
 
@@ -140,8 +122,9 @@ def plot_compare(
             ax.plot(t, predicted[name], color="#d62728", lw=1.1, label=f"{label} (fit {fit:.1f} %)")
         else:
             ax.plot(t, predicted[name], color="#d62728", lw=1.1, label=label)
-        unit = (units or {}).get(name, "unit of the data")
-        ax.set_ylabel(f"{name} ({unit})")
+        from porosense.data.units import axis_label
+
+        ax.set_ylabel(axis_label(name, units or {}))
         ax.grid(alpha=0.3)
         _legend_outside(ax, 2)
     axes[-1, 0].set_xlabel("time (s)")

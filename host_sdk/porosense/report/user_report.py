@@ -46,8 +46,68 @@ MIN_HOLD_S = 2.0  # shortest pressure hold averaged in the porosity analysis (s)
 
 
 def _label(name: str, units: dict) -> str:
-    unit = units.get(name)
-    return f"{name} ({unit})" if unit else f"{name} (unit of the data)"
+    """'strain_0 (%)' from the data's or the models' units, the column conventions, or 'unit not stated'."""
+    from porosense.data.units import axis_label
+
+    return axis_label(name, units)
+
+
+def _model_units(models: dict) -> dict:
+    """Units the models carry: outputs' units, and dR inputs in % or dR/100."""
+    out = {}
+    for m in models.values():
+        for sub in getattr(m, "models", [m]):
+            if getattr(sub, "output_unit", None):
+                out.setdefault(sub.output, sub.output_unit)
+            for name, unit in zip(sub.inputs, getattr(sub, "input_units", ()) or ()):
+                if unit:
+                    out.setdefault(name, unit)
+    return out
+
+
+def _stated(value, unit: str = "") -> str:
+    """A number as people write it (82 %, 0 g), or 'not stated'."""
+    if isinstance(value, (int, float)) and np.isfinite(value):
+        return f"{value:g}{unit}"
+    return "not stated"
+
+
+def _pm(mean: float, se: float) -> str:
+    return f"{mean:.1f} ± {se:.1f}" if np.isfinite(mean) and np.isfinite(se) else "n/a (constant output)"
+
+
+def _static_views(sub, units: dict) -> list:
+    """(block, x, y, x label, y label) of every static map of one output's chain, in physical units
+    where the linear blocks around it allow: a map's output times the DC gains after it is its
+    steady-state contribution to the output; g's input over H1's DC gain is the input it stands for."""
+    chain = sub.output_chain()
+    out_unit = _label(sub.output, units)
+    views = []
+    single = len(chain.branches) == 1
+    for br in chain.branches:
+        if br.f is None:
+            continue
+        name = sub.inputs[br.input]
+        after = br.h1.dc_gain
+        if chain.g is None:
+            after *= chain.h2.dc_gain if chain.h2 is not None else 1.0
+            y = np.asarray(br.f.y) * after + (chain.offset if single else 0.0)
+            what = "steady-state " if single else f"steady-state contribution of {name} to "
+            ylab = f"{what}{out_unit}"
+        else:
+            y, ylab = np.asarray(br.f.y), f"f({name}), into H1 (1: scaled by the input's spread)"
+        views.append((f"f[{name}]", np.asarray(br.f.x), y, _label(name, units), ylab))
+    if chain.g is not None:
+        k1 = chain.branches[0].h1.dc_gain if single else 0.0
+        x = np.asarray(chain.g.x)
+        if single and chain.branches[0].f is None and abs(k1) > 1e-9:
+            x = x / k1
+            xlab = f"steady-state {_label(sub.inputs[chain.branches[0].input], units)}"
+        else:
+            xlab = "sum of the H1 outputs (1: scaled by the inputs' spread)"
+        k2 = chain.h2.dc_gain if chain.h2 is not None else 1.0
+        views.append(("g", x, np.asarray(chain.g.y) * k2 + chain.offset, xlab, f"steady-state {out_unit}"))
+    return views
 
 
 def _short(path) -> str:
@@ -110,7 +170,7 @@ def write_user_report(
     out = Path(out)
     figs = out / "figures"
     figs.mkdir(parents=True, exist_ok=True)
-    units = {**{k: v for t in tables for k, v in t.units.items()}, **(units or {})}
+    units = {**_model_units(models), **{k: v for t in tables for k, v in t.units.items()}, **(units or {})}
     pressure = pressure or ("p_cmd_0" if all("p_cmd_0" in t.columns for t in tables) else None)
     scores = {name: compare(m, tables, name) for name, m in models.items()}
     outputs = list(dict.fromkeys(o for m in models.values() for o in model_outputs(m)))
@@ -123,10 +183,10 @@ def write_user_report(
         [
             _short(t.path),
             len(t),
-            float(t.ts) if t.ts else "?",
+            f"{t.ts * 1000:.4g}" if t.ts else "not stated",
             t.dialect,
-            t.meta.get("porosity", "?"),
-            t.meta.get("load_g", "?"),
+            _stated(t.meta.get("porosity")),
+            _stated(t.meta.get("load_g")),
         ]
         for t in tables
     ]
@@ -136,7 +196,7 @@ def write_user_report(
             "Each recording is simulated from rest by every model.",
             tables=[
                 DataTable(
-                    "Recordings", ["recording", "samples", "Ts (s)", "read as", "porosity (%)", "load (g)"], rows, 4
+                    "Recordings", ["recording", "samples", "Ts (ms)", "read as", "porosity (%)", "load (g)"], rows, 4
                 )
             ],
         )
@@ -146,7 +206,7 @@ def write_user_report(
     recon = []
     for t in tables[:MAX_RECONSTRUCTIONS]:
         key = str(t.path)
-        time = t.columns["t"] if "t" in t.columns else np.arange(len(t)) * (t.ts or first.ts)
+        time = t.time if getattr(t, "time", None) is not None else np.arange(len(t)) * (t.ts or first.ts)
         for o in outputs:
             est = {name: r.predictions[key][:, r.outputs.index(o)] for name, r in scores.items() if o in r.outputs}
             path = figs / f"reconstruction_{_short(key)}_{o}.png"
@@ -184,8 +244,8 @@ def write_user_report(
                     [
                         n,
                         o,
-                        f"{s['fit_mean']:.1f} ± {s['fit_se']:.1f}",
-                        f"{s['rms_mean']:.1f} ± {s['rms_se']:.1f}",
+                        _pm(s["fit_mean"], s["fit_se"]),
+                        _pm(s["rms_mean"], s["rms_se"]),
                         s["files"],
                     ]
                 )
@@ -239,18 +299,21 @@ def write_user_report(
     x_name, y_name = inputs[0], outputs[0]
     for t in tables[:MAX_LOOPS]:
         x, y = t.columns[x_name], t.columns[y_name]
-        branches = hysteresis_branches(x, y)
+        # Loading is the vacuum rising (the gauge command falling), else the output rising: the
+        # resistance of a vacuum actuator falls as it is loaded.
+        load = -np.asarray(t.columns[pressure]) if pressure and pressure in t.columns else y
+        branches = hysteresis_branches(x, y, load=load)
         if pressure and pressure in t.columns:
             colour, clabel = t.columns[pressure], f"{pressure} (kPa)"
         else:
-            colour = t.columns["t"] if "t" in t.columns else np.arange(len(t)) * (t.ts or first.ts)
+            colour = t.time if getattr(t, "time", None) is not None else np.arange(len(t)) * (t.ts or first.ts)
             clabel = "time (s)"
         path = figs / f"hysteresis_{_short(t.path)}.png"
         plot_hysteresis(
             x,
             y,
             ylabel=_label(y_name, units),
-            title=f"{_short(t.path)}: {x_name} against {y_name}",
+            title=f"{_short(t.path)}: {y_name} against {x_name}",
             colour=colour,
             colour_label=clabel,
             path=path,
@@ -263,7 +326,9 @@ def write_user_report(
     sections.append(
         Section(
             "Hysteresis",
-            "Loading (input rising) and unloading (input falling) branches, each fitted with a cubic polynomial.",
+            "Loading (vacuum rising: the pressure command falling; without a pressure column, the output "
+            "rising) and unloading branches, each fitted with a cubic polynomial. The resistance of a vacuum "
+            "actuator falls as it is loaded.",
             figures=loops,
             tables=[DataTable("Fits per direction", ["recording", "direction", "samples", "R²"], loop_rows, 3)],
         )
@@ -273,28 +338,19 @@ def write_user_report(
     nl_figs, nl_rows = [], []
     for n, m in models.items():
         for sub in getattr(m, "models", [m]):
-            chain = sub.output_chain()
-            maps = [(f"f[{sub.inputs[br.input]}]", br.f) for br in chain.branches if br.f is not None]
-            maps += [("g", chain.g)] if chain.g is not None else []
-            for block, pwl in maps:
-                fit = fit_exponential(pwl.x, pwl.y)
+            for block, x, y, xl, yl in _static_views(sub, units):
+                fit = fit_exponential(x, y)
                 path = figs / (re.sub(r"[^\w.-]+", "_", f"nonlinearity_{n}_{sub.output}_{block}") + ".png")
-                if block.startswith("f"):
-                    name = block[2:-1]
-                    xl, yl = _label(name, units), f"{block}({name}) (a.u., into H1)"
-                else:
-                    xl = "sum of the H1 outputs (a.u.)"
-                    yl = _label(sub.output, units) if chain.h2 is None else "g(x) (a.u., into H2)"
-                plot_nonlinearity(
-                    pwl.x, pwl.y, fit, xlabel=xl, ylabel=yl, title=f"{n}: {sub.output} {block}", path=path
-                )
+                plot_nonlinearity(x, y, fit, xlabel=xl, ylabel=yl, title=f"{n}: {sub.output} {block}", path=path)
                 nl_figs.append(path)
-                nl_rows.append([n, sub.output, block, len(pwl.x), fit[0], fit[1], fit[2]])
+                nl_rows.append([n, sub.output, block, len(x), fit[0], fit[1], fit[2]])
     if nl_figs:
         sections.append(
             Section(
                 "Identified nonlinearities",
-                "Each static map's breakpoints fitted to a exp(b x).",
+                "Each static map's breakpoints fitted to a exp(b x), drawn in the units of the data: a map's "
+                "output times the DC gains of the linear blocks after it (its steady-state effect on the "
+                "output), g's input over H1's DC gain (the input it stands for).",
                 figures=nl_figs,
                 tables=[
                     DataTable(

@@ -60,6 +60,21 @@ def search_tables(searches, names, outputs, kept=None) -> list:
     return tables
 
 
+def _number(value: float, fmt: str, missing: str) -> str:
+    return format(value, fmt) if value is not None and np.isfinite(value) else missing
+
+
+def _step_text(s: dict) -> str:
+    """One closed-loop step in words; a step that did not settle within its hold says so (never nan)."""
+    settle = _number(s.get("settling_s"), ".2f", "")
+    return (
+        f"target {s['target']:.3g}: "
+        + (f"settled in {settle} s" if settle else "did not settle within the hold (2 % band)")
+        + f", overshoot {_number(s.get('overshoot_pct'), '.1f', 'n/a')} %, steady-state error "
+        + _number(s.get("steady_error"), "+.3f", "n/a")
+    )
+
+
 def write_demo_report(result, searches, live, structure, out: Path, inputs, outputs, labels, control_run=None) -> Path:
     """Write figures and summary pages for one actuator's demo; returns the folder.
 
@@ -113,7 +128,7 @@ def write_demo_report(result, searches, live, structure, out: Path, inputs, outp
             r[inputs[0]],
             r[outputs[0]],
             ylabel=labels[0],
-            title=f"{name}: dR versus {outputs[0]}",
+            title=f"{name}: {outputs[0]} against {inputs[0]}",
             colour=r.t,
             colour_label="time (s)",
             path=path,
@@ -179,11 +194,7 @@ def write_demo_report(result, searches, live, structure, out: Path, inputs, outp
             title=f"closed loop on the board: target, on-device estimate and true {outputs[0]}",
         )
         c = result.control
-        steps = "; ".join(
-            f"target {s['target']:.3g}: settled in {s['settling_s']:.2f} s, overshoot "
-            f"{s['overshoot_pct']:.1f} %, steady-state error {s['steady_error']:+.3f}"
-            for s in c["steps"]
-        )
+        steps = "; ".join(_step_text(s) for s in c["steps"])
         text = (
             f"The board's PI controller holds {outputs[0]} on its own estimate, with gains tuned from the "
             f"recordings above (lambda rule on an FOPDT: K {c['plant']['K']:.3g} per kPa, T "

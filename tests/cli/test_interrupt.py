@@ -132,7 +132,7 @@ def _before_porosense(err: str) -> bool:
     script up to its import of porosense._console (line 0 is the script not yet started)."""
     import re
 
-    if "init_import_site" in err:
+    if "init_import_site" in err or err.strip() == "KeyboardInterrupt":  # Python's own, no frame of ours
         return True
     script = re.findall(r'File "[^"]*bin/porosense", line (\d+)', err)
     ours = [f for f in re.findall(r'File "([^"]+)"', err) if "/porosense/" in f]

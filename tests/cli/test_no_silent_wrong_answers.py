@@ -199,3 +199,28 @@ def test_quoted_decimal_commas_units_row_and_comments(work, capsys, tmp_path):
     )
     assert rc == 0, err
     assert "units row" in text and "fit" in text
+
+
+def test_verify_prints_the_same_fit_as_predict_for_the_boards_estimates(work, capsys):
+    """verify --output scores the board's fixed-point estimates with the one fit; it differs from
+    predict's float fit only by the blob's quantization (quantize bounds that loss; here 0.5 points)."""
+    pytest.importorskip("porosense.emulator")
+    from porosense.device import Device
+    from porosense.emulator import Emulator
+
+    assert main(["quantize", "--model", str(work / "model.json"), "--out", str(work / "v.bin")]) == 0
+    capsys.readouterr()
+    rc, text, err = _run(capsys, ["predict", "--model", work / "model.json", "--data", work / "run.csv", "--json"])
+    fit_float = json.loads(text)["scores"]["strain_0"]["fit"]
+    with Emulator(actuator="contractor") as emu:
+        with Device.open(emu.url) as dev:
+            dev.config_set("SAMPLE_RATE_HZ", 50)
+        assert main(["flash", "--port", emu.url, "--model", str(work / "v.bin")]) == 0
+        capsys.readouterr()
+        argv = ["verify", "--port", emu.url, "--model", work / "v.bin", "--data", work / "run.csv"]
+        rc, text, err = _run(capsys, [*argv, "--output", "strain_0", "--json"])
+    assert rc == 0, err
+    result = json.loads(text)
+    assert result["identical"]
+    print(f"\nfit: float model {fit_float:.2f} %, board's estimates {result['fit']['strain_0']:.2f} %")
+    assert abs(result["fit"]["strain_0"] - fit_float) <= 0.5

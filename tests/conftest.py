@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 from pathlib import Path
@@ -10,7 +9,6 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-SHARED_DATA = Path(os.environ.get("POROSENSE_SHARED_DATA", ROOT.parent / "shared" / "data"))
 
 
 @pytest.fixture(scope="session")
@@ -20,10 +18,14 @@ def repo_root() -> Path:
 
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
-    """../shared/data, or skip with the reason when it is absent."""
-    if not SHARED_DATA.is_dir():
-        pytest.skip(f"measured benchmark data not found at {SHARED_DATA}")
-    return SHARED_DATA
+    """The measured benchmark folder (POROSENSE_SHARED_DATA, else <repo>/../shared/data, else
+    /work/shared/data, as `porosense bench` finds it), or skip with the reason when it is absent."""
+    from porosense.bench.ident import shared_data_folder
+
+    folder = shared_data_folder()
+    if folder is None:
+        pytest.skip("measured benchmark data not found (POROSENSE_SHARED_DATA, ../shared/data, /work/shared/data)")
+    return folder
 
 
 def pytest_addoption(parser):

@@ -20,7 +20,7 @@ SOURCES = sorted(HERE.glob("test_*.cpp"))
 def built() -> Path:
     if shutil.which("g++") is None:
         pytest.skip("g++ not installed")
-    proc = subprocess.run(["make", "-s", "-C", str(HERE)], capture_output=True, text=True)
+    proc = subprocess.run(["make", "-s", "-j2", "-C", str(HERE)], capture_output=True, text=True)
     assert proc.returncode == 0, f"host build of lib/core failed:\n{proc.stdout}\n{proc.stderr}"
     return HERE / "build"
 

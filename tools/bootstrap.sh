@@ -6,8 +6,9 @@ set -euo pipefail
 top="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$top"
 
-# g++ builds the firmware core for the emulator; chromium renders the demo's HTML report in its test.
-APT_PACKAGES="g++ clang-format gcc-avr avr-libc binutils-avr arduino-core-avr simavr libsimavr-dev libelf-dev pkg-config chromium"
+# g++ builds the firmware core for the emulator; avrdude uploads through the Uno's bootloader (also in
+# tests/firmware/test_bootloader_upload.py); chromium renders the demo's HTML report in its test.
+APT_PACKAGES="g++ clang-format gcc-avr avr-libc binutils-avr arduino-core-avr avrdude simavr libsimavr-dev libelf-dev pkg-config chromium"
 
 missing=()
 if [ "${1:-}" != "--no-apt" ]; then

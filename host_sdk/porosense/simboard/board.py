@@ -93,13 +93,20 @@ class SimBoard:
         port: int = 0,
         reset_on_connect: bool = False,
         harness: Path | str | None = None,
+        bootloader: Path | str | None = None,
     ):
-        self.elf = Path(elf)
+        # elf None with a bootloader: a blank application flash, for an upload through it.
+        self.elf = Path(elf) if elf is not None else None
+        self.bootloader = Path(bootloader) if bootloader is not None else None
         self.harness = Path(harness) if harness else harness_path()
         if not self.harness.is_file():
             raise DeviceError(f"simboard harness not found at {self.harness}: build it with `make -C tools/simboard`")
-        if not self.elf.is_file():
+        if self.elf is None and self.bootloader is None:
+            raise DeviceError("simboard: give a firmware ELF, a bootloader, or both")
+        if self.elf is not None and not self.elf.is_file():
             raise DeviceError(f"firmware ELF not found at {self.elf}: build it with `make -C firmware`")
+        if self.bootloader is not None and not self.bootloader.is_file():
+            raise DeviceError(f"bootloader HEX not found at {self.bootloader}")
         self._tmpdir = None
         self.eeprom_path = Path(eeprom) if eeprom is not None else None  # None: a temporary image
         if self.eeprom_path is not None and not self.eeprom_path.parent.is_dir():
@@ -114,8 +121,8 @@ class SimBoard:
         self._absent_mask = _absent_mask(absent)
         self._args = [
             str(self.harness),
-            "--elf",
-            str(self.elf),
+            *(["--elf", str(self.elf)] if self.elf is not None else []),
+            *(["--bootloader", str(self.bootloader)] if self.bootloader is not None else []),
             "--cosim",
             "--port",
             str(port),

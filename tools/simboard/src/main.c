@@ -15,6 +15,7 @@
 
 #include "sim_avr.h"
 #include "sim_elf.h"
+#include "sim_regbit.h"
 #include "avr_eeprom.h"
 #include "avr_extint.h"
 
@@ -32,6 +33,7 @@
 
 typedef struct options_t {
   const char* elf;
+  const char* bootloader; /* Intel HEX at the top of the flash; the reset vector points to it */
   const char* eeprom;
   const char* flash_pages;
   int port;
@@ -164,12 +166,67 @@ static int program_flash(const char* path, unsigned limit) {
   return rc;
 }
 
+/* MCUSR after a reset from outside: the reset button (and the Uno's DTR line) is an external
+ * reset (EXTRF), a power cycle a power-on reset (PORF). A bootloader such as Optiboot waits
+ * for an upload only after an external reset. */
+static void set_reset_flag(int power_cycle) {
+  avr_regbit_setto(avr, power_cycle ? avr->reset_flags.porf : avr->reset_flags.extrf, 1);
+}
+
+/* Optiboot (or any bootloader) from an Intel HEX; the BOOTRST fuse's reset vector at its start.
+ * The HEX is read here: libsimavr's reader refuses the start-address record (type 03) that
+ * arduino-core-avr's optiboot_atmega328.hex carries. */
+static int hex_byte(const char* s) {
+  unsigned v;
+  return sscanf(s, "%2x", &v) == 1 ? (int)v : -1;
+}
+
+static int load_bootloader(const char* path) {
+  FILE* f = fopen(path, "r");
+  if (!f) return -1;
+  char line[600];
+  uint32_t base = 0, start = UINT32_MAX;
+  int rc = -1;
+  while (fgets(line, sizeof line, f)) {
+    if (line[0] != ':') continue;
+    int n = hex_byte(line + 1), hi = hex_byte(line + 3), lo = hex_byte(line + 5), type = hex_byte(line + 7);
+    if (n < 0 || hi < 0 || lo < 0 || type < 0 || strlen(line) < (size_t)(11 + 2 * n)) break;
+    if (type == 1) {
+      rc = start == UINT32_MAX ? -1 : 0;
+      break;
+    }
+    if (type == 2 || type == 4) { /* extended segment / linear address */
+      int a = hex_byte(line + 9), b = hex_byte(line + 11);
+      if (a < 0 || b < 0) break;
+      base = (uint32_t)(a << 8 | b) << (type == 2 ? 4 : 16);
+      continue;
+    }
+    if (type != 0) continue; /* start addresses (03, 05): the reset vector decides */
+    uint32_t addr = base + (uint32_t)(hi << 8 | lo);
+    if (addr + (uint32_t)n > avr->flashend + 1u) break;
+    for (int i = 0; i < n; i++) {
+      int v = hex_byte(line + 9 + 2 * i);
+      if (v < 0) goto done;
+      avr->flash[addr + i] = (uint8_t)v;
+    }
+    if (n && addr < start) start = addr;
+  }
+done:
+  fclose(f);
+  if (rc < 0) return -1;
+  avr->reset_pc = start;
+  avr->pc = start;
+  avr->codeend = avr->flashend;
+  return 0;
+}
+
 static void avr_board_reset(int power_cycle) {
   /* the EEPROM keeps its contents through a reset whatever simavr does with it */
   uint8_t ee[EEPROM_SIZE];
   eeprom_get(ee);
   uint64_t now = board_cycles();
   avr_reset(avr);
+  set_reset_flag(power_cycle);
   if (avr->cycle < last_cycle) cycle_base = now - avr->cycle;
   last_cycle = avr->cycle;
   avr_eeprom_desc_t d = {.ee = ee, .offset = 0, .size = EEPROM_SIZE};
@@ -278,6 +335,9 @@ static int cosim_tick(uint32_t seq, int halted) {
 static void usage(FILE* f) {
   fprintf(f,
           "usage: simboard --elf FIRMWARE.elf [options]\n"
+          "       simboard --bootloader OPTIBOOT.hex [--elf FIRMWARE.elf] [options]\n"
+          "  --bootloader HEX  a bootloader at the top of the flash, started at every reset (as with\n"
+          "                    the Uno's BOOTRST fuse); without --elf the application flash is blank\n"
           "  --port N          TCP port for UART0 on 127.0.0.1 (0: chosen by the OS, printed)\n"
           "  --cosim           lock-step plant on stdin/stdout (binary records, see cosim.h)\n"
           "  --period-us US    plant exchange period in AVR time (default 1000 us)\n"
@@ -303,15 +363,23 @@ static void parse_floats(const char* s, float* dst, int n) {
 }
 
 static int parse_options(int argc, char** argv) {
-  static const struct option longopts[] = {
-      {"elf", required_argument, 0, 'e'},     {"port", required_argument, 0, 'p'},
-      {"cosim", no_argument, 0, 'c'},         {"period-us", required_argument, 0, 'P'},
-      {"eeprom", required_argument, 0, 'E'},  {"flash-pages", required_argument, 0, 'F'},
-      {"vin", required_argument, 0, 'v'},     {"euler", required_argument, 0, 'u'},
-      {"seconds", required_argument, 0, 's'}, {"max-speed", required_argument, 0, 'm'},
-      {"absent", required_argument, 0, 'a'},  {"bno-boot-ms", required_argument, 0, 'b'},
-      {"baud", required_argument, 0, 'B'},    {"reset-on-connect", no_argument, 0, 'R'},
-      {"help", no_argument, 0, 'h'},          {0, 0, 0, 0}};
+  static const struct option longopts[] = {{"elf", required_argument, 0, 'e'},
+                                           {"port", required_argument, 0, 'p'},
+                                           {"cosim", no_argument, 0, 'c'},
+                                           {"period-us", required_argument, 0, 'P'},
+                                           {"eeprom", required_argument, 0, 'E'},
+                                           {"flash-pages", required_argument, 0, 'F'},
+                                           {"vin", required_argument, 0, 'v'},
+                                           {"euler", required_argument, 0, 'u'},
+                                           {"seconds", required_argument, 0, 's'},
+                                           {"max-speed", required_argument, 0, 'm'},
+                                           {"absent", required_argument, 0, 'a'},
+                                           {"bno-boot-ms", required_argument, 0, 'b'},
+                                           {"baud", required_argument, 0, 'B'},
+                                           {"reset-on-connect", no_argument, 0, 'R'},
+                                           {"bootloader", required_argument, 0, 'L'},
+                                           {"help", no_argument, 0, 'h'},
+                                           {0, 0, 0, 0}};
   opt.period_us = 1000.0;
   opt.baud = 115200;
   int c;
@@ -360,6 +428,9 @@ static int parse_options(int argc, char** argv) {
       case 'R':
         opt.reset_on_connect = 1;
         break;
+      case 'L':
+        opt.bootloader = optarg;
+        break;
       case 'h':
         usage(stdout);
         exit(0);
@@ -368,7 +439,7 @@ static int parse_options(int argc, char** argv) {
         return -1;
     }
   }
-  if (!opt.elf) {
+  if (!opt.elf && !opt.bootloader) {
     usage(stderr);
     return -1;
   }
@@ -390,13 +461,13 @@ int main(int argc, char** argv) {
   /* libsimavr prints to stdout: keep the plant link clean by sending that to stderr */
   cosim_fd = dup(1);
   dup2(2, 1);
-  if (access(opt.elf, R_OK) != 0) {
+  elf_firmware_t fw;
+  memset(&fw, 0, sizeof fw);
+  if (opt.elf && access(opt.elf, R_OK) != 0) {
     fprintf(stderr, "simboard: cannot read firmware %s: %s\n", opt.elf, strerror(errno));
     return 2;
   }
-  elf_firmware_t fw;
-  memset(&fw, 0, sizeof fw);
-  if (elf_read_firmware(opt.elf, &fw) != 0) {
+  if (opt.elf && elf_read_firmware(opt.elf, &fw) != 0) {
     fprintf(stderr, "simboard: %s is not a loadable AVR ELF\n", opt.elf);
     return 2;
   }
@@ -406,7 +477,12 @@ int main(int argc, char** argv) {
     return 2;
   }
   avr_init(avr);
-  avr_load_firmware(avr, &fw);
+  if (opt.elf) avr_load_firmware(avr, &fw);
+  if (opt.bootloader && load_bootloader(opt.bootloader) < 0) {
+    fprintf(stderr, "simboard: cannot load bootloader %s (an Intel HEX within the flash)\n", opt.bootloader);
+    return 2;
+  }
+  set_reset_flag(1);
   /* simavr 1.6 takes the frequency from the ELF when present: the Uno's is fixed */
   avr->frequency = BOARD_FREQUENCY_HZ;
   avr->sleep = no_sleep;
@@ -443,7 +519,9 @@ int main(int argc, char** argv) {
                      opt.period_us);
     write_full(cosim_fd, hello, (size_t)n);
   }
-  fprintf(stderr, "simboard: %s on atmega328p at 16 MHz, UART0 at socket://127.0.0.1:%u\n", opt.elf, uart.port);
+  fprintf(stderr, "simboard: %s%s%s on atmega328p at 16 MHz, UART0 at socket://127.0.0.1:%u\n",
+          opt.elf ? opt.elf : "blank flash", opt.bootloader ? " + bootloader " : "",
+          opt.bootloader ? opt.bootloader : "", uart.port);
 
   uint64_t stop_at = opt.seconds > 0 ? board_us_to_cycles(opt.seconds * 1e6) : UINT64_MAX;
   uint64_t next_tick = period;
@@ -454,7 +532,7 @@ int main(int argc, char** argv) {
   while (!stop_requested) {
     if (!halted) {
       int st = avr_run(avr);
-      if (avr->cycle < last_cycle || (avr->pc == 0 && st == cpu_Running && last_cycle)) {
+      if (avr->cycle < last_cycle || (avr->pc == avr->reset_pc && st == cpu_Running && last_cycle)) {
         /* reset from inside (watchdog, jump to 0): simavr may have zeroed the
          * cycle counter and dropped its timers and UART flags */
         if (avr->cycle < last_cycle) cycle_base += last_cycle;

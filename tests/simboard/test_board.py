@@ -91,7 +91,7 @@ def test_reset_after_eeprom_writes_tears_a_write(board, console_for):
     writes = board.counters["eeprom_writes"]
     board.reset_after_eeprom_writes(3)
     con.port.write(b"W100,10,9\n")
-    assert con.read_line() == "boot 0"  # reset before "W OK"
+    assert con.read_line() == "boot 2"  # reset before "W OK"; MCUSR: EXTRF, the reset button
     image = board.eeprom_image()
     assert image[100:103] == bytes([9]) * 3 and image[103:110] == b"\xff" * 7
     assert board.counters["eeprom_writes"] - writes == 3
@@ -105,7 +105,7 @@ def test_reset_at_a_chosen_time(board, console_for):
     board.reset(at_s=at)
     tick = board.wait_for(lambda t: t.resets == 1)
     assert at <= tick.time_s <= at + 0.0021
-    assert con.read_line() == "boot 0"
+    assert con.read_line() == "boot 2"  # MCUSR: EXTRF, an external reset
     assert int(con.ask("t").split()[1]) < 100  # millis() restarted
 
 
@@ -148,7 +148,7 @@ def test_reset_on_connect_shows_the_boot_banner(testfw):
         b.run_for(0.05)
         for expected_resets in (1, 2):  # every open resets, like DTR
             with socket.create_connection(("127.0.0.1", b.port), timeout=10) as conn:
-                assert conn.makefile("rb").readline() == b"boot 0\r\n"
+                assert conn.makefile("rb").readline() == b"boot 2\r\n"  # EXTRF: DTR pulls RESET low
                 assert b.counters["resets"] == expected_resets
 
 

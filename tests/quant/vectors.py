@@ -20,7 +20,15 @@ KINDS = ("linear", "hammerstein", "wiener", "wh")
 
 
 def random_section(rng: np.random.Generator) -> SectionQ:
-    """Any section the format allows (not necessarily stable): exercises every path."""
+    """Any stable section the format allows (the board refuses unstable ones): exercises every
+    path; drawn until SectionQ.stable() holds."""
+    while True:
+        s = _random_fields(rng)
+        if s.stable():
+            return s
+
+
+def _random_fields(rng: np.random.Generator) -> SectionQ:
     wide = bool(rng.random() < 0.4)
     delta = bool(rng.random() < 0.4)
     sb = int(rng.integers(0, 32))
@@ -89,7 +97,8 @@ def designed_blob(rng: np.random.Generator, i: int):
     narrow = rng.random() < 0.3  # a range narrower than the data: saturation paths
     rng_in = (-30.0, 0.0) if narrow else None
     u = step_inputs(rng, 2000, n_in)
-    return quantize(s, recordings=[("r", u, None)], input_range=rng_in).blob
+    # force: a narrow range saturates on purpose (the saturation paths are what is tested)
+    return quantize(s, recordings=[("r", u, None)], input_range=rng_in, force=True).blob
 
 
 def make_cases(seed: int, n_cases: int, n_samples: int):

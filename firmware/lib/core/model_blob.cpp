@@ -38,6 +38,14 @@ int32_t rd32(const BlobReader& r, uint16_t off) {
 
 uint32_t mag(int32_t v) { return v < 0 ? uint32_t(0) - uint32_t(v) : uint32_t(v); }
 
+// k 2^-n in Q28, rounded down (exact for n <= 28; below by less than one Q28 step beyond).
+__attribute__((noinline)) int32_t q28(int16_t k, uint8_t n) {
+  int32_t v = k;
+  for (; n < 28; ++n) v *= 2;  // (a left shift of a negative value is undefined in C++)
+  for (; n > 28; --n) v >>= 1;
+  return v;
+}
+
 // Walks one PWL table at *off; false if it is malformed or would run past `end`.
 bool check_pwl(const BlobReader& r, uint16_t* off, uint16_t end) {
   if (uint16_t(*off + 1) > end) return false;
@@ -61,6 +69,24 @@ bool check_pwl(const BlobReader& r, uint16_t* off, uint16_t end) {
   return true;
 }
 
+}  // namespace
+
+__attribute__((noinline)) bool section_stable(uint8_t fl, uint8_t n1, uint8_t n2, int16_t k1, int16_t k2) {
+  // The feedback weights c_i = -a_i: direct form c1 = m1 + k1', c2 = m2 + k2'; delta form
+  // c1 = 2 + k1', c2 = -1 - k1' + k2' (k' = k 2^-n). Stable iff A(1) = 1 - c1 - c2 > 0,
+  // A(-1) = 1 + c1 - c2 > 0 and 1 + c2 > 0. In Q28 (|terms| <= 5 2^28: no int32 overflow) each
+  // residue is low by less than one step, so a sum is within two steps of the true one:
+  // requiring more than two keeps every accepted section stable (margins under 2^-27 are
+  // refused), except A(1) of the delta form, whose sign is k2's, exactly (poles nearest z = 1).
+  constexpr int32_t one = int32_t(1) << 28, slack = 2;
+  const int32_t r1 = q28(k1, n1), r2 = q28(k2, n2);
+  if (fl & kSecDelta) return k2 < 0 && r2 - r1 > slack;  // A(-1) = 4 + 2 k1' - k2' >= 2.5
+  const int32_t c1 = (int32_t(((fl >> 2) & 7)) - 2) * one + r1, c2 = (int32_t(((fl >> 5) & 3)) - 1) * one + r2;
+  return one - c1 - c2 > slack && one + c1 - c2 > slack && one + c2 > slack;
+}
+
+namespace {
+
 bool check_cascade(const BlobReader& r, uint16_t* off, uint16_t end, uint8_t n) {
   if (n < 1 || n > kMaxSections) return false;
   for (uint8_t s = 0; s < n; ++s) {
@@ -79,6 +105,8 @@ bool check_cascade(const BlobReader& r, uint16_t* off, uint16_t end, uint8_t n) 
     // |round(w / 2^sb)| <= 2^29 (limits: MODEL_FORMAT.md).
     uint16_t p = uint16_t(*off + kSecFixedLen);
     uint32_t sum = 0;
+    const uint16_t kp = uint16_t(p + (wide ? 12 : 6));
+    if (!section_stable(fl, n1, n2, rd16(r, kp), rd16(r, uint16_t(kp + 2)))) return false;
     if (wide) {
       for (uint8_t k = 0; k < 3; ++k) {
         uint32_t m = mag(rd32(r, uint16_t(p + 4 * k)));

@@ -88,6 +88,12 @@ uint16_t crc(const BlobReader& r, uint16_t n);
 // The CRC stored in the last two bytes of a blob of `length` bytes.
 uint16_t stored_crc(const BlobReader& r, uint16_t length);
 
+// True when the section's denominator 1 + a1 z^-1 + a2 z^-2 (fields as stored: flags, n1, n2,
+// k1, k2; MODEL_FORMAT.md) has both poles strictly inside the unit circle: A(1) > 0, A(-1) > 0
+// and a2 < 1, decided exactly in integer arithmetic. A pole on or outside the circle would let
+// the estimate grow without bound (or ring forever) on the board.
+bool section_stable(uint8_t flags, uint8_t n1, uint8_t n2, int16_t k1, int16_t k2);
+
 // Parses the header without checking the body; false when magic, version or counts are bad,
 // the length field disagrees with `length`, the sample period is 0 or too long, or the input
 // scaling is not the device's (dR in 0.01 % per LSB).

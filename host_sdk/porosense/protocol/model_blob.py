@@ -19,6 +19,7 @@ firmware/lib/core/MODEL_FORMAT.md is the reference)::
 
 from __future__ import annotations
 
+import cmath
 import struct
 from dataclasses import dataclass, field
 
@@ -130,6 +131,28 @@ class SectionQ:
             | ((self.m[0] + 2) << 2)
             | ((self.m[1] + 1) << 5)
         )
+
+    def stable(self) -> bool:
+        """Whether the board accepts this section's denominator: both poles strictly inside
+        the unit circle, decided as the firmware decides (est::blob::section_stable, Q28
+        integers: margins under 2^-27 count as unstable, except the delta form's A(1), whose
+        sign is k2's)."""
+        one, slack = 1 << 28, 2
+
+        def q28(k: int, n: int) -> int:  # k 2^-n in Q28, rounded down
+            return k << (28 - n) if n <= 28 else k >> (n - 28)
+
+        r1, r2 = q28(self.k[0], self.n[0]), q28(self.k[1], self.n[1])
+        if self.delta:
+            return self.k[1] < 0 and r2 - r1 > slack
+        c1, c2 = self.m[0] * one + r1, self.m[1] * one + r2
+        return one - c1 - c2 > slack and one + c1 - c2 > slack and one + c2 > slack
+
+    def pole_radius(self) -> float:
+        """The largest pole magnitude of the section's denominator (float)."""
+        _, (_, a1, a2) = self.real()
+        d = cmath.sqrt(a1 * a1 - 4 * a2)
+        return max(abs((-a1 + d) / 2), abs((-a1 - d) / 2))
 
     def real(self, s_in: float = 1.0, s_out: float = 1.0):
         """The section's float coefficients (b, a) for input/output scales s_in, s_out."""
@@ -414,5 +437,11 @@ def _read_cascade(r: _Reader, n: int) -> tuple[SectionQ, ...]:
         bad = bad or sum(abs(v) for v in b) > numerator_limit(wide, sb)
         if bad:
             raise ModelError("model blob: section field out of range")
-        out.append(SectionQ(tuple(b), tuple(k), sb, (n1, n2), wide, delta, (m1, m2)))
+        sec = SectionQ(tuple(b), tuple(k), sb, (n1, n2), wide, delta, (m1, m2))
+        if not sec.stable():
+            raise ModelError(
+                f"model blob: a section has a pole at |z| = {sec.pole_radius():.6g}, on or outside the unit "
+                "circle (unstable: the board refuses it)"
+            )
+        out.append(sec)
     return tuple(out)

@@ -47,6 +47,11 @@ class PiecewiseLinear:
         y = np.asarray(self.y, dtype=float)
         if x.ndim != 1 or x.shape != y.shape or len(x) < 2:
             raise ModelError("a piecewise-linear map needs at least 2 breakpoints with matching x and y")
+        for name, v in (("breakpoints", x), ("values", y)):
+            if np.isnan(v).any():
+                raise ModelError(f"piecewise-linear {name} hold NaN (not a number)")
+            if np.isinf(v).any():
+                raise ModelError(f"piecewise-linear {name} hold an infinite value (inf)")
         if np.any(np.diff(x) <= 0):
             raise ModelError("piecewise-linear breakpoints must be strictly increasing")
         object.__setattr__(self, "x", x)

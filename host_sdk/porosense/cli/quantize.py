@@ -59,6 +59,13 @@ def register(sub) -> argparse.ArgumentParser:
         help="model store the blob is for: eeprom (776 B, shared by two models) or flash "
         "(1,016 B per slot; flash --store flash)",
     )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="write the blob although the model is refused (a pole on or outside the unit circle, breakpoints "
+        "not increasing, a fixed-point estimate that saturates or fits the float model below 99 %%), with a "
+        "warning; replace an existing --out",
+    )
     add_json_options(p, "the blob's facts and the quantization report")
     add_data_options(p, ts_help="sample period of the data in s (default: the data's; checked against the model's)")
     p.set_defaults(func=run)
@@ -89,6 +96,8 @@ def run(args) -> int:
     for opt in ("out", "report", "header"):
         if getattr(args, opt):
             output_file(getattr(args, opt), f"--{opt}")
+    if Path(args.out).exists() and not getattr(args, "force", False):
+        raise InputError(f"{args.out} exists: --force replaces it")
     if args.input_range is not None:
         lo, hi = args.input_range
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
@@ -122,7 +131,13 @@ def run(args) -> int:
         input_range=input_range,
         model_id=args.model_id,
         capacity=FLASH_BLOB_MAX if args.store == "flash" else MAX_BLOB_LEN,
+        force=args.force,
     )
+    import sys
+
+    for note in result.report.notes:
+        if note.startswith("forced past a refusal"):
+            print(f"porosense quantize: warning: {note}", file=sys.stderr)
     write_bytes(args.out, result.to_bytes())
     if args.report:
         result.report.to_json(args.report)

@@ -10,12 +10,13 @@ import numpy as np
 
 from porosense.errors import InputError, ModelError
 from porosense.protocol.model_blob import MAX_BLOB_LEN, ModelBlob
+from porosense.quant import checks
 from porosense.quant.design import DEFAULT_INPUT_LSB, FULL_SCALE, check_size, compact_tables, design_blob
 from porosense.quant.fixed import FixedPointEstimator
 from porosense.quant.report import QuantReport, RecordingFit, fit_percent
 from porosense.structure import EstimatorStructure
 
-DEFAULT_INPUT_RANGE = (-100.0, 100.0)  # dR in %, when neither a range nor data is given
+DEFAULT_INPUT_RANGE = (-100.0, 100.0)  # dR in %, only for a structure that carries no input peak
 # The noise probe: white noise of this RMS (device LSB, 0.01 % of dR) on the device inputs. The
 # board's dR readings carry a few LSB of noise (ADS1115 and contact noise), so a model whose fit
 # drops by points at 1 LSB is unusable on the device even when its fixed-point loss is nil.
@@ -45,6 +46,7 @@ def quantize(
     model_id: int | None = None,
     noise_lsb: float | None = None,
     capacity: int = MAX_BLOB_LEN,
+    force: bool = False,
 ) -> QuantResult:
     """Quantize ``structure`` for the firmware.
 
@@ -54,7 +56,14 @@ def quantize(
         ``input_range`` is absent and are replayed for the report.
     input_range: (lo, hi) in the structure's input unit, one pair or one per input; the scaling
         guarantees no overflow for inputs inside it. Default: the recordings' range widened by
-        25 % of its span (or -100..100 % without data).
+        25 % of its span; without recordings the model's own range (+- its identification peak,
+        ``structure.input_peak``, widened the same way; -100..100 % only for a structure that
+        carries no peak).
+    force: turn the checks of porosense.quant.checks (non-finite coefficients, breakpoints that
+        do not increase, poles on or outside the unit circle, a fixed-point estimate that
+        saturates or misses the float model on the recordings, or without recordings on a probe
+        of steps across the input range) into warnings in the report's notes instead of a
+        ModelError.
     The input scaling comes from the structure alone (``structure.input_units``: dR in % or
     dR/100; the device sends 0.01 % steps) and the sample period from ``structure.ts``; both
     are stored in the blob. A structure with undeclared units whose identification inputs never
@@ -71,6 +80,17 @@ def quantize(
     the recordings' inputs converted exactly as the device converts them (:func:`evaluate`).
     """
     noise_lsb = NOISE_PROBE_LSB if noise_lsb is None else float(noise_lsb)
+    forced: list[str] = []
+
+    def check(fn, *args) -> None:
+        try:
+            fn(*args)
+        except ModelError as exc:
+            if not force:
+                raise
+            forced.append(f"forced past a refusal: {exc}")
+
+    check(checks.check_structure, structure)
     _check_units(structure)
     lsb = structure.input_lsb()
     ts_us = _ts_us(structure.ts)
@@ -96,6 +116,7 @@ def quantize(
         "negative parts of the impulse response (tables: their image), mapped to "
         f"+-{FULL_SCALE:.0f} LSB; input ranges " + ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in ranges)
     )
+    notes[:0] = forced
     report = QuantReport(
         blob_bytes=blob.length,
         capacity_bytes=capacity,
@@ -116,6 +137,11 @@ def quantize(
         )
     for name, u, y in recs:
         report.fits.extend(evaluate(structure, blob, u, y, name, lsb, noise_lsb))
+    if not recs:  # no data: the fixed-point arithmetic is still checked across the input range
+        probe = checks.probe_inputs(ranges)
+        report.fits.extend(evaluate(structure, blob, probe, None, "probe (steps across the input range)", lsb, 0.0))
+    check(checks.check_fits, report)
+    notes.extend(n for n in forced if n not in notes)
     return QuantResult(blob, report)
 
 
@@ -245,6 +271,9 @@ def _input_ranges(structure, recs, input_range, lsb) -> list[tuple[float, float]
         # would widen a range given in fractions (input_lsb 1e-4) a hundredfold too much.
         span = np.maximum(hi - lo, 100.0 * lsb)
         pairs = list(zip(lo - 0.25 * span, hi + 0.25 * span))
+    elif len(structure.input_peak) == n and all(np.isfinite(p) and p > 0 for p in structure.input_peak):
+        # The model's own range: +- the largest |input| seen in identification, widened like data.
+        pairs = [(-1.5 * float(p), 1.5 * float(p)) for p in structure.input_peak]
     else:  # DEFAULT_INPUT_RANGE is in % of dR; lsb / 0.01 converts % to structure units
         pairs = [tuple(v * lsb / DEFAULT_INPUT_LSB for v in DEFAULT_INPUT_RANGE)] * n
     return [(max(float(lo), dev_lo), min(float(hi), dev_hi)) for lo, hi in pairs]

@@ -213,8 +213,14 @@ def require_columns(table, names) -> None:
         raise InputError(
             f"{table.path}: no column{'s' if len(missing) > 1 else ''} "
             f"{', '.join(repr(m) for m in missing)} "
-            f"(columns: {', '.join(table.names)}; read as {table.dialect})"
+            f"(columns: {_names(table.names)}; read as {table.dialect})"
         )
+
+
+def _names(names, shown: int = 20) -> str:
+    """Column names for a one-line message: the first ``shown`` of a wide file, then the count."""
+    names = list(names)
+    return ", ".join(names) if len(names) <= shown else ", ".join(names[:shown]) + f", ... ({len(names):,} columns)"
 
 
 def load_model_checked(path):
@@ -222,9 +228,11 @@ def load_model_checked(path):
 
     An extended model (a nominal model plus terms the device cannot run) is checked through its
     nominal model and its own coefficients."""
+    from porosense.data.model_file import read_model_document
     from porosense.ident import load_model
     from porosense.ident.models import FORMAT_VERSION
 
+    read_model_document(path)  # size, depth, NaN/inf and field types before anything is built
     model = load_model(path)
     try:  # the file's inner models carry their own format version
         inner = [d.get("version") for d in json.loads(Path(path).read_text()).get("models", [])]

@@ -10,10 +10,16 @@ What a MATLAB user saves is read without edits:
 Every numeric variable whose length is the record length becomes a column; other variables
 (strings, scalars, differently sized arrays) are ignored. The columns come back as a
 :class:`porosense.data.table.Table`.
+
+A damaged or hostile file ends in one line (InputError), within bounded memory and time: HDF5
+links (soft, external) are not followed, every variable's declared size is checked against
+:data:`MEMORY_BUDGET_BYTES` (and, stored uncompressed, against the file's size) before it is
+read, and structs nest at most :data:`MAX_DEPTH` levels.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +30,11 @@ from porosense.errors import InputError
 TS_NAMES = ("Ts", "ts", "dt", "Ts_s")
 TIME_UNIT_NAMES = ("TimeUnit", "time_unit", "t_unit", "Ts_unit")  # iddata's TimeUnit, saved as text
 SKIPPED = ("units", "meta", "recording_json")
+#: Bytes all the numeric variables of one file may take once read, 512 MiB (a recording of 10^7 samples
+#: on three channels in double precision is 240 MB).
+MEMORY_BUDGET_BYTES = 1 << 29
+MAX_DEPTH = 16  # struct (group) nesting levels read
+MAX_VARIABLES = 10_000
 
 
 def _is_hdf5(path: Path) -> bool:
@@ -44,12 +55,118 @@ def _flatten(name: str, value, out: dict) -> None:
         out[name] = arr.astype(float) if arr.dtype.kind != "f" else arr
 
 
-def _read_v5(path: Path) -> dict:
-    from scipy.io import loadmat
-    from scipy.io.matlab import mat_struct
+def _declared_bytes(shape, itemsize: int = 8) -> int:
+    n = 1
+    for d in shape:
+        n *= max(int(d), 0)
+    return n * itemsize
+
+
+def _check_v5_sizes(path: Path) -> None:
+    """Refuse a v5 file whose variables declare more than the memory budget (headers only:
+    scipy's whosmat reads them without the data, compressed or not)."""
+    from scipy.io import whosmat
 
     try:
-        content = loadmat(path, squeeze_me=True, struct_as_record=False, simplify_cells=False)
+        listing = whosmat(path)
+    except NotImplementedError:
+        return  # v7.3: checked by _read_v73
+    except Exception as exc:  # scipy raises several types for a damaged file
+        raise InputError(f"{path}: not a readable MATLAB file ({type(exc).__name__}: {exc})") from None
+    if len(listing) > MAX_VARIABLES:
+        raise InputError(f"{path}: {len(listing):,} variables, more than a recording holds ({MAX_VARIABLES:,})")
+    total = sum(_declared_bytes(shape) for _, shape, _ in listing)
+    if total > MEMORY_BUDGET_BYTES:
+        raise InputError(
+            f"{path}: its variables declare {total / 2**30:.3g} GiB, more than the {MEMORY_BUDGET_BYTES / 2**30:.3g} GiB "
+            "a file may take in memory"
+        )
+
+
+#: Seconds a v5 file may take to read (a recording of 10^7 samples reads in about a second).
+V5_TIME_LIMIT_S = 60.0
+
+
+def _loadmat(path: Path):
+    from scipy.io import loadmat
+
+    return loadmat(path, squeeze_me=True, struct_as_record=False, simplify_cells=False)
+
+
+def _loadmat_isolated(path: Path):
+    """scipy's loadmat in a forked child process with its address space limited to the memory
+    budget and a time limit: its compiled reader can crash on a damaged file (a mutated v5
+    header made it segfault), which must cost the command one line, not the process.
+    Returns what loadmat returns; raises what it raised, or InputError."""
+    import pickle
+    import resource
+    import select
+    import signal
+    import time
+
+    if not hasattr(os, "fork"):  # no fork (Windows): read in this process
+        return _loadmat(path)
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: read, send the result or the exception, leave
+        code = 0
+        try:
+            os.close(r)
+            import faulthandler
+
+            faulthandler.disable()  # a crash here is the parent's to report, in one line
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, 2)
+            with open("/proc/self/statm") as fh:
+                vm = int(fh.read().split()[0]) * resource.getpagesize()
+            limit = vm + 2 * MEMORY_BUDGET_BYTES
+            resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+            try:
+                out = ("ok", _loadmat(path))
+            except BaseException as exc:  # noqa: BLE001 - every failure goes back to the parent
+                out = ("error", exc if isinstance(exc, Exception) else RuntimeError(repr(exc)))
+            data = pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
+            with os.fdopen(w, "wb") as fh:
+                fh.write(data)
+        except BaseException:  # noqa: BLE001
+            code = 1
+        os._exit(code)
+    os.close(w)
+    chunks, deadline = [], time.monotonic() + V5_TIME_LIMIT_S
+    with os.fdopen(r, "rb") as fh:
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([fh], [], [], left)[0]:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+                raise InputError(f"{path}: reading it took more than {V5_TIME_LIMIT_S:.0f} s")
+            chunk = os.read(fh.fileno(), 1 << 20)
+            if not chunk:
+                break
+            chunks.append(chunk)
+    _, status = os.waitpid(pid, 0)
+    if os.WIFSIGNALED(status) or not chunks:
+        why = f"signal {os.WTERMSIG(status)}" if os.WIFSIGNALED(status) else "no result"
+        raise InputError(f"{path}: not a readable MATLAB file (the reader failed on it: {why})")
+    try:
+        kind, value = pickle.loads(b"".join(chunks))
+    except Exception:  # noqa: BLE001 - a truncated or odd result
+        raise InputError(f"{path}: not a readable MATLAB file (the reader's result was incomplete)") from None
+    if kind == "error":
+        if isinstance(value, MemoryError):
+            raise InputError(f"{path}: reading it needs more than the {MEMORY_BUDGET_BYTES / 2**30:.3g} GiB budget")
+        raise value
+    return value
+
+
+def _read_v5(path: Path) -> dict:
+    from scipy.io.matlab import mat_struct
+
+    _check_v5_sizes(path)
+    try:
+        content = _loadmat_isolated(path)
+    except InputError:
+        raise
     except NotImplementedError:  # v7.3 without the usual signature position
         return _read_v73(path)
     except Exception as exc:  # scipy raises several types for a damaged file
@@ -73,9 +190,32 @@ def _read_v73(path: Path) -> dict:
     except ImportError:  # pragma: no cover - h5py is a dependency
         raise InputError(f"{path}: a MATLAB v7.3 file needs h5py (pip install h5py)") from None
 
-    def convert(node):
+    file_size = path.stat().st_size
+    budget = [MEMORY_BUDGET_BYTES]  # what is left of it
+    count = [0]
+
+    def members(group, depth: int) -> dict:
+        """A group's datasets and groups, hard links only: soft and external links (which can
+        loop or point into other files) are not followed."""
+        if depth > MAX_DEPTH:
+            raise InputError(f"{path}: structs nested more than {MAX_DEPTH} levels")
+        out = {}
+        for k in group:
+            if k.startswith("#"):
+                continue
+            count[0] += 1
+            if count[0] > MAX_VARIABLES:
+                raise InputError(f"{path}: more than {MAX_VARIABLES:,} variables and fields")
+            if not isinstance(group.get(k, getlink=True), h5py.HardLink):
+                continue
+            out[k] = convert(group[k], depth)
+        return out
+
+    def convert(node, depth: int):
         if isinstance(node, h5py.Group):
-            return {k: convert(node[k]) for k in node if not k.startswith("#")}
+            return members(node, depth + 1)
+        if not isinstance(node, h5py.Dataset):
+            return None
         cls = node.attrs.get("MATLAB_class", b"double")
         cls = cls.decode() if isinstance(cls, bytes) else str(cls)
         if cls == "char" and node.dtype.kind in "iu" and not node.attrs.get("MATLAB_empty", 0):
@@ -84,14 +224,31 @@ def _read_v73(path: Path) -> dict:
             return None
         if node.attrs.get("MATLAB_empty", 0):
             return None
+        need = _declared_bytes(node.shape, max(node.dtype.itemsize, 8))
+        if need > budget[0]:
+            raise InputError(
+                f"{path}: variable {node.name} declares {node.shape} values ({need / 2**30:.3g} GiB), more than "
+                f"the {MEMORY_BUDGET_BYTES / 2**30:.3g} GiB a file may take in memory"
+            )
+        if (
+            node.compression is None
+            and node.chunks is None
+            and _declared_bytes(node.shape, node.dtype.itemsize) > file_size
+        ):
+            raise InputError(
+                f"{path}: variable {node.name} declares more data than the file holds ({file_size:,} bytes)"
+            )
+        budget[0] -= need
         # HDF5 stores MATLAB's column-major arrays transposed: an N x k matrix reads as (k, N).
         return np.asarray(node[()]).T
 
     try:
         with h5py.File(path, "r") as fh:
-            return {k: convert(fh[k]) for k in fh if not k.startswith("#")}
-    except OSError as exc:
-        raise InputError(f"{path}: not a readable MATLAB v7.3 (HDF5) file ({exc})") from None
+            return members(fh, 0)
+    except InputError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError, RuntimeError, RecursionError) as exc:
+        raise InputError(f"{path}: not a readable MATLAB v7.3 (HDF5) file ({type(exc).__name__}: {exc})") from None
 
 
 def read_mat(path) -> Table:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 from pathlib import Path
 
 from porosense.cli._args import add_deprecated, add_legacy_positional, columns, take_positional
@@ -267,7 +268,13 @@ def _register_run(csub) -> None:
     )
     add_deprecated(r, "--load", "--load-g", "load_g", type=float)
     r.add_argument("--seed", type=int, default=0, help="seed of a simulated board (default 0)")
-    r.add_argument("--out", metavar="FILE.csv", help="write the run (target, estimate, truth, command) as CSV")
+    r.add_argument(
+        "--out",
+        metavar="FILE.csv",
+        help="write the run (target, estimate, truth, command) as CSV; written sample by sample while the run "
+        "goes on (flushed every second), then replaced by the whole recording",
+    )
+    r.add_argument("--force", action="store_true", help="replace an existing --out")
     r.add_argument("--plot", metavar="FILE.png", help="figure: target, estimate and true output against time")
     add_json_options(r, "the run's metrics")
     r.set_defaults(func=run_run)
@@ -310,6 +317,8 @@ def run_run(args) -> int:
     if not 0.0 <= args.load_g <= 500.0:
         raise InputError(f"--load-g {args.load_g:g} g outside 0..500")
     out = output_file(args.out, "--out") if args.out else None
+    if out is not None and out.exists() and not args.force:
+        raise InputError(f"{out} exists: --force replaces it")
     plot = output_file(args.plot, "--plot") if args.plot else None
     trajectory = read_trajectory(args.trajectory) if args.trajectory else None
     gains = None
@@ -331,10 +340,15 @@ def run_run(args) -> int:
         model=model,
         load_g=args.load_g,
         seed=args.seed,
+        log_path=str(out) if out else None,
     )
     result = execute_run(req, log=lambda text: say(args, text))
     if out:
-        result.recording.to_csv(out)
+        # The whole recording replaces the log in one rename: a kill now keeps one or the other.
+        tmp = out.with_name(out.stem + ".whole" + out.suffix)
+        result.recording.to_csv(tmp)
+        os.replace(tmp.with_suffix(".json"), out.with_suffix(".json"))
+        os.replace(tmp, out)
     if plot:
         result.plot(plot)
     for line in result.summary_lines():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from porosense.cli._data import (
     add_column_options,
@@ -44,6 +45,7 @@ def register(sub) -> argparse.ArgumentParser:
     )
     add_column_options(p)
     p.add_argument("--out", metavar="PRED.csv", help="write the predictions here (default: not written)")
+    p.add_argument("--force", action="store_true", help="replace an existing --out")
     p.add_argument("--plot", metavar="FILE.png", help="plot measured and predicted output against time")
     p.add_argument(
         "--expected",
@@ -69,6 +71,8 @@ def run(args) -> int:
     if len(args.data) != 1:
         raise InputError(f"--data names {len(args.data)} files; predict takes one (porosense compare scores many)")
     args.data = args.data[0]
+    if args.out and Path(args.out).exists() and not args.force:
+        raise InputError(f"{args.out} exists: --force replaces it")
     model = load_model_checked(args.model)
     (table,) = read_tables([args.data], args)
     ts = model_period([table], model, args)

@@ -8,6 +8,7 @@ A simulated board (emulator / simboard) starts fresh: its R0 is calibrated at re
 from __future__ import annotations
 
 import math
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -16,6 +17,7 @@ from porosense.boards import SIM_WATCHDOG_MS, open_board
 from porosense.control.metrics import StepMetrics, TrackingMetrics, step_metrics, tracking_metrics
 from porosense.control.session import run_closed_loop
 from porosense.control.tuning import PiGains
+from porosense.data.sample_log import SampleLog
 from porosense.device import ControlGains
 from porosense.errors import DeviceError, InputError
 from porosense.files import save_figure
@@ -40,6 +42,17 @@ class RunRequest:
     load_g: float = 0.0
     seed: int = 0
     output: str = "strain_0"
+    log_path: str | None = None  # a CSV written sample by sample while the run goes on
+
+
+#: Columns of the run's log on disk (device time, the on-device estimate and target in estimate
+#: LSB, regulator command, dR, status flags): what a run killed midway leaves.
+LOG_COLUMNS = ("t_dev_us", "estimate_0", "target_lsb_0", "cmd_kpa_0", "dR_0", "status")
+
+
+def _log_row(s) -> tuple:
+    target = s.target_lsb[0] if s.target_lsb is not None else float("nan")
+    return (int(s.t_us), int(s.estimate[0]), target, float(s.command_kpa[0]), s.dr_centi[0] / 100.0, int(s.status))
 
 
 @dataclass
@@ -185,6 +198,14 @@ def execute_run(req: RunRequest, log=print) -> RunResult:
     RunResult
         The recording and its metrics against the truth (simulated boards) or the estimate.
     """
+    with ExitStack() as stack:
+        sample_log = stack.enter_context(SampleLog(req.log_path, LOG_COLUMNS)) if req.log_path else None
+        on_sample = (lambda s: sample_log.append(_log_row(s))) if sample_log else None
+        rec, on_board, rate = _execute(req, log, on_sample)
+    return measure(rec, req, on_board, rate)
+
+
+def _execute(req: RunRequest, log, on_sample):
     with open_board(req.port, load_g=req.load_g, seed=req.seed) as board:
         dev, truth = board.device, board.truth
         rate, scale = prepare_board(dev, simulated=board.simulated, model=req.model, gains=req.gains)
@@ -201,6 +222,7 @@ def execute_run(req: RunRequest, log=print) -> RunResult:
                 truth=truth,
                 trajectory=(t_s, targets),
                 duration_s=float(t_s[-1]),
+                on_sample=on_sample,
             )
         else:
             log(f"holding {req.target:g} for {req.hold_s:g} s at {rate} Hz")
@@ -212,8 +234,9 @@ def execute_run(req: RunRequest, log=print) -> RunResult:
                 output=req.output,
                 truth=truth,
                 duration_s=LEAD_S + req.hold_s,
+                on_sample=on_sample,
             )
-    return measure(rec, req, on_board, rate)
+    return rec, on_board, rate
 
 
 def _gains_on_board(dev) -> list:

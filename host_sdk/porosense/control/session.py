@@ -29,9 +29,10 @@ VENT_FLAGS = int(StatusFlag.WATCHDOG_TRIPPED | StatusFlag.CONTROL_ABORTED)
 KEEPALIVE_S = 0.25
 
 
-def _stream(dev, duration_s: float, rate_hz: int, events, keepalive_s: float = KEEPALIVE_S) -> list:
+def _stream(dev, duration_s: float, rate_hz: int, events, keepalive_s: float = KEEPALIVE_S, on_sample=None) -> list:
     """Stream ``duration_s`` of device time; ``events`` is a sorted list of (t_s, callable)
-    run as the device clock passes t_s. Returns the samples."""
+    run as the device clock passes t_s; ``on_sample(sample)`` sees each sample as it arrives
+    (a log on disk). Returns the samples."""
     n_total = int(round(duration_s * rate_hz))
     rows = []
     t0 = None
@@ -49,6 +50,8 @@ def _stream(dev, duration_s: float, rate_hz: int, events, keepalive_s: float = K
             dev.ping()
             last = t
         rows.append(s)
+        if on_sample is not None:
+            on_sample(s)
     return rows
 
 
@@ -136,6 +139,7 @@ def run_closed_loop(
     duration_s: float | None = None,
     trajectory=None,
     meta: dict | None = None,
+    on_sample=None,
 ) -> Recording:
     """Closed loop on the board, on device time (s from the first streamed sample):
 
@@ -145,7 +149,7 @@ def run_closed_loop(
     - ``trajectory`` = (t_s, targets): that stored trajectory, started at t = 0.
 
     Runs until ``duration_s`` (default: the last segment + 10 s, or the trajectory's end) and
-    vents at the end."""
+    vents at the end. ``on_sample(sample)`` sees each sample as it arrives."""
     start_at = 0.0
     if trajectory is None and len(segments) > 1:
         if duration_s is None:
@@ -164,7 +168,7 @@ def run_closed_loop(
     dev.set_outputs(setpoint_kpa=[0.0, 0.0, 0.0], pumps=0, valves=0)
     dev.start_stream(rate_hz=rate_hz)
     try:
-        rows = _stream(dev, duration_s, rate_hz, events)
+        rows = _stream(dev, duration_s, rate_hz, events, on_sample=on_sample)
     finally:
         _vent(dev, control=True)
     info = {

@@ -19,12 +19,19 @@ N_SAMPLES = 300
 
 
 def _pinned(section, rng, n, sb):
-    """The section with both feedback shifts n and numerator shift sb (b scaled to the limit)."""
+    """The section with both feedback shifts n and numerator shift sb (b scaled to the limit);
+    its feedback residues redrawn until it is stable (the board refuses unstable sections),
+    else the direct form with both poles at 0."""
     b = np.asarray(section.b, dtype=np.int64)
     lim = numerator_limit(section.wide, sb)
     total = int(np.sum(np.abs(b))) or 1
     b = np.trunc(b * min(1.0, lim / total)).astype(np.int64)
-    return replace(section, n=(n, n), sb=sb, b=tuple(int(v) for v in b))
+    s = replace(section, n=(n, n), sb=sb, b=tuple(int(v) for v in b))
+    for _ in range(100):
+        if s.stable():
+            return s
+        s = replace(s, k=tuple(int(v) for v in rng.integers(-32768, 32768, 2)))
+    return replace(s, delta=False, m=(0, 0), k=(0, 0))
 
 
 def edge_cases(seed: int, count: int):

@@ -72,6 +72,12 @@ SIGPIPE_EXIT = 141  # 128 + SIGPIPE, what a shell reports for a tool stopped by 
 INTERRUPTED_EXIT = 130  # 128 + SIGINT, what a shell reports for a tool stopped by Ctrl-C
 
 
+def _one_line(text: str) -> str:
+    """``text`` with every character that is not printable (line breaks and control bytes from a
+    damaged file, which a message may quote) escaped, so an error stays one line."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the process exit status."""
     try:
@@ -108,7 +114,7 @@ def _run(argv: list[str] | None) -> int:
         with guard:
             status = int(args.func(args) or 0)
     except PorosenseError as exc:
-        print(f"{who}: error: {exc}", file=sys.stderr)
+        print(f"{who}: error: {_one_line(str(exc))}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
         return _interrupted(who)

@@ -51,8 +51,8 @@ def max_pole_radius(sos) -> float:
     radius = 0.0
     for row in np.atleast_2d(np.asarray(sos, dtype=float)):
         a = row[3:6] / row[3]
-        roots = np.roots(np.trim_zeros(a, "b")) if np.any(a[1:] != 0) else []
-        radius = max([radius, *(abs(r) for r in roots)])
+        if np.any(a[1:] != 0):
+            radius = max(radius, float(np.max(np.abs(np.roots(np.trim_zeros(a, "b"))))))
     return float(radius)
 
 

@@ -102,9 +102,13 @@ def test_upload_through_optiboot_then_hello_then_flash_store(optiboot, tools, tm
     # Real time: Optiboot's 1 s window after a reset and its watchdog during the upload count
     # AVR time, which must not outrun avrdude.
     with SimBoard(elf=None, bootloader=optiboot, max_speed=1.0) as board, PtyLink(board) as pty:
-        assert main(["firmware", "upload", "--port", pty.path]) == 0
+        # Optiboot runs in real time beside avrdude's timeouts: on a computer too busy to keep
+        # simavr at real time a sync can be missed, as with a real Uno; one retry, counted.
+        attempts = 1
+        while main(["firmware", "upload", "--port", pty.path]) != 0 and attempts < 2:
+            attempts += 1
         out = capsys.readouterr().out
-        assert "flashed" in out and pty.path in out
+        assert f"to {pty.path}" in out and "flashed" in out, f"upload failed {attempts} times"
         t_upload = time.monotonic() - t0
         with Device.open(pty.path) as dev:  # resets the board, as opening a Uno's port does
             hello = dev.info
@@ -123,6 +127,6 @@ def test_upload_through_optiboot_then_hello_then_flash_store(optiboot, tools, tm
     print(
         f"upload through Optiboot ({fw.measure_size().flash} B): {t_upload:.1f} s wall; whole test "
         f"(upload, HELLO, flash-store upload, MODEL_INFO) {wall:.1f} s wall, {cpu_s:.1f} s CPU of child "
-        f"processes, load {os.getloadavg()[0]:.1f}; {resets} resets by port opens"
+        f"processes, load {os.getloadavg()[0]:.1f}; {resets} resets by port opens; {attempts} upload attempt(s)"
     )
     assert resets >= 4  # avrdude, HELLO, flash's own HELLO and avrdude, MODEL_INFO

@@ -123,23 +123,23 @@ def _scrambled(d, name, how):
 
 def test_cli_refuses_scrambled_models_in_one_line_and_force_writes_them(model_file, capsys):
     d = model_file
-    assert main(["quantize", str(d / "model.json"), "--out", str(d / "ok.bin")]) == 0
+    assert main(["quantize", "--model", str(d / "model.json"), "--out", str(d / "ok.bin")]) == 0
     capsys.readouterr()
     assert "theta" in (d / "model.json").read_text(), "the model file layout changed: update _scrambled"
     for name, how in (("x100.json", lambda t: t * 100), ("reversed.json", lambda t: t[::-1])):
         path = _scrambled(d, name, how)
         out = d / (name + ".bin")
         data = ["--data", str(d / "staircase.csv")]
-        code = main(["quantize", str(path), "--out", str(out), *data])
+        code = main(["quantize", "--model", str(path), "--out", str(out), *data])
         err = capsys.readouterr().err.strip()
         assert code == 4 and len(err.splitlines()) == 1 and not out.exists(), (name, err)
         assert "unit circle" in err or "not a model of this data" in err or "saturates" in err, err
         if "unit circle" in err:
             continue  # cannot be forced: the board refuses an unstable blob
-        code = main(["quantize", str(path), "--out", str(out), "--force", *data])
+        code = main(["quantize", "--model", str(path), "--out", str(out), "--force", *data])
         err = capsys.readouterr().err
         assert code == 0 and out.exists() and "warning: forced past a refusal" in err, (name, err)
     # An existing blob is not replaced without --force.
-    code = main(["quantize", str(d / "model.json"), "--out", str(d / "ok.bin")])
+    code = main(["quantize", "--model", str(d / "model.json"), "--out", str(d / "ok.bin")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "exists" in err and "--force" in err

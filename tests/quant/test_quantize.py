@@ -63,8 +63,11 @@ def test_no_overflow_anywhere_in_the_input_range():
 def test_data_outside_the_range_is_reported_as_saturation():
     s = random_structure(np.random.default_rng(10), 1, 1, h1_poles=2, h2_poles=2, kind="wh")
     u = step_inputs(np.random.default_rng(10), 4000, lo=-85, hi=5)
-    r = quantize(s, recordings=[("wide", u, None)], input_range=(-5.0, 5.0))
+    with pytest.raises(ModelError, match="saturates on wide"):  # refused unless forced
+        quantize(s, recordings=[("wide", u, None)], input_range=(-5.0, 5.0))
+    r = quantize(s, recordings=[("wide", u, None)], input_range=(-5.0, 5.0), force=True)
     assert r.report.saturated_samples > 0
+    assert any("saturates on wide" in n for n in r.report.notes)
 
 
 def _three_dof(h1_poles, h2_poles, breakpoints, seed=1):

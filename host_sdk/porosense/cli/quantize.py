@@ -62,9 +62,9 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--force",
         action="store_true",
-        help="write the blob although the model is refused (a pole on or outside the unit circle, breakpoints "
-        "not increasing, a fixed-point estimate that saturates or fits the float model below 99 %%), with a "
-        "warning; replace an existing --out",
+        help="write the blob although the model is refused (breakpoints not increasing, a fixed-point estimate "
+        "that saturates or fits the float model below 95 %%, a fit below the data's mean), with a warning; "
+        "replace an existing --out (an unstable model is refused even so: the board refuses it)",
     )
     add_json_options(p, "the blob's facts and the quantization report")
     add_data_options(p, ts_help="sample period of the data in s (default: the data's; checked against the model's)")

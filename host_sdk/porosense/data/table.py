@@ -264,7 +264,10 @@ def read_table(
     if skip_rows < 0:
         raise InputError(f"--skip-rows {skip_rows}: give a count of lines >= 0")
     text = _blank_skipped(text, skip_rows, comment)
-    guess = sniff_dialect(text.splitlines()[: 51 + skip_rows])
+    try:
+        guess = sniff_dialect(text.splitlines()[: 51 + skip_rows])
+    except csv.Error as exc:  # a field of more than 128 KB: not a table of numbers
+        raise InputError(f"{path}: not a table of numbers ({exc})") from None
     dialect = Dialect(
         separator if separator is not None else guess.separator,
         decimal if decimal is not None else guess.decimal,

@@ -109,9 +109,12 @@ def upload(
         raise DeviceError(f"avrdude gave no answer from {port} within {timeout_s:.0f} s") from None
     lines = [ln.strip() for ln in (proc.stderr + proc.stdout).splitlines() if ln.strip()]
     if proc.returncode != 0:
+        # avrdude also complains about the DTR/RTS ioctls of ports that have none (a
+        # pseudo-terminal): not why an upload failed.
+        telling = [ln for ln in lines if "ioctl" not in ln]
         why = next(
-            (ln for ln in reversed(lines) if "error" in ln.lower() or "can't" in ln.lower()),
-            lines[-1] if lines else f"exit status {proc.returncode}",
+            (ln for ln in reversed(telling) if "error" in ln.lower() or "can't" in ln.lower()),
+            telling[-1] if telling else f"exit status {proc.returncode}",
         )
         raise DeviceError(f"avrdude could not flash {port}: {why}")
     return UploadResult(str(hex_file), port, lines[-1] if lines else "done")

@@ -93,12 +93,12 @@ def read_model_document(path) -> dict:
 
 def _number(path, where: str, v, *, positive: bool = False) -> float:
     if isinstance(v, _NotANumber):
-        raise ModelError(f"{path}: {where} is {v.token}: not a number a model can hold")
+        raise ModelError(f"{path}: {where} is {v.token}, a non-finite value a model cannot hold")
     if isinstance(v, bool) or not isinstance(v, (int, float)):
         shown = f'a string ("{v}")' if isinstance(v, str) else f"of type {type(v).__name__}"
         raise ModelError(f"{path}: {where} is {shown}, expected a number")
     if not math.isfinite(float(v)):
-        raise ModelError(f"{path}: {where} is not finite")
+        raise ModelError(f"{path}: {where} is non-finite ({v})")
     if positive and not v > 0:
         raise ModelError(f"{path}: {where} is {v}, expected a positive number")
     return float(v)

@@ -1,6 +1,11 @@
 // The device core: command handling per protocol/messages.toml, duplicate detection with a
 // cached reply, output limits, the host-link watchdog, fixed-rate sampling and telemetry.
 // Pure C++: all hardware access goes through dev::Hal, the model through dev::ModelPort.
+// One class, its parts in one file each (as grbl cuts its main loop): device.cpp (boot, flags,
+// outputs and the link watchdog, the receive path), device_dispatch.cpp (commands),
+// device_replies.cpp (replies, SAMPLE and ERROR frames), device_stream.cpp (sampling),
+// device_line.cpp (CSV line mode), device_calibration.cpp (R0), device_control.cpp (strain
+// control supervision); device_util.h holds the helpers they share.
 #pragma once
 #include <stdint.h>
 

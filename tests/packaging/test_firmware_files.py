@@ -74,9 +74,12 @@ def test_upload_flashes_the_packaged_hex_with_avrdude(tmp_path):
 def test_upload_failures_are_one_line(tmp_path):
     tool = _fake_avrdude(tmp_path, 1, 'avrdude: ser_open(): can\'t open device "/dev/ttyACM7"')
     hex_file = tmp_path / "fw.hex"
-    hex_file.write_text(":00000001FF\n")
+    hex_file.write_text(":020000000C945E\n:00000001FF\n")  # one jmp word: an image avrdude is given
     proc = _cli(["firmware", "upload", "--port", "/dev/ttyACM7", "--avrdude", str(tool), "--hex", str(hex_file)])
     assert proc.returncode == 3 and len(proc.stderr.strip().splitlines()) == 1
     assert "can't open device" in proc.stderr
+    hex_file.write_text(":00000001FF\n")  # no data: refused before avrdude runs
+    proc = _cli(["firmware", "upload", "--port", "/dev/ttyACM7", "--avrdude", str(tool), "--hex", str(hex_file)])
+    assert proc.returncode == 2 and "holds no data" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
     proc = _cli(["firmware", "upload", "--port", "/dev/ttyACM7", "--hex", str(tmp_path / "absent.hex")])
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "no firmware HEX" in proc.stderr

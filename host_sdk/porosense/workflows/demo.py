@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from porosense.boards import open_board
+from porosense.boards import SIM_WATCHDOG_MS, open_board
 from porosense.errors import DeviceError, InputError, ModelError
 from porosense.experiment import run_schedule
 from porosense.firmware.flash_store import upload as flash_upload
@@ -288,7 +288,8 @@ def run_demo(
 
         save_models([c.model for c in chosen], out / "model.json")
         (out / "model.bin").write_bytes(blob.to_bytes())
-        info = store_model(dev, blob.to_bytes(), upload, log=log)
+        watchdog = SIM_WATCHDOG_MS if opened.simulated else None
+        info = store_model(dev, blob.to_bytes(), upload, watchdog_ms=watchdog, log=log)
 
         verify = verify_by_replay(dev, blob, recs[val_names[0]], inputs, log=log)
         verify["store"], verify["slot"] = info.store, info.slot
@@ -498,7 +499,7 @@ def quantize_model(chosen: list, recs: dict, actuator: str, val_names: list[str]
     return structure, quantize(structure, recordings=qrecs, capacity=capacity)
 
 
-def store_model(dev, blob: bytes, upload=None, *, log=print):
+def store_model(dev, blob: bytes, upload=None, *, watchdog_ms: int | None = None, log=print):
     """Store a model blob on the board.
 
     Over the protocol into the EEPROM when it fits there beside the running model, else into
@@ -514,6 +515,8 @@ def store_model(dev, blob: bytes, upload=None, *, log=print):
     upload : callable, optional
         ``upload(pages)`` of a simulated board (:attr:`porosense.boards.OpenBoard.upload`); a
         blob that needs the flash store cannot be stored without it.
+    watchdog_ms : int, optional
+        Link watchdog (ms of board time) to set again after an upload has reset the board.
     log : callable
         Receives one line.
 
@@ -534,7 +537,10 @@ def store_model(dev, blob: bytes, upload=None, *, log=print):
             "upload it with porosense flash --store flash"
         )
     plan, info = flash_upload(dev, blob, upload)
-    dev.calibrate_r0(n_samples=32, channels=(1 << info.n_inputs) - 1)  # the upload reset the board: R0 again
+    # The upload reset the board: R0 again, and the link watchdog (RAM only) when one was set.
+    dev.calibrate_r0(n_samples=32, channels=(1 << info.n_inputs) - 1)
+    if watchdog_ms is not None:
+        dev.set_watchdog(watchdog_ms)
     if not info.valid or info.store != "flash" or info.length != len(blob):
         raise DeviceError(f"uploaded flash slot {plan.slot} but the board runs: {info}")
     log(f"  uploaded into flash slot {plan.slot} ({len(blob)} bytes, more than the EEPROM's {room}-byte room): {info}")

@@ -384,7 +384,7 @@ def blob_size(
     ``compact`` True / False forces one encoding (True: for a share of a larger blob, which the
     quantizer will encode compactly when the whole does not fit with full tables)."""
     sizes = []
-    for compact in (False, True):
+    for full_or_compact in (False, True):
         size: float = HEADER_LEN + CRC_LEN
         for out in structure.outputs:
             size += 4
@@ -392,9 +392,13 @@ def blob_size(
                 ns = br.h1.n_sections if h1_sections is None else min(br.h1.n_sections, h1_sections)
                 size += 6 + ns * section_bytes
                 if br.f is not None:
-                    size += pwl_len(len(br.f.x) if breakpoints is None else min(len(br.f.x), breakpoints), compact)
+                    size += pwl_len(
+                        len(br.f.x) if breakpoints is None else min(len(br.f.x), breakpoints), full_or_compact
+                    )
             if out.g is not None:
-                size += pwl_len(len(out.g.x) if breakpoints is None else min(len(out.g.x), breakpoints), compact)
+                size += pwl_len(
+                    len(out.g.x) if breakpoints is None else min(len(out.g.x), breakpoints), full_or_compact
+                )
             if out.h2 is not None:
                 ns = out.h2.n_sections if h2_sections is None else min(out.h2.n_sections, h2_sections)
                 size += 1 + ns * section_bytes

@@ -422,10 +422,13 @@ def identify_outputs(
             "model, else in the flash store"
         )
         grid = [(st, poles, zeros) for st in ("linear", "hammerstein", "wiener", "wh")]
-        capacity, compact = FLASH_BLOB_MAX, False
+        capacity = FLASH_BLOB_MAX
     else:
         grid, bps = None, 10
-        capacity, compact = MAX_BLOB_LEN, len(outputs) > 1
+        capacity = MAX_BLOB_LEN
+    # Each output's chain gets a share of the slot; the quantizer encodes the whole compactly
+    # when it does not fit with full tables, so a share is sized with compact tables.
+    compact = len(outputs) > 1
     share = (capacity - 26) // len(outputs) + 26
     size_fn = partial(blob_size, section_bytes=20.0, compact=compact)
     searches = []

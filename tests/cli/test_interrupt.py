@@ -84,6 +84,9 @@ def _interrupt(argv, delay_s, cwd, wait_for_output=False):
         text=True,
         cwd=cwd,
         env=env,
+        # A shell that runs the suite in the background leaves SIGINT ignored in its children, and
+        # Python keeps an inherited SIG_IGN: give the command a terminal's default disposition.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     printed, first = [], threading.Event()
 

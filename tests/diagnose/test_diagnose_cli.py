@@ -8,22 +8,9 @@ import numpy as np
 
 from porosense import sim
 from porosense.cli import main
-from porosense.diagnose import CAUSES, NONE, trials
+from porosense.diagnose import CAUSES, NONE, Finding, trials
 
-KEYS = {
-    "cause",
-    "confidence",
-    "statistic",
-    "evidence",
-    "extension",
-    "fit_before",
-    "fit_after",
-    "gain",
-    "significant",
-    "effect_to_noise",
-    "predictor_gain",
-    "on_device",
-}
+KEYS = set(Finding.KEYS)
 
 
 def _write_sim(tmp_path, effects):
@@ -62,7 +49,7 @@ def test_cli_sim_finds_a_hidden_periodic_disturbance_and_writes_the_report(tmp_p
     )
     assert rc == 0
     doc = json.loads(out.read_text())
-    assert set(doc) == {"top", "findings", "ties"}
+    assert {"top", "nominal", "corrected", "dynamics", "why_top", "ranking_rule", "baselines", "findings"} <= set(doc)
     assert doc["top"] == "periodic_disturbance"
     assert [f["cause"] for f in doc["findings"]][0] == doc["top"]
     assert {f["cause"] for f in doc["findings"]} == set(CAUSES) | {NONE}

@@ -8,61 +8,67 @@ random strengths (hidden_effects.STRENGTHS). The harness is the bench's
 porosense.ident, u_aux and load offered as condition columns.
 
 Seeds: these tests use 9000 onwards, the bench figure (docs/figures.md) uses BENCH_SEED onwards,
-development used 7000 onwards. Bounds are the issue's: top-1 >= 90 % over all causes and
-none on clean data in >= 95 % (asserted on the slow run; the quick run checks the rules that
-hold for every trial).
+development used 7000 onwards. The rates are checked at one size everywhere (CI or not):
+TRIALS_PER_CAUSE trials of each of the 11 causes and TRIALS_PER_CLEAN of each of the 3 clean
+kinds (module constants; the bounds they support are in the slow test's docstring).
 """
 
 from __future__ import annotations
 
-import os
-
 import pytest
+from scipy.stats import beta
 
 from porosense.bench import diagnose as bench
 from porosense.bench import hidden_effects as he
 
 TEST_SEED = 9000
-IN_CI = bool(os.environ.get("CI"))
+TRIALS_PER_CAUSE = 6
+TRIALS_PER_CLEAN = 10
 
 
-def test_gains_are_simulation_fits_against_nominal_plus_g0_on_the_same_samples():
-    trial = he.draw_trial("outliers", TEST_SEED)
-    d = bench.diagnose_trial(trial)
+def test_gains_are_held_out_fits_against_the_stated_baseline_on_the_same_samples():
+    d = bench.diagnose_trial(he.draw_trial("outliers", TEST_SEED))
     assert d.top == "outliers"
     top = d.findings[0]
-    # the outlier extension drops rejected samples: the same samples leave the baseline too,
-    # and the gain is no larger than what the robust refit adds (no free points from dropping)
-    assert "left out of both" in top.evidence
-    others = [f for f in d.findings if f.cause not in ("outliers", "none")]
-    base = others[0].fit_before
-    assert all(abs(f.fit_before - base) < 1e-9 for f in others)
-    assert abs(top.gain) < 2.0, top.gain
-    # drift and periodic extensions report their one-step predictor figure separately
+    # the outlier extension drops rejected samples: the same samples leave the baseline too
+    assert "left out of both" in top.evidence and top.confirmed
+    # every cause outside the dynamics group is judged against the same corrected model
+    others = [f for f in d.findings if f.baseline == "adequate" and f.cause not in ("outliers", "none")]
+    assert others and all(abs(f.fit_before - others[0].fit_before) < 1e-9 for f in others)
+    assert abs(others[0].fit_before - d.corrected.fit) < 1e-9
+    # the dynamics group against the nominal model, whose fit is printed first
+    for cause in ("unmodelled_dynamics", "time_delay", "slow_relaxation"):
+        assert d.finding(cause).baseline == "nominal"
+        assert abs(d.finding(cause).fit_before - d.nominal.fit) < 1e-9
+    # drift and periodic extensions are one-step predictors, and say so
     assert d.finding("drift").predictor_gain is not None
     assert d.finding("static_nonlinearity").predictor_gain is None
 
 
-def test_evidence_names_statistic_value_noise_ratio_and_device_note():
+def test_evidence_names_statistic_value_baseline_and_why_the_top_won():
     d = bench.diagnose_trial(he.draw_trial("periodic_disturbance", TEST_SEED))
+    assert d.top == "periodic_disturbance" and d.why_top
     for f in d.findings:
         assert f.statistic.split(" = ")[0] in f.evidence
         value = f.statistic.split(" = ")[1] if " = " in f.statistic else ""
         assert value and any(ch.isdigit() for ch in value)
         if f.cause != "none":
             assert "x the residual's noise" in f.evidence and f.on_device
-    keys = set(d.to_dict()["findings"][0])
-    assert {"cause", "confidence", "statistic", "evidence", "extension", "fit_before", "fit_after", "gain"} <= keys
-    confidences = [f.confidence for f in d.findings]
-    assert all(0 <= c <= 1 for c in confidences)
-    found = [f for f in d.findings if f.significant]
-    assert [f.cause for f in d.findings[: len(found)]] == [f.cause for f in found]
+    doc = d.to_dict()
+    assert {"nominal", "corrected", "dynamics", "why_top", "ranking_rule", "baselines"} <= set(doc)
+    assert set(doc["findings"][0]) == set(type(d.findings[0]).KEYS)
+    assert all(0 <= f.confidence <= 1 for f in d.findings)
+    # found causes first, then none, then the rest by gain
+    found = [f.cause for f in d.findings if f.found]
+    assert [f.cause for f in d.findings[: len(found)]] == found
+    rest = list(d.findings[len(found) + 1 :])
+    assert all(a.gain >= b.gain for a, b in zip(rest, rest[1:]))
 
 
 @pytest.mark.parametrize("kind", he.FALSE_ALARM_KINDS)
 def test_clean_data_is_none(kind):
     d = bench.diagnose_trial(he.draw_trial(kind, TEST_SEED))
-    assert d.top in ("none",), [(f.cause, f.strength) for f in d.findings[:3]]
+    assert d.top == "none", [(f.cause, f.gain, f.rejected) for f in d.findings[:3]]
 
 
 def test_quantised_clean_data_is_not_outliers():
@@ -70,9 +76,26 @@ def test_quantised_clean_data_is_not_outliers():
     assert "outliers" not in tops, tops
 
 
+def _lower_bound(k: int, n: int, level: float = 0.95) -> float:
+    """One-sided Clopper-Pearson lower confidence bound of a binomial rate (k successes of n)."""
+    return 0.0 if k == 0 else float(beta.ppf(1.0 - level, k, n - k + 1))
+
+
 @pytest.mark.slow
 def test_top1_and_false_alarm_rates_on_the_independent_generator():
-    res = bench.run("small" if IN_CI else "full", seed=TEST_SEED)
-    print("\n".join(res["summary"]))
-    assert res["top1_overall"] >= 0.9
-    assert res["false_alarm_rate"] <= 0.05
+    """Bounds (the issue's): top-1 >= 90 % over the 66 cause trials (at most 6 misses) and none
+    on clean data in >= 95 % of the 30 clean trials (at most 1 false alarm). What the counts
+    support: with 66 of 66 right, the one-sided 95 % Clopper-Pearson lower bound of the top-1
+    rate is 95.6 %; at the limit (60 of 66) it is 83.1 %; with 0 false alarms of 30 the upper
+    bound of the false-alarm rate is 9.5 %. The figures are printed with their bounds."""
+    causes = bench.run_counts(TRIALS_PER_CAUSE, seed=TEST_SEED, kinds=he.CAUSES)
+    clean = bench.run_counts(TRIALS_PER_CLEAN, seed=TEST_SEED, kinds=he.FALSE_ALARM_KINDS)
+    print("\n".join(causes["summary"] + clean["summary"]))
+    n, k = causes["trials"], causes["correct"]
+    n0, k0 = clean["trials"], clean["correct"]
+    print(
+        f"top-1 {k}/{n} (one-sided 95 % lower bound {100 * _lower_bound(k, n):.1f} %); "
+        f"clean named none {k0}/{n0} (lower bound {100 * _lower_bound(k0, n0):.1f} %)"
+    )
+    assert k / n >= 0.9
+    assert k0 / n0 >= 0.95

@@ -33,10 +33,16 @@ def register(sub) -> argparse.ArgumentParser:
             "input cross-correlation, Billings-Voon nonlinearity tests, level, direction, trend, spectral "
             "lines, condition columns, clipping, spikes) name the most likely causes from a fixed catalogue "
             "(static_nonlinearity, hysteresis, slow_relaxation, time_delay, drift, periodic_disturbance, "
-            "load_dependence, saturation, cross_coupling, outliers, unmodelled_dynamics, or none), ranked by "
-            "the information criterion of their extensions; each extension is refitted on the estimation "
-            "range and its gain is a simulation fit difference on the validation range against the nominal "
-            "prediction plus a generic linear correction, on the same samples. --ts is the sample period in seconds; A:B are sample ranges (Python slices) applied to "
+            "load_dependence, saturation, cross_coupling, outliers, unmodelled_dynamics, or none). Dynamics "
+            "first: the nominal model's fit (simulated from rest, as predict scores it) is printed, then the "
+            "corrected model's (nominal + an adequate-order linear correction, when the data need one); "
+            "unmodelled_dynamics, time_delay and slow_relaxation are judged against the nominal model, every "
+            "other cause against the corrected one. Each extension is refitted on the estimation range; its "
+            "gain is the fit difference on the validation range against that baseline, on the same samples. "
+            "A cause is found when its test is significant, its evidence agrees with its name and its "
+            "held-out gain is confirmed (one-sided 5 %); found causes are ranked by gain, the simplest "
+            "extension winning among overlapping gains. --ts is the sample period in seconds; A:B are sample "
+            "ranges (Python slices) applied to "
             "every file. Without ranges, several files split into estimation (all but the last) and "
             "validation (the last); one file splits 60/40."
         ),
@@ -149,7 +155,13 @@ def _split(args, inputs, conditions, tables, vtables):
 
 
 def _predictor(args, inputs, est):
-    """A function u -> yhat and a line describing what is diagnosed."""
+    """(u -> yhat for the diagnosis, the nominal model or None, a line describing what is diagnosed).
+
+    A model's prediction starts settled at each record's rest level (its first value when it
+    starts on a hold), so that a record starting away from zero carries no start-up transient
+    that is not in the data; the fit printed first is the model simulated from rest, as
+    ``predict`` scores it (see :func:`_from_rest_fits`).
+    """
     us = [u for u, _, _ in est]
     ys = [y for _, y, _ in est]
     if args.sim:
@@ -173,19 +185,19 @@ def _predictor(args, inputs, est):
             model = match[0]
         if len(model.inputs) != len(inputs):
             raise ModelError(f"{args.model} takes {len(model.inputs)} inputs, --input gives {len(inputs)}")
-        from porosense.ident.extended import predict_settled
+        from porosense.diagnose import predict_at_rest_level
 
-        return (lambda u: predict_settled(model, u), model, f"model {args.model} ({model.kind})")
+        return (lambda u: predict_at_rest_level(model, u), model, f"model {args.model} ({model.kind})")
     if not 0 <= args.zeros < max(args.poles, 1) or args.poles > 10:
         raise InputError("--poles must be 1..10 and --zeros smaller than --poles")
     from porosense import ident
 
     model = ident.make_model(args.baseline, n_poles=args.poles, n_zeros=args.zeros)
     model.fit(u=us, y=ys, ts=args.ts, inputs=inputs, output=args.output)
-    from porosense.ident.extended import predict_settled
+    from porosense.diagnose import predict_at_rest_level
 
     return (
-        lambda u: predict_settled(model, u),
+        lambda u: predict_at_rest_level(model, u),
         model,
         f"{args.baseline} baseline with {args.poles} poles and {args.zeros} zeros identified on estimation",
     )
@@ -217,6 +229,9 @@ def run(args) -> int:
     records = [[Record(u, y, predict(u), args.ts, cond) for u, y, cond in part] for part in (est, val)]
     result = diagnose(records[0], records[1], alpha=args.alpha, nominal=nominal if args.save_extended else None)
     doc = result.to_dict()
+    rest = _from_rest_fits(nominal, val, _validation_names(args, tables, vtables, len(val)))
+    if rest:
+        doc["nominal_from_rest"] = rest
     if not _all_finite(doc):
         raise InputError("the diagnosis holds non-finite numbers (NaN or inf): check --ts and the data")
     emit_json(doc, args)
@@ -229,6 +244,12 @@ def run(args) -> int:
         page = _write_page(result, args.out, f"Diagnosis of {what}")
         say(args, f"report written to {page}")
     say(args, f"diagnosed: {what}")
+    for r in rest:
+        say(
+            args,
+            f"nominal model on {r['data']} (simulated from rest, as predict scores it): fit {r['fit']:.2f} %, "
+            f"RMS {r['rms']:.2f} %",
+        )
     say(args, str(result))
     if args.save_extended:
         if result.extended is None:
@@ -264,6 +285,30 @@ def _write_page(result, folder, title: str):
     ]
     _, page = write_report(folder, title, sections, intro=f"Most likely cause: {result.top}.", name="diagnosis")
     return page
+
+
+def _validation_names(args, tables, vtables, n: int) -> list:
+    """A name per validation record: its file (and the range, when one file gives both parts)."""
+    if args.validation_data:
+        return [str(t.path) for t in vtables]
+    if args.estimation is None and args.validation is None and len(tables) > 1:
+        return [str(tables[-1].path)]
+    rng = args.validation or "the validation range"
+    return [f"{t.path} [{rng}]" for t in tables][:n]
+
+
+def _from_rest_fits(model, val, names) -> list:
+    """Per validation record: the nominal model's fit and RMS (%) as every command prints them
+    (porosense.ident.simulation_fit: simulated from rest, every sample of the record)."""
+    if model is None:
+        return []
+    from porosense.ident import simulation_fit
+
+    out = []
+    for name, (u, y, _) in zip(names, val):
+        s = simulation_fit(model, u, y, outputs=[model.output])
+        out.append({"data": name, "fit": float(s.fit[model.output]), "rms": float(s.rms[model.output])})
+    return out
 
 
 def _all_finite(value) -> bool:

@@ -1,39 +1,42 @@
-"""Diagnosis: residual tests -> named causes -> extensions refitted -> gain on validation.
+"""Diagnosis: residual tests -> named causes -> extensions refitted -> gain on held-out data.
 
 The thing diagnosed (a calibrated simulation, an identified model, any predictor) enters only
 through its predictions ``yhat`` on the estimation and validation records, so the same engine
 serves ``--sim``, ``--model`` and ``--baseline``.
 
-Procedure (no cause-specific rule anywhere):
+Procedure:
 
-1. G0, the generic linear correction (a Laguerre bank of every used input at the model's own
-   dominant pole, and a constant), is fitted to the estimation residual.
-2. Each cause's test (see :mod:`.extensions`) is conditional on G0 and run at alpha / K
-   (K causes in the catalogue, Bonferroni: alpha family-wise, 1 % by default).
-   unmodelled_dynamics tests G0 itself against the nominal residual (independence from past
-   inputs). A cause is *found* when its test is significant AND its extension is not refuted
-   on held-out data: the paired difference of validation squared errors (baseline minus
-   extension) is tested by batch means (:func:`.stats.paired_gain_test`, 20 contiguous
-   batches, t on 19 df); an extension worse than its baseline at one-sided 5 % is refuted, so
-   an effect that is real on estimation but too small against the residual's own noise to carry
-   to a new record (or a delay that re-identification would make worse) is not reported. The
-   false-alarm level stays the test's alpha / K. Model extensions are judged in simulation mode
-   against nominal + G0 (against the nominal for unmodelled_dynamics, whose extension is G0
-   itself). Drift and periodic disturbance trackers are judged by their test alone: their walk
-   or phase cannot carry to a new record in simulation, and the only predictor-mode baseline
-   here (nominal + G0 with an AR one-step predictor of its residual) already follows a slow
-   trend, so the tracker's paired test is reported in the evidence but not used.
-3. Found causes are ranked by the Bayesian information criterion of their extension's
-   regressors on the estimation residual (Gaussian likelihood of the AR-whitened residual,
-   parameters = regressors + AR order, plus 2 ln M for a search over M candidates). The
-   confidence of a found cause is its BIC weight exp(-BIC/2) among the found causes times
-   (1 - p). Two causes within 2 ln 10 of BIC (a Bayes factor below 10) are reported as a tie,
-   with the F tests that tell them apart.
-4. The gain of every extension is a simulation-mode fit difference on the validation records
-   against nominal + G0, on the same samples (samples an extension rejects are dropped from
-   both sides). Extensions that need the measured output (drift, periodic disturbance
-   trackers) are reported separately as one-step predictors against the one-step predictor of
-   nominal + G0 with an AR model of its residual.
+1. **Dynamics before nonlinearity.** The residual's linear part is judged first: an
+   adequate-order linear correction (:mod:`.dynamics`, order by BIC) is fitted to the
+   estimation residual. unmodelled_dynamics is that correction (with G0, the generic Laguerre
+   correction at the model's own pole); its gain is measured against the **nominal** model. The
+   other linear-dynamics causes (time_delay, slow_relaxation) are alternatives to it, judged
+   against the nominal model as well, and must show a gain from their own terms against the
+   nominal model + G0. Every other cause is tested and fitted beyond the **adequate-order
+   linear model + G0** (the "corrected" model), so a too-low order cannot masquerade as a
+   nonlinear cause: what the missing dynamics explain is credited to unmodelled_dynamics.
+2. **Tests.** Each cause's test (see :mod:`.extensions`) runs at alpha / K (K causes,
+   Bonferroni: alpha family-wise, 1 % by default).
+3. **Evidence that agrees with the name.** time_delay needs the measured response to start
+   later than the model's (prewhitened input-output cross-correlation) and a held-out gain
+   from the delay itself; slow_relaxation a held-out gain from the slow mode itself; hysteresis
+   a direction effect beyond static maps, a slow mode and the adequate-order linear model (its
+   test is conditional on them); saturation samples at a limit where the model, fitted without
+   them, predicts beyond the limit (a rest of the experiment at that level is not clipping).
+4. **Held-out gain.** Each extension is fitted on the estimation records only; its gain is the
+   simulation-fit difference on the validation records against its baseline, on the same
+   samples (samples an extension rejects leave both sides). It is confirmed when the paired
+   per-sample improvement is positive at one-sided 5 % (batch means, 20 batches,
+   :func:`.stats.paired_gain_test`). drift and periodic_disturbance are disturbances, not
+   input-output behaviour: their extensions track the measured output, and their gain is the
+   one-step predictor's against the one-step predictor of the corrected model with an AR model
+   of its residual.
+5. A cause is **found** when its test is significant, its evidence agrees with its name and its
+   held-out gain is confirmed. Found causes are ranked by :mod:`.ranking` (held-out gain; the
+   simplest extension among overlapping gains); ``none`` follows them, then the rest by gain.
+   The confidence of a found cause is (1 - p of its test) (1 - p of its held-out gain).
+
+Fits are NRMSE fits (:func:`porosense.ident.fit_percent`, the function every command prints).
 """
 
 from __future__ import annotations
@@ -43,11 +46,15 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from porosense.diagnose import extensions, signals, stats
+from porosense.diagnose import extensions, ranking, signals, stats
 from porosense.diagnose.catalogue import CAUSES, EXPRESSIBLE, NONE
+from porosense.diagnose.extensions import ADEQUATE, DYNAMICS, GENERIC
 from porosense.dsp.metrics import fit_percent, rms_percent
 from porosense.errors import InputError
 from porosense.files import write_text
+
+#: causes that are disturbances, not input-output behaviour: tracked from the measured output
+DISTURBANCES = ("drift", "periodic_disturbance")
 
 
 @dataclass
@@ -80,9 +87,40 @@ class Record:
         return np.arange(len(self.y)) * self.ts
 
 
+def predict_at_rest_level(model, u: np.ndarray) -> np.ndarray:
+    """``model``'s prediction for inputs ``u`` (N, n_in) started settled at the record's rest level.
+
+    Models simulate from rest (zero state). Each input is first held at its rest level
+    (:func:`.signals.rest_level`: the first value of a record that starts on a hold, the mean of
+    one that starts moving) for 10 time constants of the model's slowest pole, which are
+    simulated and dropped.
+    """
+    from porosense.ident.extended import settle_samples
+
+    x = np.asarray(u, float).reshape(len(u), -1)
+    n_pre = settle_samples(model)
+    level = np.array([signals.rest_level(x[:, i]) for i in range(x.shape[1])])
+    return np.asarray(model.predict(u=np.vstack([np.tile(level, (n_pre, 1)), x])), float)[n_pre:]
+
+
+#: Baselines a gain is measured against (the names the report and JSON print).
+BASELINES = {
+    "nominal": "the nominal model",
+    GENERIC: "the nominal model + G0 (generic linear correction)",
+    ADEQUATE: "the corrected model (nominal + adequate-order linear correction + G0)",
+}
+
+
 @dataclass
 class Finding:
-    """One cause with its test, evidence and the gain of its extension on validation."""
+    """One cause: its test, evidence, the gain of its extension on validation and against what.
+
+    fit_before / fit_after: NRMSE fit (%) of the baseline and of the extension on the validation
+    samples scored; gain = fit_after - fit_before (points); gain_t, gain_p: batch-means t and
+    one-sided p of the held-out improvement; n_params: the extension's parameters beyond its
+    baseline (what the ranking's simplicity rule counts); found: test significant, evidence that
+    agrees with the name and gain confirmed; rejected: why not, when the test was significant.
+    """
 
     cause: str
     confidence: float
@@ -92,44 +130,76 @@ class Finding:
     fit_before: float
     fit_after: float
     gain: float
+    baseline: str = "adequate"
+    gain_t: float = 0.0
+    gain_p: float = 1.0
+    confirmed: bool = False
+    n_params: int = 0
+    found: bool = False
+    rejected: str = ""
     rms_before: float = float("nan")
     rms_after: float = float("nan")
     strength: float = 0.0
     significant: bool = False
-    bic: float = float("nan")
     effect_to_noise: float = 0.0
     predictor_gain: float | None = None
     on_device: str = ""
 
+    KEYS = (
+        "cause",
+        "confidence",
+        "statistic",
+        "evidence",
+        "extension",
+        "baseline",
+        "fit_before",
+        "fit_after",
+        "gain",
+        "gain_t",
+        "gain_p",
+        "confirmed",
+        "n_params",
+        "significant",
+        "found",
+        "rejected",
+        "effect_to_noise",
+        "predictor_gain",
+        "on_device",
+    )
+
     def to_dict(self) -> dict:
-        """The JSON form: exactly the keys of the diagnosis report."""
-        keys = (
-            "cause",
-            "confidence",
-            "statistic",
-            "evidence",
-            "extension",
-            "fit_before",
-            "fit_after",
-            "gain",
-            "significant",
-            "effect_to_noise",
-            "predictor_gain",
-            "on_device",
-        )
+        """The JSON form: exactly the keys of the diagnosis report (``KEYS``)."""
         d = asdict(self)
-        return {k: (round(d[k], 4) if isinstance(d[k], float) else d[k]) for k in keys}
+        out = {k: (round(d[k], 4) if isinstance(d[k], float) and np.isfinite(d[k]) else d[k]) for k in self.KEYS}
+        for k in ("gain_t", "gain_p"):
+            if isinstance(out[k], float) and not np.isfinite(out[k]):
+                out[k] = None
+        return out
 
     def __str__(self) -> str:
+        mark = "found" if self.found else ("rejected" if self.rejected else "")
         return (
-            f"{self.cause:<21} conf {self.confidence:.2f}  fit {self.fit_before:6.2f} -> "
-            f"{self.fit_after:6.2f} % (gain {self.gain:+.2f})  {self.statistic}"
+            f"{self.cause:<21} {mark:<8} fit {self.fit_before:6.2f} -> {self.fit_after:6.2f} % "
+            f"(gain {self.gain:+.2f} vs {self.baseline}, t = {self.gain_t:.3g}; {self.n_params} parameters)  "
+            f"{self.statistic}"
         )
 
 
 @dataclass
+class ModelFit:
+    """A fit (%) and RMS (% of max |y|) on the validation samples, with what was scored."""
+
+    what: str
+    fit: float
+    rms: float
+
+    def to_dict(self) -> dict:
+        return {"what": self.what, "fit": round(self.fit, 4), "rms": round(self.rms, 4)}
+
+
+@dataclass
 class Diagnosis:
-    """Ranked findings (most likely first), the residual statistics and what plots need."""
+    """Ranked findings (most likely first), the fits before/after, the dynamics verdict."""
 
     top: str
     findings: list
@@ -137,9 +207,23 @@ class Diagnosis:
     curves: dict = field(default_factory=dict, repr=False)
     ties: list = field(default_factory=list)
     extended: object = field(default=None, repr=False)
+    nominal: ModelFit | None = None
+    corrected: ModelFit | None = None
+    dynamics: dict = field(default_factory=dict)
+    why_top: str = ""
 
     def to_dict(self) -> dict:
-        return {"top": self.top, "findings": [f.to_dict() for f in self.findings], "ties": self.ties}
+        return {
+            "top": self.top,
+            "nominal": self.nominal.to_dict() if self.nominal else None,
+            "corrected": self.corrected.to_dict() if self.corrected else None,
+            "dynamics": self.dynamics,
+            "why_top": self.why_top,
+            "ranking_rule": ranking.RULE,
+            "baselines": BASELINES,
+            "findings": [f.to_dict() for f in self.findings],
+            "ties": self.ties,
+        }
 
     def to_json(self, path) -> None:
         write_text(path, json.dumps(self.to_dict(), indent=2) + "\n")
@@ -148,8 +232,16 @@ class Diagnosis:
         return next(f for f in self.findings if f.cause == cause)
 
     def __str__(self) -> str:
-        lines = [f"top: {self.top}"] + [f"  {f}" for f in self.findings]
-        lines += [f"  tie: {' / '.join(t['causes'])}: {t['evidence']}" for t in self.ties]
+        lines = []
+        if self.nominal:
+            lines.append(f"{self.nominal.what}: fit {self.nominal.fit:.2f} %, RMS {self.nominal.rms:.2f} %")
+        if self.corrected:
+            lines.append(f"{self.corrected.what}: fit {self.corrected.fit:.2f} %, RMS {self.corrected.rms:.2f} %")
+        if self.dynamics.get("sentence"):
+            lines.append(f"dynamics: {self.dynamics['sentence']}")
+        lines.append(f"top: {self.top}" + (f" ({self.why_top})" if self.why_top else ""))
+        lines += [f"  {f}" for f in self.findings]
+        lines += [f"  overlap: {' / '.join(t['causes'])}: {t['evidence']}" for t in self.ties]
         return "\n".join(lines)
 
     def plot(self, directory) -> list:
@@ -159,88 +251,94 @@ class Diagnosis:
         return report.write_figures(self, directory)
 
 
-TIE_BIC = 2.0 * np.log(10.0)  # a Bayes factor below 10 does not tell two causes apart
-
-
-def _common_ar(ctx, Zs: list) -> np.ndarray:
-    """One AR noise model for every candidate: fitted to the residual of e_est on G0 and the
-    union of all candidates' regressors, so that no candidate's systematic error is absorbed
-    into its own noise model (a slow error looks like a near-unit-root AR otherwise)."""
-    X = np.column_stack([ctx.G0_est] + [Z for Z in Zs if Z is not None])
+def _effect_to_noise(ctx, Z: np.ndarray | None, scope: str) -> float:
+    """SD of the fitted Z part of e_est ~ [baseline, Z] over the SD of what remains."""
+    if Z is None or Z.shape[1] == 0:
+        return 0.0
+    X = np.column_stack([ctx.base(scope)[0], Z])
     coef = stats.lstsq(X, ctx.e_est)
-    return signals.fit_ar(ctx.e_est - X @ coef, 10)
+    rest = ctx.e_est - X @ coef
+    return float(np.std(Z @ coef[-Z.shape[1] :]) / (np.std(rest) or 1e-300))
 
 
-def _bic(ctx, Z: np.ndarray | None, ar: np.ndarray, with_g0: bool = True):
-    """(BIC, effect SD / noise SD) of e_est ~ [G0 or constant, Z] by GLS with the AR noise model ``ar``.
-
-    Regression on AR-filtered data (per record); BIC = N ln s2 + k ln N with s2 the whitened
-    residual's variance (the noise model is common to all candidates, so its order cancels).
-    The effect is the SD of the fitted Z part, the noise the residual's own SD implied by the AR
-    model and s2 (the strength relative to the residual's own noise).
-    """
-    e = ctx.e_est
-    n = len(e)
-    X = ctx.G0_est if with_g0 else np.ones((n, 1))
-    kz = 0 if Z is None else Z.shape[1]
-    if kz:
-        X = np.column_stack([X, Z])
-    cuts = np.cumsum(ctx.seg_est)[:-1]
-    ew = np.concatenate([signals.whiten(p, ar) for p in np.split(e, cuts)])
-    Xw = np.vstack([signals.whiten(p, ar) for p in np.split(X, cuts)])
-    coef = stats.lstsq(Xw, ew)
-    w = ew - Xw @ coef
-    s2 = float(np.mean(w * w)) or 1e-300
-    bic = len(w) * np.log(s2) + X.shape[1] * np.log(len(w))
-    if kz:
-        effect = float(np.std(Z @ coef[-kz:]))
-    elif with_g0:
-        effect = float(np.std(ctx.G0_est[:, :-1] @ coef[:-1]))
-    else:
-        effect = 0.0
-    # SD of an AR process with this innovation variance: s2 / (1 - sum of rho_k a_k) ~ via impulse response
-    from scipy import signal as sps
-
-    h = sps.lfilter([1.0], ar, np.r_[1.0, np.zeros(2000)])
-    noise = np.sqrt(s2 * float(np.sum(h * h)))
-    return float(bic), effect / noise
+def _n_params(cause: str, res, ctx) -> int:
+    """Parameters the extension adds to its baseline: fitted coefficients, plus one per searched
+    structural choice (a delay, a time constant, a side, a frequency)."""
+    if "n_params" in res.detail:
+        return int(res.detail["n_params"])
+    if cause == "unmodelled_dynamics":
+        return ctx.adequate.n_params
+    if cause == "saturation":
+        return 1  # the limit
+    if cause == "outliers":
+        return 1 + int(res.Z_est.shape[1])  # the rejection band, and one value per rejected sample
+    k = 0 if res.Z_est is None else int(res.Z_est.shape[1])
+    return k + (1 if res.n_search > 1 else 0)
 
 
-def _tie_evidence(ctx, a: str, b: str, results: dict, alpha: float) -> str:
-    """F tests of each cause's regressors beyond the other's: what tells the two apart."""
-    out = []
-    for x, y in ((a, b), (b, a)):
-        Zx, Zy = results[x].Z_est, results[y].Z_est
-        if Zx is None:
-            out.append(f"{x} has no regressors beyond G0")
-            continue
-        t = ctx.f_test(Zx, extra_base=Zy)
-        r = stats.f_result(f"F({x} | {y})", t, alpha)
-        out.append(f"{x} beyond {y}: F = {r.value:.3g}, p = {r.p:.2g}")
-    return "; ".join(out)
+def _one_dynamics_explanation(findings: dict, improvements: dict, extended: dict, y_val: np.ndarray) -> None:
+    """unmodelled_dynamics, time_delay and slow_relaxation explain one linear deficit in
+    different ways. The one with the largest gain explains it (:func:`.ranking.rank`), except
+    that a specific cause (a delay, a slow mode: its own evidence, few parameters) wins an
+    overlap with the generic correction (unmodelled_dynamics, the catch-all); another stays
+    found only when its extension predicts the held-out data better than the winner's
+    (one-sided 5 %)."""
+    found = [c for c in DYNAMICS if findings[c].found]
+    if len(found) < 2:
+        return
+    # the generic correction is the catch-all: it loses every overlap with a specific dynamic cause
+    order, _ = ranking.rank(
+        [
+            ranking.Candidate(
+                c, findings[c].gain, improvements[c], findings[c].n_params if c != "unmodelled_dynamics" else 10**6
+            )
+            for c in found
+        ]
+    )
+    winner = order[0]
+    for c in order[1:]:
+        t = stats.paired_gain_test(y_val, extended[winner], extended[c])
+        if not t.confirmed:
+            f = findings[c]
+            f.found, f.confidence = False, 0.0
+            f.rejected = (
+                f"{winner} explains the same linear residual: this extension does not predict the held-out "
+                f"data better than {winner}'s (t = {t.t:.3g}, one-sided p = {t.p:.2g})"
+            )
+            f.evidence += f" Not found: {f.rejected}."
 
 
-def _predictor_gain(ctx, res, keep):
-    """(gain, tracker, baseline): one-step predictor gain of a tracker extension against the
-    one-step predictor nominal + G0 + AR(residual); (None, None, None) for other extensions."""
-    trk = res.detail.get("predictor_val")
-    if trk is None:
-        return None, None, None
-    from scipy import signal as sps
-
-    g0_val, g0_est = ctx.fit_apply(None)
-    y_est = np.concatenate([r.y for r in ctx.est])
-    ar = signals.fit_ar(y_est - g0_est, 10)
-    r_val = ctx.y_val - g0_val
-    _parts, start, pred = [], 0, []
-    for rec in ctx.val:
-        n = len(rec.y)
-        rv = r_val[start : start + n]
-        # one-step prediction of the residual from its past: r[k] ~ -sum a_j r[k-j]
-        pred.append(sps.lfilter(np.concatenate([[0.0], -ar[1:]]), [1.0], rv))
-        start += n
-    base = g0_val + np.concatenate(pred)
-    return float(fit_percent(ctx.y_val[keep], trk[keep]) - fit_percent(ctx.y_val[keep], base[keep])), trk, base
+def _why(top: Finding, runner: Finding | None, step, findings: dict, improvements: dict) -> str:
+    """Why the top cause was preferred over the runner-up, in one sentence."""
+    if top.cause == NONE:
+        if runner is None:
+            return "no cause has a significant test"
+        why = runner.rejected or "its test is not significant"
+        return f"no cause is found; the strongest candidate, {runner.cause}, is not: {why}"
+    if runner is None or not runner.found:
+        other = (
+            f"; the runner-up {runner.cause} is not found ({runner.rejected or 'test not significant'})"
+            if runner is not None and runner.cause != NONE
+            else ""
+        )
+        return f"the only cause found{other}"
+    if step is not None and runner.cause in step.overlapping and top.n_params < runner.n_params:
+        largest = findings[step.largest]
+        return (
+            f"gains overlap ({top.cause} {top.gain:+.2f}, {runner.cause} {runner.gain:+.2f} points; "
+            f"{largest.cause}'s is not larger beyond its uncertainty) and {top.cause}'s extension is simpler "
+            f"({top.n_params} against {runner.n_params} parameters)"
+        )
+    t = stats.mean_positive_test(improvements[top.cause] - improvements[runner.cause])
+    if t.confirmed:
+        return (
+            f"larger held-out gain ({top.gain:+.2f} against {runner.gain:+.2f} points; difference batch-means "
+            f"t = {t.t:.3g}, one-sided p = {t.p:.2g})"
+        )
+    return (
+        f"larger or equal held-out gain ({top.gain:+.2f} against {runner.gain:+.2f} points) with no more "
+        f"parameters ({top.n_params} against {runner.n_params})"
+    )
 
 
 def diagnose(
@@ -248,59 +346,95 @@ def diagnose(
 ) -> Diagnosis:
     """Diagnose predictions against measurements.
 
-    estimation, validation: lists of :class:`Record` (validation may repeat estimation if no
-    held-out data exists, then the gain is in-sample). alpha: family-wise false-alarm level
-    over the catalogue (each cause is tested at alpha / K). nominal: the identified model the
-    predictions come from (a :class:`porosense.ident.Model`), when there is one: the top
-    cause's extension is then a model (re-identified or wrapped, see :mod:`.extend`) that can
-    be saved, predicted and, where the on-device structure carries it, quantised.
+    Parameters
+    ----------
+    estimation, validation : list of Record
+        Records with the nominal prediction ``yhat``; validation may repeat estimation when no
+        held-out data exists (the gain is then in-sample).
+    alpha : float
+        Family-wise false-alarm level over the catalogue (each cause is tested at alpha / K).
+    nominal : porosense.ident.Model, optional
+        The identified model the predictions come from: the top cause's extension is then a
+        model (re-identified or wrapped, see :mod:`.extend`) that can be saved and predicted.
+    refit : bool
+        Build that extended model (slow: a re-identification).
+
+    Returns
+    -------
+    Diagnosis
+        Ranked findings, the nominal and corrected fits on validation (%), the dynamics verdict.
     """
     if not estimation or not validation:
         raise InputError("diagnosis needs at least one estimation and one validation record")
+    from threadpoolctl import threadpool_limits
+
+    # many small least-squares problems: BLAS threads only add overhead (5x the CPU time measured)
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _diagnose(estimation, validation, alpha, nominal, refit)
+
+
+def _diagnose(estimation, validation, alpha, nominal, refit) -> Diagnosis:
     ctx = extensions.Context(estimation, validation)
     per_cause_alpha = alpha / len(CAUSES)
-    results = {cause: extensions.HANDLERS[cause](ctx, per_cause_alpha) for cause in CAUSES}
-
-    g0_val = ctx.generic_validation()
     y_val = ctx.y_val
-    fit_nom = fit_percent(y_val, ctx.yhat_val)
-    ar = _common_ar(ctx, [r.Z_est for r in results.values() if r.gate and r.test.significant])
-    bic_none, _ = _bic(ctx, None, ar, with_g0=False)
-    findings, found = {}, {}
+    # dynamics first: the linear-dynamics causes against the nominal model
+    results = {c: extensions.HANDLERS[c](ctx, per_cause_alpha) for c in DYNAMICS}
+    ud = results["unmodelled_dynamics"]
+    corrected = bool(ud.test.significant and stats.paired_gain_test(y_val, ctx.yhat_val, ud.yhat_val).confirmed)
+    # every other cause is judged against the corrected model: the nominal + the adequate-order
+    # linear correction when unmodelled_dynamics holds (test significant, held-out gain against
+    # the nominal), the nominal itself otherwise; its level, direction and dynamics are the
+    # corrected model's, so a too-low order cannot pass for a nonlinear cause
+    ctx_nl = extensions.Context(*ctx.corrected(ADEQUATE), correct=False) if corrected else None
+    if ctx_nl is None:
+        ctx_nl = extensions.Context(estimation, validation, correct=False)
+    results.update({c: extensions.HANDLERS[c](ctx_nl, per_cause_alpha) for c in CAUSES if c not in results})
+    results = {c: results[c] for c in CAUSES}
+    baselines = {"nominal": ctx.yhat_val, GENERIC: ctx.baseline_validation(GENERIC)}
+    baselines[ADEQUATE] = ctx_nl.baseline_validation(GENERIC)
+    findings, improvements, extended = {}, {}, {}
     for cause, res in results.items():
-        if res.Z_est is not None:
-            bic, eff = _bic(ctx, res.Z_est, ar)
-        else:
-            bic, eff = np.inf, 0.0
-        bic += 2.0 * np.log(max(res.n_search, 1)) - 2.0 * res.evidence_llr
+        cctx = ctx if cause in DYNAMICS else ctx_nl
         keep = res.detail.get("score_mask", np.ones(len(y_val), bool))
-        pred = res.yhat_val if res.yhat_val is not None else g0_val
-        fit0, rms0 = fit_percent(y_val[keep], g0_val[keep]), rms_percent(y_val[keep], g0_val[keep])
-        fit1, rms1 = fit_percent(y_val[keep], pred[keep]), rms_percent(y_val[keep], pred[keep])
-        pgain, trk, trk_base = _predictor_gain(ctx, res, keep)
-        # confirmation in the extension's own mode (see the module docstring, step 2)
-        if trk is not None:
-            confirm = stats.paired_gain_test(y_val[keep], trk_base[keep], trk[keep])
-            refuted = False  # reported, not used: see the module docstring, step 2
+        trk = res.detail.get("predictor_val")
+        if trk is not None:  # a disturbance tracker: a one-step predictor against the corrected simulation
+            base_name, base, ext = ADEQUATE, baselines[ADEQUATE], trk
         else:
-            base = ctx.yhat_val if res.detail.get("gain_against") == "nominal" else g0_val
-            confirm = stats.paired_gain_test(y_val[keep], base[keep], pred[keep])
-            refuted = confirm.refuted
-        found[cause] = bool(res.gate and res.test.significant and np.isfinite(bic) and not refuted)
+            base_name = "nominal" if cause in DYNAMICS else ADEQUATE
+            base, ext = baselines[base_name], res.yhat_val if res.yhat_val is not None else baselines[ADEQUATE]
+        fit0, fit1 = fit_percent(y_val[keep], base[keep]), fit_percent(y_val[keep], ext[keep])
+        rms0, rms1 = rms_percent(y_val[keep], base[keep]), rms_percent(y_val[keep], ext[keep])
+        confirm = stats.paired_gain_test(y_val[keep], base[keep], ext[keep])
+        extended[cause] = np.where(keep, ext, np.nan)
+        imp = np.full(len(y_val), np.nan)
+        imp[keep] = (y_val[keep] - base[keep]) ** 2 - (y_val[keep] - ext[keep]) ** 2
+        improvements[cause] = imp
+        # evidence that agrees with the name
+        notes = []
+        if not res.detail.get("evidence_ok", True):
+            notes.append(res.detail.get("evidence_note", "its evidence disagrees with its name"))
+        own = None
+        if res.detail.get("rival_val") is not None:
+            own = stats.paired_gain_test(y_val[keep], res.detail["rival_val"][keep], ext[keep])
+            if not own.confirmed:
+                notes.append(
+                    f"no held-out gain against {res.detail['rival']} (t = {own.t:.3g}, one-sided p = {own.p:.2g})"
+                )
+        if not confirm.confirmed:
+            notes.append(f"its held-out gain is not confirmed (t = {confirm.t:.3g}, one-sided p = {confirm.p:.2g})")
+        significant = bool(res.gate and res.test.significant)
+        found = significant and not notes
+        eff = _effect_to_noise(cctx, res.Z_est, GENERIC) if cause != "unmodelled_dynamics" else 0.0
         dropped = int((~keep).sum())
+        baseline_text = BASELINES.get(base_name, base_name)
         sentence = (
             f"{res.test.sentence()}: {res.meaning}. Effect {eff:.3g} x the residual's noise. "
-            f"Simulation on validation: nominal {fit_nom:.1f} %, nominal + G0 {fit0:.1f} %, extension "
-            f"({res.extension}) {fit1:.1f} % (gain {fit1 - fit0:+.2f} points, RMS {rms0:.2f} -> {rms1:.2f} %"
+            f"On validation: {baseline_text} {fit0:.1f} %, extension ({res.extension}) {fit1:.1f} % "
+            f"(gain {fit1 - fit0:+.2f} points, RMS {rms0:.2f} -> {rms1:.2f} %"
             + (f", {dropped} rejected samples left out of both" if dropped else "")
-            + ")."
-            + (
-                f" As a one-step predictor: {pgain:+.2f} points against the one-step predictor of "
-                "nominal + G0 (not comparable with the simulation figures)."
-                if pgain is not None
-                else ""
-            )
-            + f" {confirm.sentence()}."
+            + f"). {confirm.sentence()}."
+            + (f" Against {res.detail['rival']}: {own.sentence()}." if own is not None else "")
+            + (f" Not found: {'; '.join(notes)}." if significant and notes else "")
         )
         findings[cause] = Finding(
             cause,
@@ -311,53 +445,131 @@ def diagnose(
             float(fit0),
             float(fit1),
             float(fit1 - fit0),
-            float(rms0),
-            float(rms1),
-            res.test.strength,
-            found[cause],
-            float(bic),
-            float(eff),
-            pgain,
-            "expressible" if cause in EXPRESSIBLE else "not expressible",
+            baseline=base_name,
+            gain_t=float(confirm.t),
+            gain_p=float(confirm.p),
+            confirmed=bool(confirm.confirmed),
+            n_params=_n_params(cause, res, cctx),
+            found=bool(found),
+            rejected="; ".join(notes) if significant else "",
+            rms_before=float(rms0),
+            rms_after=float(rms1),
+            strength=res.test.strength,
+            significant=significant,
+            effect_to_noise=float(eff),
+            predictor_gain=float(fit1 - fit0) if trk is not None else None,
+            on_device="expressible" if cause in EXPRESSIBLE else "not expressible",
         )
-    # confidences: BIC weights among the found causes, times (1 - p)
-    hits = sorted((c for c in CAUSES if found[c]), key=lambda c: (findings[c].bic, c))
-    if hits:
-        b0 = findings[hits[0]].bic
-        w = {c: np.exp(-0.5 * (findings[c].bic - b0)) for c in hits}
-        total = sum(w.values())
-        for c in hits:
-            findings[c].confidence = float(np.clip(w[c] / total * (1.0 - results[c].test.p), 0.0, 1.0))
+        if found:
+            findings[cause].confidence = float(np.clip((1.0 - res.test.p) * (1.0 - confirm.p), 0.0, 1.0))
+    _one_dynamics_explanation(findings, improvements, extended, y_val)
+    # input-output causes first; disturbances (tracked from the measured output, a predictor's
+    # gain that a simulation gain cannot be compared with) after them
+    groups = [[c for c in CAUSES if c not in DISTURBANCES], list(DISTURBANCES)]
+    order, steps = [], []
+    for group in groups:
+        o, st = ranking.rank(
+            [
+                ranking.Candidate(c, findings[c].gain, improvements[c], findings[c].n_params)
+                for c in group
+                if findings[c].found
+            ]
+        )
+        order += o
+        steps += st
     worst = max(results.values(), key=lambda r: r.test.strength).test
-    p_none = min((results[c].test.p for c in hits), default=1.0)
     threshold = -np.log10(per_cause_alpha)
+    best_conf = max((findings[c].confidence for c in order), default=0.0)
+    fit_adequate = fit_percent(y_val, baselines[ADEQUATE])
     findings[NONE] = Finding(
         NONE,
-        float(min(p_none, min((findings[c].confidence for c in hits), default=1.0))),
+        float(1.0 - best_conf),
         f"largest test strength -log10 p = {worst.strength:.3g}",
         f"largest test strength -log10 p = {worst.strength:.3g} ({worst.name}), threshold "
         f"{threshold:.3g} (each cause at {100 * per_cause_alpha:.3g} %, {100 * alpha:g} % family-wise).",
         "none",
-        float(fit_percent(y_val, g0_val)),
-        float(fit_percent(y_val, g0_val)),
+        float(fit_adequate),
+        float(fit_adequate),
         0.0,
-        bic=float(bic_none),
+        baseline=ADEQUATE,
+        gain_t=float("nan"),
+        gain_p=float("nan"),
     )
-    rest = sorted((c for c in CAUSES if not found[c]), key=lambda c: (-findings[c].strength, c))
-    order = [findings[c] for c in hits] + [findings[NONE]] + [findings[c] for c in rest]
+    rest = sorted((c for c in CAUSES if c not in order), key=lambda c: (-findings[c].gain, c))
+    ranked = [findings[c] for c in order] + [findings[NONE]] + [findings[c] for c in rest]
+    top = ranked[0]
+    runner = ranked[1] if top.cause != NONE else next((f for f in ranked[1:] if f.significant), None)
+    why = _why(top, runner, steps[0] if steps else None, findings, improvements)
+    import os
+
+    if os.environ.get("DIAG_DEBUG"):
+        for st in steps:
+            print("STEP", st)
     ties = []
-    for c in hits[1:]:
-        if findings[c].bic - findings[hits[0]].bic < TIE_BIC:
-            ties.append(
-                {
-                    "causes": [hits[0], c],
-                    "delta_bic": round(findings[c].bic - findings[hits[0]].bic, 3),
-                    "evidence": _tie_evidence(ctx, hits[0], c, results, per_cause_alpha),
-                }
+    if steps:
+        for other in steps[0].overlapping:
+            if other != steps[0].winner:
+                t = stats.mean_positive_test(improvements[steps[0].largest] - improvements[other])
+                ties.append(
+                    {
+                        "causes": [steps[0].winner, other],
+                        "evidence": f"{other}'s held-out improvement is not below {steps[0].largest}'s "
+                        f"(t = {t.t:.3g}, one-sided p = {t.p:.2g}); the simpler extension is ranked first",
+                    }
+                )
+    ud = findings["unmodelled_dynamics"]
+    dyn = {
+        "significant": ud.significant,
+        "found": ud.found,
+        "correction_order": int(ctx.adequate.order),
+        "gain_against_nominal": round(ud.gain, 4),
+        "gain_t": round(ud.gain_t, 4) if np.isfinite(ud.gain_t) else None,
+    }
+    if ud.found:
+        data_order = _data_order(ctx)
+        dyn["data_order"] = data_order
+        dyn["sentence"] = (
+            f"the nominal dynamics are too simple: the residual needs a linear correction of "
+            f"{ctx.adequate.order} poles (gain {ud.gain:+.2f} points against the nominal model, t = {ud.gain_t:.3g}); "
+            f"a linear model of the data alone needs {data_order} poles (BIC, output error). The other causes are "
+            "judged beyond the corrected model"
+        )
+    else:
+        dyn["sentence"] = (
+            "the nominal dynamics are adequate (unmodelled_dynamics "
+            + ("not significant" if not ud.significant else f"not found: {ud.rejected}")
+            + "); the other causes are judged beyond the corrected model"
+        )
+    fit_nom = fit_percent(y_val, ctx.yhat_val)
+    diag = Diagnosis(
+        top.cause,
+        ranked,
+        ctx.residual_tests(per_cause_alpha),
+        ctx.curves(results),
+        ties,
+        nominal=ModelFit("nominal model on the validation records", fit_nom, rms_percent(y_val, ctx.yhat_val)),
+        corrected=ModelFit(
+            (
+                f"corrected model (nominal + a linear correction of {ctx.adequate.order} poles + G0)"
+                if corrected
+                else "corrected model (nominal + G0: the nominal dynamics are adequate)"
             )
-    diag = Diagnosis(order[0].cause, order, ctx.residual_tests(per_cause_alpha), ctx.curves(results), ties)
-    if nominal is not None and refit and hits:
+            + " on the validation records",
+            fit_adequate,
+            rms_percent(y_val, baselines[ADEQUATE]),
+        ),
+        dynamics=dyn,
+        why_top=why,
+    )
+    if nominal is not None and refit and order:
         from porosense.diagnose import extend
 
-        extend.attach(diag, ctx, results, nominal)
+        extend.attach(diag, ctx, results, nominal, baselines)
     return diag
+
+
+def _data_order(ctx) -> int:
+    """Poles of a linear output-error model of the measured output alone (the order the data support)."""
+    from porosense.diagnose import dynamics
+
+    return int(dynamics.choose([r.u for r in ctx.est], [r.y for r in ctx.est]).order)

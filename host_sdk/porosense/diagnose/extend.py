@@ -93,7 +93,8 @@ def _structural(cause: str, res, ctx, nominal):
         ]
         return min(fits, key=lambda m: m.info["sse"]), [r.u for r in ctx.val]
     if cause in ("slow_relaxation", "unmodelled_dynamics"):
-        more = {"n_poles": nominal.n_poles + 1, "n_zeros": min(nominal.n_zeros + 1, nominal.n_poles)}
+        poles = int(res.detail.get("n_poles", nominal.n_poles + 1))
+        more = {"n_poles": poles, "n_zeros": min(nominal.n_zeros + poles - nominal.n_poles, poles - 1)}
         return refit(nominal.kind, nominal, us, ys, ctx.ts, inputs, **more), [r.u for r in ctx.val]
     if cause == "cross_coupling" and len(inputs) < 3:
         col = res.detail["column"]
@@ -186,15 +187,21 @@ def build(cause: str, res, ctx, nominal):
     return model, pred, expressible
 
 
-def attach(diag, ctx, results, nominal) -> None:
-    """Build the top cause's extended model, score it against nominal + G0 and attach it."""
+def attach(diag, ctx, results, nominal, baselines: dict) -> None:
+    """Build the top cause's extended model, score it against the cause's baseline and attach it.
+
+    baselines: validation predictions by baseline name (the engine's); the top finding's gain
+    becomes the extended model's, against the same baseline on the same samples.
+    """
     top = diag.findings[0]
     if top.cause not in results:
         return
     res = results[top.cause]
+    if top.cause == "unmodelled_dynamics":
+        res.detail["n_poles"] = max(nominal.n_poles + 1, int(diag.dynamics.get("data_order") or 0))
     model, pred, expressible = build(top.cause, res, ctx, nominal)
     keep = res.detail.get("score_mask", np.ones(len(ctx.y_val), bool))
-    g0 = ctx.generic_validation()
+    g0 = baselines.get(top.baseline, baselines["adequate"])
     fit0, fit1 = fit_percent(ctx.y_val[keep], g0[keep]), fit_percent(ctx.y_val[keep], pred[keep])
     top.fit_before, top.fit_after, top.gain = float(fit0), float(fit1), float(fit1 - fit0)
     top.rms_before, top.rms_after = rms_percent(ctx.y_val[keep], g0[keep]), rms_percent(ctx.y_val[keep], pred[keep])
@@ -205,7 +212,7 @@ def attach(diag, ctx, results, nominal) -> None:
         else f"not expressible: {ADVICE.get(top.cause, '')}"
     )
     top.evidence += (
-        f" Extended model ({what}): simulation fit on validation {fit1:.1f} % against nominal + G0 "
+        f" Extended model ({what}): simulation fit on validation {fit1:.1f} % against {top.baseline} "
         f"{fit0:.1f} % on the same samples (gain {fit1 - fit0:+.2f} points). On the device: "
         f"{top.on_device}."
     )

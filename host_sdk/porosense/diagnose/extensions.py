@@ -13,10 +13,18 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import binom as sps_binom
 
-from porosense.diagnose import signals, stats
+from porosense.diagnose import dynamics, signals, stats
 from porosense.dsp import laguerre_bank, play_operator
 
 LAGUERRE_ORDER = 4
+FIT_RCOND = 1e-6
+#: baseline corrections (:meth:`Context.base`)
+GENERIC = "generic"
+ADEQUATE = "adequate"
+CONSTANT = "constant"
+#: causes whose extension is a linear dynamic change: judged against the nominal model with the
+#: generic correction only (the adequate-order correction would absorb them)
+DYNAMICS = ("unmodelled_dynamics", "time_delay", "slow_relaxation")
 POLE_GRID = (0.3, 0.5, 0.7, 0.8, 0.9, 0.95, 0.975, 0.99, 0.995)
 
 
@@ -51,7 +59,7 @@ def _huber_lstsq(X: np.ndarray, y: np.ndarray, iters: int = 10) -> np.ndarray:
 class Context:
     """Estimation and validation records with the shared regressors of all handlers."""
 
-    def __init__(self, estimation, validation):
+    def __init__(self, estimation, validation, correct: bool = True):
         self.est = list(estimation)
         self.val = list(validation)
         self.ts = float(self.est[0].ts)
@@ -66,6 +74,13 @@ class Context:
         self.base_ba = self._base_dynamics()
         self.G0_est = self.stack(self.generic, self.est)
         self.G0_val = self.stack(self.generic, self.val)
+        # the linear dynamics the data support (see :mod:`.dynamics`): unmodelled_dynamics' extension
+        self.adequate = dynamics.choose([r.u for r in self.est], [r.e for r in self.est]) if correct else None
+        if correct:
+            self.A_est = self.stack(lambda r: self.adequate.regressors(r.u), self.est)
+            self.A_val = self.stack(lambda r: self.adequate.regressors(r.u), self.val)
+        else:
+            self.A_est, self.A_val = np.zeros((len(self.e_est), 0)), np.zeros((len(self.y_val), 0))
         self._cache = {}
 
     # -- regressors -------------------------------------------------------------------------
@@ -74,9 +89,10 @@ class Context:
         return np.vstack([np.asarray(fn(r), float).reshape(len(r.y), -1) for r in records])
 
     def lag_bank(self, x: np.ndarray, order: int = LAGUERRE_ORDER, pole: float | None = None) -> np.ndarray:
-        """Laguerre bank of x started in steady state at x[0] (as if x had been x[0] for ever)."""
+        """Laguerre bank of x started in steady state at its rest level (:func:`.signals.rest_level`)."""
         a = self.pole if pole is None else pole
-        return laguerre_bank(x, a, order, settled=True)
+        x0 = signals.rest_level(x)
+        return laguerre_bank(np.asarray(x, float) - x0, a, order) + x0 * np.sqrt(1.0 - a * a) / (1.0 - a)
 
     def generic(self, rec) -> np.ndarray:
         """G0: Laguerre bank of every used input and a constant (retunes the linear dynamics)."""
@@ -129,7 +145,7 @@ class Context:
         return None if best is None else (best[1], best[2])
 
     def base_filter(self, x: np.ndarray) -> np.ndarray:
-        """x through the model's own linear dynamics (unit DC gain), from steady state at x[0]."""
+        """x through the model's own linear dynamics (unit DC gain), from steady state at its rest level."""
         from scipy import signal as sps
 
         if self.base_ba is None:
@@ -137,7 +153,7 @@ class Context:
         b, a = self.base_ba
         dc = np.sum(b) / np.sum(a)
         b = b / dc if abs(dc) > 1e-12 else b
-        zi = sps.lfilter_zi(b, a) * x[0]
+        zi = sps.lfilter_zi(b, a) * signals.rest_level(x)
         return sps.lfilter(b, a, x, zi=zi)[0]
 
     @property
@@ -146,13 +162,41 @@ class Context:
         return -self.ts / np.log(self.pole)
 
     # -- fitting ----------------------------------------------------------------------------
-    def f_test(self, Z_est: np.ndarray, extra_base: np.ndarray | None = None) -> stats.FTest:
-        base = self.G0_est[:, :-1] if extra_base is None else np.column_stack([self.G0_est[:, :-1], extra_base])
+    def corrected(self, scope: str = ADEQUATE) -> tuple[list, list]:
+        """(estimation, validation) records whose prediction is the nominal + the correction of
+        ``scope`` (fitted on estimation): the model the other causes are judged against."""
+        val, est = self.fit_apply(None, scope=scope)
+
+        def parts(records, pred):
+            cuts = np.cumsum([len(r.y) for r in records])[:-1]
+            return [type(r)(r.u, r.y, p, r.ts, r.conditions) for r, p in zip(records, np.split(pred, cuts))]
+
+        return parts(self.est, est), parts(self.val, val)
+
+    def base(self, scope: str = ADEQUATE) -> tuple[np.ndarray, np.ndarray]:
+        """(estimation, validation) regressors of a baseline correction, the constant last.
+
+        ``constant``: an offset only; ``generic``: G0 (Laguerre bank at the model's own pole, and a
+        constant); ``adequate``: G0 and the adequate-order linear correction (:mod:`.dynamics`).
+        """
+        if scope == GENERIC:
+            return self.G0_est, self.G0_val
+        if scope == CONSTANT:
+            return np.ones((len(self.e_est), 1)), np.ones((len(self.y_val), 1))
+        return (
+            np.column_stack([self.A_est, self.G0_est]),
+            np.column_stack([self.A_val, self.G0_val]),
+        )
+
+    def f_test(self, Z_est: np.ndarray, extra_base: np.ndarray | None = None, scope: str = ADEQUATE) -> stats.FTest:
+        """GLS F test of Z beyond the baseline correction of ``scope`` (and ``extra_base``)."""
+        b = self.base(scope)[0][:, :-1]
+        base = b if extra_base is None else np.column_stack([b, extra_base])
         return stats.gls_f_test(self.e_est, Z_est, base, segments=self.seg_est)
 
-    def fit_apply(self, z_fn=None, *, robust: bool = False, mask_est: np.ndarray | None = None):
-        """Fit e ~ [G0, Z] on estimation; return (extended yhat on validation, on estimation)."""
-        Xe, Xv = self.G0_est, self.G0_val
+    def fit_apply(self, z_fn=None, *, robust: bool = False, mask_est: np.ndarray | None = None, scope: str = ADEQUATE):
+        """Fit e ~ [baseline of ``scope``, Z] on estimation; return (extended yhat on validation, on estimation)."""
+        Xe, Xv = self.base(scope)
         if z_fn is not None:
             Xe = np.column_stack([Xe, self.stack(z_fn, self.est)])
             Xv = np.column_stack([Xv, self.stack(z_fn, self.val)])
@@ -163,14 +207,18 @@ class Context:
         if robust:
             coef = _huber_lstsq(Xe[rows] / scale, e[rows])
         else:
-            coef = stats.lstsq(Xe[rows] / scale, e[rows])
+            # SVD with directions below 1e-6 of the largest singular value left out: nearly
+            # collinear regressors (a model output and a filter bank of its input) would otherwise
+            # take large opposite coefficients that cancel on estimation and not on validation
+            coef = np.linalg.lstsq(Xe[rows] / scale, e[rows], rcond=FIT_RCOND)[0]
         coef = coef / scale
         return self.yhat_val + Xv @ coef, self.yhat_est + Xe @ coef
 
-    def generic_validation(self) -> np.ndarray:
-        if "g0" not in self._cache:
-            self._cache["g0"] = self.fit_apply(None)
-        return self._cache["g0"][0]
+    def baseline_validation(self, scope: str = ADEQUATE) -> np.ndarray:
+        """Nominal + the baseline correction of ``scope``, fitted on estimation, on validation."""
+        if scope not in self._cache:
+            self._cache[scope] = self.fit_apply(None, scope=scope)
+        return self._cache[scope][0]
 
     # -- report data ------------------------------------------------------------------------
     def residual_tests(self, alpha: float) -> dict:
@@ -224,6 +272,14 @@ def _static_sets(ctx: Context) -> dict:
                 out.append(ctx.lag_bank(c, 1)[:, 0])
         return out
 
+    def filt2(cols):
+        # the second linear block of a Wiener-Hammerstein path is unknown: the model's own
+        # dynamics and two Laguerre filters at its pole span the usual shapes
+        out = []
+        for c in cols:
+            out += [ctx.base_filter(c)] + list(ctx.lag_bank(c, 2).T)
+        return out
+
     def out_lin(r):
         return r.yhat[:, None]
 
@@ -243,12 +299,12 @@ def _static_sets(ctx: Context) -> dict:
         return ctx.lag_bank(r.u[:, i], 1)[:, 0]
 
     def mid_lin(r):
-        return np.column_stack(filt([r.yhat], False) + [c for i in range(ctx.n_in) for c in filt([mid_x(r, i)], False)])
+        return np.column_stack(filt2([r.yhat]) + [c for i in range(ctx.n_in) for c in filt2([mid_x(r, i)])])
 
     def mid_nl(r):
-        cols = filt(signals.hinge_basis(r.yhat, knots_out).T, False)
+        cols = filt2(signals.hinge_basis(r.yhat, knots_out).T)
         for i in range(ctx.n_in):
-            cols += filt(signals.hinge_basis(mid_x(r, i), knots_mid[i]).T, False)
+            cols += filt2(signals.hinge_basis(mid_x(r, i), knots_mid[i]).T)
         return np.column_stack(cols)
 
     parts = {"output": (out_lin, out_nl), "input": (in_lin, in_nl), "between": (mid_lin, mid_nl)}
@@ -297,7 +353,9 @@ def _play_set(ctx: Context):
     """Regressors of rate-independent memory: play operators of the model output minus the
     output (raw and through the model's own dynamics: output-side hysteresis) and of every input
     minus the input, through the model's dynamics (input-side backlash). Radii on a generic
-    half-decade grid, 1-30 % of each signal's span."""
+    half-decade grid, 1-30 % of each signal's span. The memory's state before the record is
+    unknown: each column enters as it runs from the record's start and also centred on its
+    record mean (an offset of the memory that the record itself does not fix)."""
     fractions = np.array([0.01, 0.03, 0.1, 0.3])
     span = float(np.ptp(ctx.yhat_est)) or 1.0
     spans_u = [float(np.ptp(ctx.u_est[:, i])) or 1.0 for i in range(ctx.n_in)]
@@ -309,7 +367,8 @@ def _play_set(ctx: Context):
             cols += [d, ctx.base_filter(d)]
             for i in range(ctx.n_in):
                 cols.append(ctx.base_filter(play_operator(r.u[:, i], f * spans_u[i]) - r.u[:, i]))
-        return np.column_stack(cols)
+        cols = np.column_stack(cols)
+        return np.column_stack([cols, cols - cols.mean(axis=0)])
 
     return z_h
 
@@ -342,6 +401,20 @@ def _output_shape(ctx: Context):
     return z, m, s
 
 
+def _rate_set(ctx: Context):
+    """Regressors of a rate-dependent level effect: the model output's rate of change times
+    hinge functions of its level (raw and through the model's own dynamics)."""
+    knots = signals.quantile_knots(ctx.yhat_est, 5)
+    scale = float(np.std(np.diff(ctx.yhat_est))) or 1.0
+
+    def z(r):
+        d = np.diff(r.yhat, prepend=r.yhat[0]) / scale
+        cols = [d] + [d * h for h in signals.hinge_basis(r.yhat, knots).T]
+        return np.column_stack(cols + [ctx.base_filter(c) for c in cols])
+
+    return z
+
+
 def hysteresis(ctx: Context, alpha: float) -> CauseResult:
     sets = _static_sets(ctx)
     z_h = _play_set(ctx)
@@ -349,10 +422,14 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
     def z_static(r):
         return np.column_stack([z(r) for z in sets.values()])
 
-    # direction dependence beyond any static map on either side (a level effect) and beyond a
-    # slow mode (fading, rate-dependent memory): hysteresis is memory that does not fade
+    # direction dependence beyond any static map on either side (a level effect), beyond a
+    # slow mode (fading, rate-dependent memory) and beyond rate-dependent level effects (a
+    # nonlinearity inside dynamics leaves a residual that grows with the speed): hysteresis is
+    # memory that neither fades nor depends on the speed
     (_, z_slow, _), _ = _slow_sets(ctx)
-    base = np.column_stack([ctx.stack(z_static, ctx.est), ctx.stack(z_slow, ctx.est), ctx.yhat_est])
+    base = np.column_stack(
+        [ctx.stack(z_static, ctx.est), ctx.stack(z_slow, ctx.est), ctx.stack(_rate_set(ctx), ctx.est), ctx.yhat_est]
+    )
     test = ctx.f_test(ctx.stack(z_h, ctx.est), extra_base=base)
     res = stats.f_result("F(residual ~ direction of motion at equal level | level)", test, alpha)
     # direction dependence beyond the level: on top of the static map of the side that explains
@@ -413,8 +490,9 @@ def _slow_sets(ctx: Context):
             return np.column_stack([ly] + lu + ([ly * (r.yhat - m) / s] if scaled else []))
 
         # tested without the level-scaled tail (a static map of a dynamic output mimics it);
-        # hysteresis is tested beyond the full set, and the extension uses it
-        t = ctx.f_test(ctx.stack(z, ctx.est), extra_base=base)
+        # hysteresis is tested beyond the full set, and the extension uses it. A slow mode is
+        # linear dynamics: tested beyond the generic correction, not the adequate-order one
+        t = ctx.f_test(ctx.stack(z, ctx.est), extra_base=base, scope=GENERIC)
         if best is None or t.log10_p < best[0].log10_p:
             best = (t, lambda r, z=z: z(r, scaled=True), tau)
     ctx._cache["slow"] = (best, len(taus))
@@ -422,14 +500,23 @@ def _slow_sets(ctx: Context):
 
 
 def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
-    (test, z, tau), n_taus = _slow_sets(ctx)
-    shape, _, _ = _output_shape(ctx)
+    (test, _z, tau), n_taus = _slow_sets(ctx)
     res = stats.f_result("F(residual ~ slowly filtered input | drift, hysteresis)", test, alpha, n_taus, tau_s=tau)
 
-    def z_full(r):
-        return np.column_stack([z(r), shape(r)])
+    def z_full(r, tau_x):
+        # the nominal re-identified with one extra pole: a share of the model output that follows
+        # it with the time constant tau, and a short Laguerre bank of the inputs at the model's
+        # own pole (the nominal bent its fast dynamics to fit the slow mode)
+        banks = [ctx.lag_bank(r.u[:, i], 2) for i in range(ctx.n_in)]
+        return np.column_stack([r.yhat, ctx.lag_bank(r.yhat, 1, float(np.exp(-ctx.ts / tau_x)))[:, 0]] + banks)
 
-    pred, _ = ctx.fit_apply(z_full)
+    # the extension alone on the nominal (no generic correction): its gain is the slow mode's own;
+    # its time constant the one that fits the estimation records best (the test's is a first guess)
+    y_all = np.concatenate([r.y for r in ctx.est])
+    grid = [tau * f for f in (0.25, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8, 4.0)]
+    sse = {t: float(np.sum((y_all - ctx.fit_apply(lambda r, t=t: z_full(r, t), scope=CONSTANT)[1]) ** 2)) for t in grid}
+    tau = min(sse, key=sse.get)
+    pred, _ = ctx.fit_apply(lambda r: z_full(r, tau), scope=CONSTANT)
     return CauseResult(
         res,
         True,
@@ -438,7 +525,7 @@ def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
         f"an extra relaxation pole at tau = {tau:.3g} s",
         pred,
         {"tau_s": tau},
-        Z_est=ctx.stack(z_full, ctx.est),
+        Z_est=ctx.stack(lambda r: z_full(r, tau), ctx.est),
         n_search=n_taus,
     )
 
@@ -454,21 +541,52 @@ def time_delay(ctx: Context, alpha: float) -> CauseResult:
             banks = [ctx.lag_bank(signals.shift(r.u[:, i], d), 2) for i in range(ctx.n_in)]
             return np.column_stack([signals.shift(r.yhat, d) - r.yhat] + banks)
 
-        t = ctx.f_test(ctx.stack(z, ctx.est))
+        t = ctx.f_test(ctx.stack(z, ctx.est), scope=GENERIC)
         if best is None or t.log10_p < best[0].log10_p:
             best = (t, z, d)
     test, z, d = best
     xc = stats.input_crosscorrelation(ctx.u_est[:, 0], ctx.e_est, 25, alpha)
     res = stats.f_result("F(residual ~ model output delayed)", test, alpha, d_max, delay_samples=d)
-    pred, _ = ctx.fit_apply(z)
+    # the extension: the nominal re-identified with the delay (its own output to cancel it, and a
+    # Laguerre bank of the delayed inputs), without the generic correction: its gain is the
+    # delay's own
+
+    def z_ext(r, lag):
+        banks = [ctx.lag_bank(signals.shift(r.u[:, i], lag)) for i in range(ctx.n_in)]
+        return np.column_stack([r.yhat] + banks)
+
+    # the delay of the extension: the one whose re-identification fits the estimation records best
+    y_all = np.concatenate([r.y for r in ctx.est])
+    sse = {}
+    for lag in range(1, d_max + 1):
+        sse[lag] = float(np.sum((y_all - ctx.fit_apply(lambda r, lag=lag: z_ext(r, lag), scope=CONSTANT)[1]) ** 2))
+    d = min(sse, key=sse.get)
+    pred, _ = ctx.fit_apply(lambda r: z_ext(r, d), scope=CONSTANT)
+    # the name needs its own evidence: the measured response rises later than the model's
+    y_est = np.concatenate([r.y for r in ctx.est])
+    span = int(min(200, d_max + 4 * max(1.0, ctx.tau_s / ctx.ts)))
+    rises = [stats.response_rises(ctx.u_est[:, i], y_est, ctx.yhat_est, span) for i in range(ctx.n_in)]
+    shown = max(rises, key=lambda p: p.measured - p.model)
+    later = shown.measured > shown.model
+    peak_note = (
+        f"the measured step response (running sum of the prewhitened input-output cross-correlation) "
+        f"reaches {100 * stats.RISE_SHARE:.0f} % at lag {shown.measured}, the model's at lag {shown.model}"
+    )
     return CauseResult(
         res,
         True,
-        f"the measurement lags the model by about {d} samples ({d * ctx.ts:.3g} s; "
+        f"the measurement lags the model by about {d} samples ({d * ctx.ts:.3g} s; {peak_note}; "
         f"prewhitened input-residual cross-correlation peaks at lag {xc.detail['peak_lag']})",
         f"an input delay of {d} samples",
         pred,
-        {"delay": d},
+        {
+            "delay": d,
+            "n_params": 1 + LAGUERRE_ORDER * ctx.n_in + 1,
+            "rise_measured": shown.measured,
+            "rise_model": shown.model,
+            "evidence_ok": bool(later),
+            "evidence_note": "" if later else f"no delay in the data: {peak_note}",
+        },
         Z_est=ctx.stack(z, ctx.est),
         n_search=d_max,
     )
@@ -635,7 +753,10 @@ def _column_tests(ctx: Context) -> dict:
     for name, mu, sd in _condition_columns(ctx):
 
         def z_dyn(r, name=name, mu=mu, sd=sd):
-            return ctx.lag_bank((r.conditions[name] - mu) / sd, 3)
+            # the column's dynamics, and the same relative to the record's start (dR is taken
+            # relative to R0 at the start of every record: what leaks in is zeroed there too)
+            bank = ctx.lag_bank((r.conditions[name] - mu) / sd, 3)
+            return np.column_stack([bank, bank - bank[0]])
 
         def z_gain(r, name=name, mu=mu, sd=sd):
             return ((r.conditions[name] - mu) / sd * (r.yhat - m) / s)[:, None]
@@ -780,13 +901,15 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
         _, refit_est = ctx.fit_apply(None, mask_est=censored | holdout)
         rss_refit = float(np.sum((y_est - clip(refit_est, lim_est))[holdout] ** 2))
         rss_clip = float(np.sum((y_est - clip(ctx.yhat_est, lim_est))[holdout] ** 2))
-        if rss_refit < rss_clip:
-            pred, _ = ctx.fit_apply(None, mask_est=censored)
-            pred = clip(pred, lim_val)
-        else:
-            pred = clip(ctx.yhat_val, lim_val)
+        unclipped_val, unclipped_est = ctx.fit_apply(None, mask_est=censored)
+        pred = clip(unclipped_val, lim_val) if rss_refit < rss_clip else clip(ctx.yhat_val, lim_val)
+        # a rest is where the output sits by design (the record's rest level: the model predicts
+        # it there too); clipping cuts off what the model predicts beyond the limit
+        beyond = (lim_est - unclipped_est) if side == "low" else (unclipped_est - lim_est)
+        excess = stats.mean_excess_test(beyond, censored)
     else:
         pred, _ = ctx.fit_apply(z)
+        excess = None
     # the pile-up is evidence of its own (independent of the residual regression): its binomial
     # log-likelihood ratio against the null share of 1/2 enters the ranking. The ranked model is
     # a clip at the measured limit on top of a static output-side map (noise smooths the
@@ -796,14 +919,29 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
     llr = 0.0
     if k_at + k_ref > 0 and p < alpha:
         llr = float(sps_binom.logpmf(k_at, k_at + k_ref, share) - sps_binom.logpmf(k_at, k_at + k_ref, 0.5))
+    rest_note = ""
+    if excess is not None:
+        rest_note = (
+            f"; fitted without them, the model predicts {excess.mean:.3g} beyond the limit there on average "
+            f"(t = {excess.t:.3g} over {excess.groups} runs at the limit, one-sided p = {excess.p:.2g})"
+        )
+    evidence_ok = excess is None or excess.confirmed
     return CauseResult(
         res,
         p < alpha,
         f"{clus.detail['k_at']} samples ({100 * clus.detail['fraction']:.1f} % of "
-        f"the record) sit exactly at the {side} limit {limit:.4g} of the {where}",
+        f"the record) sit exactly at the {side} limit {limit:.4g} of the {where}{rest_note}",
         f"clipping of the {where} at its limit (ADC/divider)",
         pred,
-        {"limit": limit, "where": where},
+        {
+            "limit": limit,
+            "where": where,
+            "evidence_ok": bool(evidence_ok),
+            "evidence_note": ""
+            if evidence_ok
+            else "the output rests at the limit (the model, fitted without those samples, does not predict "
+            "beyond it there): a rest of the experiment, not clipping",
+        },
         Z_est=np.column_stack([ctx.stack(_static_sets(ctx)["output"], ctx.est), ctx.stack(z, ctx.est)]),
         n_search=n_sig,
         evidence_llr=llr,
@@ -817,7 +955,7 @@ def outliers(ctx: Context, alpha: float) -> CauseResult:
     pred, _ = ctx.fit_apply(None, robust=True, mask_est=mask)
     # validation samples flagged in the residual of nominal + G0 are glitches of the measurement,
     # not behaviour to predict: they are left out of the score of both sides of the gain
-    reject, _, _ = stats.spike_mask(ctx.y_val - ctx.generic_validation(), alpha, step)
+    reject, _, _ = stats.spike_mask(ctx.y_val - ctx.baseline_validation(), alpha, step)
     idx = np.flatnonzero(mask)
     Z = np.zeros((len(ctx.e_est), len(idx)))
     Z[idx, np.arange(len(idx))] = 1.0
@@ -838,12 +976,12 @@ def outliers(ctx: Context, alpha: float) -> CauseResult:
 
 
 def unmodelled_dynamics(ctx: Context, alpha: float) -> CauseResult:
-    """The generic linear correction G0 itself, tested against the nominal residual.
+    """The nominal linear dynamics are too simple: the residual depends linearly on past inputs.
 
-    When the residual still depends linearly on past inputs (MATLAB resid's independence test,
-    here as a GLS F test of the Laguerre bank of every input), the nominal linear dynamics are
-    too simple. The extension is a re-identification at a higher order, done by the engine
-    when it has the nominal model (its gain is measured there); G0 is the stand-in otherwise.
+    Test (MATLAB resid's independence test, as a GLS F test): G0 and a second, faster Laguerre
+    bank of every input against the nominal residual. Extension: the adequate-order linear
+    correction of :mod:`.dynamics` (with G0), whose gain is measured against the nominal model;
+    with a nominal model at hand the engine re-identifies it at a higher order (:mod:`.extend`).
     """
     # G0 and a second, faster Laguerre bank (2, 4 or 8 times faster than the dominant pole):
     # an order that is too low misses faster poles that a bank at the dominant pole renders poorly
@@ -858,21 +996,22 @@ def unmodelled_dynamics(ctx: Context, alpha: float) -> CauseResult:
         t = stats.gls_f_test(ctx.e_est, Z, None, segments=ctx.seg_est)
         if best is None or t.log10_p < best[0].log10_p:
             best = (t, z, speed)
-    test, z_fast, speed = best
+    test, _z_fast, speed = best
     res = stats.f_result("F(residual ~ Laguerre banks of past inputs)", test, alpha, 3, speed=speed)
     xc = [stats.input_crosscorrelation(ctx.u_est[:, i], ctx.e_est, 25, alpha) for i in range(ctx.n_in)]
     worst = max(xc, key=lambda t: t.strength)
+    m = ctx.adequate.order
     return CauseResult(
         res,
         True,
         f"the residual depends linearly on past inputs ({_explained(res)}; prewhitened "
         f"input-residual cross-correlation {worst.value:.3g} against the band {worst.threshold:.3g}, "
-        f"p = {worst.p:.2g})",
-        "re-identify at a higher order",
-        ctx.generic_validation(),
-        {"xcorr_p": worst.p, "gain_against": "nominal"},
-        Z_est=ctx.stack(z_fast, ctx.est),
-        n_search=3,
+        f"p = {worst.p:.2g}); the residual's linear part needs {ctx.adequate.describe()}",
+        f"re-identify at a higher order (here: a linear correction with {m} more pole{'s' if m > 1 else ''})",
+        ctx.baseline_validation(ADEQUATE),
+        {"xcorr_p": worst.p, "order": m},
+        Z_est=ctx.A_est,
+        n_search=len(ctx.adequate.bic),
     )
 
 

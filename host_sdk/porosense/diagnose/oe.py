@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize, signal
 
+from porosense.diagnose import signals
 from porosense.errors import ModelError
 
 
@@ -42,15 +43,15 @@ class OEModel:
         return len(self.b)
 
     def predict(self, u: np.ndarray) -> np.ndarray:
-        """Simulation from rest for u (N, n_inputs); returns (N,)."""
+        """Simulation for u (N, n_inputs) settled at its rest level (:func:`.signals.rest_level`); returns (N,)."""
         u = np.asarray(u, float).reshape(len(u), -1)
         y = np.full(len(u), self.offset)
         for i in range(self.n_inputs):
             x = u[:, i]
+            # start settled at the record's rest level (its first value when it starts on a hold)
+            x0 = signals.rest_level(x)
             if self.delay:
-                x = np.concatenate([np.full(self.delay, x[0]), x[: len(x) - self.delay]])
-            # start from the initial input level (rest at u[0]) rather than from zero
-            x0 = x[0]
+                x = np.concatenate([np.full(self.delay, x0), x[: len(x) - self.delay]])
             dc = np.sum(self.b[i]) / np.sum(self.f[i])
             y += signal.lfilter(self.b[i], self.f[i], x - x0) + dc * x0
         return y

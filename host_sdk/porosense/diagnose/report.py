@@ -103,18 +103,23 @@ def write_figures(diag, directory, unit: str = "output unit") -> list:
 
 def summary_markdown(diag, title: str = "Diagnosis") -> str:
     """Short Markdown: verdict, the ranked table, evidence of the leading findings, figures."""
-    lines = [
-        f"# {title}",
+    lines = [f"# {title}", ""]
+    for fit in (diag.nominal, diag.corrected):
+        if fit is not None:
+            lines.append(f"- {fit.what}: fit {fit.fit:.2f} %, RMS {fit.rms:.2f} %")
+    if diag.dynamics.get("sentence"):
+        lines.append(f"- dynamics: {diag.dynamics['sentence']}")
+    lines += [
         "",
-        f"**Most likely cause: {diag.top}**",
+        f"**Most likely cause: {diag.top}**" + (f" ({diag.why_top})" if diag.why_top else ""),
         "",
-        "| cause | confidence | fit before % | fit after % | gain (points) | statistic |",
-        "|---|---|---|---|---|---|",
+        "| cause | found | against | fit before % | fit after % | gain (points) | t | parameters | statistic |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for f in diag.findings:
         lines.append(
-            f"| {f.cause} | {f.confidence:.2f} | {f.fit_before:.2f} | {f.fit_after:.2f} | "
-            f"{f.gain:+.2f} | {f.statistic} |"
+            f"| {f.cause} | {'yes' if f.found else 'no'} | {f.baseline} | {f.fit_before:.2f} | {f.fit_after:.2f} | "
+            f"{f.gain:+.2f} | {f.gain_t:.3g} | {f.n_params} | {f.statistic} |"
         )
     lines += ["", "## Evidence", ""]
     for f in diag.findings[:3]:

@@ -11,6 +11,23 @@ import numpy as np
 from scipy import signal
 
 
+def rest_level(x: np.ndarray, hold: int = 5, tol: float = 0.01) -> float:
+    """The level a record is taken to have rested at before its first sample.
+
+    A record that starts on a hold (its first ``hold`` samples within ``tol`` of its span of each
+    other) or at one of its extremes (a step or a ramp out of rest) has rested at its first
+    value. One that starts in the middle of its range while moving (a snippet of a periodic or
+    random excitation) has no such level: its mean, where a zero-mean excitation's filters start.
+    """
+    x = np.asarray(x, dtype=float)
+    if len(x) == 0:
+        return 0.0
+    span = float(np.ptp(x)) or 1.0
+    head = x[: min(hold, len(x))]
+    at_extreme = min(abs(x[0] - x.min()), abs(x[0] - x.max())) <= tol * span
+    return float(x[0]) if float(np.ptp(head)) <= tol * span or at_extreme else float(np.mean(x))
+
+
 def first_order_lag(x: np.ndarray, pole: float) -> np.ndarray:
     """Unit-DC-gain first-order lag (1 - a) / (1 - a q^-1) of ``x``; a = exp(-ts / tau)."""
     return signal.lfilter([1.0 - pole], [1.0, -pole], np.asarray(x, dtype=float))

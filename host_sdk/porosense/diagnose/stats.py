@@ -129,6 +129,40 @@ def input_crosscorrelation(u: np.ndarray, e: np.ndarray, max_lag: int = 25, alph
     )
 
 
+@dataclass
+class Rises:
+    """Lags (samples) at which the measured and the model's step responses to an input first reach
+    ``RISE_SHARE`` of their largest magnitude over the lags examined."""
+
+    measured: int
+    model: int
+
+
+RISE_SHARE = 0.1
+
+
+def response_rises(u: np.ndarray, y: np.ndarray, yhat: np.ndarray, max_lag: int = 30) -> Rises:
+    """Where the measured response to ``u`` rises, and where the model's does (a missing delay).
+
+    The input is prewhitened by its AR model and the same filter is applied to y and yhat; the
+    cross-correlation of the whitened input with the whitened output is proportional to the
+    impulse response (Box-Jenkins), and its running sum to the step response. The rise lag is the
+    first lag where that running sum reaches ``RISE_SHARE`` of its largest magnitude: a delay the
+    model lacks makes the measured response rise later than the model's by the delay, also when
+    the model has bent its dynamics to mimic it (its response then rises early and slowly).
+    """
+    ar = signals.fit_ar(u, 10)
+    uw = signals.whiten(u, ar)
+
+    def rise(z):
+        lags, r = signals.crosscorr(uw, signals.whiten(np.asarray(z, float), ar), max_lag)
+        step = np.cumsum(r[lags >= 0])
+        peak = float(np.max(np.abs(step))) or 1.0
+        return int(np.argmax(np.abs(step) >= RISE_SHARE * peak))
+
+    return Rises(rise(y), rise(yhat))
+
+
 def bartlett_crosscorrelation(x: np.ndarray, y: np.ndarray, lags: np.ndarray, alpha: float, name: str) -> StatResult:
     """corr(x[k], y[k + tau]) at ``lags`` with Bartlett's variance for two coloured signals."""
     x = np.asarray(x, float)
@@ -535,6 +569,16 @@ def paired_gain_test(
     A positive mean is a lower validation RMS, i.e. a positive fit gain.
     """
     d = (np.asarray(y, float) - base) ** 2 - (np.asarray(y, float) - ext) ** 2
+    return mean_positive_test(d, alpha, n_batches)
+
+
+def mean_positive_test(d: np.ndarray, alpha: float = CONFIRM_ALPHA, n_batches: int = N_BATCHES) -> GainTest:
+    """One-sided batch-means t test that the serially correlated series ``d`` has a positive mean.
+
+    Non-finite entries (samples left out) are dropped; the rest is cut into ``n_batches``
+    contiguous batches whose means are nearly independent (t on batches - 1 df).
+    """
+    d = np.asarray(d, float)
     d = d[np.isfinite(d)]
     b = int(min(n_batches, len(d) // 10))
     if b < 3:
@@ -546,3 +590,47 @@ def paired_gain_test(
     else:
         t = float(means.mean() / (sd / np.sqrt(b)))
     return GainTest(float(t), float(sps.t.sf(t, b - 1)), b - 1, alpha)
+
+
+@dataclass
+class ExcessTest:
+    """One-sided test that a signal is positive on average over flagged samples (runs as groups)."""
+
+    mean: float
+    t: float
+    p: float
+    groups: int
+    alpha: float = CONFIRM_ALPHA
+
+    @property
+    def confirmed(self) -> bool:
+        return bool(self.p < self.alpha)
+
+
+def mean_excess_test(x: np.ndarray, flagged: np.ndarray, alpha: float = CONFIRM_ALPHA) -> ExcessTest:
+    """Is ``x`` positive on average over the ``flagged`` samples, beyond their own scatter?
+
+    Flagged samples come in contiguous runs whose values are correlated, so the runs' means are
+    the observations (t on runs - 1 df); with fewer than 3 runs, the flagged samples are cut into
+    up to 20 contiguous batches instead (batch means, as :func:`paired_gain_test`).
+    """
+    x = np.asarray(x, float)
+    flagged = np.asarray(flagged, bool)
+    if not flagged.any():
+        return ExcessTest(0.0, 0.0, 1.0, 0, alpha)
+    edges = np.flatnonzero(np.diff(np.r_[0, flagged.astype(int), 0]))
+    runs = [x[a:b] for a, b in zip(edges[::2], edges[1::2])]
+    if len(runs) < 3:
+        vals = x[flagged]
+        runs = np.array_split(vals, int(min(N_BATCHES, max(len(vals) // 10, 1))))
+    means = np.array([r.mean() for r in runs if len(r)])
+    mean = float(np.mean(x[flagged]))
+    if len(means) < 3:
+        return ExcessTest(mean, 0.0, 1.0, len(means), alpha)
+    sd = float(np.std(means, ddof=1))
+    t = (
+        np.inf
+        if sd <= 0 and means.mean() > 0
+        else (0.0 if sd <= 0 else float(means.mean() / (sd / np.sqrt(len(means)))))
+    )
+    return ExcessTest(mean, float(t), float(sps.t.sf(t, len(means) - 1)), len(means), alpha)

@@ -1,0 +1,195 @@
+"""The linear dynamics the data support: an adequate-order linear correction of the residual.
+
+Diagnosis judges the baseline's linear part before any nonlinear cause: a too-low order would
+otherwise leak into whichever nonlinear extension happens to absorb the missing dynamics. The
+correction is a MISO output-error model of the estimation residual,
+
+    e[k] = sum_i B_i(q) / F_i(q) u_i[k] + c,   m poles and m + 1 taps (lags 0..m) per input,
+
+fitted by :func:`fit_output_error` (simulation error from a settled start, least squares with
+the analytic Jacobian). With
+the denominators F_i fixed the correction is linear in its numerators: its regressors, every
+input through q^-j / F_i(q), join the generic correction in every extension fit, so that each
+nonlinear cause is judged beyond an adequate-order linear model.
+
+The order is the Bayesian information criterion's choice over m = 1..MAX_ORDER (Gaussian
+likelihood of the simulation error, k = n_in (2m + 1) + 1 parameters; the search stops after
+two orders without improvement). Process noise and nonlinear distortion make the residual
+coloured, which biases BIC towards higher orders: the correction errs towards too many poles,
+never towards too few, which is the safe side for judging nonlinear causes beyond it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize, signal
+
+from porosense.diagnose import signals, stats
+
+MAX_ORDER = 10
+
+
+def _settled(a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """x through 1 / a started in steady state at its rest level (:func:`.signals.rest_level`)."""
+    x = np.asarray(x, float)
+    if len(a) == 1:
+        return x / a[0]
+    zi = signal.lfilter_zi([1.0], a) * signals.rest_level(x)
+    return signal.lfilter([1.0], a, x, zi=zi)[0]
+
+
+def _lagged(x: np.ndarray, lags: int) -> np.ndarray:
+    """Columns x[k - j], j = 0..lags, the samples before the record at its rest level."""
+    n = len(x)
+    out = np.empty((n, lags + 1))
+    x0 = signals.rest_level(x)
+    for j in range(lags + 1):
+        out[: min(j, n), j] = x0
+        out[j:, j] = x[: max(n - j, 0)]
+    return out
+
+
+def _arx_start(us: list, es: list, m: int) -> tuple[np.ndarray, list]:
+    """Per-input denominators (monic, stable) and numerators from a common-denominator ARX fit."""
+    rows, rhs = [], []
+    for u, e in zip(us, es):
+        lag_e = _lagged(e - signals.rest_level(e), m)
+        cols = [-lag_e[:, 1:]] + [_lagged(u[:, i] - signals.rest_level(u[:, i]), m) for i in range(u.shape[1])]
+        rows.append(np.column_stack(cols + [np.ones(len(e))]))
+        rhs.append(lag_e[:, 0])
+    coef = stats.lstsq(np.vstack(rows), np.concatenate(rhs))
+    a = _stable(np.concatenate([[1.0], coef[:m]]))
+    n_in = us[0].shape[1]
+    return a, [coef[m + i * (m + 1) : m + (i + 1) * (m + 1)] for i in range(n_in)]
+
+
+def _stable(a: np.ndarray) -> np.ndarray:
+    """Monic polynomial a with roots on or outside the unit circle reflected inside (|z| <= 0.995)."""
+    if len(a) <= 1:
+        return a
+    r = np.roots(a)
+    big = np.abs(r) >= 0.995
+    if not big.any():
+        return a
+    r = np.where(big, 0.995 * r / np.abs(r) ** 2, r)
+    return np.real(np.poly(r))
+
+
+def _unpack(theta: np.ndarray, n_in: int, m: int):
+    bs, fs = [], []
+    for i in range(n_in):
+        k = i * (2 * m + 1)
+        bs.append(theta[k : k + m + 1])
+        fs.append(np.concatenate([[1.0], theta[k + m + 1 : k + 2 * m + 1]]))
+    return bs, fs, theta[-1]
+
+
+def _simulate(theta, us, m, with_jacobian: bool):
+    """OE output per record (settled at each input's rest level) and, optionally, its Jacobian."""
+    n_in = us[0].shape[1]
+    bs, fs, c = _unpack(theta, n_in, m)
+    outs, jacs = [], []
+    for u in us:
+        y = np.full(len(u), c)
+        cols = []
+        for i in range(n_in):
+            x0 = signals.rest_level(u[:, i])
+            dx = u[:, i] - x0
+            b, f = bs[i], fs[i]
+            sf, sb = float(np.sum(f)), float(np.sum(b))
+            yi = signal.lfilter(b, f, dx)
+            y += yi + sb / sf * x0
+            if with_jacobian:
+                xf = signal.lfilter([1.0], f, dx)
+                yf = signal.lfilter([1.0], f, yi)
+                cols.append(_lagged_zero(xf, m) + x0 / sf)
+                cols.append(-_lagged_zero(yf, m)[:, 1:] - sb / sf**2 * x0)
+        outs.append(y)
+        if with_jacobian:
+            jacs.append(np.column_stack(cols + [np.ones(len(u))]))
+    return outs, jacs
+
+
+def _lagged_zero(x: np.ndarray, lags: int) -> np.ndarray:
+    """Columns x[k - j], j = 0..lags, zero before the record (a signal that starts from zero)."""
+    n = len(x)
+    out = np.zeros((n, lags + 1))
+    for j in range(lags + 1):
+        out[j:, j] = x[: max(n - j, 0)]
+    return out
+
+
+def fit_output_error(us: list, es: list, m: int) -> tuple[np.ndarray, list, list]:
+    """MISO output-error fit of es from us: (theta, numerators, denominators), m poles per input.
+
+    Started from an ARX fit, refined by scipy.optimize.least_squares with the analytic
+    Jacobian (the regressors filtered by 1 / F_i); each record starts settled at its rest level.
+    """
+    n_in = us[0].shape[1]
+    a, b0 = _arx_start(us, es, m)
+    theta0 = np.concatenate([np.concatenate([b, a[1:]]) for b in b0] + [[0.0]])
+    outs, _ = _simulate(theta0, us, m, False)
+    theta0[-1] = float(np.mean(np.concatenate(es) - np.concatenate(outs)))
+    e_all = np.concatenate(es)
+
+    def res(theta):
+        return np.concatenate(_simulate(theta, us, m, False)[0]) - e_all
+
+    def jac(theta):
+        return np.vstack(_simulate(theta, us, m, True)[1])
+
+    sol = optimize.least_squares(res, theta0, jac=jac, method="trf", x_scale="jac", max_nfev=30)
+    bs, fs, _ = _unpack(sol.x, n_in, m)
+    fs = [_stable(f) for f in fs]
+    return sol.x, bs, fs
+
+
+@dataclass
+class Correction:
+    """An adequate-order linear correction: ``order`` poles per input and their denominators.
+
+    ``bic`` maps every order tried to its criterion value (lower is better).
+    """
+
+    order: int
+    denominators: list
+    bic: dict
+
+    def regressors(self, u: np.ndarray) -> np.ndarray:
+        """The correction's regressors on one record (inputs (N, n_in)), without the constant."""
+        u = np.asarray(u, float).reshape(len(u), -1)
+        return np.column_stack([_lagged(_settled(f, u[:, i]), self.order) for i, f in enumerate(self.denominators)])
+
+    @property
+    def n_params(self) -> int:
+        """Poles and numerator taps of the correction (the constant is part of every baseline)."""
+        return len(self.denominators) * (2 * self.order + 1)
+
+    def describe(self) -> str:
+        return f"{self.order} poles per input (the order the Bayesian information criterion picks, 1..{MAX_ORDER})"
+
+
+def choose(us: list, es: list, max_order: int = MAX_ORDER) -> Correction:
+    """The adequate-order correction of the residuals ``es`` (list of (N,)) from inputs ``us``.
+
+    us: list of (N_r, n_in) input arrays; es: list of (N_r,) residuals of the same records.
+    """
+    us = [np.asarray(u, float).reshape(len(u), -1) for u in us]
+    es = [np.asarray(e, float) for e in es]
+    n = sum(len(e) for e in es)
+    n_in = us[0].shape[1]
+    max_order = int(min(max_order, max(1, min(len(e) for e in es) // 50)))
+    bic, fits = {}, {}
+    worse = 0
+    for m in range(1, max_order + 1):
+        theta, _bs, fs = fit_output_error(us, es, m)
+        sse = float(sum(np.sum((y - e) ** 2) for y, e in zip(_simulate(theta, us, m, False)[0], es))) + 1e-300
+        bic[m] = n * np.log(sse / n) + (n_in * (2 * m + 1) + 1) * np.log(n)
+        fits[m] = fs
+        worse = worse + 1 if bic[m] > min(bic.values()) else 0
+        if worse >= 2:
+            break
+    best = min(bic, key=bic.get)
+    return Correction(best, [np.asarray(f, float) for f in fits[best]], {m: float(v) for m, v in bic.items()})

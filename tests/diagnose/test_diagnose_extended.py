@@ -81,12 +81,12 @@ def _predicted_fit(tmp_path, trial, model_file):
                 "--data",
                 str(tmp_path / "val.csv"),
                 "--out",
-                str(tmp_path / "pred.csv"),
+                str(tmp_path / f"pred_{model_file.stem}.csv"),
             ]
         )
         == 0
     )
-    pred = np.loadtxt(tmp_path / "pred.csv", delimiter=",", skiprows=1)[:, 1]
+    pred = np.loadtxt(tmp_path / f"pred_{model_file.stem}.csv", delimiter=",", skiprows=1)[:, 1]
     # predict simulates from rest and the record starts at a non-zero level: the start-up
     # transient is left out of the score (the second half of the record)
     half = len(pred) // 2
@@ -184,3 +184,22 @@ def test_save_extended_needs_a_model(tmp_path, capsys):
         ]
     )
     assert rc == 2 and "--save-extended" in capsys.readouterr().err
+
+
+def test_diagnose_prints_the_nominal_fit_that_predict_prints(tmp_path, capsys):
+    """The same model on the same validation file: diagnose's first fit is predict's (one fit
+    function, simulated from rest, every sample), then the corrected model's, named as such."""
+    _, doc = _diagnose(tmp_path, "static_nonlinearity", TEST_SEED)
+    out = capsys.readouterr().out
+    rest = doc["nominal_from_rest"][0]
+    assert rest["data"].endswith("val.csv")
+    assert (
+        main(["predict", "--model", str(tmp_path / "nominal.json"), "--data", str(tmp_path / "val.csv"), "--json"]) == 0
+    )
+    scores = json.loads(capsys.readouterr().out)["scores"]["y"]
+    print(f"predict {scores['fit']:.6f} %, diagnose {rest['fit']:.6f} %")
+    assert abs(scores["fit"] - rest["fit"]) < 1e-9 and abs(scores["rms"] - rest["rms"]) < 1e-9
+    lines = out.splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith("nominal model on"))
+    corrected = next(i for i, line in enumerate(lines) if line.startswith("corrected model"))
+    assert first < corrected and f"fit {rest['fit']:.2f} %" in lines[first]

@@ -25,9 +25,10 @@ validation gain; on clean data top is none in >= 90 %. Checked at one size every
 not): 4 trials per cause, seeds 1000-1003.
 
 Measured with the held-out ranking (issue 35; the top cause needs a confirmed held-out gain,
-linear dynamics are judged first against the nominal simulation): saturation 4/4, outliers 4/4,
-periodic_disturbance 3/4, cross_coupling 3/4, clean 3/4 named none (1 drift); below the bound,
-each a strict xfail naming what it is named instead: drift 0/4 (unmodelled_dynamics, the
+linear dynamics are judged first against the nominal simulation): saturation 4/4, outliers 4/4;
+below the bound, each a strict xfail naming what it is named instead: periodic_disturbance 3/4
+(outliers once), cross_coupling 3/4 (unmodelled_dynamics once), clean 3/4 named none (drift
+once), drift 0/4 (unmodelled_dynamics, the
 calibrated simulator's own dynamic misfit gains more on held-out data), time_delay 0/4
 (slow_relaxation), load_dependence 1/4 (slow_relaxation), slow_relaxation 1/4,
 static_nonlinearity 1/4, hysteresis 0/4 (slow_relaxation; the simulator's nominal physics
@@ -52,6 +53,8 @@ BELOW_BOUND = {
     "slow_relaxation": "1/4",
     "static_nonlinearity": "1/4",
     "hysteresis": "0/4: named slow_relaxation",
+    "periodic_disturbance": "3/4: named outliers once",
+    "cross_coupling": "3/4: named unmodelled_dynamics once",
     NONE: "3/4: one clean record named drift",
 }
 

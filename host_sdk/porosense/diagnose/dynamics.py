@@ -140,7 +140,8 @@ def fit_output_error(us: list, es: list, m: int) -> tuple[np.ndarray, list, list
     def jac(theta):
         return np.vstack(_simulate(theta, us, m, True)[1])
 
-    sol = optimize.least_squares(res, theta0, jac=jac, method="trf", x_scale="jac", max_nfev=30)
+    with np.errstate(over="ignore", invalid="ignore"):  # trial steps far out are rejected by trf itself
+        sol = optimize.least_squares(res, theta0, jac=jac, method="trf", x_scale="jac", max_nfev=30)
     bs, fs, _ = _unpack(sol.x, n_in, m)
     fs = [_stable(f) for f in fs]
     return sol.x, bs, fs

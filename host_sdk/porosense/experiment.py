@@ -9,10 +9,12 @@ IMU angles, the on-device estimates and, when the back-end knows it, the ground 
 from __future__ import annotations
 
 from collections.abc import Callable
+from contextlib import ExitStack
 
 import numpy as np
 
 from porosense.data import Recording
+from porosense.data.sample_log import SampleLog
 from porosense.device import Device
 from porosense.errors import DeviceError
 from porosense.sim.schedules import Schedule
@@ -36,6 +38,7 @@ def run_schedule(
     out_scale=None,
     output_names=None,
     monitor: Callable[[dict], str] | None = None,
+    log_path=None,
 ) -> Recording:
     """Run ``schedule`` on ``dev`` at ``rate_hz`` (Hz) and return the recording.
 
@@ -44,8 +47,26 @@ def run_schedule(
     turn the on-device estimates into ``est_<name>`` columns. ``monitor`` receives the columns
     recorded so far (truth and estimates) every two seconds of device time and returns a short text
     for the progress bar (e.g. a running fit). Outputs are switched off at the end, even when
-    the run fails.
+    the run fails. ``log_path`` (CSV) receives every sample's raw columns as it arrives, flushed
+    at least once a second, so a run killed midway leaves what it recorded there.
     """
+    with ExitStack() as stack:
+        log = stack.enter_context(SampleLog(log_path, _log_columns(n_channels))) if log_path else None
+        return _run(dev, schedule, rate_hz, n_channels, truth, progress, meta, out_scale, output_names, monitor, log)
+
+
+def _log_columns(n_channels: int) -> list[str]:
+    """Columns of the on-the-fly log: device time, ADC counts and dR per channel, status."""
+    return ["t_dev_us", *(f"adc_{c}" for c in range(n_channels)), *(f"dR_{c}" for c in range(n_channels)), "status"]
+
+
+def _log_row(s, n_channels: int) -> tuple:
+    adc = [int(s.adc[c]) for c in range(n_channels)]
+    dr = [s.dr_centi[c] / 100.0 for c in range(n_channels)]
+    return (int(s.t_us), *adc, *dr, int(s.status))
+
+
+def _run(dev, schedule, rate_hz, n_channels, truth, progress, meta, out_scale, output_names, monitor, log):
     n_total = int(round(schedule.duration_s * rate_hz))
     changes = _change_times(schedule)
     dev.set_outputs(setpoint_kpa=[0.0, 0.0, 0.0], pumps=0, valves=0)
@@ -69,6 +90,8 @@ def run_schedule(
                 dev.ping()  # keeps the host-link watchdog from cutting the outputs
                 last_cmd_t = t
             rows.append(s)
+            if log is not None:
+                log.append(_log_row(s, n_channels))
             if bar is not None:
                 bar.update(1)
                 if monitor is not None and len(rows) % (2 * rate_hz) == 0:

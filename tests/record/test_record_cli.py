@@ -202,3 +202,62 @@ def test_board_run_on_the_emulator_with_a_too_short_video(scene, tmp_path, capfd
     assert code == 2
     _one_line_error(err, "s too short")
     assert Recording.from_csv(tmp_path / "r_board.csv").duration > 60.0
+
+
+def test_sigkill_during_the_board_run_leaves_the_samples_so_far(scene, tmp_path):
+    """The board's samples reach <out>_board.csv as they arrive (flushed every second): a record
+    killed midway keeps every sample up to a flush before the kill, whole rows in time order."""
+    import csv
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from porosense.emulator import Emulator
+
+    base = scene.video.parent
+    log = tmp_path / "r_board.csv"
+
+    def rows() -> list[dict]:
+        with open(log, newline="") as fh:
+            return list(csv.DictReader(fh))
+
+    with Emulator("contractor", seed=3, realtime=True) as emu:  # a run that lasts until the kill
+        args = ["record", "--port", emu.url, "--video", str(scene.video), "--layout", str(base / "layout.json")]
+        args += ["--experiment", "staircase", "--out", str(tmp_path / "r.csv"), "--quiet"]
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "porosense", *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+        )
+        try:
+            deadline = time.monotonic() + 120
+            while time.monotonic() < deadline and (not log.exists() or len(rows()) < 50):
+                assert proc.poll() is None, proc.stderr.read().decode()[-2000:]
+                time.sleep(0.2)
+            time.sleep(2.0)
+            seen = len(rows())  # on disk more than a flush period before the kill
+            time.sleep(1.2)
+            os.kill(proc.pid, signal.SIGKILL)
+            proc.wait(timeout=30)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+    kept = rows()
+    t = [int(r["t_dev_us"]) for r in kept]
+    print(f"SIGKILL during record: {len(kept)} samples readable ({(t[-1] - t[0]) / 1e6:.1f} s of device time)")
+    assert len(kept) >= seen > 50
+    assert all(b > a for a, b in zip(t, t[1:]))
+    assert set(kept[0]) == {"t_dev_us", "adc_0", "dR_0", "status"}
+
+
+def test_an_existing_recording_is_replaced_only_with_force(scene, tmp_path, capfd):
+    """Before anything runs, a recording already at --out (or its _board/_frames files) is kept."""
+    base = scene.video.parent
+    (tmp_path / "r_board.csv").write_text("t\n0\n")
+    args = ["record", "--board-recording", str(base / "board.csv"), "--video", str(scene.video)]
+    args += ["--layout", str(base / "layout.json"), "--out", str(tmp_path / "r.csv"), "--quiet"]
+    code = main(args)
+    _, err = capfd.readouterr()
+    assert code == 2
+    _one_line_error(err, "--force replaces it")
+    assert (tmp_path / "r_board.csv").read_text() == "t\n0\n"

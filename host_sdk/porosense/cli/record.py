@@ -60,6 +60,7 @@ def register(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--preview", metavar="AVI", help="write a copy of the video with the detections drawn")
     p.add_argument("--out", required=True, metavar="CSV", help="the recording to write (CSV + JSON)")
+    p.add_argument("--force", action="store_true", help="replace an existing --out (and its _board/_frames files)")
     cal = p.add_argument_group("camera calibration (instead of a recording)")
     cal.add_argument(
         "--calibrate",
@@ -103,6 +104,7 @@ def run(args) -> int:
     layout = Layout.load(args.layout)
     calibration = Calibration.load(args.calibration) if args.calibration else None
     out = Path(args.out)
+    _refuse_to_replace(out, args)
     progress = not args.quiet
     # Check the inputs before a long experiment runs.
     if args.video:
@@ -200,6 +202,16 @@ def _calibrate(args) -> int:
     return 0
 
 
+def _refuse_to_replace(out: Path, args) -> None:
+    """A recording already on disk is kept unless --force says otherwise."""
+    written = [out, out.with_name(out.stem + "_board.csv"), out.with_name(out.stem + "_frames.csv")]
+    if args.port and not args.video:
+        written.append(out.with_suffix(".avi"))
+    for path in written:
+        if path.exists() and not args.force:
+            raise InputError(f"{path} exists: --force replaces it")
+
+
 def _run_board(args, camera, video_path: Path, progress: bool):
     """Run the schedule on the board, capturing the camera when live; returns the board
     recording, the frames' host times (or None) and the host time of the stream start."""
@@ -209,14 +221,17 @@ def _run_board(args, camera, video_path: Path, progress: bool):
     from porosense.sim.schedules import schedule
 
     sched = schedule(args.experiment)
+    # The samples go to disk as they arrive: a run killed midway leaves them in _board.csv.
+    log = Path(args.out).with_name(Path(args.out).stem + "_board.csv")
+    opts = dict(rate_hz=args.rate, n_channels=args.channels, progress=progress, log_path=log)
     with Device.open(args.port) as dev:
         if camera is None:
             t0 = time.monotonic()
-            return run_schedule(dev, sched, rate_hz=args.rate, n_channels=args.channels, progress=progress), None, t0
+            return run_schedule(dev, sched, **opts), None, t0
         with Capture(camera, video_path) as cap:
             time.sleep(1.0)  # the video starts before the stream: the start code is in view
             t0 = time.monotonic() + 1.0 / args.rate  # host time of the first sample, roughly
-            board = run_schedule(dev, sched, rate_hz=args.rate, n_channels=args.channels, progress=progress)
+            board = run_schedule(dev, sched, **opts)
             time.sleep(0.5)
         if cap.error:
             _warn(cap.error)

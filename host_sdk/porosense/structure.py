@@ -31,12 +31,39 @@ MAX_BREAKPOINTS = 16
 MAX_SECTIONS = 5
 MAX_DELAY = 15
 
+__all__ = [
+    "MAX_INPUTS",
+    "MAX_OUTPUTS",
+    "MAX_BREAKPOINTS",
+    "MAX_SECTIONS",
+    "MAX_DELAY",
+    "INPUT_UNITS",
+    "DEVICE_LSB_PERCENT",
+    "PiecewiseLinear",
+    "SOSCascade",
+    "Branch",
+    "OutputChain",
+    "EstimatorStructure",
+    "input_unit_scale",
+]
+
 
 @dataclass(frozen=True)
 class PiecewiseLinear:
     """Static piecewise-linear map through breakpoints (x[k], y[k]); linear beyond the ends.
 
-    ``x`` is strictly increasing, in the unit of the block's input; ``y`` in its output unit.
+    Attributes
+    ----------
+    x : ndarray, shape (n,)
+        Breakpoints, strictly increasing, n >= 2, in the unit of the block's input (an f block:
+        structure input units, % dR unless declared otherwise; a g block: the branch sum's unit).
+    y : ndarray, shape (n,)
+        Values at the breakpoints, in the block's output unit.
+
+    Raises
+    ------
+    ModelError
+        Fewer than 2 breakpoints, shapes that differ, NaN or inf, or breakpoints not increasing.
     """
 
     x: np.ndarray
@@ -73,7 +100,19 @@ class PiecewiseLinear:
 
 @dataclass(frozen=True)
 class SOSCascade:
-    """Linear block as second-order sections, shape (n_sections, 6), scipy layout."""
+    """Linear block as a cascade of second-order sections (discrete time, z^-1).
+
+    Attributes
+    ----------
+    sos : ndarray, shape (n_sections, 6)
+        Rows ``[b0 b1 b2 1 a1 a2]`` in scipy's layout (a0 normalised to 1); dimensionless, the
+        gain is the block's output unit per input unit.
+
+    Raises
+    ------
+    ModelError
+        A shape other than (n, 6) with n >= 1, or a row whose a0 is not 1.
+    """
 
     sos: np.ndarray
 
@@ -135,7 +174,21 @@ class SOSCascade:
 
 @dataclass(frozen=True)
 class Branch:
-    """Input path i -> output j: delay, offset removal, f, then H1."""
+    """Input path i -> output j: delay, offset removal, f, then H1.
+
+    Attributes
+    ----------
+    input : int
+        Index of the input this branch reads (0-based).
+    h1 : SOSCascade
+        The branch's linear block.
+    f : PiecewiseLinear or None
+        Input nonlinearity, None for identity.
+    delay : int
+        Pure input delay, samples (0..15 on the firmware).
+    u_offset : float
+        Subtracted from the input before f, structure input units (% dR unless declared).
+    """
 
     input: int
     h1: SOSCascade
@@ -146,7 +199,21 @@ class Branch:
 
 @dataclass(frozen=True)
 class OutputChain:
-    """One output: the sum of its branches, then g, then H2, then an offset."""
+    """One output: the sum of its branches, then g, then H2, then an offset.
+
+    Attributes
+    ----------
+    name : str
+        Output name (e.g. ``"p1"``).
+    branches : tuple of Branch
+        One per input path summed into this output.
+    g : PiecewiseLinear or None
+        Output nonlinearity after the sum, None for identity.
+    h2 : SOSCascade or None
+        Output linear block, None for identity.
+    offset : float
+        Added last, in the output's unit (kPa for pressure outputs).
+    """
 
     name: str
     branches: tuple[Branch, ...]
@@ -171,7 +238,23 @@ DEVICE_LSB_PERCENT = 0.01  # the device sends dR in 0.01 % steps
 
 
 def input_unit_scale(unit: str) -> float:
-    """Structure input units per % of dR for a unit name ("%" or "dR/100")."""
+    """Structure input units per % of dR for a unit name.
+
+    Parameters
+    ----------
+    unit : str
+        ``"%"`` (dR in %) or ``"dR/100"`` (dR as a fraction).
+
+    Returns
+    -------
+    float
+        1.0 for ``"%"``, 0.01 for ``"dR/100"``.
+
+    Raises
+    ------
+    ModelError
+        Any other unit name.
+    """
     if unit not in INPUT_UNITS:
         raise ModelError(f"unknown input unit {unit!r}; choose from {', '.join(INPUT_UNITS)}")
     return INPUT_UNITS[unit]
@@ -179,12 +262,26 @@ def input_unit_scale(unit: str) -> float:
 
 @dataclass(frozen=True)
 class EstimatorStructure:
-    """A whole MISO-per-output estimator; ``ts`` is the sample period in seconds.
+    """A whole estimator: one multi-input single-output chain per output.
 
-    ``input_units``: per input, "%" (dR in %) or "dR/100" (dR as a fraction), or None when the
-    model did not declare it (then read as %); ``output_units``: free text per output.
-    ``input_peak``: per input, the largest |input| seen in identification (structure units;
-    empty when unknown): the quantizer uses it to catch a fraction model declared as %.
+    Attributes
+    ----------
+    inputs : tuple of str
+        Input names (1 to 3 on the firmware), e.g. ``("dR1", "dR2")``.
+    outputs : tuple of OutputChain
+        One chain per output (1 to 3 on the firmware).
+    ts : float
+        Sample period, s.
+    meta : dict
+        Free provenance (model kind, orders, fit), stored with the model.
+    input_units : tuple
+        Per input, ``"%"`` (dR in %) or ``"dR/100"`` (dR as a fraction), or None when the model
+        did not declare it (then read as %).
+    output_units : tuple
+        Free text per output (e.g. ``"kPa"``).
+    input_peak : tuple
+        Per input, the largest |input| seen in identification, structure input units (empty when
+        unknown): the quantizer uses it to catch a fraction model declared as %.
     """
 
     inputs: tuple[str, ...]

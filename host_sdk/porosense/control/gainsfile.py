@@ -30,7 +30,32 @@ def save_gains(
     predicted: dict | None = None,
     sources=(),
 ) -> dict:
-    """Write the gains file; returns the document written."""
+    """Write the gains file (whole or not at all).
+
+    Parameters
+    ----------
+    path : str or Path
+        The JSON file to write.
+    gains : PiGains
+        The gains.
+    plant : Fopdt or None
+        The plant they were tuned for.
+    rule : str
+        The tuning rule in words.
+    tau_cl_s : float or None
+        Closed-loop time constant asked for, s.
+    output : str
+        Name of the controlled output.
+    predicted : dict or None
+        Figures of the predicted step (settling_s, overshoot_pct, ...).
+    sources : sequence of str or Path
+        The recordings the plant was fitted to.
+
+    Returns
+    -------
+    dict
+        The document written.
+    """
     doc = {
         "format": FORMAT,
         "version": VERSION,
@@ -47,7 +72,25 @@ def save_gains(
 
 
 def load_gains(path) -> tuple[PiGains, dict]:
-    """(gains, whole document) from a gains file; InputError for anything else."""
+    """Read a gains file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A file written by ``save_gains`` (``porosense control tune``).
+
+    Returns
+    -------
+    gains : PiGains
+        The gains.
+    doc : dict
+        The whole document (plant, rule, output, predicted step).
+
+    Raises
+    ------
+    InputError
+        A missing file, not JSON, not a gains file, another version, or malformed gains.
+    """
     path = Path(path)
     try:
         doc = json.loads(path.read_text())

@@ -18,8 +18,17 @@ STEADY_TAIL = 0.25
 
 @dataclass
 class TrackingMetrics:
-    """RMS and peak error (output units and % of the largest |target|) over the samples where a
-    target was set, with ``n`` samples."""
+    """Tracking error over the samples where a target was set (error = output - target).
+
+    Attributes
+    ----------
+    rms, peak : float
+        RMS and largest |error|, output units (nan when no sample counted).
+    rms_pct_of_target, peak_pct_of_target : float
+        The same, % of the largest |target|.
+    n : int
+        Samples counted.
+    """
 
     rms: float
     peak: float
@@ -33,9 +42,23 @@ class TrackingMetrics:
 
 @dataclass
 class StepMetrics:
-    """One constant target held from ``t0_s`` for ``hold_s``: settling time (s, 2 % band of the
-    step, NaN when it did not settle), overshoot (% of the step) and the steady-state error
-    (mean of output - target over the hold's last quarter, output units)."""
+    """How one constant target, held from ``t0_s`` for ``hold_s``, was reached.
+
+    Attributes
+    ----------
+    target : float
+        The held target, output units.
+    start : float
+        Target or output before the step, output units.
+    t0_s, hold_s : float
+        Start and length of the hold, s.
+    settling_s : float
+        Settling time in the 2 % band of the step, s from ``t0_s`` (nan when it did not settle).
+    overshoot_pct : float
+        Overshoot, % of the step.
+    steady_error : float
+        Mean of output - target over the hold's last quarter, output units.
+    """
 
     target: float
     start: float
@@ -50,8 +73,22 @@ class StepMetrics:
 
 
 def tracking_metrics(target, output, *, skip: np.ndarray | None = None) -> TrackingMetrics:
-    """Error statistics of ``output`` against ``target`` (arrays, NaN target = not controlling;
-    ``skip``: boolean mask of samples left out, e.g. the first seconds of a step)."""
+    """Error statistics of ``output`` against ``target``.
+
+    Parameters
+    ----------
+    target : array_like
+        Target per sample, output units; NaN where nothing was controlled.
+    output : array_like
+        Output per sample (true or estimated), output units.
+    skip : ndarray of bool or None
+        Samples left out (e.g. the first seconds of a step).
+
+    Returns
+    -------
+    TrackingMetrics
+        RMS and peak error over the samples with a finite target and output.
+    """
     target = np.asarray(target, dtype=float)
     output = np.asarray(output, dtype=float)
     use = np.isfinite(target) & np.isfinite(output)
@@ -69,8 +106,27 @@ def tracking_metrics(target, output, *, skip: np.ndarray | None = None) -> Track
 
 
 def step_metrics(t, target, output, t0_s: float, hold_s: float, start: float) -> StepMetrics:
-    """Metrics of the hold of the constant ``target`` over [t0_s, t0_s + hold_s) (s), coming from
-    ``start`` (output units: the target or output before the step)."""
+    """Metrics of the hold of the constant ``target`` over [t0_s, t0_s + hold_s).
+
+    Parameters
+    ----------
+    t : array_like
+        Time per sample, s.
+    target : float
+        The held target, output units.
+    output : array_like
+        Output per sample, output units.
+    t0_s, hold_s : float
+        Start and length of the hold, s.
+    start : float
+        Target or output before the step, output units.
+
+    Returns
+    -------
+    StepMetrics
+        Settling time, overshoot and steady-state error (nan when the hold has fewer than 4
+        samples).
+    """
     t = np.asarray(t, dtype=float)
     output = np.asarray(output, dtype=float)
     sel = (t >= t0_s) & (t < t0_s + hold_s)

@@ -32,10 +32,27 @@ T_RANGE_S = (0.01, 30.0)
 
 @dataclass
 class Fopdt:
-    """First-order plus dead time: gain ``K`` (output units per kPa of vacuum), time constant
-    ``T`` (s), dead time ``theta`` (s), sample period ``ts`` (s) of the data it was fitted to,
-    ``fit_percent`` (NRMSE fit of its simulation over all recordings, %) and ``gain_range``
-    (the gain fitted to each recording alone: min, max)."""
+    """First-order plus dead time from commanded vacuum to output.
+
+    Attributes
+    ----------
+    K : float
+        Gain, output units per kPa of vacuum.
+    T : float
+        Time constant, s.
+    theta : float
+        Dead time, s (a whole number of samples).
+    ts : float
+        Sample period of the data it was fitted to, s.
+    fit_percent : float
+        NRMSE fit of its simulation over all recordings, % (nan when not fitted).
+    gain_range : tuple of float
+        (min, max) of the gain fitted to each recording alone, output units per kPa.
+    output_unit : str
+        The output's unit (e.g. ``"%"`` strain), for printing.
+    extra : dict
+        Fit details (``"offsets"``: output at zero vacuum per recording, output units).
+    """
 
     K: float
     T: float
@@ -132,11 +149,32 @@ def _fit_one(vs, ys, ts):
 
 
 def fit_fopdt(vacuum_kpa, outputs, ts: float, *, output_unit: str = "") -> Fopdt:
-    """Fit one FOPDT to recordings: ``vacuum_kpa`` and ``outputs`` are lists of 1-D arrays
-    (commanded vacuum in kPa below ambient, >= 0; output in its unit) sampled every ``ts`` s.
+    """Fit one FOPDT to recordings (output-error fit, see the module notes).
 
     Each recording gets its own offset (the output at zero vacuum, e.g. a load's stretch).
-    Raises InputError when the command never changes (nothing to identify)."""
+
+    Parameters
+    ----------
+    vacuum_kpa : list of array_like
+        Per recording, the commanded vacuum, kPa below ambient (>= 0), 1-D.
+    outputs : list of array_like
+        Per recording, the output (in its unit), the same length as its command.
+    ts : float
+        Sample period, s (> 0).
+    output_unit : str
+        The output's unit, kept on the result for printing.
+
+    Returns
+    -------
+    Fopdt
+        The fitted plant, its fit % and the per-recording gain range.
+
+    Raises
+    ------
+    InputError
+        Mismatched lengths, a sample period <= 0, NaN or inf, a command that never changes, or a
+        fitted gain that is not positive.
+    """
     vs = [np.asarray(v, dtype=float).ravel() for v in vacuum_kpa]
     ys = [np.asarray(y, dtype=float).ravel() for y in outputs]
     if not vs or len(vs) != len(ys) or any(len(v) != len(y) for v, y in zip(vs, ys)):

@@ -21,8 +21,15 @@ TAIL = 0.25
 
 @dataclass
 class StaticMap:
-    """Settled output ``output`` (output units) at vacuum ``vacuum_kpa`` (kPa below ambient,
-    increasing, starting at 0)."""
+    """The settled output at each held vacuum level.
+
+    Attributes
+    ----------
+    vacuum_kpa : ndarray
+        Held vacuum levels, kPa below ambient, increasing.
+    output : ndarray
+        Settled output at each level, output units.
+    """
 
     vacuum_kpa: np.ndarray
     output: np.ndarray
@@ -60,8 +67,28 @@ def hold_levels(t, vacuum_kpa, output, *, min_hold_s: float = MIN_HOLD_S, tail: 
 
 
 def static_map(recordings, *, min_hold_s: float = MIN_HOLD_S) -> StaticMap:
-    """The map from ``recordings``: a list of (t s, vacuum kPa >= 0, output) arrays. Levels
-    within 0.5 kPa are pooled (mean)."""
+    """The static map from recordings of held vacuum levels.
+
+    Levels within 0.5 kPa of each other are pooled (mean of their settled outputs).
+
+    Parameters
+    ----------
+    recordings : list of (t, vacuum_kpa, output)
+        Per recording, three equal-length arrays: time, s; commanded vacuum, kPa below ambient
+        (>= 0); output, output units.
+    min_hold_s : float
+        Shortest hold that counts, s; the output is averaged over each hold's last quarter.
+
+    Returns
+    -------
+    StaticMap
+        One point per distinct level, increasing in vacuum.
+
+    Raises
+    ------
+    InputError
+        Fewer than two distinct levels held for ``min_hold_s``.
+    """
     pts = [p for t, v, y in recordings for p in hold_levels(t, v, y, min_hold_s=min_hold_s)]
     if len({round(v * 2) for v, _ in pts}) < 2:
         raise InputError(f"the recordings hold fewer than two vacuum levels for {min_hold_s:g} s: no static map")

@@ -41,9 +41,22 @@ SETTLE_BAND = 0.02
 
 @dataclass(frozen=True)
 class PiGains:
-    """The board's controller gains (the ControlGains fields): ``kp_kpa`` kPa of vacuum per
-    output unit of error, ``ki_kpa_per_s`` kPa per (output unit s), ``slew_per_s`` target slew
-    limit (output units per s)."""
+    """The board's controller gains (the ControlGains fields).
+
+    Attributes
+    ----------
+    kp_kpa : float
+        kPa of vacuum per output unit of error, finite, >= 0.
+    ki_kpa_per_s : float
+        kPa of vacuum per (output unit * s), finite, >= 0.
+    slew_per_s : float
+        Target slew limit, output units per s, finite, > 0.
+
+    Raises
+    ------
+    InputError
+        A gain or slew limit outside those ranges.
+    """
 
     kp_kpa: float
     ki_kpa_per_s: float
@@ -62,7 +75,27 @@ class PiGains:
 
 
 def lambda_pi(plant: Fopdt, tau_cl_s: float, slew_per_s: float) -> PiGains:
-    """PI gains for ``plant`` with closed-loop time constant ``tau_cl_s`` (s); see the module rule."""
+    """PI gains by lambda tuning (the module's rule).
+
+    Parameters
+    ----------
+    plant : Fopdt
+        The fitted plant.
+    tau_cl_s : float
+        Desired closed-loop time constant, s (> 0).
+    slew_per_s : float
+        Target slew limit to carry into the gains, output units per s.
+
+    Returns
+    -------
+    PiGains
+        kp = T / (K (tau_cl + theta + Ts/2)), ki = kp / T.
+
+    Raises
+    ------
+    InputError
+        A closed-loop time constant that is not a positive number.
+    """
     if not (math.isfinite(tau_cl_s) and tau_cl_s > 0):
         raise InputError(f"--tau-cl {tau_cl_s} s must be a positive number of seconds")
     theta_eff = plant.theta + plant.ts / 2.0
@@ -72,10 +105,27 @@ def lambda_pi(plant: Fopdt, tau_cl_s: float, slew_per_s: float) -> PiGains:
 
 @dataclass
 class StepPrediction:
-    """Predicted closed-loop response to a target step of ``step`` output units at t = 0:
-    ``t`` (s), ``target`` (the slew-limited target), ``y`` (output), ``u`` (vacuum, kPa),
-    ``settling_s`` (last entry into the 2 % band, s), ``overshoot_pct`` (% of the step),
-    ``peak_vacuum_kpa``."""
+    """Predicted closed-loop response to a target step at t = 0.
+
+    Attributes
+    ----------
+    t : ndarray
+        Time, s, every plant sample period.
+    target : ndarray
+        The slew-limited target, output units.
+    y : ndarray
+        Predicted output, output units.
+    u : ndarray
+        Vacuum command, kPa.
+    step : float
+        Step size, output units.
+    settling_s : float
+        Time of the last entry into the 2 % band, s (nan when it never settles).
+    overshoot_pct : float
+        Overshoot, % of the step.
+    peak_vacuum_kpa : float
+        Largest |u|, kPa.
+    """
 
     t: np.ndarray
     target: np.ndarray
@@ -139,9 +189,34 @@ def settling_and_overshoot(t, y, step: float, t_final_target: float = 0.0) -> tu
 def predict_step(
     plant: Fopdt, gains: PiGains, step: float, *, duration_s: float | None = None, max_vacuum_kpa: float | None = None
 ) -> StepPrediction:
-    """Closed-loop response (linear; the board's command limits are applied only when
-    ``max_vacuum_kpa`` is given) of ``plant`` under ``gains`` to a target step of ``step``
-    output units, slew-limited at ``gains.slew_per_s``."""
+    """Closed-loop response of ``plant`` under ``gains`` to a slew-limited target step.
+
+    Linear unless ``max_vacuum_kpa`` is given; then the command is clipped to 0..max_vacuum_kpa
+    and the integral held while clipped, as on the board.
+
+    Parameters
+    ----------
+    plant : Fopdt
+        The plant; the loop runs at its sample period.
+    gains : PiGains
+        Controller gains; the target rises at ``gains.slew_per_s``.
+    step : float
+        Target step, output units (not 0).
+    duration_s : float or None
+        Length of the prediction, s (None: long enough to settle, from the plant and gains).
+    max_vacuum_kpa : float or None
+        Largest vacuum command, kPa (None: no limit).
+
+    Returns
+    -------
+    StepPrediction
+        The response, its settling time and overshoot.
+
+    Raises
+    ------
+    InputError
+        A step of 0.
+    """
     import control
 
     ts = plant.ts

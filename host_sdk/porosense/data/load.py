@@ -112,11 +112,27 @@ def _is_matlab(path: Path) -> bool:
 
 
 def resolve_ts(tables, ts: float | None, override: bool = False) -> float:
-    """The sample period (s) for ``tables``, checked against a user's ``ts`` (None: take the data's).
+    """The sample period for ``tables``, checked against a user's ``ts``.
 
-    Raises InputError when ``ts`` is not a positive finite number, when files disagree with
-    each other, when ``ts`` disagrees with the data by more than 1 % (unless ``override``), or
-    when neither states one.
+    Parameters
+    ----------
+    tables : sequence of Table
+        Tables as loaded (``load_data``), with the period each states (``Table.ts``) if any.
+    ts : float or None
+        The user's sample period, s (None: take the data's).
+    override : bool
+        Use ``ts`` even where it disagrees with the data.
+
+    Returns
+    -------
+    float
+        The sample period, s.
+
+    Raises
+    ------
+    InputError
+        ``ts`` not a positive finite number, files that disagree with each other, ``ts`` that
+        disagrees with the data by more than 1 % (unless ``override``), or no period at all.
     """
     if ts is not None and not (math.isfinite(ts) and ts > 0):
         raise InputError(f"--ts {ts}: the sample period must be a positive finite number of seconds")

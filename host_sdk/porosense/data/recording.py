@@ -45,10 +45,24 @@ def _jsonable(value):
 
 @dataclass
 class Recording:
-    """A record of samples at times ``t`` (s) with named columns of equal length.
+    """A record of samples at times ``t`` with named columns of equal length.
 
-    ``columns`` maps names (docs/conventions.md) to 1-D arrays; ``units`` maps names to unit
-    strings; ``meta`` holds JSON-serialisable facts about the record.
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Sample times, s.
+    columns : dict of str to ndarray
+        Column name (docs/conventions.md: ``dR_0`` in %, ``p_0`` in kPa, ``theta_x`` in deg,
+        ...) to a 1-D array of N samples; ``t`` is not a column.
+    meta : dict
+        JSON-serialisable facts about the record (source, rate_hz, porosity, ...).
+    units : dict of str to str
+        Column name to its unit; ``t`` is ``"s"``.
+
+    Raises
+    ------
+    InputError
+        A column named ``t`` or one whose length differs from ``t``.
     """
 
     t: np.ndarray

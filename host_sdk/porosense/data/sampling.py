@@ -70,13 +70,47 @@ def unit_of(text) -> str | None:
 
 
 def time_column(table) -> str | None:
-    """Name of the table's time column, or None."""
+    """Name of the table's time column.
+
+    Parameters
+    ----------
+    table : Table
+        Columns as read.
+
+    Returns
+    -------
+    str or None
+        The first of ``t``, ``time``, ``Time``, ``t_s``, ``t_ms``, ``t_us``, ... (``TIME_COLUMNS``)
+        the table holds, or None.
+    """
     return next((c for c in TIME_COLUMNS if c in table.columns), None)
 
 
 @dataclass
 class Sampling:
-    """How a table is sampled: the period, where it and the time unit came from, what was done."""
+    """How a table is sampled: the period, where it and the time unit came from, what was done.
+
+    Attributes
+    ----------
+    path : str
+        The file.
+    samples : int
+        Rows.
+    ts : float or None
+        Sample period, s (None when neither a time column nor a stated period exists).
+    ts_source : str
+        Where the period came from.
+    time_column : str or None
+        Name of the time column, if any.
+    time_unit : str or None
+        Its unit: ``"s"``, ``"ms"`` or ``"us"``.
+    unit_source : str
+        Why that unit (the column name, the units row, an option, ...).
+    jitter : float
+        Relative standard deviation of the time steps (0.01 = 1 %).
+    resampled : str
+        What resampling did, ``""`` when nothing.
+    """
 
     path: str
     samples: int

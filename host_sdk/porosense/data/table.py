@@ -26,10 +26,40 @@ _NAN = math.nan
 
 @dataclass
 class Table:
-    """Numeric columns of a CSV file, in file order.
+    """Numeric columns of a CSV file (or .mat variables), in file order.
 
-    ``columns[name]`` is a float64 array (NaN where a cell was empty); ``groups`` maps a
-    header name that spans several columns to their names (``"r" -> ["r_0", "r_1"]``).
+    Attributes
+    ----------
+    path : Path
+        The file read.
+    names : list of str
+        Column names in file order.
+    columns : dict of str to ndarray
+        Name to a float64 array, NaN where a cell was empty.
+    groups : dict of str to list of str
+        A header name that spans several columns to their names (``"r" -> ["r_0", "r_1"]``).
+    lines : ndarray or None
+        File line (1-based) of each row, for error messages.
+    dialect : str
+        What the reader saw (``"comma-separated"``, ...), for error messages.
+    ts : float or None
+        Sample period the file states (time column, sidecar, Ts variable), s.
+    ts_source : str
+        Where ``ts`` came from.
+    units : dict of str to str
+        Column to unit, where the file states them.
+    meta : dict
+        The sidecar's metadata (porosity, load_g, ...).
+    units_source : str
+        Where the units came from (``"the units row"``, ``"the sidecar"``, ...).
+    time_unit : str or None
+        Unit of a stated Ts without a time column (a .mat TimeUnit): ``"s"``, ``"ms"`` or ``"us"``.
+    time : ndarray or None
+        The time column in s (set by check_sampling).
+    sampling : Sampling or None
+        What check_sampling found.
+    skipped : dict of str to str
+        Variables left out, name to why (.mat files).
     """
 
     path: Path
@@ -124,7 +154,17 @@ _SEPARATOR_NAMES = {",": "comma", ";": "semicolon", "\t": "tab", " ": "whitespac
 
 @dataclass(frozen=True)
 class Dialect:
-    """How a text table is written: separator, decimal mark, header row."""
+    """How a text table is written.
+
+    Attributes
+    ----------
+    separator : str
+        Cell separator: ``","``, ``";"``, ``"\\t"``, ``"|"``, or ``" "`` for any whitespace.
+    decimal : str
+        Decimal mark, ``"."`` or ``","``.
+    header : bool
+        Whether the first line names the columns.
+    """
 
     separator: str = ","
     decimal: str = "."
@@ -143,6 +183,16 @@ def sniff_dialect(lines: list[str]) -> Dialect:
     A separator is taken when most lines hold it the same number of times (the header may
     differ by a trailing separator); semicolons and tabs win over commas, because a
     comma between digits is then a decimal mark (European spreadsheets).
+
+    Parameters
+    ----------
+    lines : list of str
+        The file's first lines (up to 50 non-blank ones are read).
+
+    Returns
+    -------
+    Dialect
+        The guess; the default (comma, point, header) for no lines.
     """
     sample = [ln for ln in lines if ln.strip()][:50]
     if not sample:
@@ -237,9 +287,31 @@ def read_table(
     ``decimal`` override the guess (a comma separator with a decimal comma needs the numbers
     quoted: ``"1,5","2,25"``). The first ``skip_rows`` lines and lines starting with
     ``comment`` are skipped; a row of units right under the header (no cell a number) fills
-    ``Table.units``. Raises :class:`InputError` for an absent, binary or empty file, a row with
-    the wrong number of cells, or a cell that is not a number; the message names file, line,
-    column and the dialect that was read.
+    ``Table.units``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The text file.
+    separator : str or None
+        Cell separator (None: sniffed).
+    decimal : str or None
+        Decimal mark, ``"."`` or ``","`` (None: sniffed).
+    skip_rows : int
+        Lines skipped at the top of the file.
+    comment : str or None
+        Lines starting with it are skipped (None: none).
+
+    Returns
+    -------
+    Table
+        The columns, float64, with the file line of each row.
+
+    Raises
+    ------
+    InputError
+        An absent, binary or empty file, a row with the wrong number of cells, or a cell that is
+        not a number; the message names file, line, column and the dialect that was read.
     """
     path = Path(path)
     try:

@@ -72,7 +72,17 @@ def _max_frame_bytes(msg_type: int) -> int:
 
 
 class NakError(DeviceError):
-    """The device refused a command: ``code`` (porosense.protocol.Result) and ``detail``."""
+    """The device refused a command (a NAK; a DeviceError: exit 3).
+
+    Parameters
+    ----------
+    command : int
+        Type id of the refused command; kept as ``command`` (a MsgType when known).
+    code : int
+        Result code of the NAK; kept as ``code`` (a porosense.protocol.Result when known).
+    detail : int
+        The NAK's detail byte (which field or limit, per protocol/spec.md); kept as ``detail``.
+    """
 
     def __init__(self, command: int, code: int, detail: int):
         self.command = MsgType(command) if command in MsgType._value2member_map_ else command
@@ -92,6 +102,19 @@ class Device:
             print(dev.hello())
             dev.start_stream(100)
             for s in dev.samples(200): ...
+
+    Parameters
+    ----------
+    link : SerialLink
+        An open link (``Device.open`` makes one from a pyserial URL).
+    baudrate : int
+        Line rate, bit/s; sets the wire time added to each command's reply timeout.
+    timeout_scale : float
+        Factor on every reply timeout (> 1 for a slow link or a loaded host).
+    retries : int
+        Extra attempts of a command whose answer does not arrive in time.
+    seed : int or None
+        Seed of the first sequence number (random by default).
     """
 
     def __init__(
@@ -788,7 +811,19 @@ def _config_key(key) -> int:
 
 
 def blob_crc(blob: bytes) -> int:
-    """The CRC that identifies a model blob (MODEL_BEGIN.crc, MODEL_INFO.crc): see
-    porosense.protocol.model_blob.blob_crc, the one routine for it."""
+    """The CRC that identifies a model blob (MODEL_BEGIN.crc, MODEL_INFO.crc).
+
+    The same routine as porosense.protocol.model_blob.blob_crc.
+
+    Parameters
+    ----------
+    blob : bytes
+        A whole model blob, its 2-byte CRC trailer included.
+
+    Returns
+    -------
+    int
+        CRC-16/MCRF4XX of every byte before the trailer, 0..0xFFFF.
+    """
 
     return crc(blob)

@@ -31,10 +31,22 @@ TRAJ_REPEAT = 0x80
 
 @dataclass(frozen=True)
 class ControlGains:
-    """PI gains of one channel in output units (e.g. % strain) and kPa.
+    """PI gains of one channel in the model's output units (e.g. % strain) and kPa.
 
-    ``kp_kpa``: kPa of vacuum command per unit of estimate error (>= 0); ``ki_kpa_per_s``:
-    kPa per (unit * s) (>= 0); ``slew_per_s``: target slew limit, units per second (> 0)."""
+    Attributes
+    ----------
+    kp_kpa : float
+        kPa of vacuum command per output unit of estimate error, >= 0.
+    ki_kpa_per_s : float
+        kPa of vacuum command per (output unit * s) of integrated error, >= 0.
+    slew_per_s : float
+        Target slew limit, output units per s, > 0 (inf: none).
+
+    Raises
+    ------
+    InputError
+        A gain that is not a number, negative or infinite, or a slew limit <= 0.
+    """
 
     kp_kpa: float
     ki_kpa_per_s: float

@@ -16,7 +16,21 @@ UNO_USB_IDS: dict[tuple[int, int], str] = {
 
 @dataclass(frozen=True)
 class PortInfo:
-    """One serial port: its device path, USB identity when known, and whether it looks like an Uno."""
+    """One serial port: its device path, USB identity when known, and whether it looks like an Uno.
+
+    Attributes
+    ----------
+    device : str
+        Device path or name (``/dev/ttyACM0``, ``COM3``).
+    description : str
+        The operating system's description ("" when none).
+    vid, pid : int or None
+        USB vendor and product id (None for a port that is not USB).
+    serial_number : str or None
+        USB serial number, when the adapter reports one.
+    board : str or None
+        Board name when the VID:PID belongs to an Uno or a common clone, else None.
+    """
 
     device: str
     description: str
@@ -46,7 +60,13 @@ def classify(vid: int | None, pid: int | None) -> str | None:
 
 
 def list_ports() -> list[PortInfo]:
-    """Every serial port pyserial finds, likely Unos first."""
+    """Every serial port pyserial finds, likely Unos first.
+
+    Returns
+    -------
+    list of PortInfo
+        Likely Unos first, then by device name.
+    """
     from serial.tools import list_ports as lp
 
     ports = [

@@ -29,7 +29,27 @@ class _Dictable:
 
 @dataclass(frozen=True)
 class HelloInfo(_Dictable):
-    """The handshake answer: protocol and firmware versions, capabilities, model status."""
+    """The handshake answer (HELLO_REPLY): protocol and firmware versions, capabilities, model status.
+
+    Attributes
+    ----------
+    proto_major, proto_minor : int
+        The device's protocol version.
+    firmware : str
+        Firmware version, ``"major.minor.patch"``.
+    capabilities : list of str
+        Names of the capability bits set (``"EMULATED"``, ...).
+    n_channels : int
+        Sensor channels the board reads.
+    model_status : str
+        ``"none"``, ``"valid"`` or ``"invalid"``.
+    model_crc : int
+        CRC of the stored model blob, 0..0xFFFF.
+    streaming : bool
+        Whether SAMPLE telemetry was running.
+    uptime_ms : int
+        Time since the board's reset, ms.
+    """
 
     proto_major: int
     proto_minor: int
@@ -70,7 +90,17 @@ class HelloInfo(_Dictable):
 
 @dataclass(frozen=True)
 class PingResult(_Dictable):
-    """A PING round trip: the device clock (us) and the host round-trip time (s)."""
+    """A PING round trip.
+
+    Attributes
+    ----------
+    nonce : int
+        The value sent and echoed.
+    device_time_us : int
+        The device clock when it answered, us since its reset.
+    rtt_s : float
+        Host round-trip time, s.
+    """
 
     nonce: int
     device_time_us: int
@@ -79,7 +109,33 @@ class PingResult(_Dictable):
 
 @dataclass(frozen=True)
 class DeviceStatus(_Dictable):
-    """Health counters of STATUS_REPLY (each saturates at its maximum on the device)."""
+    """Health counters of STATUS_REPLY (each saturates at its maximum on the device).
+
+    Attributes
+    ----------
+    flags : int
+        Status bits (porosense.protocol.StatusFlag).
+    bad_crc, bad_length, bad_version, unknown_type : int
+        Received frames dropped, by reason, counts.
+    overruns : int
+        Sample ticks missed because the previous sample ran late, counts.
+    dropped_telemetry : int
+        SAMPLE frames not sent because the UART buffer was full, counts.
+    resets : int
+        Boots since the stored configuration was created, counts.
+    reset_cause : int
+        MCUSR (the AVR's reset-cause register) of the last reset.
+    watchdog_trips : int
+        Host-link watchdog trips (outputs switched off), counts.
+    sensor_faults : int
+        Sensor reads that failed or timed out, counts.
+    free_ram : int
+        Never-touched stack headroom, bytes.
+    rx_frames, tx_frames : int
+        Frames received and sent, counts.
+    uptime_ms : int
+        Time since the board's reset, ms.
+    """
 
     flags: int
     bad_crc: int
@@ -126,7 +182,29 @@ class DeviceStatus(_Dictable):
 
 @dataclass(frozen=True)
 class ModelInfo(_Dictable):
-    """The stored model (MODEL_INFO_REPLY); ``out_scale`` is output units per estimate LSB."""
+    """The stored model (MODEL_INFO_REPLY).
+
+    Attributes
+    ----------
+    status : str
+        ``"none"``, ``"valid"`` or ``"invalid"``.
+    format_version : int
+        Blob format version.
+    length : int
+        Blob length, bytes.
+    crc : int
+        Blob CRC, 0..0xFFFF.
+    n_inputs, n_outputs : int
+        The model's inputs and outputs.
+    model_id : int
+        32-bit id stored in the blob.
+    out_scale : tuple of float
+        Per output, output units (kPa, deg, % strain) per estimate LSB.
+    slot : int
+        Running slot: 0, 1 EEPROM; 2, 3 flash store; 255 none.
+    seq : int
+        The slot's commit counter, modulo 256.
+    """
 
     status: str
     format_version: int
@@ -175,7 +253,34 @@ class ModelInfo(_Dictable):
 
 @dataclass(slots=True)
 class Sample:
-    """One SAMPLE with its unwrapped device time ``t_us`` (us since the stream's device clock origin)."""
+    """One SAMPLE (or CONTROL_SAMPLE) with its unwrapped device time.
+
+    Attributes
+    ----------
+    seq : int
+        SAMPLE sequence number, 0..255 (gaps count lost frames).
+    t_us : int
+        Device time, us, unwrapped (monotonic over the stream).
+    channel_mask : int
+        Channel bits present (ADC0..2, IMU, ESTIMATES; porosense.device.ALL_CHANNELS for all).
+    status : int
+        Status bits (porosense.protocol.StatusFlag).
+    adc : tuple of int
+        Per sensor channel, ADS1115 reading, counts.
+    dr_centi : tuple of int
+        Per sensor channel, dR = (R - R0) / R0, in 0.01 % (LSB).
+    euler_16 : tuple of int
+        BNO055 heading, roll, pitch, 1/16 deg (LSB).
+    estimate : tuple of int
+        Per model output, the estimator's output, estimate LSB (times ``ModelInfo.out_scale``).
+    target : tuple of float
+        While the strain controller runs: slewed target per channel, output units (nan when not
+        controlled).
+    command_kpa : tuple of float
+        While the strain controller runs: regulator setpoint per channel, kPa (<= 0).
+    target_lsb : tuple of int or None
+        The raw slewed targets of CONTROL_SAMPLE, estimate LSB (None outside control).
+    """
 
     seq: int
     t_us: int
@@ -209,7 +314,29 @@ class Sample:
 
 @dataclass
 class SampleBlock(_Dictable):
-    """A run of samples as arrays: ``t_us`` (N,), ``adc``/``dr_centi``/``euler_16``/``estimate`` (N, 3)."""
+    """A run of samples as arrays (one row per Sample; units as in Sample).
+
+    Attributes
+    ----------
+    t_us : ndarray, shape (N,)
+        Unwrapped device time, us.
+    status : ndarray, shape (N,)
+        Status bits.
+    adc : ndarray, shape (N, 3)
+        ADC readings, counts.
+    dr_centi : ndarray, shape (N, 3)
+        dR, 0.01 % (LSB).
+    euler_16 : ndarray, shape (N, 3)
+        BNO055 heading, roll, pitch, 1/16 deg.
+    estimate : ndarray, shape (N, 3)
+        Estimator outputs, estimate LSB.
+    lost : int
+        SAMPLE frames lost in the run (sequence gaps), counts.
+    target : ndarray, shape (N, 3), or None
+        Slewed control target, output units, nan where not controlled.
+    command_kpa : ndarray, shape (N, 3), or None
+        Regulator setpoint, kPa.
+    """
 
     t_us: np.ndarray
     status: np.ndarray
@@ -281,7 +408,27 @@ class SampleBlock(_Dictable):
 
 @dataclass
 class LinkStats(_Dictable):
-    """What the host saw on the link: commands, retries, stale replies, telemetry loss."""
+    """What the host saw on the link (all counts since the Device was opened).
+
+    Attributes
+    ----------
+    commands : int
+        Commands sent.
+    retries : int
+        Repeated attempts of a command whose answer was late.
+    stale_replies : int
+        Answers ignored because they belonged to an earlier attempt or command.
+    samples : int
+        SAMPLE frames received.
+    samples_lost : int
+        SAMPLE frames missing from the sequence.
+    errors_received : int
+        Unsolicited ERROR reports received.
+    errors_lost : int
+        ERROR reports missing from their sequence.
+    decoder : dict of str to int
+        The frame decoder's counters (valid frames and drops by reason).
+    """
 
     commands: int = 0
     retries: int = 0

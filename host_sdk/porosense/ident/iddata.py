@@ -92,20 +92,78 @@ def _outputs_present(data) -> np.ndarray:
 
 
 def predict(model, data) -> np.ndarray:
-    """The model simulated from rest on ``data``'s inputs: (N, n_outputs) in the output units."""
+    """The model simulated from rest on ``data``'s inputs (MATLAB's sim).
+
+    Parameters
+    ----------
+    model : Model or ModelSet
+        An identified model (``porosense.fit``, ``load_model``).
+    data : Dataset
+        Inputs at the model's sample period (within 1 %), in the model's input units.
+
+    Returns
+    -------
+    ndarray, shape (N, n_outputs)
+        Simulated outputs, in the model's output units.
+
+    Raises
+    ------
+    InputError
+        A sample period or a number of inputs that differs from the model's.
+    """
     _check_period(model, data)
     y = np.asarray(model.predict(u=_inputs(model, data)), float)
     return y[:, None] if y.ndim == 1 else y
 
 
 def compare(model, data) -> SimulationFit:
-    """The one fit (NRMSE %, RMS % of max |y|) of ``model`` simulated from rest on ``data``."""
+    """The one fit of ``model`` simulated from rest on ``data`` (MATLAB's compare).
+
+    Parameters
+    ----------
+    model : Model or ModelSet
+        An identified model.
+    data : Dataset
+        Inputs and measured outputs at the model's sample period (within 1 %).
+
+    Returns
+    -------
+    SimulationFit
+        Per output, NRMSE fit (%) and RMS error (% of max |y|).
+
+    Raises
+    ------
+    InputError
+        A sample period, number of inputs or number of outputs that differs from the model's, or
+        data without outputs.
+    """
     _check_period(model, data)
     return simulation_fit(model, _inputs(model, data), _outputs(model, data))
 
 
 def resid(model, data, lags: int = LAGS) -> ResidResult:
-    """Residual correlation tests of ``model`` on ``data`` (see :mod:`porosense.ident.residuals`)."""
+    """Residual correlation tests of ``model`` on ``data`` (MATLAB's resid).
+
+    Parameters
+    ----------
+    model : Model or ModelSet
+        An identified model.
+    data : Dataset
+        Inputs and measured outputs at the model's sample period (within 1 %).
+    lags : int
+        Largest lag of the auto- and cross-correlations, samples.
+
+    Returns
+    -------
+    ResidResult
+        Whiteness of the residuals and their independence from the inputs, with 99 % bounds
+        (see :mod:`porosense.ident.residuals`); ``.plot()`` draws them.
+
+    Raises
+    ------
+    InputError
+        As :func:`compare`.
+    """
     _check_period(model, data)
     y = _outputs(model, data)
     e = y - predict(model, data)

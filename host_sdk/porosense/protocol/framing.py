@@ -32,7 +32,18 @@ _crc16 = crcmod.predefined.mkCrcFun("crc-16-mcrf4xx")
 
 
 def crc16(data: bytes) -> int:
-    """CRC-16/MCRF4XX of ``data`` (poly 0x1021 reflected, init 0xFFFF); b"123456789" -> 0x6F91."""
+    """CRC-16/MCRF4XX of ``data`` (poly 0x1021 reflected, init 0xFFFF); b"123456789" -> 0x6F91.
+
+    Parameters
+    ----------
+    data : bytes-like
+        The bytes to check (a frame's header and payload).
+
+    Returns
+    -------
+    int
+        The CRC, 0..0xFFFF (sent low byte first).
+    """
     return _crc16(bytes(data))
 
 
@@ -41,6 +52,21 @@ def frame_len(payload_len: int) -> int:
 
     Exact for every payload: a body (at most 126 bytes) never fills a 254-byte COBS block,
     so COBS always adds exactly one byte, whatever the content.
+
+    Parameters
+    ----------
+    payload_len : int
+        Payload length, bytes (0..120).
+
+    Returns
+    -------
+    int
+        Frame length on the wire, bytes (payload + 8).
+
+    Raises
+    ------
+    ValueError
+        A payload length outside 0..120.
     """
     if not 0 <= payload_len <= MAX_PAYLOAD:
         raise ValueError(f"payload of {payload_len} bytes outside 0..{MAX_PAYLOAD}")
@@ -49,7 +75,19 @@ def frame_len(payload_len: int) -> int:
 
 @dataclass(frozen=True)
 class Frame:
-    """One decoded frame: the raw header fields and payload bytes."""
+    """One decoded frame: the raw header fields and payload bytes.
+
+    Attributes
+    ----------
+    type : int
+        Message type id (``MsgType``), 0..255.
+    seq : int
+        Sequence number, 0..255 (a reply carries its command's).
+    payload : bytes
+        The payload, 0..120 bytes, little-endian fields as laid out in protocol/spec.md.
+    version : int
+        Header version byte, major * 16 + minor (this host's by default).
+    """
 
     type: int
     seq: int
@@ -76,7 +114,29 @@ class Frame:
 
 
 def encode_frame(msg_type: int, seq: int, payload: bytes = b"", version: int = VERSION_BYTE) -> bytes:
-    """Encode one frame, delimiter included (``ValueError`` when payload exceeds 120 bytes)."""
+    """Encode one frame, delimiter included.
+
+    Parameters
+    ----------
+    msg_type : int
+        Message type id (``MsgType``); only its low byte is sent.
+    seq : int
+        Sequence number; only its low byte is sent.
+    payload : bytes
+        Payload, at most 120 bytes.
+    version : int
+        Header version byte, major * 16 + minor (this host's by default).
+
+    Returns
+    -------
+    bytes
+        COBS-encoded header, payload and CRC, then one 0x00.
+
+    Raises
+    ------
+    ValueError
+        A payload over 120 bytes.
+    """
     if len(payload) > MAX_PAYLOAD:
         raise ValueError(f"payload of {len(payload)} bytes exceeds {MAX_PAYLOAD}")
     body = bytes((version & 0xFF, msg_type & 0xFF, seq & 0xFF, len(payload))) + bytes(payload)
@@ -85,12 +145,36 @@ def encode_frame(msg_type: int, seq: int, payload: bytes = b"", version: int = V
 
 
 def encode_message(message, seq: int, version: int = VERSION_BYTE) -> bytes:
-    """Encode a generated message object as a frame."""
+    """Encode a generated message object as a frame.
+
+    Parameters
+    ----------
+    message : Message
+        An instance of a generated message class (``porosense.protocol.Ping(nonce=7)``, ...).
+    seq : int
+        Sequence number; only its low byte is sent.
+    version : int
+        Header version byte, major * 16 + minor (this host's by default).
+
+    Returns
+    -------
+    bytes
+        The frame on the wire, delimiter included.
+    """
     return encode_frame(message.TYPE, seq, message.pack(), version)
 
 
 class FrameError(ValueError):
-    """Why a frame was dropped; ``reason`` is one of the counters of FrameDecoder."""
+    """Why a frame was dropped.
+
+    Parameters
+    ----------
+    reason : str
+        The counter of FrameDecoder the drop counts in (``"bad_crc"``, ``"bad_length"``, ...); kept
+        as the ``reason`` attribute.
+    detail : str
+        What exactly was wrong, for the message.
+    """
 
     def __init__(self, reason: str, detail: str):
         super().__init__(f"{reason}: {detail}")
@@ -104,6 +188,23 @@ def decode_frame(encoded: bytes, accept_any_version: bool = False) -> Frame:
     at least header + crc, CRC, header length equal to the payload held and <= 120, protocol
     major (HELLO and HELLO_REPLY exempt), known type, payload length within the type's bounds
     (not checked for an exempt type of another major).
+
+    Parameters
+    ----------
+    encoded : bytes
+        One COBS-encoded frame without its 0x00 delimiter.
+    accept_any_version : bool
+        Accept any protocol major for every type, not only HELLO and HELLO_REPLY.
+
+    Returns
+    -------
+    Frame
+        The frame's header fields and payload.
+
+    Raises
+    ------
+    FrameError
+        The first check that fails; its ``reason`` names the counter.
     """
     try:
         body = cobs.decode(bytes(encoded))
@@ -148,6 +249,11 @@ class FrameDecoder:
     the longest suffix that decodes wins, which recovers a frame preceded by garbage that
     held no 0x00. A chunk longer than ``MAX_FRAME_LEN`` counts as overlong; only its last
     ``MAX_FRAME_LEN`` bytes are kept for that search. Empty chunks (repeated 0x00) are idle.
+
+    Attributes
+    ----------
+    counters : dict of str to int
+        Valid frames (``"frames"``) and dropped chunks by reason (the names in ``COUNTER_NAMES``).
     """
 
     counters: dict[str, int] = field(default_factory=lambda: dict.fromkeys(COUNTER_NAMES, 0))

@@ -199,7 +199,27 @@ class OutputQ:
 
 @dataclass(frozen=True)
 class ModelBlob:
-    """A parsed model blob; ``to_bytes``/``from_bytes`` round-trip exactly."""
+    """A parsed model blob; ``to_bytes``/``from_bytes`` round-trip exactly.
+
+    Attributes
+    ----------
+    n_inputs : int
+        Model inputs, 1..3.
+    outputs : tuple of OutputQ
+        Per output, its branches, tables and sections in fixed point.
+    out_scale : tuple of float
+        Per output, output units per estimate LSB.
+    model_id : int
+        32-bit tag.
+    format_version : int
+        Blob format version.
+    meta : dict
+        Host-side facts (not stored in the blob, not compared).
+    ts_us : int
+        Sample period the model was identified at, us.
+    input_lsb : float
+        dR % per input LSB the coefficients assume (0.01).
+    """
 
     n_inputs: int
     outputs: tuple[OutputQ, ...]

@@ -9,7 +9,21 @@ from porosense.protocol.model_blob import ModelBlob
 
 def c_header(blob: ModelBlob, name: str = "porosense_model") -> str:
     """A C/C++ header with the blob as a byte array (for est::RamBlobReader or PROGMEM) and
-    every fixed-point coefficient in comments."""
+    every fixed-point coefficient in comments.
+
+    Parameters
+    ----------
+    blob : ModelBlob
+        The quantized model.
+    name : str
+        C name of the array; non-word characters become ``_``, and its upper case prefixes the
+        ``_LEN``, ``_ID``, ``_N_INPUTS``, ``_N_OUTPUTS`` and ``_OUT_SCALE_j`` macros.
+
+    Returns
+    -------
+    str
+        The header text.
+    """
     ident = re.sub(r"\W", "_", name)
     data = blob.to_bytes()
     lines = [

@@ -425,7 +425,26 @@ def compact_tables(blob: ModelBlob) -> ModelBlob:
 def orders_that_fit(
     structure: EstimatorStructure, section_bytes: float = 14.0, limit: int = 4, capacity: int = MAX_BLOB_LEN
 ) -> list[str]:
-    """The largest uniform caps (poles in H1, poles in H2, breakpoints) whose blob fits."""
+    """The largest uniform caps (poles in H1, poles in H2, breakpoints) whose blob fits.
+
+    Parameters
+    ----------
+    structure : EstimatorStructure
+        The model whose blocks are capped.
+    section_bytes : float
+        Bytes per second-order section assumed (14 for a 16-bit numerator; a blob's own mean
+        when known).
+    limit : int
+        Most alternatives returned.
+    capacity : int
+        Bytes the blob may have (the EEPROM model area by default).
+
+    Returns
+    -------
+    list of str
+        One phrase per alternative, largest pole budget first, e.g. ``"H1 <= 6 poles, 8
+        breakpoints"``; empty when nothing fits.
+    """
     has_h2 = any(o.h2 is not None for o in structure.outputs)
     has_pwl = any(o.g is not None or any(b.f is not None for b in o.branches) for o in structure.outputs)
     fits = []

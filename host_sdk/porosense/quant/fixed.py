@@ -94,7 +94,18 @@ def _section(s: SectionQ, x: np.ndarray, xh: tuple[int, int], yh: list[int], sat
 
 
 class FixedPointEstimator:
-    """The firmware's estimator on a :class:`ModelBlob` (or its bytes)."""
+    """The firmware's estimator, bit for bit, on a model blob.
+
+    Parameters
+    ----------
+    blob : ModelBlob or bytes
+        The model; bytes are parsed and checked as the firmware does (``ModelBlob.from_bytes``).
+
+    Raises
+    ------
+    ModelError
+        Bytes that are not a valid blob.
+    """
 
     def __init__(self, blob: ModelBlob | bytes):
         self.blob = blob if isinstance(blob, ModelBlob) else ModelBlob.from_bytes(blob)

@@ -26,6 +26,16 @@ NOISE_PROBE_SEED = 7
 
 @dataclass
 class QuantResult:
+    """What ``quantize`` made.
+
+    Attributes
+    ----------
+    blob : ModelBlob
+        The fixed-point model (``to_bytes()``: what MODEL_BEGIN/CHUNK send).
+    report : QuantReport
+        Formats chosen, sizes and the fits of the fixed-point reference.
+    """
+
     blob: ModelBlob
     report: QuantReport
 
@@ -50,34 +60,56 @@ def quantize(
 ) -> QuantResult:
     """Quantize ``structure`` for the firmware.
 
-    recordings: recordings (porosense.data.Recording or mappings name -> column) holding the
-        structure's input columns (and its output columns for the fit against data), or
-        (name, U (N, n_in), Y (N, n_out) or None) tuples. They set the data range when
-        ``input_range`` is absent and are replayed for the report.
-    input_range: (lo, hi) in the structure's input unit, one pair or one per input; the scaling
-        guarantees no overflow for inputs inside it. Default: the recordings' range widened by
-        25 % of its span; without recordings the model's own range (+- its identification peak,
-        ``structure.input_peak``, widened the same way; -100..100 % only for a structure that
-        carries no peak).
-    force: turn the checks of porosense.quant.checks (non-finite coefficients, breakpoints that
-        do not increase, poles on or outside the unit circle, a fixed-point estimate that
-        saturates or misses the float model on the recordings, or without recordings on a probe
-        of steps across the input range) into warnings in the report's notes instead of a
-        ModelError.
     The input scaling comes from the structure alone (``structure.input_units``: dR in % or
     dR/100; the device sends 0.01 % steps) and the sample period from ``structure.ts``; both
-    are stored in the blob. A structure with undeclared units whose identification inputs never
-    exceeded 1.5 in magnitude is refused (ModelError): it was almost surely fitted on dR/100.
-    model_id: tag stored in the blob (default: CRC-32 of the blob with model_id 0, so the same
-    coefficients, sample period and scaling always give the same blob).
-    noise_lsb: RMS of the white noise (device input LSB) of the report's noise probe
-        (default NOISE_PROBE_LSB; 0 skips it).
-    capacity: bytes the blob may have (default the EEPROM model area, MAX_BLOB_LEN;
-        layout.FLASH_BLOB_MAX for a flash store slot). Compact tables are used only when the
-        full encoding does not fit it.
+    are stored in the blob. The report's fits are what the device computes: the bit-exact
+    fixed-point estimator on the recordings' inputs converted exactly as the device converts
+    them (:func:`evaluate`).
 
-    The report's fits are what the device computes: the bit-exact fixed-point estimator on
-    the recordings' inputs converted exactly as the device converts them (:func:`evaluate`).
+    Parameters
+    ----------
+    structure : EstimatorStructure
+        The float model.
+    recordings : sequence or None
+        Recordings (porosense.data.Recording or mappings name -> column) holding the
+        structure's input columns (and its output columns for the fit against data), or
+        (name, U (N, n_in), Y (N, n_out) or None) tuples, in structure units. They set the
+        data range when ``input_range`` is absent and are replayed for the report.
+    input_range : (lo, hi) or sequence of (lo, hi) or None
+        Input range in the structure's input unit (% dR or dR/100), one pair or one per input;
+        the scaling guarantees no overflow for inputs inside it. Default: the recordings' range
+        widened by 25 % of its span; without recordings the model's own range (+- 1.5 times its
+        identification peak, ``structure.input_peak``; -100..100 % only for a structure that
+        carries no peak).
+    model_id : int or None
+        32-bit tag stored in the blob (default: CRC-32 of the blob with model_id 0, so the same
+        coefficients, sample period and scaling always give the same blob).
+    noise_lsb : float or None
+        RMS of the white noise of the report's noise probe, device input LSB (0.01 % dR)
+        (default NOISE_PROBE_LSB = 1; 0 skips it).
+    capacity : int
+        Bytes the blob may have (default the EEPROM model area, MAX_BLOB_LEN;
+        ``FLASH_BLOB_MAX`` for a flash store slot). Compact tables are used only when the full
+        encoding does not fit it.
+    force : bool
+        Turn the checks of porosense.quant.checks (non-finite coefficients, breakpoints that do
+        not increase, poles on or outside the unit circle, a fixed-point estimate that saturates
+        or misses the float model on the recordings, or without recordings on a probe of steps
+        across the input range) into warnings in the report's notes instead of a ModelError.
+
+    Returns
+    -------
+    QuantResult
+        The blob and its report.
+
+    Raises
+    ------
+    ModelError
+        A check that fails (unless ``force``), a blob larger than ``capacity`` (naming the orders
+        that fit), or undeclared input units with an identification peak under 1.5 (almost
+        surely a model fitted on dR/100).
+    InputError
+        A recording without the model's input columns, or an input range with lo >= hi.
     """
     noise_lsb = NOISE_PROBE_LSB if noise_lsb is None else float(noise_lsb)
     forced: list[str] = []
@@ -195,10 +227,33 @@ def evaluate(
 ) -> list[RecordingFit]:
     """Fit of the fixed-point reference against the float model and the data, per output.
 
-    Both models run on exactly the device's inputs (:func:`device_inputs`). ``noise_lsb``: RMS
-    (device LSB) of the white noise added to those inputs for the noise probe, which shows how
-    many fit points sensor noise of that size costs on the device (a model with a steep table
-    or a large high-frequency gain amplifies it; 0 skips the probe)."""
+    Both models run on exactly the device's inputs (:func:`device_inputs`).
+
+    Parameters
+    ----------
+    structure : EstimatorStructure
+        The float model.
+    blob : ModelBlob
+        Its fixed-point version.
+    u : ndarray, shape (N, n_inputs)
+        Inputs in structure units (% dR or dR/100).
+    y : sequence or None
+        Per output, the measured output (N,) in output units, or None where not measured; None
+        for no data.
+    name : str
+        Label of the recording in the report.
+    input_lsb : float
+        Structure input units per device input LSB (0.01 for dR in %).
+    noise_lsb : float
+        RMS of the white noise added to the device inputs for the noise probe, device LSB; it
+        shows how many fit points sensor noise of that size costs on the device (a model with a
+        steep table or a large high-frequency gain amplifies it; 0 skips the probe).
+
+    Returns
+    -------
+    list of RecordingFit
+        One per output.
+    """
     counts = device_inputs(u, input_lsb)
     y_float = structure.simulate(counts * input_lsb)
     est, flags = _run_device(blob, counts)

@@ -11,7 +11,31 @@ from porosense.files import write_text
 
 @dataclass
 class RecordingFit:
-    """Fit of one output on one recording (percent); None where there is no measured output."""
+    """Fit of one output on one recording.
+
+    Fits are NRMSE fits in % (100 = perfect); None where there is no measured output.
+
+    Attributes
+    ----------
+    recording : str
+        Recording label.
+    output : str
+        Output name.
+    fit_float_vs_data : float or None
+        The float model against the measured output, %.
+    fit_fixed_vs_data : float or None
+        The fixed-point model against the measured output, %.
+    fit_fixed_vs_float : float
+        The fixed-point model against the float one, %.
+    saturated_samples : int
+        Samples where any fixed-point node saturated.
+    noise_lsb : float
+        RMS of the noise probe's white input noise, device LSB (0.01 % dR); 0 when not probed.
+    fit_noisy_vs_data : float or None
+        The fixed-point model on the noisy inputs against the measured output, %.
+    fit_noisy_vs_fixed : float or None
+        The fixed-point model on the noisy inputs against itself on the clean ones, %.
+    """
 
     recording: str
     output: str
@@ -40,6 +64,33 @@ class RecordingFit:
 
 @dataclass
 class QuantReport:
+    """How a model was quantized and how well the fixed-point version fits.
+
+    Attributes
+    ----------
+    blob_bytes : int
+        Blob length, bytes.
+    capacity_bytes : int
+        Bytes the blob was allowed.
+    n_sections : int
+        Second-order sections in the blob.
+    wide_numerators : int
+        Sections with 32-bit numerators.
+    delta_sections : int
+        Sections in delta form (for poles near z = 1).
+    out_scale : list of float
+        Per output, output units per estimate LSB.
+    scaling : str
+        How node ranges were bounded, and the input ranges used.
+    nodes : list of dict
+        Per node (``"p1.h1[0]"``, ``"p1.sum"``, ...), its guaranteed float interval and its scale
+        (float units per LSB).
+    notes : list of str
+        Decisions and warnings (compact tables, forced checks, off-grid inputs).
+    fits : list of RecordingFit
+        Per recording and output.
+    """
+
     blob_bytes: int
     capacity_bytes: int
     n_sections: int

@@ -126,9 +126,25 @@ class SOSCascade:
 
     @classmethod
     def from_tf(cls, b, a) -> SOSCascade:
-        """From b(z^-1)/a(z^-1), coefficients of z^-1 in ascending powers (scipy's lfilter form).
+        """A cascade from a transfer function in z^-1.
 
         Leading zeros of ``b`` are pure delays and are kept (scipy's tf2sos would drop them).
+
+        Parameters
+        ----------
+        b, a : array_like
+            Numerator and denominator coefficients of z^-1 in ascending powers (scipy's lfilter
+            form); ``a[0]`` not zero.
+
+        Returns
+        -------
+        SOSCascade
+            The same response as second-order sections.
+
+        Raises
+        ------
+        ModelError
+            A denominator that starts with zero.
         """
         b = np.trim_zeros(np.atleast_1d(np.asarray(b, dtype=float)), "b")
         a = np.trim_zeros(np.atleast_1d(np.asarray(a, dtype=float)), "b")
@@ -149,7 +165,13 @@ class SOSCascade:
         return cls(fold_delay(sos, delay))
 
     def to_tf(self) -> tuple[np.ndarray, np.ndarray]:
-        """As (b, a), coefficients of z^-1 in ascending powers."""
+        """The cascade as one transfer function.
+
+        Returns
+        -------
+        b, a : ndarray
+            Coefficients of z^-1 in ascending powers.
+        """
         return signal.sos2tf(self.sos)
 
     @property
@@ -162,13 +184,38 @@ class SOSCascade:
         return float(np.prod(self.sos[:, :3].sum(axis=1) / self.sos[:, 3:].sum(axis=1)))
 
     def poles(self) -> np.ndarray:
+        """The poles of every section.
+
+        Returns
+        -------
+        ndarray of complex
+            Two per section, in the z plane.
+        """
         return np.concatenate([np.roots(row[3:]) for row in self.sos])
 
     def is_stable(self) -> bool:
+        """Whether every pole lies inside the unit circle.
+
+        Returns
+        -------
+        bool
+            True when stable.
+        """
         return bool(np.all(np.abs(self.poles()) < 1.0))
 
     def filter(self, u) -> np.ndarray:
-        """Filter ``u`` from rest (zero initial state)."""
+        """Filter a signal from rest (zero initial state).
+
+        Parameters
+        ----------
+        u : array_like
+            Input, one value per sample.
+
+        Returns
+        -------
+        ndarray
+            Output, same length.
+        """
         return signal.sosfilt(self.sos, np.asarray(u, dtype=float))
 
 
@@ -293,22 +340,55 @@ class EstimatorStructure:
     input_peak: tuple = ()
 
     def input_unit(self, i: int) -> str | None:
-        """The declared unit of input ``i`` (None when undeclared)."""
+        """The declared unit of one input.
+
+        Parameters
+        ----------
+        i : int
+            Input index, 0-based.
+
+        Returns
+        -------
+        str or None
+            ``"%"``, ``"dR/100"``, or None when undeclared (read as %).
+        """
         return self.input_units[i] if i < len(self.input_units) else None
 
     def input_lsb(self) -> float:
         """The device's input step (0.01 % of dR) in structure input units.
 
-        Raises ModelError when the inputs have different units (the blob has one input scaling)."""
+        Returns
+        -------
+        float
+            0.01 for inputs in %, 1e-4 for inputs in dR/100.
+
+        Raises
+        ------
+        ModelError
+            Inputs with different units (the blob has one input scaling).
+        """
         scales = {input_unit_scale(self.input_unit(i) or "%") for i in range(len(self.inputs))}
         if len(scales) != 1:
             raise ModelError("the model's inputs have different units; the device takes one scaling for all")
         return DEVICE_LSB_PERCENT * scales.pop()
 
     def simulate(self, u) -> np.ndarray:
-        """Simulate from rest; ``u`` has shape (N, n_inputs) (or (N,) for one input).
+        """Simulate the estimator from rest (the float reference of the fixed-point one).
 
-        Returns an array of shape (N, n_outputs).
+        Parameters
+        ----------
+        u : array_like, shape (N, n_inputs) or (N,)
+            Inputs, structure input units (% dR unless declared dR/100).
+
+        Returns
+        -------
+        ndarray, shape (N, n_outputs)
+            Outputs, in each output's unit.
+
+        Raises
+        ------
+        ModelError
+            A number of input columns other than the structure's.
         """
         u = np.asarray(u, dtype=float)
         if u.ndim == 1:

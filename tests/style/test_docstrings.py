@@ -1,8 +1,11 @@
 """numpydoc sections on the public API: every public function or class (the ``__all__`` of the
 packages in PACKAGES) that takes parameters has a ``Parameters`` section (``Attributes`` for a
 dataclass's fields) naming each of them, and a function that returns a value has a ``Returns``
-(or ``Yields``) section. Enumerations are left out: they are looked up by value, not constructed,
-and their members are named in the generated catalogue.
+(or ``Yields``) section. A class that inherits its constructor may leave the Parameters to the
+class that defines it (``Linear`` to ``Model``). Enumerations are left out: they are looked up
+by value, not constructed, and their members are named in the generated catalogue. The public
+methods of those classes (defined in the class, not inherited; properties left out) follow the
+same rule in the packages of METHODS_CHECKED.
 
 Run as a script to print, per package, how many public names take parameters and which lack
 their sections:
@@ -31,6 +34,15 @@ PACKAGES = [
     "porosense.data",
     "porosense.quant",
     "porosense.dsp",
+    "porosense.structure",
+]
+# Packages whose public classes' methods are checked too.
+METHODS_CHECKED = [
+    "porosense.protocol",
+    "porosense.device",
+    "porosense.control",
+    "porosense.data",
+    "porosense.quant",
     "porosense.structure",
 ]
 # The packages whose public API does not have its sections yet (`python tests/style/test_docstrings.py`
@@ -155,6 +167,9 @@ def problems(obj) -> list[str]:
     list of str
         One short phrase per missing section or name; empty when the docstring is complete.
     """
+    if inspect.isclass(obj) and not dataclasses.is_dataclass(obj):
+        # The constructor's parameters are documented where the constructor is defined.
+        obj = next((k for k in obj.__mro__ if "__init__" in vars(k)), obj)
     doc = inspect.getdoc(obj) or ""
     if inspect.isclass(obj) and obj.__doc__ is None:
         doc = ""
@@ -172,6 +187,32 @@ def problems(obj) -> list[str]:
     if inspect.isfunction(obj) and _returns_a_value(obj) and not ({"Returns", "Yields"} & found.keys()):
         missing.append("no Returns section")
     return missing
+
+
+def public_methods(package: str) -> list[tuple[str, object]]:
+    """The public methods of a package's public classes that take parameters or return a value.
+
+    Parameters
+    ----------
+    package : str
+        Dotted module name.
+
+    Returns
+    -------
+    list of (str, function)
+        ``Class.method`` and the function, classmethods and staticmethods unwrapped.
+    """
+    found = []
+    for name, cls in public_names(package):
+        if not inspect.isclass(cls):
+            continue
+        for attr, member in vars(cls).items():
+            func = member.__func__ if isinstance(member, classmethod | staticmethod) else member
+            if attr.startswith("_") or not inspect.isfunction(func):
+                continue
+            if _parameter_names(func) or _returns_a_value(func):
+                found.append((f"{name}.{attr}", func))
+    return found
 
 
 def report(package: str) -> tuple[int, dict[str, list[str]]]:
@@ -197,6 +238,17 @@ def report(package: str) -> tuple[int, dict[str, list[str]]]:
         if missing := problems(obj):
             lacking[name] = missing
     return count, lacking
+
+
+@pytest.mark.parametrize("package", METHODS_CHECKED)
+def test_public_methods_have_numpydoc_sections(package):
+    methods = public_methods(package)
+    assert methods, f"{package}'s public classes have no method that takes parameters"
+    lacking = {name: missing for name, func in methods if (missing := problems(func))}
+    listing = "\n".join(f"  {name}: {'; '.join(missing)}" for name, missing in lacking.items())
+    assert not lacking, (
+        f"{len(lacking)} of {len(methods)} public methods of {package} lack numpydoc sections:\n{listing}"
+    )
 
 
 @pytest.mark.parametrize("package", PACKAGES)
@@ -237,9 +289,40 @@ def test_checker_sees_a_missing_section_and_an_unnamed_parameter():
     assert problems(half) == ["Parameters does not name b", "no Returns section"]
 
 
+def test_checker_reads_an_inherited_constructor_where_it_is_defined():
+    class Base:
+        """A base.
+
+        Parameters
+        ----------
+        rate_hz : float
+            Sample rate, Hz.
+        """
+
+        def __init__(self, rate_hz):
+            self.rate_hz = rate_hz
+
+    class Child(Base):
+        """A child built like its base."""
+
+    class Own(Base):
+        """A child with a constructor of its own and no Parameters section."""
+
+        def __init__(self, rate_hz, gain):
+            super().__init__(rate_hz)
+
+    assert problems(Child) == []
+    assert problems(Own) == ["no Parameters section"]
+
+
 if __name__ == "__main__":
     for package in sys.argv[1:] or PACKAGES + PENDING:
         count, lacking = report(package)
-        print(f"{package}: {count - len(lacking)} of {count} documented")
-        for name, missing in lacking.items():
+        methods = public_methods(package)
+        methods_lacking = {name: missing for name, func in methods if (missing := problems(func))}
+        print(
+            f"{package}: {count - len(lacking)} of {count} public names documented, "
+            f"{len(methods) - len(methods_lacking)} of {len(methods)} public methods"
+        )
+        for name, missing in {**lacking, **methods_lacking}.items():
             print(f"  {name}: {'; '.join(missing)}")

@@ -37,6 +37,13 @@ class TrackingMetrics:
     n: int
 
     def to_dict(self) -> dict:
+        """The fields as a plain dict.
+
+        Returns
+        -------
+        dict
+            JSON-ready.
+        """
         return asdict(self)
 
 
@@ -69,6 +76,13 @@ class StepMetrics:
     steady_error: float
 
     def to_dict(self) -> dict:
+        """The fields as a plain dict.
+
+        Returns
+        -------
+        dict
+            JSON-ready.
+        """
         return asdict(self)
 
 

@@ -68,11 +68,30 @@ class Fopdt:
         return int(round(self.theta / self.ts))
 
     def simulate(self, vacuum_kpa, y0: float = 0.0) -> np.ndarray:
-        """Output (output units) for commanded vacuum ``vacuum_kpa`` (kPa, >= 0) sampled at ts."""
+        """The plant's output for a vacuum command sampled at ``ts``, from rest.
+
+        Parameters
+        ----------
+        vacuum_kpa : array_like
+            Commanded vacuum, kPa below ambient (>= 0), one value per sample.
+        y0 : float
+            Output at zero vacuum, output units.
+
+        Returns
+        -------
+        ndarray
+            Output, output units.
+        """
         return y0 + self.K * _unit_response(np.asarray(vacuum_kpa, dtype=float), self.T, self.delay_samples, self.ts)
 
     def to_control(self):
-        """The discrete-time transfer function (python-control, dt = ts) from vacuum to output."""
+        """The discrete-time transfer function from vacuum to output (python-control).
+
+        Returns
+        -------
+        control.TransferFunction
+            K (1 - a) z^-(d+1) / (1 - a z^-1), a = exp(-ts/T), sample time ``ts`` s.
+        """
         import control
 
         a = math.exp(-self.ts / self.T)
@@ -81,6 +100,13 @@ class Fopdt:
         return control.tf([self.K * (1.0 - a)], den, self.ts)
 
     def to_dict(self) -> dict:
+        """The fields as a plain dict, with ``delay_samples``.
+
+        Returns
+        -------
+        dict
+            JSON-ready.
+        """
         d = asdict(self)
         d["gain_range"] = list(self.gain_range)
         d["delay_samples"] = self.delay_samples
@@ -88,6 +114,24 @@ class Fopdt:
 
     @classmethod
     def from_dict(cls, d: dict) -> Fopdt:
+        """The plant from :meth:`to_dict` output (a gains file's ``plant``).
+
+        Parameters
+        ----------
+        d : dict
+            ``K``, ``T``, ``theta``, ``ts`` and optionally ``fit_percent``, ``gain_range``,
+            ``output_unit``.
+
+        Returns
+        -------
+        Fopdt
+            The plant.
+
+        Raises
+        ------
+        InputError
+            A field missing or not a number.
+        """
         try:
             return cls(
                 float(d["K"]),

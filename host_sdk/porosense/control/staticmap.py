@@ -35,17 +35,48 @@ class StaticMap:
     output: np.ndarray
 
     def vacuum_for(self, target) -> np.ndarray:
-        """Vacuum (kPa) the map gives for ``target`` (output units); clipped to the measured
-        range (beyond the largest level the map knows nothing)."""
+        """The vacuum the map gives for a target output (the open-loop command).
+
+        Clipped to the measured range: beyond the largest level the map knows nothing.
+
+        Parameters
+        ----------
+        target : float or array_like
+            Target output, output units.
+
+        Returns
+        -------
+        ndarray
+            Vacuum, kPa below ambient.
+        """
         out = np.asarray(self.output, dtype=float)
         # The inverse needs a strictly increasing map: keep the running maximum's new highs.
         keep = np.concatenate([[True], np.diff(np.maximum.accumulate(out)) > 0])
         return np.interp(target, out[keep], np.asarray(self.vacuum_kpa)[keep])
 
     def output_at(self, vacuum_kpa) -> np.ndarray:
+        """The settled output the map gives for a vacuum (linear between levels, clipped at the ends).
+
+        Parameters
+        ----------
+        vacuum_kpa : float or array_like
+            Vacuum, kPa below ambient.
+
+        Returns
+        -------
+        ndarray
+            Settled output, output units.
+        """
         return np.interp(vacuum_kpa, self.vacuum_kpa, self.output)
 
     def to_dict(self) -> dict:
+        """The map as lists.
+
+        Returns
+        -------
+        dict
+            ``vacuum_kpa`` (kPa) and ``output`` (output units).
+        """
         return {"vacuum_kpa": self.vacuum_kpa.tolist(), "output": self.output.tolist()}
 
 

@@ -71,6 +71,13 @@ class PiGains:
             raise InputError(f"slew_per_s = {self.slew_per_s} must be a finite number > 0")
 
     def to_dict(self) -> dict:
+        """The fields as a plain dict.
+
+        Returns
+        -------
+        dict
+            ``kp_kpa``, ``ki_kpa_per_s``, ``slew_per_s``.
+        """
         return asdict(self)
 
 
@@ -137,6 +144,13 @@ class StepPrediction:
     peak_vacuum_kpa: float
 
     def summary(self) -> dict:
+        """The step's figures without the series.
+
+        Returns
+        -------
+        dict
+            ``step`` (output units), ``settling_s`` (s), ``overshoot_pct`` (%), ``peak_vacuum_kpa``.
+        """
         return {
             "step": self.step,
             "settling_s": self.settling_s,
@@ -145,6 +159,15 @@ class StepPrediction:
         }
 
     def plot(self, path, title: str = "predicted closed-loop step") -> None:
+        """Draw the predicted step (target, output and 2 % band above, vacuum command below) into a file.
+
+        Parameters
+        ----------
+        path : str or Path
+            The image file.
+        title : str
+            Figure title.
+        """
         import matplotlib
 
         matplotlib.use("Agg")

@@ -116,7 +116,27 @@ class Dataset:
 
     @classmethod
     def from_table(cls, table, inputs, outputs=()) -> Dataset:
-        """Columns ``inputs`` and ``outputs`` of a :class:`porosense.data.Table` (from ``load_data``)."""
+        """Columns of a :class:`porosense.data.Table` (from ``load_data``) as a Dataset.
+
+        Parameters
+        ----------
+        table : Table
+            Columns with their stated period (``table.ts``, s) and units.
+        inputs : sequence of str
+            Input column names.
+        outputs : sequence of str
+            Output column names (empty: no outputs).
+
+        Returns
+        -------
+        Dataset
+            Sampled every ``table.ts`` s, with the table's units.
+
+        Raises
+        ------
+        InputError
+            A column missing, or a table without a sample period.
+        """
         missing = [c for c in list(inputs) + list(outputs) if c not in table.columns]
         if missing:
             raise InputError(f"{table.path}: no column(s) {', '.join(missing)} (columns: {', '.join(table.names)})")
@@ -136,7 +156,29 @@ class Dataset:
 
     @classmethod
     def from_file(cls, path, inputs, outputs=(), **read_options) -> Dataset:
-        """Read ``path`` with :func:`porosense.data.load_data` (time base checked) and take the columns."""
+        """Read a file with :func:`porosense.data.load_data` (time base checked) and take the columns.
+
+        Parameters
+        ----------
+        path : str or Path
+            A .mat file or a text table of any common dialect.
+        inputs : sequence of str
+            Input column names.
+        outputs : sequence of str
+            Output column names (empty: no outputs).
+        **read_options
+            Passed to ``load_data`` (``separator``, ``decimal``, ``time_unit``, ``resample``, ...).
+
+        Returns
+        -------
+        Dataset
+            Sampled at the file's period, s.
+
+        Raises
+        ------
+        InputError
+            An unreadable file, a bad time base, or a column missing.
+        """
         from porosense.data.load import load_data
 
         return cls.from_table(load_data(path, **read_options), inputs, outputs)
@@ -146,6 +188,13 @@ class Dataset:
         return f"Dataset({len(self)} samples, Ts {self.ts:g} {self.time_unit}, inputs {self.input_names}{outs})"
 
     def to_dict(self) -> dict:
+        """The description without the signals.
+
+        Returns
+        -------
+        dict
+            Samples, ts (in ``time_unit``), time unit, names and units.
+        """
         return {
             "samples": len(self),
             "ts": self.ts,
@@ -157,7 +206,18 @@ class Dataset:
         }
 
     def plot(self, path=None):
-        """Every signal against time, one axis per signal, with its name and unit; returns the figure."""
+        """Every signal against time, one axis per signal, with its name and unit.
+
+        Parameters
+        ----------
+        path : str or Path or None
+            Also save the figure there (PNG, PDF, ...).
+
+        Returns
+        -------
+        matplotlib Figure
+            The figure.
+        """
         import matplotlib.pyplot as plt
 
         signals = [(n, u, self.u[:, k]) for k, (n, u) in enumerate(zip(self.input_names, self.input_units))]

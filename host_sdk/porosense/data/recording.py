@@ -123,11 +123,38 @@ class Recording:
         return float(self.t[-1] - self.t[0]) if self.t.size else 0.0
 
     def matrix(self, names) -> np.ndarray:
-        """Columns ``names`` stacked as an (N, k) float array."""
+        """Columns stacked as one array.
+
+        Parameters
+        ----------
+        names : sequence of str
+            Column names (``t`` allowed).
+
+        Returns
+        -------
+        ndarray, shape (N, k)
+            float64, one column per name, in the columns' units.
+
+        Raises
+        ------
+        InputError
+            A name the recording does not hold.
+        """
         return np.column_stack([np.asarray(self[n], dtype=float) for n in names])
 
     def slice(self, t0: float, t1: float) -> Recording:
-        """The samples with ``t0 <= t < t1`` (s); times are kept, metadata copied."""
+        """The samples with ``t0 <= t < t1``; times are kept, metadata copied (with ``slice_s``).
+
+        Parameters
+        ----------
+        t0, t1 : float
+            Start (included) and end (excluded), s.
+
+        Returns
+        -------
+        Recording
+            The part.
+        """
         keep = (self.t >= t0) & (self.t < t1)
         return Recording(
             self.t[keep],
@@ -137,7 +164,18 @@ class Recording:
         )
 
     def with_columns(self, **columns) -> Recording:
-        """A copy with columns added or replaced."""
+        """A copy with columns added or replaced.
+
+        Parameters
+        ----------
+        **columns : array_like
+            Name to N samples.
+
+        Returns
+        -------
+        Recording
+            The copy (metadata and units copied).
+        """
         return Recording(self.t, {**self.columns, **columns}, dict(self.meta), dict(self.units))
 
     def __repr__(self) -> str:
@@ -149,7 +187,13 @@ class Recording:
         )
 
     def to_dict(self) -> dict:
-        """Plain-JSON form (lists), e.g. for reports."""
+        """Plain-JSON form (lists), e.g. for reports.
+
+        Returns
+        -------
+        dict
+            ``t`` (s), ``columns``, ``meta`` and ``units``.
+        """
         return {
             "t": self.t.tolist(),
             "columns": {k: v.tolist() for k, v in self.columns.items()},
@@ -158,7 +202,20 @@ class Recording:
         }
 
     def plot(self, names=None, ax=None):
-        """Plot columns ``names`` (default: all but pressure commands) against time; returns ax."""
+        """Plot columns against time.
+
+        Parameters
+        ----------
+        names : sequence of str or None
+            Columns to plot (None: all).
+        ax : matplotlib Axes or None
+            Where to draw (None: a new figure).
+
+        Returns
+        -------
+        matplotlib Axes
+            The axes drawn on (time in s, legend with units).
+        """
         import matplotlib.pyplot as plt
 
         ax = ax or plt.subplots(figsize=(8, 3))[1]
@@ -179,7 +236,19 @@ class Recording:
 
     # --- CSV + JSON sidecar --------------------------------------------------------------
     def to_csv(self, path) -> Path:
-        """Write ``path`` (CSV) and ``path.with_suffix('.json')`` (metadata); returns the CSV path."""
+        """Write ``path`` (CSV, values that read back bit-identical) and ``path.with_suffix('.json')``
+        (metadata, units, dtypes, column order), each whole or not at all.
+
+        Parameters
+        ----------
+        path : str or Path
+            The CSV file.
+
+        Returns
+        -------
+        Path
+            The CSV path.
+        """
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         names = ["t"] + self.names
@@ -197,7 +266,24 @@ class Recording:
 
     @classmethod
     def from_csv(cls, path) -> Recording:
-        """Read a CSV (and its JSON sidecar when present: meta, units, dtypes, order)."""
+        """Read a CSV (and its JSON sidecar when present: meta, units, dtypes, order).
+
+        Parameters
+        ----------
+        path : str or Path
+            A CSV with a ``t`` column (s).
+
+        Returns
+        -------
+        Recording
+            The recording as written by :meth:`to_csv`.
+
+        Raises
+        ------
+        InputError
+            No ``t`` column, a malformed sidecar, columns it names missing, or a cell that is not a
+            number (the message names file and line).
+        """
         path = Path(path)
         table = read_table(path)
         if "t" not in table.columns:
@@ -229,7 +315,18 @@ class Recording:
 
     # --- MATLAB -------------------------------------------------------------------------
     def to_mat(self, path) -> Path:
-        """Write a MATLAB .mat file (v5, readable by MATLAB and Octave); returns the path."""
+        """Write a MATLAB .mat file (v5, readable by MATLAB and Octave), whole or not at all.
+
+        Parameters
+        ----------
+        path : str or Path
+            The .mat file.
+
+        Returns
+        -------
+        Path
+            The path.
+        """
         from scipy.io import savemat
 
         path = Path(path)
@@ -246,9 +343,26 @@ class Recording:
 
     @classmethod
     def from_mat(cls, path, ts: float | None = None) -> Recording:
-        """Read a .mat file written by :meth:`to_mat`, or any MATLAB file of named vectors or a
-        struct (v5 or v7.3, see :mod:`porosense.data.matfile`). Without a ``t`` variable the
-        time axis is k * Ts, with Ts from a ``Ts`` variable or the ``ts`` argument (s)."""
+        """Read a .mat file written by :meth:`to_mat`, or any MATLAB file of named vectors or a struct
+        (v5 or v7.3, see :mod:`porosense.data.matfile`).
+
+        Parameters
+        ----------
+        path : str or Path
+            The .mat file.
+        ts : float or None
+            Sample period, s, used when the file holds neither ``t`` nor ``Ts``.
+
+        Returns
+        -------
+        Recording
+            The recording; without a ``t`` variable the time axis is k * Ts.
+
+        Raises
+        ------
+        InputError
+            No such file, or no time axis and no sample period.
+        """
         from scipy.io import loadmat
 
         from porosense.data.matfile import _is_hdf5, read_mat

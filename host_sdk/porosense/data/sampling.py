@@ -123,7 +123,13 @@ class Sampling:
     resampled: str = ""  # what --resample did, '' when nothing
 
     def describe(self) -> str:
-        """One line: the time column, its unit and why, the period, anything done to the data."""
+        """One line: the time column, its unit and why, the period, anything done to the data.
+
+        Returns
+        -------
+        str
+            E.g. ``"run.csv: time from column 't' in s (...), Ts 20 ms (50 Hz)"``.
+        """
         if self.ts is None:
             return f"{self.path}: no time column and no stated sample period"
         where = (
@@ -139,6 +145,13 @@ class Sampling:
         return text
 
     def to_dict(self) -> dict:
+        """The fields as a plain dict.
+
+        Returns
+        -------
+        dict
+            JSON-ready (``file``, ``samples``, ``ts`` in s, their sources, ``jitter``, ``resampled``).
+        """
         return {
             "file": self.path,
             "samples": self.samples,

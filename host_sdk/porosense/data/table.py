@@ -93,7 +93,23 @@ class Table:
         raise InputError(f"{self.path}: no column named '{name}' (columns: {', '.join(self.names)})")
 
     def group(self, name: str) -> np.ndarray:
-        """The columns under header ``name`` stacked as an (N, k) array (k = 1 for a plain column)."""
+        """The columns under a header stacked as one array.
+
+        Parameters
+        ----------
+        name : str
+            A header name spanning several columns, or a plain column name.
+
+        Returns
+        -------
+        ndarray, shape (N, k)
+            k = 1 for a plain column.
+
+        Raises
+        ------
+        InputError
+            No such column or group.
+        """
         members = self.groups.get(name, [name] if name in self.columns else None)
         if members is None:
             raise InputError(f"{self.path}: no column group named '{name}'")
@@ -103,13 +119,39 @@ class Table:
         return f"Table({str(self.path)!r}, {len(self)} rows, columns={self.names})"
 
     def line_of(self, row: int) -> str:
-        """'line N' of data row ``row`` (0-based) in the file, or 'row N' when unknown."""
+        """Where a data row sits in the file, for messages.
+
+        Parameters
+        ----------
+        row : int
+            Data row, 0-based.
+
+        Returns
+        -------
+        str
+            ``"line N"`` (1-based file line), or ``"row N"`` when unknown.
+        """
         if self.lines is not None and 0 <= row < len(self.lines):
             return f"line {int(self.lines[row])}"
         return f"row {row + 1}"
 
     def require_finite(self, names, rows: slice = slice(None), what: str = "") -> None:
-        """Raise InputError naming the first empty or non-finite cell of ``names`` within ``rows``."""
+        """Raise InputError naming the first empty or non-finite cell of the columns within the rows.
+
+        Parameters
+        ----------
+        names : sequence of str
+            Columns checked.
+        rows : slice
+            Rows checked (default all).
+        what : str
+            What the columns are for, added to the message.
+
+        Raises
+        ------
+        InputError
+            An empty, NaN or infinite cell (file, line and column named).
+        """
         index = np.arange(len(self))[rows]
         for name in names:
             bad = index[~np.isfinite(np.asarray(self[name], dtype=float)[rows])]
@@ -171,6 +213,13 @@ class Dialect:
     header: bool = True
 
     def describe(self) -> str:
+        """The dialect in words.
+
+        Returns
+        -------
+        str
+            E.g. ``"semicolon-separated, decimal comma, a header row"``.
+        """
         return (
             f"{_SEPARATOR_NAMES.get(self.separator, repr(self.separator))}-separated, decimal "
             f"{'comma' if self.decimal == ',' else 'point'}, {'a' if self.header else 'no'} header row"

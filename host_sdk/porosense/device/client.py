@@ -173,8 +173,37 @@ class Device:
         """Open ``url`` and (by default) handshake with HELLO.
 
         A real Uno resets when its port opens and boots for about 1.5 s, so the handshake is
-        retried for ``handshake_timeout_s`` (3 s for device paths, 1 s for socket:// and
-        loop://). Raises DeviceError when nothing answers or the protocol major version differs.
+        retried for ``handshake_timeout_s``.
+
+        Parameters
+        ----------
+        url : str
+            Any pyserial URL: a device path (``/dev/ttyACM0``, ``COM3``), ``socket://host:port``,
+            ``loop://``.
+        baudrate : int
+            Line rate, bit/s.
+        timeout_scale : float
+            Factor on every reply timeout.
+        retries : int
+            Extra attempts of a command whose answer does not arrive in time.
+        handshake : bool
+            Send HELLO and check the protocol version.
+        handshake_timeout_s : float or None
+            How long to wait for the board to answer HELLO, s (None: 3 s for device paths, 1 s for
+            URLs with ``://``).
+        seed : int or None
+            Seed of the first sequence number.
+
+        Returns
+        -------
+        Device
+            The open device; use it as a context manager to close it.
+
+        Raises
+        ------
+        DeviceError
+            The port cannot be opened, nothing answers, or the protocol major version differs
+            (ProtocolVersionError).
         """
         link = SerialLink.open(url, baudrate)
         dev = cls(link, baudrate=baudrate, timeout_scale=timeout_scale, retries=retries, seed=seed)
@@ -209,8 +238,26 @@ class Device:
     # ------------------------------------------------------------------ commands
 
     def hello(self, wait_s: float | None = None) -> HelloInfo:
-        """Handshake: versions, capabilities, model status. A device speaking another protocol
-        major raises porosense.protocol.ProtocolVersionError (a DeviceError) naming both."""
+        """Handshake: versions, capabilities, model status; starts a new output session.
+
+        Parameters
+        ----------
+        wait_s : float or None
+            Repeat HELLO every 250 ms for up to this long, s (a booting board); None: the usual
+            retries.
+
+        Returns
+        -------
+        HelloInfo
+            The answer, also kept as ``self.info``.
+
+        Raises
+        ------
+        ProtocolVersionError
+            The device speaks another protocol major (a DeviceError naming both versions).
+        DeviceError
+            No answer or a malformed one.
+        """
         frame = self._exchange(m.Hello(), wait_total_s=wait_s, raw=True)
         # The header's version byte is checked first: another major may lay HELLO_REPLY out differently.
         check_compatible(*split_version(frame.version))
@@ -224,7 +271,23 @@ class Device:
         return self.info
 
     def ping(self, nonce: int | None = None) -> PingResult:
-        """PING: the device clock (us) and the round-trip time (s); feeds the host-link watchdog."""
+        """PING: the device clock and the round-trip time; feeds the host-link watchdog.
+
+        Parameters
+        ----------
+        nonce : int or None
+            32-bit value echoed by the device (None: random).
+
+        Returns
+        -------
+        PingResult
+            Device time (us) and round-trip time (s).
+
+        Raises
+        ------
+        DeviceError
+            No answer, or a PONG with another nonce.
+        """
         nonce = random.getrandbits(32) if nonce is None else nonce & 0xFFFFFFFF
         t0 = time.perf_counter()
         reply = self._exchange(m.Ping(nonce=nonce))
@@ -234,11 +297,24 @@ class Device:
         return PingResult(nonce, reply.device_time_us, rtt)
 
     def set_outputs(self, setpoint_kpa=0.0, pumps=0, valves=0) -> None:
-        """Vacuum setpoints (kPa, <= 0; a scalar or one per channel), pumps and valves.
+        """Vacuum setpoints, pumps and valves of the three channels.
 
-        ``pumps``/``valves`` are bit masks (bit i = channel i) or sequences of booleans. While
-        any output is active the host-link watchdog is armed: send a command (e.g. ping) at
-        least every WATCHDOG_MS or the device cuts the outputs.
+        While any output is active the host-link watchdog is armed: send a command (e.g. ping) at
+        least every WATCHDOG_MS (1000 ms by default) or the device cuts the outputs. The default
+        (all zero) switches everything off.
+
+        Parameters
+        ----------
+        setpoint_kpa : float or sequence of float
+            Gauge vacuum setpoint, kPa (<= 0), one for all channels or one per channel; sent in
+            0.1 kPa steps.
+        pumps, valves : int or sequence of bool
+            Bit masks (bit i = channel i) or one boolean per channel.
+
+        Raises
+        ------
+        NakError
+            A setpoint beyond the board's limit or an output command the board refuses.
         """
         sp = np.atleast_1d(np.asarray(setpoint_kpa, dtype=float))
         sp = np.repeat(sp, 3) if sp.size == 1 else np.pad(sp, (0, 3 - sp.size))
@@ -257,11 +333,35 @@ class Device:
         self._outputs_active = bool(pump_mask or valve_mask)
 
     def set_watchdog(self, timeout_ms: int) -> None:
-        """Host-link watchdog timeout in ms (RAM only; 100..10000)."""
+        """Host-link watchdog timeout (RAM only; CONFIG_SET WATCHDOG_MS stores it).
+
+        Parameters
+        ----------
+        timeout_ms : int
+            Timeout, ms (100..10000).
+
+        Raises
+        ------
+        NakError
+            A timeout outside 100..10000 ms (OUT_OF_RANGE).
+        """
         self._exchange(m.SetWatchdog(timeout_ms=int(timeout_ms)))
 
     def start_stream(self, rate_hz: int = 50, channels: int | Sequence[str] = ALL_CHANNELS) -> None:
-        """Start SAMPLE telemetry at ``rate_hz`` (Hz, within the SAMPLE_RATE_HZ limits of CONFIG_SPECS) for ``channels`` (mask or names)."""
+        """Start SAMPLE telemetry (restarting a stream already running).
+
+        Parameters
+        ----------
+        rate_hz : int
+            Sample rate, Hz (10..135, the SAMPLE_RATE_HZ limits).
+        channels : int or sequence of str
+            Channel mask (ADC0..2, IMU, ESTIMATES bits; ALL_CHANNELS for all) or channel names.
+
+        Raises
+        ------
+        NakError
+            A rate outside the limits (OUT_OF_RANGE).
+        """
         if self._streaming:
             self.stop_stream()
         mask = _channel_mask(channels)
@@ -281,11 +381,25 @@ class Device:
         return self._streaming
 
     def samples(self, n: int | None = None, *, timeout_s: float | None = None) -> Iterator[Sample]:
-        """Yield ``n`` samples (forever when None) in arrival order.
+        """Yield samples in arrival order; lost frames are counted in ``stats.samples_lost``.
 
-        Raises DeviceError when no sample arrives for ``timeout_s`` (default: 1 s or five
-        sample periods, whichever is longer, times ``timeout_scale``). Lost frames are
-        counted in ``stats.samples_lost``.
+        Parameters
+        ----------
+        n : int or None
+            Samples to yield (None: forever).
+        timeout_s : float or None
+            Longest wait for one sample, s (None: 1 s or five sample periods, whichever is longer,
+            times ``timeout_scale``).
+
+        Yields
+        ------
+        Sample
+            The next sample (device time in us, dR in 0.01 %, estimates in LSB, ...).
+
+        Raises
+        ------
+        DeviceError
+            No sample for ``timeout_s``.
         """
         if timeout_s is None:
             period = 1.0 / self._rate_hz if self._rate_hz else 0.1
@@ -310,14 +424,38 @@ class Device:
             count += 1
 
     def drain_samples(self) -> list[Sample]:
-        """Samples received and not yet read, without waiting (e.g. after stop_stream)."""
+        """Samples received and not yet read, without waiting (e.g. after stop_stream).
+
+        Returns
+        -------
+        list of Sample
+            In arrival order.
+        """
         self._pump(0.0)
         out = list(self._samples)
         self._samples.clear()
         return out
 
     def read_samples(self, n: int, *, timeout_s: float | None = None) -> SampleBlock:
-        """The next ``n`` samples as arrays, with the frames lost meanwhile in ``.lost``."""
+        """The next ``n`` samples as arrays, with the frames lost meanwhile in ``.lost``.
+
+        Parameters
+        ----------
+        n : int
+            Samples to read.
+        timeout_s : float or None
+            Longest wait for one sample, s (as :meth:`samples`).
+
+        Returns
+        -------
+        SampleBlock
+            The samples as arrays.
+
+        Raises
+        ------
+        DeviceError
+            No sample for ``timeout_s``.
+        """
         lost0 = self.stats.samples_lost
         samples = list(self.samples(n, timeout_s=timeout_s))
         return SampleBlock.from_samples(samples, lost=self.stats.samples_lost - lost0)
@@ -325,16 +463,40 @@ class Device:
     def write_model(
         self, blob: bytes, *, replace: bool | None = None, validate: bool = True, format_version: int | None = None
     ) -> ModelInfo:
-        """MODEL_BEGIN, MODEL_CHUNKs of 112 bytes, MODEL_COMMIT, then MODEL_INFO; checks the CRC.
+        """Write a model blob: MODEL_BEGIN, MODEL_CHUNKs of 112 bytes, MODEL_COMMIT, then MODEL_INFO.
 
-        The blob is checked first exactly as the firmware checks it (porosense.protocol.model_blob.ModelBlob:
-        format, CRC, structure, size): a bad blob raises ModelError before anything is sent.
-        The device writes it beside the running model, which keeps running until the new one is
-        whole and checked. Two models share the EEPROM's 776-byte model area; when the new one
-        does not fit beside the running one, ``replace`` decides: False raises ModelError, True
-        erases the running model first (the board has none until the write completes), None (the
-        default) does the same with a warning. ``validate=False`` sends the blob as it is (to test
-        the device's own checks)."""
+        The blob is checked first exactly as the firmware checks it (format, CRC, structure, size):
+        a bad blob raises ModelError before anything is sent. The device writes it beside the
+        running model, which keeps running until the new one is whole and checked.
+
+        Parameters
+        ----------
+        blob : bytes
+            The model blob (``QuantResult.blob.to_bytes()``).
+        replace : bool or None
+            When the new model does not fit beside the running one in the EEPROM's model area:
+            False raises ModelError, True erases the running model first (the board has none until
+            the write completes), None does the same with a warning.
+        validate : bool
+            Check the blob on the host first; False sends it as it is (to test the device's checks).
+        format_version : int or None
+            Format version announced in MODEL_BEGIN (None: the blob's own).
+
+        Returns
+        -------
+        ModelInfo
+            The stored model as the device reports it.
+
+        Raises
+        ------
+        ModelError
+            A blob that is not valid, or one that does not fit beside the running model with
+            ``replace=False``.
+        NakError
+            The device refused a step.
+        DeviceError
+            The device reports another CRC or length after the write.
+        """
         from porosense.protocol.model_blob import ModelBlob, blob_crc
 
         blob = bytes(blob)
@@ -374,14 +536,36 @@ class Device:
         return info
 
     def sample_rate_hz(self) -> int:
-        """The board's configured sample rate (SAMPLE_RATE_HZ), Hz."""
+        """The board's configured sample rate (SAMPLE_RATE_HZ).
+
+        Returns
+        -------
+        int
+            Sample rate, Hz.
+        """
         return int(self.config_get("SAMPLE_RATE_HZ"))
 
     def check_model_rate(self, blob: bytes, *, set_rate: bool = False) -> int:
-        """Compare the blob's sample period with the board's rate; returns the board's rate (Hz).
+        """Compare the blob's sample period with the board's sample rate.
 
-        A mismatch raises ModelError, or with ``set_rate`` sets and saves the board's
-        SAMPLE_RATE_HZ to the model's rate (which must be a whole number of Hz)."""
+        Parameters
+        ----------
+        blob : bytes
+            The model blob (either store's size).
+        set_rate : bool
+            On a mismatch, set and save the board's SAMPLE_RATE_HZ to the model's rate (which must be
+            a whole number of Hz).
+
+        Returns
+        -------
+        int
+            The board's sample rate, Hz (after the change with ``set_rate``).
+
+        Raises
+        ------
+        ModelError
+            The rates differ (without ``set_rate``), or the model's rate is not a whole number of Hz.
+        """
 
         model = ModelBlob.from_bytes(bytes(blob), max_length=FLASH_BLOB_MAX)  # either store's
         board = self.sample_rate_hz()
@@ -404,7 +588,13 @@ class Device:
         return self.sample_rate_hz()
 
     def model_info(self) -> ModelInfo:
-        """The stored model."""
+        """The stored model.
+
+        Returns
+        -------
+        ModelInfo
+            Status, length (bytes), CRC, inputs, outputs, out_scale and slot.
+        """
         return ModelInfo.from_message(self._exchange(m.ModelInfo()))
 
     def erase_model(self) -> None:
@@ -412,7 +602,25 @@ class Device:
         self._exchange(m.ModelErase())
 
     def read_model_bytes(self, offset: int, n: int) -> bytes:
-        """``n`` bytes (at most 112) of the stored blob from ``offset``."""
+        """Part of the stored blob.
+
+        Parameters
+        ----------
+        offset : int
+            First byte, from the blob's start.
+        n : int
+            Bytes to read (at most 112).
+
+        Returns
+        -------
+        bytes
+            ``n`` bytes.
+
+        Raises
+        ------
+        DeviceError
+            An answer at another offset or of another length.
+        """
         reply = self._exchange(m.ModelRead(offset=int(offset), length=int(n)))
         if reply.offset != offset or len(reply.data) != n:
             raise DeviceError(
@@ -421,7 +629,18 @@ class Device:
         return bytes(reply.data)
 
     def read_model(self) -> bytes:
-        """Read the stored blob back."""
+        """Read the stored blob back.
+
+        Returns
+        -------
+        bytes
+            The whole blob.
+
+        Raises
+        ------
+        DeviceError
+            No valid model on the board, or a reply at the wrong offset.
+        """
         info = self.model_info()
         if not info.valid:
             raise DeviceError(f"no model to read: {info}")
@@ -435,10 +654,30 @@ class Device:
         return bytes(out)
 
     def replay(self, dr_centi, *, reset: bool = True, return_flags: bool = False):
-        """Run the on-device estimator on inputs ``dr_centi`` (N, 3) int16 (0.01 %).
+        """Run the on-device estimator on given inputs (REPLAY, 16 samples per command).
 
-        Sent in chunks of 16 samples; the first chunk zeroes the estimator state when
-        ``reset``. Returns the estimates (N, 3) int16 (and per-chunk flags when asked).
+        Parameters
+        ----------
+        dr_centi : array_like, shape (N, 3)
+            Inputs, dR in 0.01 % (int16).
+        reset : bool
+            Zero the estimator state before the first chunk.
+        return_flags : bool
+            Also return the flags of each chunk.
+
+        Returns
+        -------
+        estimates : ndarray of int16, shape (N, 3)
+            The estimator's outputs, estimate LSB (times ``ModelInfo.out_scale`` for output units).
+        flags : ndarray of uint8
+            Per chunk of 16 samples, the saturation flags; only with ``return_flags``.
+
+        Raises
+        ------
+        ValueError
+            Inputs of another shape or outside int16.
+        DeviceError
+            A reply with another number of values.
         """
         x = np.asarray(dr_centi)
         if x.ndim != 2 or x.shape[1] != 3:
@@ -460,21 +699,64 @@ class Device:
         return (out, np.asarray(flags, dtype=np.uint8)) if return_flags else out
 
     def calibrate_r0(self, n_samples: int = 16, channels: int = 0b111) -> tuple[float, ...]:
-        """Average ``n_samples`` (1..64) at rest and take them as R0; returns R0 per channel (ohm)."""
+        """Average samples at rest and take them as R0 (the actuator must be unloaded and vented).
+
+        Parameters
+        ----------
+        n_samples : int
+            Samples averaged (1..64).
+        channels : int
+            Channel mask (bit i = channel i).
+
+        Returns
+        -------
+        tuple of float
+            R0 per channel, ohm.
+        """
         reply = self._exchange(m.CalibrateR0(n_samples=int(n_samples), channel_mask=int(channels)))
         return tuple(float(r) for r in reply.r0_ohm)
 
     def set_r0(self, r0_ohm: Sequence[float], channels: int = 0b111) -> None:
-        """Set R0 (ohm) of the masked channels in RAM."""
+        """Set R0 of the masked channels in RAM.
+
+        Parameters
+        ----------
+        r0_ohm : sequence of float
+            R0 per channel, ohm (up to 3; missing channels get 0).
+        channels : int
+            Channel mask (bit i = channel i) of the values that apply.
+        """
         r0 = tuple(float(v) for v in np.pad(np.asarray(r0_ohm, dtype=float), (0, 3 - len(r0_ohm))))
         self._exchange(m.SetR0(channel_mask=int(channels), r0_ohm=r0))
 
     def status(self) -> DeviceStatus:
-        """Health counters and flags."""
+        """Health counters and flags.
+
+        Returns
+        -------
+        DeviceStatus
+            STATUS_REPLY's counters.
+        """
         return DeviceStatus.from_message(self._exchange(m.Status()))
 
     def config_get(self, key: str | int) -> int:
-        """One configuration value (key by name, e.g. "SAMPLE_RATE_HZ", or number)."""
+        """One configuration value.
+
+        Parameters
+        ----------
+        key : str or int
+            Key name (``"SAMPLE_RATE_HZ"``, ``"WATCHDOG_MS"``, ...) or number.
+
+        Returns
+        -------
+        int
+            The value, in the key's unit (protocol/messages.toml).
+
+        Raises
+        ------
+        ValueError
+            An unknown key name.
+        """
         k = _config_key(key)
         reply = self._exchange(m.ConfigGet(key=k))
         if reply.key != k:
@@ -482,11 +764,30 @@ class Device:
         return reply.value
 
     def config_set(self, key: str | int, value: int) -> None:
-        """Set one configuration value in RAM (config_save stores it)."""
+        """Set one configuration value in RAM (config_save stores it).
+
+        Parameters
+        ----------
+        key : str or int
+            Key name or number.
+        value : int
+            The value, in the key's unit.
+
+        Raises
+        ------
+        NakError
+            A value outside the key's range (OUT_OF_RANGE).
+        """
         self._exchange(m.ConfigSet(key=_config_key(key), value=int(value)))
 
     def config_all(self) -> dict[str, int]:
-        """Every configuration key known to this host, by name."""
+        """Every configuration key known to this host, by name.
+
+        Returns
+        -------
+        dict of str to int
+            Key name to value.
+        """
         return {k.name: self.config_get(k) for k in ConfigKey}
 
     def config_save(self) -> None:
@@ -498,15 +799,36 @@ class Device:
         self._exchange(m.ConfigReset())
 
     def reset(self, wait_s: float = 3.0) -> HelloInfo:
-        """Reset the board, wait for it to boot and handshake again."""
+        """Reset the board, wait for it to boot and handshake again.
+
+        Parameters
+        ----------
+        wait_s : float
+            Longest wait for the board to answer HELLO, s.
+
+        Returns
+        -------
+        HelloInfo
+            The new handshake.
+        """
         self._exchange(m.Reset())
         time.sleep(0.05 * self.timeout_scale)
         return self.after_reset(wait_s=wait_s)
 
     def after_reset(self, wait_s: float = 3.0) -> HelloInfo:
-        """The board was reset (RESET, an upload through the bootloader, the reset button):
-        forget the stream and output state, wait for it to boot and handshake again (a new
-        output session)."""
+        """The board was reset (RESET, an upload, the reset button): forget the stream and output
+        state, wait for it to boot and handshake again (a new output session).
+
+        Parameters
+        ----------
+        wait_s : float
+            Longest wait for the board to answer HELLO, s.
+
+        Returns
+        -------
+        HelloInfo
+            The new handshake.
+        """
         self._next_tseq = self._next_eseq = None  # the counters restart with the firmware
         self._streaming = False
         self._outputs_active = False
@@ -526,11 +848,26 @@ class Device:
         return self._rate_hz if self._streaming else self.sample_rate_hz()
 
     def set_control_gains(self, gains, *, save: bool = False) -> None:
-        """PI gains of the strain controller: one porosense.device.ControlGains for all channels
-        or one per channel, in the model's output units (kPa per unit, kPa per unit-second,
-        units per second). Quantised to the board's fixed point for the running model and the
-        sample rate (the stream's, else SAMPLE_RATE_HZ); ``save`` stores them on the board
-        (versioned, CRC) for AUTOSTART 2. Needs a valid model (DeviceError otherwise)."""
+        """PI gains of the strain controller.
+
+        Quantised to the board's fixed point for the running model and the sample rate (the
+        stream's, else SAMPLE_RATE_HZ).
+
+        Parameters
+        ----------
+        gains : ControlGains or sequence of ControlGains
+            One for all channels or one per channel, in the model's output units (kPa per unit, kPa
+            per unit-second, units per second).
+        save : bool
+            Store them on the board (versioned, CRC) for AUTOSTART 2.
+
+        Raises
+        ------
+        DeviceError
+            No valid model on the board.
+        InputError
+            Gains the board's fixed point cannot hold.
+        """
 
         gains = control.per_channel(gains)
         scale, crc = self._control_model()
@@ -542,8 +879,19 @@ class Device:
         self._gains, self._gains_for = gains, (crc, rate)
 
     def control_gains(self):
-        """The gains on the board, per channel, as quantised there (porosense.device.ControlGains,
-        in the model's output units)."""
+        """The gains on the board, per channel, as quantised there.
+
+        Returns
+        -------
+        tuple of ControlGains
+            Per channel, in the model's output units; zero gains with no slew limit (inf) where none
+            were set.
+
+        Raises
+        ------
+        DeviceError
+            Gains made for another model than the running one.
+        """
 
         r = self._exchange(m.ControlGainsGet())
         scale, crc = self._control_model()
@@ -579,20 +927,49 @@ class Device:
         self._outputs_active = True
 
     def start_control(self, targets, *, channels: int = 0b001) -> None:
-        """Hold constant ``targets`` (output units; one for all or one per channel) on the
-        channels in ``channels`` with the on-board PI on the streamed estimate.
+        """Hold constant targets with the on-board PI on the streamed estimate.
 
-        Needs a valid model and streaming with estimates (NakError NO_MODEL / BAD_STATE); a
-        target outside the model's output range is refused (NakError OUT_OF_RANGE). Arms the
-        host-link watchdog like set_outputs: keep sending commands (e.g. ping)."""
+        Arms the host-link watchdog like set_outputs: keep sending commands (e.g. ping).
+
+        Parameters
+        ----------
+        targets : float or sequence of float
+            Target, output units (e.g. % strain), one for all channels or one per channel.
+        channels : int
+            Channel mask (bit i = channel i) of the channels controlled.
+
+        Raises
+        ------
+        NakError
+            No valid model (NO_MODEL), not streaming estimates (BAD_STATE), or a target outside the
+            model's output range (OUT_OF_RANGE).
+        """
 
         scale = self._refresh_gains() or (1.0,) * 3
         self._control_start(0, control.to_lsb(targets, scale, int(channels)), channels)
 
     def write_trajectory(self, t_s, targets, *, repeat: bool = False) -> None:
-        """Store piecewise-linear targets on the board: ``t_s`` (n,) increasing from 0 (s),
-        ``targets`` (n,) or (n, 3) in output units; chunked and CRC-checked, kept over resets
-        (a torn write keeps the previous one). ``repeat`` loops it. Not while streaming."""
+        """Store piecewise-linear targets on the board (not while streaming).
+
+        Chunked and CRC-checked, kept over resets; a torn write keeps the previous one.
+
+        Parameters
+        ----------
+        t_s : array_like, shape (n,)
+            Times, s, increasing from 0 (10 ms resolution, at most 327.67 s between points).
+        targets : array_like, shape (n,) or (n, 3)
+            Targets, output units: one column for every controlled channel or one per channel.
+        repeat : bool
+            Loop the trajectory.
+
+        Raises
+        ------
+        DeviceError
+            No valid model on the board.
+        InputError
+            Times or targets the board's record cannot hold (at most 13 points of one column, 6 of
+            three).
+        """
 
         scale, _ = self._control_model()
         if not scale:
@@ -602,8 +979,14 @@ class Device:
             self._exchange(m.TrajectoryChunk(total=len(rec), offset=off, data=rec[off : off + TRAJECTORY_CHUNK_BYTES]))
 
     def start_trajectory(self, *, channels: int = 0b001) -> None:
-        """Run the stored trajectory on ``channels`` (a 1-column trajectory drives each of them,
-        a 3-column one channel i with column i)."""
+        """Run the stored trajectory.
+
+        Parameters
+        ----------
+        channels : int
+            Channel mask (bit i = channel i); a 1-column trajectory drives each of them, a 3-column
+            one channel i with column i.
+        """
         self._refresh_gains()
         self._control_start(1, (0, 0, 0), channels)
 
@@ -615,7 +998,13 @@ class Device:
     # ------------------------------------------------------------------ raw access
 
     def send_raw(self, data: bytes) -> None:
-        """Write bytes as they are (tests of the device's frame checks)."""
+        """Write bytes as they are (tests of the device's frame checks).
+
+        Parameters
+        ----------
+        data : bytes
+            Bytes to write.
+        """
         self.link.write(data)
 
     def exchange_raw(
@@ -627,8 +1016,26 @@ class Device:
         version: int | None = None,
         timeout_s: float = 0.3,
     ):
-        """Send one hand-built frame (any type, payload, sequence, version byte) once; return
-        the answering Frame (its reply, ACK or NAK with the same sequence number) or None."""
+        """Send one hand-built frame once and return its answer.
+
+        Parameters
+        ----------
+        msg_type : int
+            Message type id (any, also unknown ones).
+        payload : bytes
+            Payload as it is.
+        seq : int or None
+            Sequence number (None: the next one).
+        version : int or None
+            Header version byte (None: this host's).
+        timeout_s : float
+            Wait for the answer, s (times ``timeout_scale``).
+
+        Returns
+        -------
+        Frame or None
+            Its reply, ACK or NAK with the same sequence number, or None.
+        """
         seq = self._next_seq() if seq is None else seq & 0xFF
         self.link.write(encode_frame(msg_type, seq, payload, VERSION_BYTE if version is None else version))
         cls = MESSAGES.get(msg_type)
@@ -636,8 +1043,29 @@ class Device:
         return self._await(seq, msg_type, reply_type, timeout_s * self.timeout_scale)
 
     def command(self, message, *, seq: int | None = None, deadline_s: float | None = None):
-        """Send any command message (with the next or the given sequence number) and return
-        its answer (NakError on NAK)."""
+        """Send any command message and return its answer.
+
+        Parameters
+        ----------
+        message : Message
+            A generated message object (``porosense.protocol.Ping(nonce=1)``, ...).
+        seq : int or None
+            Sequence number (None: the next one).
+        deadline_s : float or None
+            The device's deadline to answer, s (None: the catalogue's).
+
+        Returns
+        -------
+        Message
+            The reply message (ACK for commands without one).
+
+        Raises
+        ------
+        NakError
+            The device refused it.
+        DeviceError
+            No answer after the retries.
+        """
         return self._exchange(message, seq=seq, deadline_s=deadline_s)
 
     # ------------------------------------------------------------------ machinery

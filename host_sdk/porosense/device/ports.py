@@ -44,6 +44,13 @@ class PortInfo:
         return self.board is not None
 
     def to_dict(self) -> dict:
+        """The fields as a plain dict, with ``likely_uno``.
+
+        Returns
+        -------
+        dict
+            JSON-ready.
+        """
         return asdict(self) | {"likely_uno": self.likely_uno}
 
     def __str__(self) -> str:

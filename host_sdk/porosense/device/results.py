@@ -75,6 +75,18 @@ class HelloInfo(_Dictable):
 
     @classmethod
     def from_message(cls, m) -> HelloInfo:
+        """From a decoded HELLO_REPLY.
+
+        Parameters
+        ----------
+        m : porosense.protocol.HelloReply
+            The message.
+
+        Returns
+        -------
+        HelloInfo
+            Versions, capability names and model status by name.
+        """
         return cls(
             proto_major=m.proto_major,
             proto_minor=m.proto_minor,
@@ -158,7 +170,18 @@ class DeviceStatus(_Dictable):
         return flag_names(self.flags)
 
     def has(self, flag: StatusFlag) -> bool:
-        """True when ``flag`` is set."""
+        """Whether a status flag is set.
+
+        Parameters
+        ----------
+        flag : StatusFlag
+            The flag.
+
+        Returns
+        -------
+        bool
+            True when ``flag`` is set.
+        """
         return bool(self.flags & flag)
 
     @property
@@ -168,6 +191,18 @@ class DeviceStatus(_Dictable):
 
     @classmethod
     def from_message(cls, m) -> DeviceStatus:
+        """From a decoded STATUS_REPLY.
+
+        Parameters
+        ----------
+        m : porosense.protocol.StatusReply
+            The message.
+
+        Returns
+        -------
+        DeviceStatus
+            Its counters.
+        """
         return cls(**{k: getattr(m, k) for k in cls.__dataclass_fields__})
 
     def __str__(self) -> str:
@@ -228,6 +263,18 @@ class ModelInfo(_Dictable):
 
     @classmethod
     def from_message(cls, m) -> ModelInfo:
+        """From a decoded MODEL_INFO_REPLY.
+
+        Parameters
+        ----------
+        m : porosense.protocol.ModelInfoReply
+            The message.
+
+        Returns
+        -------
+        ModelInfo
+            Status by name, out_scale for the model's outputs only.
+        """
         return cls(
             status=MODEL_STATUS_NAMES.get(m.status, str(m.status)),
             format_version=m.format_version,
@@ -350,6 +397,21 @@ class SampleBlock(_Dictable):
 
     @classmethod
     def from_samples(cls, samples: list[Sample], lost: int = 0) -> SampleBlock:
+        """Stack samples into arrays.
+
+        Parameters
+        ----------
+        samples : list of Sample
+            In arrival order.
+        lost : int
+            SAMPLE frames lost meanwhile.
+
+        Returns
+        -------
+        SampleBlock
+            One row per sample.
+        """
+
         def col(name, dtype=np.int16):
             return np.array([getattr(s, name) for s in samples], dtype=dtype).reshape(len(samples), 3)
 
@@ -372,9 +434,25 @@ class SampleBlock(_Dictable):
         """A porosense.data.Recording with the conventions' columns.
 
         ``t`` (s) counts from the first sample on the device clock (``t_dev_us`` keeps the raw
-        unwrapped timestamps); ``adc_i`` (counts) and ``dR_i`` (%) for the first
-        ``n_channels``; ``theta_x``/``theta_y`` (deg, BNO055 roll and pitch) when ``imu``;
-        ``est_<name>`` (output units) for each name of ``outputs`` with its ``out_scale``.
+        unwrapped timestamps).
+
+        Parameters
+        ----------
+        n_channels : int
+            Sensor channels kept: ``adc_i`` (counts) and ``dR_i`` (%) for each.
+        imu : bool
+            Add ``theta_x``/``theta_y`` (deg, BNO055 roll and pitch).
+        outputs : sequence of str
+            Model output names: ``est_<name>`` columns (output units).
+        out_scale : sequence of float
+            Per output, output units per estimate LSB.
+        meta : dict or None
+            Facts added to the recording's metadata.
+
+        Returns
+        -------
+        Recording
+            With ``target_<name>`` and ``command_kpa_i`` (kPa) columns when the strain controller ran.
         """
         from porosense.data import Recording
 
@@ -403,6 +481,13 @@ class SampleBlock(_Dictable):
         return Recording(t, cols, info, units)
 
     def to_dict(self) -> dict:
+        """The arrays as lists.
+
+        Returns
+        -------
+        dict
+            JSON-ready.
+        """
         return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.__dict__.items()}
 
 

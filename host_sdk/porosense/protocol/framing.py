@@ -95,14 +95,31 @@ class Frame:
     version: int = VERSION_BYTE
 
     def message(self):
-        """The payload as its generated message class (``ValueError`` on a bad length)."""
+        """The payload as its generated message class.
+
+        Returns
+        -------
+        Message
+            E.g. ``Pong(nonce=7, device_time_us=...)``.
+
+        Raises
+        ------
+        ValueError
+            An unknown type or a payload of the wrong length.
+        """
         cls = MESSAGES.get(self.type)
         if cls is None:
             raise ValueError(f"unknown message type 0x{self.type:02X}")
         return cls.unpack(self.payload)
 
     def encode(self) -> bytes:
-        """This frame on the wire, delimiter included."""
+        """This frame on the wire.
+
+        Returns
+        -------
+        bytes
+            COBS-encoded, delimiter included.
+        """
         return encode_frame(self.type, self.seq, self.payload, self.version)
 
     @property
@@ -261,7 +278,18 @@ class FrameDecoder:
     _overlong: bool = False
 
     def feed(self, data: bytes) -> list[Frame]:
-        """Consume ``data``; return the frames it completed, in order."""
+        """Consume bytes as they arrive.
+
+        Parameters
+        ----------
+        data : bytes
+            Any number of bytes, split anywhere.
+
+        Returns
+        -------
+        list of Frame
+            The valid frames these bytes completed, in order (dropped chunks go to ``counters``).
+        """
         frames: list[Frame] = []
         for chunk_end, part in _split_keep(bytes(data)):
             if part:

@@ -133,7 +133,20 @@ class FixedPointEstimator:
                 self._yh.append([[0, 0] for _ in out.h2])
 
     def step(self, dr_centi) -> tuple[np.ndarray, int]:
-        """One sample: inputs (3,) in 0.01 % -> (estimates int16 (3,), flags)."""
+        """One sample, continuing from the current state.
+
+        Parameters
+        ----------
+        dr_centi : array_like, shape (n,), n <= 3
+            Inputs, dR in 0.01 % (int16).
+
+        Returns
+        -------
+        estimates : ndarray of int16, shape (3,)
+            Outputs, estimate LSB (times ``blob.out_scale`` for output units).
+        flags : int
+            1 when any node saturated, else 0.
+        """
         u = np.zeros((1, 3), dtype=np.int64)
         d = np.asarray(dr_centi, dtype=np.int64).ravel()
         u[0, : len(d)] = d
@@ -141,8 +154,25 @@ class FixedPointEstimator:
         return y[0], int(flags[0])
 
     def run(self, dr_centi) -> tuple[np.ndarray, np.ndarray]:
-        """Run on inputs of shape (N, 3) (or (N, n_inputs)) in 0.01 %, continuing from the
-        current state. Returns (estimates int16 (N, 3), flags uint8 (N,))."""
+        """Run on a series of inputs, continuing from the current state.
+
+        Parameters
+        ----------
+        dr_centi : array_like, shape (N, k), n_inputs <= k <= 3, or (N,)
+            Inputs, dR in 0.01 % (int16).
+
+        Returns
+        -------
+        estimates : ndarray of int16, shape (N, 3)
+            Outputs, estimate LSB (times ``blob.out_scale`` for output units).
+        flags : ndarray of uint8, shape (N,)
+            1 where any node saturated.
+
+        Raises
+        ------
+        InputError
+            Inputs of another shape or outside int16.
+        """
         u = np.asarray(dr_centi)
         if u.ndim == 1:
             u = u[:, None]

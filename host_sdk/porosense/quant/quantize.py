@@ -40,6 +40,13 @@ class QuantResult:
     report: QuantReport
 
     def to_bytes(self) -> bytes:
+        """The blob as the model stores hold it.
+
+        Returns
+        -------
+        bytes
+            What MODEL_BEGIN and MODEL_CHUNK send.
+        """
         return self.blob.to_bytes()
 
 

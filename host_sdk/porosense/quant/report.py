@@ -117,6 +117,14 @@ class QuantReport:
         return max(losses) if losses else None
 
     def to_dict(self) -> dict:
+        """The report as a plain dict, with the derived figures.
+
+        Returns
+        -------
+        dict
+            The fields, ``saturated_samples``, ``worst_loss_points``, ``worst_noise_loss_points`` and
+            per fit its ``loss_points`` and ``noise_loss_points`` (fit points).
+        """
         d = asdict(self)
         d["saturated_samples"] = self.saturated_samples
         d["worst_loss_points"] = self.worst_loss_points
@@ -130,12 +138,31 @@ class QuantReport:
         return d
 
     def to_json(self, path=None) -> str:
+        """The report as JSON text, optionally written to a file (whole or not at all).
+
+        Parameters
+        ----------
+        path : str or Path or None
+            Also write it there.
+
+        Returns
+        -------
+        str
+            The JSON text.
+        """
         text = json.dumps(self.to_dict(), indent=2, default=float)
         if path is not None:
             write_text(path, text + "\n")
         return text
 
     def lines(self) -> list[str]:
+        """The report in lines of text, as ``porosense quantize`` prints it.
+
+        Returns
+        -------
+        list of str
+            Size, scaling, out_scale, then one line per recording and output.
+        """
         out = [
             f"blob {self.blob_bytes} of {self.capacity_bytes} bytes; {self.n_sections} sections "
             f"({self.wide_numerators} with 32-bit numerators, {self.delta_sections} in delta form)",
@@ -165,7 +192,18 @@ class QuantReport:
         return "\n".join(self.lines())
 
     def plot(self, ax=None):
-        """Bar chart of the fit loss per recording and output (points)."""
+        """Bar chart of the fit loss per recording and output, fit points (0.5-point line dashed).
+
+        Parameters
+        ----------
+        ax : matplotlib Axes or None
+            Where to draw (None: a new figure).
+
+        Returns
+        -------
+        matplotlib Axes
+            The axes drawn on.
+        """
         import matplotlib.pyplot as plt
 
         if ax is None:

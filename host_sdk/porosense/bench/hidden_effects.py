@@ -351,8 +351,10 @@ def _record(rng, kind, p, sys_: _System, n, amp, span, noise_frac):
     if kind == "static_nonlinearity" and p["side"] == "output":
         y = _exp_map(y, lo, hi, p["b"], p["log"])
     if kind == "hysteresis" and p["shape"] == "bouc_wen":
+        # the Bouc-Wen form (1 - w) y + w z with the hysteretic variable z at rest (0) where the
+        # record starts: causal (no later sample is used) and the same law in every record
         z = _bouc_wen(y, span, p["sharp"])
-        y = (1 - p["weight"]) * y + p["weight"] * (z - np.mean(z) + np.mean(y))
+        y = (1 - p["weight"]) * y + p["weight"] * z
     if kind == "slow_relaxation":
         b, a = _first_order(p["tau_slow"], ts)
         y = y + p["share"] * (_filter_from_rest(b, a, y) - y)

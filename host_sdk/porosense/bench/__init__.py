@@ -5,4 +5,4 @@ result holds the figures (plain JSON types) and, under ``"summary"``, one line p
 for people. ``size="small"`` is the CI-sized run; ``"full"`` the figure the issues quote.
 """
 
-AREAS = ("protocol", "sim", "ident", "firmware", "device", "quant", "diagnose", "record", "control")
+AREAS = ("protocol", "sim", "paper", "ident", "firmware", "device", "quant", "diagnose", "record", "control")

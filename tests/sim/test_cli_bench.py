@@ -72,4 +72,5 @@ def test_bench_sim_small(capsys):
     assert result["simulated_s"] > 300.0
     assert result["power_law_strain"]["r2"] >= 0.8 and result["power_law_dR"]["r2"] >= 0.8
     assert result["loop_area_step20"] > result["loop_area_staircase"]
-    assert result["overshoot_min_pct"] >= 1.0 and len(result["summary"]) >= 5
+    assert result["overshoot_pct"]["60"] >= 2.0 and result["overshoot_decayed"]["60"] >= 0.63
+    assert result["realtime_ratio"] >= 1000.0 and len(result["summary"]) >= 5

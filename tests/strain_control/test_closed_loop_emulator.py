@@ -4,7 +4,7 @@ against the TRUE strain, closed loop versus the 0 g static-map baseline (the ben
 CI size), a tracking trajectory, and an estimator identified under load as well.
 
 Bounds come from measurements with a margin (figures printed with -s). The physics' floor:
-a hanging load holds pore contacts open (porosense.sim.piezo, load_contact_coupling), so the
+a hanging load holds pore contacts open (porosense.sim.params.Piezo, load_contact_coupling), so the
 0 g model under-reads the strain under 500 g by about 2.5 % strain at steady state
 (porosense.sim.steady_state, independent of the controller); closed loop cannot beat that.
 """

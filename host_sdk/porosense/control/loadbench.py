@@ -204,7 +204,7 @@ def load_floor(targets, load_g: float, *, step_kpa: float = 0.25) -> list[float]
     (porosense.sim.steady_state), the vacuum at which the 0 g dR-to-strain map reads each
     target under the load, and the true strain there. Independent of the controller and of the
     identified model: it is the share of the error that the load's effect on the resistance
-    (contacts held open, porosense.sim.piezo load_contact_coupling) puts beyond feedback."""
+    (contacts held open, porosense.sim.params.Piezo load_contact_coupling) puts beyond feedback."""
 
     ps = np.arange(0.0, 80.0 + 1e-9, step_kpa)
     m0 = np.array([[steady_state("contractor", vacuum_kpa=-p)[k] for k in ("strain_pct", "dR_pct")] for p in ps])

@@ -19,8 +19,13 @@ from porosense.sim.schedules import THREE_DOF_ONLY, Schedule, schedule
 R0_CALIBRATION_S = 1.0
 
 
-def _camera(values: np.ndarray, t: np.ndarray, fps: float, noise: float, rng, noisy: bool) -> np.ndarray:
-    """Sample and hold at the frame rate, with independent noise per frame."""
+def _camera(
+    values: np.ndarray, t: np.ndarray, fps: float, noise: float, rng, noisy: bool, lag_s: float = 0.0
+) -> np.ndarray:
+    """Sample and hold at the frame rate, with independent noise per frame; each frame shows
+    the state ``lag_s`` seconds before its time stamp (the camera's latency against the board)."""
+    if lag_s != 0.0:
+        values = np.interp(t - lag_s, t, values)
     frame = np.floor(t * fps + 1e-9).astype(int)
     first = np.r_[True, frame[1:] != frame[:-1]]
     held = values[np.maximum.accumulate(np.where(first, np.arange(t.size), 0))]
@@ -41,11 +46,14 @@ def run_experiment(
     effects=None,
     physics=None,
     noise: bool = True,
+    specimen: int = 0,
 ) -> Recording:
     """Simulate ``experiment`` (a name or a :class:`Schedule`) and return its Recording.
 
     ``porosity`` in %, ``load_g`` in g, ``rate_hz`` the sample rate (Hz), ``seed`` of the
-    noise, ``effects`` named extra effects (off by default), ``noise=False`` for clean data.
+    recording (noise, drift, softening state), ``effects`` named extra effects (off by
+    default), ``physics`` the parameters (porosense.sim.params), ``noise=False`` for noiseless
+    sensors, ``specimen`` the printed actuator (duplicates: one specimen, two seeds).
     """
     sched = experiment if isinstance(experiment, Schedule) else schedule(experiment)
     if not rate_hz > 0:
@@ -53,7 +61,14 @@ def run_experiment(
     if actuator != "3dof" and sched.name.startswith(THREE_DOF_ONLY):
         raise InputError(f"experiment '{sched.name}' is for the 3dof segment, not the {actuator}")
     plant = make_plant(
-        actuator, porosity=porosity, load_g=load_g, seed=seed, effects=effects, physics=physics, noise=noise
+        actuator,
+        porosity=porosity,
+        load_g=load_g,
+        seed=seed,
+        effects=effects,
+        physics=physics,
+        noise=noise,
+        specimen=specimen,
     )
     n, ph = plant.n_channels, plant.physics
     t = sched.times(rate_hz)
@@ -79,17 +94,18 @@ def run_experiment(
         columns[f"dR_{c}"], units[f"dR_{c}"] = (r_meas[:, c] - r0[c]) / r0[c] * 100.0, "%"
 
     sens = ph.sensors
+    lag = sens.camera_lag_s + sens.camera_lag_jitter_s * (2.0 * rng.random() - 1.0) if noise else 0.0
     if actuator == "contractor":
         noise_pct = sens.marker_noise_mm / sens.contractor_length_mm * 100.0 * np.sqrt(2.0)
-        columns["strain_0"] = _camera(sim["strain_0"], t, sens.camera_fps, noise_pct, rng, noise)
+        columns["strain_0"] = _camera(sim["strain_0"], t, sens.camera_fps, noise_pct, rng, noise, lag)
     elif actuator == "bending":
-        # curvature from three markers along a section: noise ~ marker noise / lever^2
-        noise_k = np.sqrt(6.0) * sens.marker_noise_mm * 1e-3 / (0.0375**2)
-        columns["curvature"] = _camera(sim["curvature"], t, sens.camera_fps, noise_k, rng, noise)
+        # curvature from three markers along the actuator: noise ~ marker noise / spacing^2
+        noise_k = np.sqrt(6.0) * sens.marker_noise_mm * 1e-3 / (sens.bending_marker_spacing_mm * 1e-3) ** 2
+        columns["curvature"] = _camera(sim["curvature"], t, sens.camera_fps, noise_k, rng, noise, lag)
     else:
         columns["theta_x"] = sim["euler_deg"][:, 1]
         columns["theta_y"] = sim["euler_deg"][:, 2]
-        columns["dz"] = _camera(sim["dz"], t, sens.camera_fps, sens.marker_noise_mm, rng, noise)
+        columns["dz"] = _camera(sim["dz"], t, sens.camera_fps, sens.segment_dz_noise_mm, rng, noise, lag)
     columns["load_g"] = sim["load_g"]
     units.update({k: OUTPUT_UNITS[k] for k in OUTPUTS[actuator]}, load_g="g")
 
@@ -101,6 +117,7 @@ def run_experiment(
         "load_g": plant.load_g,
         "rate_hz": float(rate_hz),
         "seed": plant.seed,
+        "specimen": plant.specimen,
         "noise": bool(noise),
         "effects": plant.effects,
         "inputs": [f"dR_{c}" for c in range(n)],

@@ -73,6 +73,27 @@ class FoamCurve:
         out = np.where(s >= 0.0, compressed, s / self.tension_kpa)
         return float(out) if out.ndim == 0 else out
 
+    def slope(self, sigma_kpa):
+        """d strain / d stress (1/kPa) at ``sigma_kpa`` (array or float)."""
+        s = np.asarray(sigma_kpa, dtype=float)
+        sc = np.maximum(s, 0.0)
+        lg = 1.0 / (1.0 + np.exp(-(sc - self.collapse_kpa) / self.width_kpa))
+        compressed = np.exp(
+            -sc / (self.modulus_kpa * self.bending_strain)
+        ) / self.modulus_kpa + self.collapse_strain * lg * (1.0 - lg) / self.width_kpa / (1.0 - self.step0)
+        out = np.where(s >= 0.0, compressed, 1.0 / self.tension_kpa)
+        return float(out) if out.ndim == 0 else out
+
+    def slope_scalar(self, s: float) -> float:
+        """:meth:`slope` for one float."""
+        if s < 0.0:
+            return 1.0 / self.tension_kpa
+        e = (s - self.collapse_kpa) / self.width_kpa
+        lg = 1.0 / (1.0 + math.exp(-e)) if e > -700 else 0.0
+        return math.exp(
+            -s / (self.modulus_kpa * self.bending_strain)
+        ) / self.modulus_kpa + self.collapse_strain * lg * (1.0 - lg) / self.width_kpa / (1.0 - self.step0)
+
     def strain_scalar(self, s: float) -> float:
         """Same as :meth:`strain` for one float, without numpy overhead (plant stepping)."""
         if s < 0.0:
@@ -84,5 +105,6 @@ class FoamCurve:
 
 
 def load_stress_kpa(load_g, p: Foam):
-    """Axial tensile stress (kPa, in chamber-vacuum units) of a hanging load of ``load_g`` grams."""
-    return np.asarray(load_g, dtype=float) * 1e-3 * G_ACCEL / (p.load_area_mm2 * 1e-6) / 1e3
+    """Axial tensile stress (kPa, in chamber-vacuum units) the foam carries of a hanging load of
+    ``load_g`` grams (the sleeve carries the rest, ``1 - load_share``)."""
+    return p.load_share * np.asarray(load_g, dtype=float) * 1e-3 * G_ACCEL / (p.load_area_mm2 * 1e-6) / 1e3

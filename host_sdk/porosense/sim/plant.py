@@ -3,25 +3,29 @@
 Per channel and sample (first-order stages use ``a = exp(-dt/tau)``,
 ``y[k] = a y[k-1] + (1 - a) u[k]``):
 
-1. pneumatics: chamber pressure ``p`` (kPa) from setpoint, pump and valve;
-2. foam: stress ``sigma = -p - sigma_load`` (kPa) -> static strain (collapse curve) -> creep
-   modes -> strain ``eps`` (fraction of the unloaded length);
-3. piezo: contact strain ``eps_c = r eps + (1 - r) LP_lag(eps) - c sigma_load / E`` (lead-lag;
-   a load's tension in the cell walls holds contacts open) -> contact dR
-   (static, pore collapse) -> network relaxation ``dR = g + k (g - LP_relax(g))``;
-4. electronics: ``R = R0 (1 + dR/100)``, divider voltage with noise;
+1. pneumatics: chamber pressure ``p`` (kPa) from setpoint, pump and valve, plus the
+   regulator's wander while the pump drives (``regulator_noise``);
+2. foam: stress ``sigma = -p - sigma_load`` (kPa; on the 3-DoF segment also the axial
+   restoring stress of the platform, ``segment_stiffness``) -> static strain (collapse curve)
+   -> creep modes -> strain ``eps`` (fraction of the unloaded length);
+3. piezo: contact strain ``e = eps - c sigma_load / E`` (a load's tension in the cell walls
+   holds contacts open) -> the contact network (porosense.sim.material: rate-dependent
+   contact kinetics, softening, static pore-collapse curve, two-mode relaxation) -> dR;
+4. electronics: ``R = R0 (1 + drift) (1 + dR/100)`` with contact noise, divider voltage
+   with the ADS1115's noise;
 5. kinematics: strain, curvature or segment pose; BNO055 Euler angles.
 
-:meth:`Plant.step` advances one sample (the emulator and the simboard call it in lockstep);
-:meth:`Plant.run` computes a whole actuation series with the same equations, vectorised
-(``scipy.signal.lfilter`` for the linear stages). Without noise the two agree to rounding;
+Each channel is one printed contractor with parameters of its own (porosense.sim.variation,
+drawn from the seed). :meth:`Plant.step` advances one sample (the emulator and the simboard
+call it in lockstep); :meth:`Plant.run` computes a whole actuation series with the same
+equations, vectorised where the stage is linear. Without noise the two agree to rounding;
 with noise they draw from different random streams.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.signal import lfilter
@@ -31,8 +35,10 @@ from porosense.sim import kinematics, pneumatics
 from porosense.sim.effects import resolve_effects
 from porosense.sim.electronics import divider_voltage
 from porosense.sim.foam import FoamCurve, load_stress_kpa
+from porosense.sim.material import ContactNetwork
+from porosense.sim.noise import NormalBank, ou_coefficients, ou_series, walk_series
 from porosense.sim.params import Physics
-from porosense.sim.piezo import contact_dr, contact_dr_scalar
+from porosense.sim.variation import draw_channels
 
 ACTUATORS = ("contractor", "bending", "3dof")
 OUTPUTS = {"contractor": ("strain_0",), "bending": ("curvature",), "3dof": ("theta_x", "theta_y", "dz")}
@@ -40,6 +46,8 @@ OUTPUT_UNITS = {"strain_0": "%", "curvature": "1/m", "theta_x": "deg", "theta_y"
 POROSITY_RANGE = (60.0, 90.0)
 LOAD_RANGE_G = (0.0, 500.0)
 IMU_LSB_DEG = 1.0 / 16.0
+COUPLING_ITERATIONS = 4  # Newton steps of the segment's axial coupling (converged to rounding)
+REGULATOR_FULL_KPA = 10.0  # the regulator's wander reaches its full size beyond this vacuum
 
 
 @dataclass
@@ -71,26 +79,6 @@ def check_actuator(actuator: str) -> str:
     return actuator
 
 
-class _NoiseBank:
-    """Pre-drawn standard normals and uniforms, handed out one at a time (cheap per step)."""
-
-    def __init__(self, rng: np.random.Generator, block: int = 4096):
-        self.rng, self.block = rng, block
-        self._n, self._u, self.i, self.j = [], [], 0, 0
-
-    def normal(self) -> float:
-        if self.i >= len(self._n):
-            self._n, self.i = self.rng.standard_normal(self.block).tolist(), 0
-        self.i += 1
-        return self._n[self.i - 1]
-
-    def uniform(self) -> float:
-        if self.j >= len(self._u):
-            self._u, self.j = self.rng.random(self.block).tolist(), 0
-        self.j += 1
-        return self._u[self.j - 1]
-
-
 class Plant:
     """One actuator (see module docstring); build it with :func:`make_plant`."""
 
@@ -103,6 +91,7 @@ class Plant:
         effects=None,
         physics: Physics | None = None,
         noise: bool = True,
+        specimen: int = 0,
     ):
         self.actuator = check_actuator(actuator)
         self.physics = physics or Physics()
@@ -113,17 +102,31 @@ class Plant:
         if not LOAD_RANGE_G[0] <= self.load_g <= LOAD_RANGE_G[1]:
             raise InputError(f"load {self.load_g} g is outside {LOAD_RANGE_G[0]:g}-{LOAD_RANGE_G[1]:g} g")
         self.seed = int(seed)
+        self.specimen = int(specimen)
         self.effects = resolve_effects(effects)
         self.noise = bool(noise)
         self.n_channels = 3 if actuator == "3dof" else 1
         self.outputs = OUTPUTS[actuator]
-        self.curve = FoamCurve.of(self.porosity, self.physics.foam)
-        pz = self.physics.piezo
-        self._lead_share = pz.contact_lead_s / pz.contact_lag_s
+        f = self.physics.foam
+        self.draws = draw_channels(self.physics, self.specimen, self.seed, self.n_channels)
+        self.curves = [
+            FoamCurve.of(
+                self.porosity,
+                replace(
+                    f,
+                    solid_modulus_kpa=f.solid_modulus_kpa * d.modulus_factor,
+                    collapse_kpa_ref=f.collapse_kpa_ref * d.modulus_factor,
+                ),
+            )
+            for d in self.draws
+        ]
+        self.curve = FoamCurve.of(self.porosity, f)  # the nominal print (steady state, planning)
         # strain by which a load's tension in the cell walls holds contacts open, per kPa
-        self._load_contact = pz.load_contact_coupling / self.curve.modulus_kpa
-        self._sigma_load0 = float(load_stress_kpa(self.load_g, self.physics.foam))
-        self._pose = kinematics.SegmentPose(self.physics.geometry)
+        self._load_contact = [d.piezo.load_contact_coupling / c.modulus_kpa for d, c in zip(self.draws, self.curves)]
+        self._sigma_load0 = float(load_stress_kpa(self.load_g, f))
+        g = self.physics.geometry
+        self._axial = g.segment_axial_kpa_per_mm * g.segment_height_mm / 3.0 if self.n_channels == 3 else 0.0
+        self._pose = kinematics.SegmentPose(g)
         self._alpha_cache: dict = {}
         self.reset()
 
@@ -139,38 +142,78 @@ class Plant:
     def _alphas(self, dt: float) -> dict:
         a = self._alpha_cache.get(dt)
         if a is None:
-            f, pz = self.physics.foam, self.physics.piezo
+            f, pz, pn = self.physics.foam, self.physics.piezo, self.physics.pneumatics
             slow = self.effects.get("slow_relaxation", {"tau_s": 1.0})
             a = {
                 "creep": [math.exp(-dt / tau) for tau in f.creep_tau_s],
-                "lag": math.exp(-dt / pz.contact_lag_s),
-                "relax": math.exp(-dt / pz.relax_s),
                 "slow": math.exp(-dt / slow["tau_s"]),
+                "regulator": ou_coefficients(dt, pn.regulator_noise_kpa, pn.regulator_noise_s),
+                "flicker": ou_coefficients(dt, pz.flicker_pct, pz.flicker_s),
+                "walk": self.physics.variation.drift_walk_pct * math.sqrt(dt / 60.0),
+                "imu": ou_coefficients(dt, self.physics.sensors.imu_wander_deg, self.physics.sensors.imu_wander_s),
             }
             if len(self._alpha_cache) > 64:  # callers with a jittering dt: keep the cache small
                 self._alpha_cache.clear()
             self._alpha_cache[dt] = a
         return a
 
-    def _rest(self, load_g: float) -> tuple[float, float]:
-        """Strain (fraction) and contact dR (%) at rest under ``load_g``."""
+    def _static_strains(self, stress) -> list:
+        """Static strain (fraction) of each channel at compressive stresses ``stress`` (kPa,
+        one per channel, scalars or arrays), with the segment's axial coupling solved: the
+        platform's restoring stress ``k dz`` with ``dz = H sum(eps) / 3`` enters each channel,
+        so the strain sum S solves ``S = sum_i F_i(sigma_i - a S)`` (Newton, monotone)."""
+        curves = self.curves
+        if self._axial == 0.0:
+            return [c.strain(s) for c, s in zip(curves, stress)]
+        a = self._axial
+        total = sum(c.strain(s) for c, s in zip(curves, stress)) * 0.5
+        for _ in range(COUPLING_ITERATIONS):
+            shifted = [s - a * total for s in stress]
+            resid = sum(c.strain(s) for c, s in zip(curves, shifted)) - total
+            total = total + resid / (1.0 + a * sum(c.slope(s) for c, s in zip(curves, shifted)))
+        return [c.strain(s - a * total) for c, s in zip(curves, stress)]
+
+    def static_strains_scalar(self, stress: list) -> list:
+        """:meth:`_static_strains` for one float per channel (plant stepping)."""
+        curves = self.curves
+        if self._axial == 0.0:
+            return [c.strain_scalar(s) for c, s in zip(curves, stress)]
+        a = self._axial
+        total = sum(c.strain_scalar(s) for c, s in zip(curves, stress)) * 0.5
+        for _ in range(COUPLING_ITERATIONS):
+            shifted = [s - a * total for s in stress]
+            resid = sum(c.strain_scalar(s) for c, s in zip(curves, shifted)) - total
+            total = total + resid / (1.0 + a * sum(c.slope_scalar(s) for c, s in zip(curves, shifted)))
+        return [c.strain_scalar(s - a * total) for c, s in zip(curves, stress)]
+
+    def rest_state(self, load_g: float) -> tuple[list, list]:
+        """Strain (fraction) and contact strain (fraction) of each channel at rest under ``load_g``."""
         sigma = float(load_stress_kpa(load_g, self.physics.foam))
-        eps = self.curve.strain_scalar(-sigma)
-        eps_c = eps - self._load_contact * sigma
-        return eps, contact_dr_scalar(eps_c, self.physics.piezo, self.curve.capacity)
+        eps = self.static_strains_scalar([-sigma] * self.n_channels)
+        return eps, [e - lc * sigma for e, lc in zip(eps, self._load_contact)]
 
     def reset(self) -> None:
         """Back to rest at t = 0 with the initial load and a fresh random stream."""
         self.t = 0.0
-        self._noise = _NoiseBank(np.random.default_rng(self.seed))
-        eps, g = self._rest(self.load_g)
+        self._noise = NormalBank(np.random.default_rng(self.seed))
+        eps, e_c = self.rest_state(self.load_g)
         self._eps_rest = eps
         n = self.n_channels
         self._p = [0.0] * n
-        self._creep = [[eps] * len(self.physics.foam.creep_tau_s) for _ in range(n)]
-        self._lag = [eps] * n
-        self._relax = [g] * n
-        self._slow = [g] * n
+        self._creep = [[e] * len(self.physics.foam.creep_tau_s) for e in eps]
+        self._net = []
+        for d, c, e in zip(self.draws, self.curves, e_c):
+            net = ContactNetwork(d.piezo, c.capacity * d.piezo.contact_strain, d.conditioning)
+            net.reset(e)
+            self._net.append(net)
+        self._slow = [net.g for net in self._net]
+        pn, pz = self.physics.pneumatics, self.physics.piezo
+        nb = self._noise
+        self._reg = [pn.regulator_noise_kpa * nb.normal() if self.noise else 0.0 for _ in range(n)]
+        self._flicker = [pz.flicker_pct * nb.normal() if self.noise else 0.0 for _ in range(n)]
+        self._walk = [0.0] * n
+        w = self.physics.sensors.imu_wander_deg
+        self._imu = [w * nb.normal() if self.noise else 0.0 for _ in range(3)]
         self._delay: list = []
         self._last_v = [None] * n
 
@@ -187,44 +230,54 @@ class Plant:
         al = self._alphas(dt)
         sigma_load = float(load_stress_kpa(self.load_at(t), f)) if "load_dependence" in eff else self._sigma_load0
         n = self.n_channels
-        eps, eps_c = [0.0] * n, [0.0] * n
-        r = self._lead_share
-        a_lag = al["lag"]
+        a_reg, b_reg = al["regulator"]
+        stress = [0.0] * n
         for c in range(n):
             p = pneumatics.step_pressure(
                 self._p[c], dt, float(setpoint_kpa[c]), bool(pump[c]), bool(valve[c]), ph.pneumatics
             )
             self._p[c] = p
-            es = self.curve.strain_scalar(-p - sigma_load)
+            if noisy:
+                self._reg[c] = a_reg * self._reg[c] + b_reg * nb.normal()
+            stress[c] = -(p + self._reg[c] * min(-p / REGULATOR_FULL_KPA, 1.0)) - sigma_load if p < 0 else -sigma_load
+        es = self.static_strains_scalar(stress)
+        eps, eps_c = [0.0] * n, [0.0] * n
+        for c in range(n):
             modes = self._creep[c]
             e = 0.0
             for i, (a, w) in enumerate(zip(al["creep"], f.creep_weight)):
-                modes[i] = a * modes[i] + (1.0 - a) * es
+                modes[i] = a * modes[i] + (1.0 - a) * es[c]
                 e += w * modes[i]
-            self._lag[c] = a_lag * self._lag[c] + (1.0 - a_lag) * e
             eps[c] = e
-            eps_c[c] = r * e + (1.0 - r) * self._lag[c] - self._load_contact * sigma_load
+            eps_c[c] = e - self._load_contact[c] * sigma_load
         if "cross_coupling" in eff and n > 1:
             k = eff["cross_coupling"]["gain"]
-            rel = [e - self._eps_rest for e in eps]
+            rel = [e - er for e, er in zip(eps, self._eps_rest)]
             total = sum(rel)
             eps_c = [ec + k * (total - rc) for ec, rc in zip(eps_c, rel)]
 
-        a_r, a_s = al["relax"], al["slow"]
+        a_s = al["slow"]
+        a_fl, b_fl = al["flicker"]
         volts = [0.0, 0.0, 0.0]
         truth = {}
         drift = 1.0 + eff["drift"]["rate_pct_per_min"] / 100.0 * t / 60.0 if "drift" in eff else 1.0
         for c in range(n):
-            g = contact_dr_scalar(eps_c[c], pz, self.curve.capacity)
-            self._relax[c] = a_r * self._relax[c] + (1.0 - a_r) * g
-            dr = g + pz.relax_gain * (g - self._relax[c]) * (1.0 + pz.relax_r_scaling * g / 100.0)
+            d = self.draws[c]
+            dr = self._net[c].step(eps_c[c], dt)
             if "slow_relaxation" in eff:
+                g = self._net[c].g
                 self._slow[c] = a_s * self._slow[c] + (1.0 - a_s) * g
                 dr += eff["slow_relaxation"]["gain"] * (g - self._slow[c]) * (1.0 + g / 100.0)
-            r_true = pz.r0_ohm * (1.0 + dr / 100.0)
+            if noisy:
+                self._walk[c] += al["walk"] * nb.normal()
+            base = 1.0 + (d.drift_pct_per_min * t / 60.0 + self._walk[c]) / 100.0
+            r_true = d.r0_ohm * base * (1.0 + dr / 100.0)
             truth[f"p_{c}"], truth[f"R_{c}"], truth[f"dR_{c}"] = self._p[c], r_true, dr
             truth[f"strain_{c}"] = 100.0 * eps[c]
-            dr_seen = dr + (pz.noise_pct * nb.normal() if noisy else 0.0)
+            dr_seen = dr
+            if noisy:
+                self._flicker[c] = a_fl * self._flicker[c] + b_fl * nb.normal()
+                dr_seen += pz.noise_pct * nb.normal() + self._flicker[c]
             if "periodic_disturbance" in eff:
                 pd = eff["periodic_disturbance"]
                 dr_seen += pd["amplitude_pct"] * math.sin(
@@ -232,7 +285,7 @@ class Plant:
                 )
             if "outliers" in eff and nb.uniform() < eff["outliers"]["glitch_prob"]:
                 dr_seen += eff["outliers"]["glitch_pct"] * (1.0 if nb.uniform() < 0.5 else -1.0)
-            volts[c] = max(pz.r0_ohm * drift * (1.0 + dr_seen / 100.0), 1.0)  # R for now
+            volts[c] = max(d.r0_ohm * base * drift * (1.0 + dr_seen / 100.0), 1.0)  # R for now
         if "time_delay" in eff:
             self._delay.append((t, volts[:]))
             while len(self._delay) > 1 and self._delay[1][0] <= t - eff["time_delay"]["delay_s"] + 1e-12:
@@ -259,7 +312,9 @@ class Plant:
             euler = [0.0, tx, ty]
         if noisy:
             s = ph.sensors.imu_noise_deg
-            euler = [e + s * nb.normal() for e in euler]
+            a_w, b_w = al["imu"]
+            self._imu = [a_w * w + b_w * nb.normal() for w in self._imu]
+            euler = [e + w + s * nb.normal() for e, w in zip(euler, self._imu)]
         euler = [round(e * 16.0) / 16.0 for e in euler]
         truth["load_g"] = float(self.load_at(t)) if "load_dependence" in eff else self.load_g
         return PlantReading(np.array(volts), np.array(euler), truth)
@@ -280,43 +335,54 @@ class Plant:
         N = setpoint_kpa.shape[0]
         t = dt * np.arange(1, N + 1)
         ph, eff, n = self.physics, self.effects, self.n_channels
-        f, pz, el = ph.foam, ph.piezo, ph.electronics
+        f, pz, el, pn = ph.foam, ph.piezo, ph.electronics, ph.pneumatics
         rng = np.random.default_rng(self.seed)
         noisy = self.noise
         al = self._alphas(dt)
         load = self.load_at(t)
         sigma_load = load_stress_kpa(load, f)
-        eps_rest, g_rest = self._rest(self.load_g)
-        r = self._lead_share
+        eps_rest, e_rest = self.rest_state(self.load_g)
 
         def first_order(u, a, y0):
             return lfilter([1.0 - a], [1.0, -a], u, zi=[a * y0])[0]
 
         out: dict = {}
-        eps = np.zeros((N, n))
-        eps_c = np.zeros((N, n))
+        reg = ou_series(rng, N, dt, pn.regulator_noise_kpa, pn.regulator_noise_s, (n,)) if noisy else np.zeros((N, n))
+        stress = []
         for c in range(n):
             p = pneumatics.run_pressure(dt, setpoint_kpa[:, c], pump[:, c], valve[:, c], ph.pneumatics)
             out[f"p_{c}"] = p
-            es = self.curve.strain(-p - sigma_load)
-            e = sum(w * first_order(es, a, eps_rest) for a, w in zip(al["creep"], f.creep_weight))
+            driven = np.minimum(np.maximum(-p, 0.0) / REGULATOR_FULL_KPA, 1.0)
+            stress.append(np.where(p < 0, -(p + reg[:, c] * driven), 0.0) - sigma_load)
+        es = self._static_strains(stress)
+        eps = np.zeros((N, n))
+        eps_c = np.zeros((N, n))
+        for c in range(n):
+            e = sum(w * first_order(es[c], a, eps_rest[c]) for a, w in zip(al["creep"], f.creep_weight))
             eps[:, c] = e
-            eps_c[:, c] = r * e + (1.0 - r) * first_order(e, al["lag"], eps_rest) - self._load_contact * sigma_load
+            eps_c[:, c] = e - self._load_contact[c] * sigma_load
         if "cross_coupling" in eff and n > 1:
-            rel = eps - eps_rest
+            rel = eps - np.asarray(eps_rest)
             eps_c = eps_c + eff["cross_coupling"]["gain"] * (rel.sum(axis=1, keepdims=True) - rel)
 
         drift = 1.0 + eff["drift"]["rate_pct_per_min"] / 100.0 * t / 60.0 if "drift" in eff else 1.0
+        walk = walk_series(rng, N, dt, ph.variation.drift_walk_pct, (n,)) if noisy else np.zeros((N, n))
+        flicker = ou_series(rng, N, dt, pz.flicker_pct, pz.flicker_s, (n,)) if noisy else np.zeros((N, n))
         r_seen = np.zeros((N, n))
         for c in range(n):
-            g = contact_dr(eps_c[:, c], pz, self.curve.capacity)
-            dr = g + pz.relax_gain * (g - first_order(g, al["relax"], g_rest)) * (1.0 + pz.relax_r_scaling * g / 100.0)
+            d = self.draws[c]
+            net = ContactNetwork(d.piezo, self.curves[c].capacity * d.piezo.contact_strain, d.conditioning)
+            net.reset(e_rest[c])
+            res = net.run(eps_c[:, c], dt)
+            dr, g = res["dR"], res["g"]
             if "slow_relaxation" in eff:
+                g_rest = net_rest_g(d, self.curves[c], e_rest[c])
                 dr = dr + eff["slow_relaxation"]["gain"] * (g - first_order(g, al["slow"], g_rest)) * (1.0 + g / 100.0)
-            out[f"R_{c}"] = pz.r0_ohm * (1.0 + dr / 100.0)
+            base = 1.0 + (d.drift_pct_per_min * t / 60.0 + walk[:, c]) / 100.0
+            out[f"R_{c}"] = d.r0_ohm * base * (1.0 + dr / 100.0)
             out[f"dR_{c}"] = dr
             out[f"strain_{c}"] = 100.0 * eps[:, c]
-            dr_seen = dr + (pz.noise_pct * rng.standard_normal(N) if noisy else 0.0)
+            dr_seen = dr + ((pz.noise_pct * rng.standard_normal(N) + flicker[:, c]) if noisy else 0.0)
             if "periodic_disturbance" in eff:
                 pd = eff["periodic_disturbance"]
                 dr_seen = dr_seen + pd["amplitude_pct"] * np.sin(
@@ -326,7 +392,7 @@ class Plant:
                 o = eff["outliers"]
                 hit = rng.random(N) < o["glitch_prob"]
                 dr_seen = dr_seen + hit * o["glitch_pct"] * np.where(rng.random(N) < 0.5, 1.0, -1.0)
-            r_seen[:, c] = np.maximum(pz.r0_ohm * drift * (1.0 + dr_seen / 100.0), 1.0)
+            r_seen[:, c] = np.maximum(d.r0_ohm * base * drift * (1.0 + dr_seen / 100.0), 1.0)
         if "time_delay" in eff:
             lag = int(round(eff["time_delay"]["delay_s"] / dt))
             if lag > 0:
@@ -353,11 +419,19 @@ class Plant:
             out["theta_x"], out["theta_y"], out["dz"] = tx, ty, dz
             euler[:, 1], euler[:, 2] = tx, ty
         if noisy:
-            euler = euler + ph.sensors.imu_noise_deg * rng.standard_normal(euler.shape)
+            wander = ou_series(rng, N, dt, ph.sensors.imu_wander_deg, ph.sensors.imu_wander_s, (3,))
+            euler = euler + wander + ph.sensors.imu_noise_deg * rng.standard_normal(euler.shape)
         out["euler_deg"] = np.round(euler / IMU_LSB_DEG) * IMU_LSB_DEG
         out["load_g"] = np.asarray(load, dtype=float) * np.ones(N)
         out["t_plant"] = t
         return out
+
+
+def net_rest_g(draw, curve: FoamCurve, e_rest: float) -> float:
+    """Static dR (%) of a channel's contact network settled at rest at contact strain ``e_rest``."""
+    net = ContactNetwork(draw.piezo, curve.capacity * draw.piezo.contact_strain, draw.conditioning)
+    net.reset(e_rest)
+    return net.g
 
 
 def make_plant(
@@ -368,11 +442,14 @@ def make_plant(
     effects=None,
     physics: Physics | None = None,
     noise: bool = True,
+    specimen: int = 0,
 ) -> Plant:
     """A plant of ``actuator`` ('contractor', 'bending', '3dof') at rest.
 
     ``porosity`` in % (60-90; default 82 for the contractor, 84 bending, 76 3-DoF), ``load_g``
-    hanging load in g (0-500), ``seed`` of the noise, ``effects`` (see porosense.sim.effects),
-    ``physics`` to override stage parameters, ``noise=False`` for a noiseless plant.
+    hanging load in g (0-500), ``seed`` of the recording (its noise and its share of the
+    variation), ``effects`` (see porosense.sim.effects), ``physics`` to override stage
+    parameters (porosense.sim.params), ``noise=False`` for noiseless sensors (the realisation
+    drawn from the seeds stays), ``specimen`` the printed actuator (porosense.sim.variation).
     """
-    return Plant(actuator, porosity, load_g, seed, effects, physics, noise)
+    return Plant(actuator, porosity, load_g, seed, effects, physics, noise, specimen)

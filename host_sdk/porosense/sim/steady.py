@@ -5,8 +5,8 @@ from __future__ import annotations
 from porosense.sim import kinematics
 from porosense.sim.electronics import divider_voltage
 from porosense.sim.foam import load_stress_kpa
+from porosense.sim.material import static_dr
 from porosense.sim.params import Physics
-from porosense.sim.piezo import contact_dr
 from porosense.sim.plant import check_actuator, make_plant
 
 _DS_KPA = 0.5  # stress step for the local sensitivity
@@ -25,8 +25,12 @@ def steady_state(
     ``theta_y_deg``, ``dz_mm``) and the inputs.
     """
     check_actuator(actuator)
+    physics = (physics or Physics()).without("repeat_variation", "baseline_drift")
     plant = make_plant(actuator, porosity=porosity, load_g=load_g, physics=physics, noise=False)
     ph = plant.physics
+    lo, hi = ph.variation.conditioning_range
+    softened = 1.0 - ph.piezo.soften_fraction * 0.5 * (lo + hi)
+    scale = plant.curve.capacity * ph.piezo.contact_strain
     p = -abs(float(vacuum_kpa))
     sigma_load = float(load_stress_kpa(load_g, ph.foam))
     sigma = -p - sigma_load
@@ -34,8 +38,8 @@ def steady_state(
     offset = ph.piezo.load_contact_coupling / plant.curve.modulus_kpa * sigma_load
 
     def dr_of(s):
-        eps = plant.curve.strain(s)
-        return eps, float(contact_dr(eps - offset, ph.piezo, plant.curve.capacity))
+        eps = plant.static_strains_scalar([s] * plant.n_channels)[0]
+        return eps, float(static_dr(eps - offset, ph.piezo, scale, softened))
 
     eps, g = dr_of(sigma)
     eps_rest, g_rest = dr_of(-sigma_load)

@@ -110,6 +110,7 @@ def open_board(
     load_g: float = 0.0,
     seed: int = 0,
     porosity: float | None = None,
+    physics=None,
 ) -> Iterator[OpenBoard]:
     """Open the board that ``port`` names (see the module docstring) and close it afterwards.
 
@@ -126,6 +127,8 @@ def open_board(
         Noise seed of the simulated actuator.
     porosity : float, optional
         Porosity of the simulated actuator (%; default the actuator's).
+    physics : porosense.sim.Physics, optional
+        Parameters of the simulated actuator (``porosense calibrate``; default the built-in ones).
 
     Yields
     ------
@@ -135,6 +138,11 @@ def open_board(
     kind, named = parse_port(port, actuator or DEFAULT_ACTUATOR)
     if actuator is not None and named is not None and named != actuator:
         raise InputError(f"board {port} names actuator '{named}' but '{actuator}' was asked for")
+    plant = None
+    if physics is not None and kind in ("emulator", "simboard"):
+        from porosense.sim import make_plant
+
+        plant = make_plant(named, porosity=porosity, load_g=load_g, seed=seed, physics=physics)
     if kind == "emulator":
         # A busy host computer delays samples but never skips them: the recordings stay regular.
         with Emulator(
@@ -146,12 +154,13 @@ def open_board(
             realtime=True,
             speed=EMULATOR_SPEED,
             max_catch_up_s=3600.0,
+            plant=plant,
         ) as emu:
             with Device.open(emu.url, timeout_scale=SIM_TIMEOUT_SCALE) as dev:
                 dev.set_watchdog(SIM_WATCHDOG_MS)
                 yield OpenBoard(dev, kind, named, emu.truth, emu.program_flash)
     elif kind == "simboard":
-        with SimBoard(DEFAULT_ELF, actuator=named, seed=seed, load_g=load_g, porosity=porosity) as sb:
+        with SimBoard(DEFAULT_ELF, actuator=named, seed=seed, load_g=load_g, porosity=porosity, plant=plant) as sb:
             with Device.open(sb.url, timeout_scale=SIM_TIMEOUT_SCALE) as dev:
                 dev.set_watchdog(SIM_WATCHDOG_MS)
                 yield OpenBoard(dev, kind, named, simboard_truth(sb), sb.program_flash)

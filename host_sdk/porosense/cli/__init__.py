@@ -23,6 +23,7 @@ from porosense.errors import PorosenseError
 SUBCOMMANDS = (
     "demo",
     "simulate",
+    "calibrate",
     "identify",
     "predict",
     "compare",

@@ -11,6 +11,24 @@ from porosense.errors import InputError
 ACTUATORS = ("contractor", "bending", "3dof")
 
 
+def add_params_option(p) -> None:
+    """--params PARAMS.json: the simulated actuator's parameters (porosense calibrate)."""
+    p.add_argument(
+        "--params",
+        metavar="PARAMS.json",
+        help="parameters of a simulated actuator (from porosense calibrate; default: the built-in ones)",
+    )
+
+
+def load_params(args):
+    """The porosense.sim.Physics of --params, or None without it."""
+    if not getattr(args, "params", None):
+        return None
+    from porosense.sim import Physics
+
+    return Physics.load(args.params)
+
+
 def parse_range(text: str | None) -> slice | None:
     """'A:B' (Python slice semantics, either side may be empty) -> slice; None stays None."""
     if text is None:

@@ -7,7 +7,14 @@ import math
 import os
 from pathlib import Path
 
-from porosense.cli._args import add_deprecated, add_legacy_positional, columns, take_positional
+from porosense.cli._args import (
+    add_deprecated,
+    add_legacy_positional,
+    add_params_option,
+    columns,
+    load_params,
+    take_positional,
+)
 from porosense.cli._data import add_data_options, add_json_options, emit_json, output_file, say
 from porosense.errors import InputError
 
@@ -268,6 +275,7 @@ def _register_run(csub) -> None:
     )
     add_deprecated(r, "--load", "--load-g", "load_g", type=float)
     r.add_argument("--seed", type=int, default=0, help="seed of a simulated board (default 0)")
+    add_params_option(r)
     r.add_argument(
         "--out",
         metavar="FILE.csv",
@@ -341,6 +349,7 @@ def run_run(args) -> int:
         load_g=args.load_g,
         seed=args.seed,
         log_path=str(out) if out else None,
+        physics=load_params(args),
     )
     result = execute_run(req, log=lambda text: say(args, text))
     if out:

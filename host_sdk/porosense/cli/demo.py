@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from porosense.cli._args import ACTUATORS, add_deprecated
+from porosense.cli._args import ACTUATORS, add_deprecated, add_params_option, load_params
 from porosense.cli._data import add_json_options, emit_json
 
 
@@ -57,6 +57,7 @@ def register(sub) -> argparse.ArgumentParser:
         help="largest number of poles in the order search, 1..10 (default 3; the paper's grid is 10)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated actuator (default 0)")
+    add_params_option(p)
     add_json_options(p, "the results")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     add_deprecated(p, "--no-progress", "--quiet", "quiet", nargs=0)
@@ -83,6 +84,7 @@ def run(args) -> int:
         raise InputError(f"--max-poles {args.max_poles} outside 1..10")
     actuators = ACTUATORS if args.actuator == "all" else (args.actuator,)
     log = (lambda *a, **k: None) if args.json else print
+    physics = load_params(args)
     results = [
         run_demo(
             a,
@@ -93,6 +95,7 @@ def run(args) -> int:
             seed=args.seed,
             progress=not args.quiet,
             log=log,
+            physics=physics,
         )
         for a in actuators
     ]

@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from porosense.cli._args import ACTUATORS
+from porosense.cli._args import ACTUATORS, add_params_option, load_params
 from porosense.cli._data import add_json_options, emit_json
 
 
@@ -44,6 +44,7 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--porosity", type=float, default=None, help="porosity in %% (default: the actuator's)")
     p.add_argument("--load-g", type=float, default=0.0, help="hanging load in g (default: 0)")
     p.add_argument("--seed", type=int, default=0, help="noise seed of the plant and the faults")
+    add_params_option(p)
     p.add_argument("--realtime", action="store_true", help="pace the board and its UART by the wall clock")
     p.add_argument("--speed", type=float, default=1.0, help="with --realtime: time factor (default 1)")
     p.add_argument(
@@ -95,11 +96,18 @@ def run(args) -> int:
         )
     except ValueError as exc:
         raise InputError(str(exc)) from None
+    physics = load_params(args)
+    plant = None
+    if physics is not None:
+        from porosense.sim import make_plant
+
+        plant = make_plant(args.actuator, porosity=args.porosity, load_g=args.load_g, seed=args.seed, physics=physics)
     emu = Emulator(
         args.actuator,
         porosity=args.porosity,
         load_g=args.load_g,
         seed=args.seed,
+        plant=plant,
         listen=args.listen,
         realtime=args.realtime,
         speed=args.speed,

@@ -27,11 +27,12 @@ def register(sub) -> argparse.ArgumentParser:
             "--load-g 500 --rate 50 --seed 1 --out runs/"
         ),
     )
-    p.add_argument("actuator", choices=ACTUATORS, help="which actuator to simulate")
+    p.add_argument(
+        "actuator", choices=(*ACTUATORS, "material"), help="which actuator to simulate (material: with --replay)"
+    )
     p.add_argument(
         "--experiment",
         "-e",
-        required=True,
         action="append",
         help="schedule name (step_10..step_60, staircase, sequential_L, parallel_L, "
         "two_level) or 'paper'; repeat for several",
@@ -61,7 +62,29 @@ def register(sub) -> argparse.ArgumentParser:
         "--format", choices=("csv", "mat", "both"), default="csv", help="file format (default csv with a JSON sidecar)"
     )
     p.add_argument("--no-noise", action="store_true", help="noiseless sensors (for checks)")
-    p.add_argument("--out", default="recordings", help="output directory (created if needed; default recordings/)")
+    p.add_argument(
+        "--params", metavar="PARAMS.json", help="simulator parameters (porosense calibrate; default: the built-in ones)"
+    )
+    p.add_argument(
+        "--replay",
+        metavar="REC",
+        help="replay this recording's inputs (p_cmd_C; material: --strain) through the simulator, noiseless, "
+        "and write t with R_sim, dR_sim, strain_sim (and the outputs, _sim) to --out FILE.csv, printing their fit "
+        "against the recording's own columns",
+    )
+    p.add_argument("--strain", metavar="COL", help="material --replay: the strain column (%% unless stated as 1)")
+    p.add_argument(
+        "--resistance",
+        metavar="COL",
+        help="material --replay: the measured resistance (ohm); R0 and its drift come from it (on --estimation)",
+    )
+    p.add_argument("--estimation", metavar="A:B", help="material --replay: samples R0 and drift are taken from")
+    p.add_argument(
+        "--out",
+        default=None,
+        help="output directory (created if needed; default recordings/); with --replay the CSV file "
+        "(default REC's name with _sim)",
+    )
     add_json_options(p, "the files written")
     p.set_defaults(func=run)
     return p
@@ -105,6 +128,21 @@ def run(args) -> int:
     from porosense.errors import InputError
     from porosense.sim import resolve_effects, run_experiment
 
+    physics = None
+    if args.params:
+        from porosense.sim import Physics
+
+        physics = Physics.load(args.params)
+    if args.replay:
+        from porosense.cli.replay import replay
+
+        return replay(args, physics)
+    if args.actuator == "material":
+        raise InputError("simulate material replays a tensile recording: give --params PARAMS.json --replay REC")
+    if not args.experiment:
+        raise InputError("give --experiment NAME (or --replay REC)")
+    if args.out is None:
+        args.out = "recordings"
     if args.repeats < 1:
         raise InputError("--repeats must be at least 1")
     if not (math.isfinite(args.rate) and MIN_RATE_HZ <= args.rate <= MAX_RATE_HZ):
@@ -131,6 +169,7 @@ def run(args) -> int:
             seed=seed,
             effects=effects,
             noise=not args.no_noise,
+            physics=physics,
         )
         stem = f"{args.actuator}_{name}_p{rec.meta['porosity']:g}_l{rec.meta['load_g']:g}_s{seed}"
         written = []

@@ -43,6 +43,7 @@ class RunRequest:
     seed: int = 0
     output: str = "strain_0"
     log_path: str | None = None  # a CSV written sample by sample while the run goes on
+    physics: object = None  # porosense.sim.Physics of a simulated board (None: the built-in ones)
 
 
 #: Columns of the run's log on disk (device time, the on-device estimate and target in estimate
@@ -206,7 +207,7 @@ def execute_run(req: RunRequest, log=print) -> RunResult:
 
 
 def _execute(req: RunRequest, log, on_sample):
-    with open_board(req.port, load_g=req.load_g, seed=req.seed) as board:
+    with open_board(req.port, load_g=req.load_g, seed=req.seed, physics=req.physics) as board:
         dev, truth = board.device, board.truth
         rate, scale = prepare_board(dev, simulated=board.simulated, model=req.model, gains=req.gains)
         on_board = [g.__dict__ if hasattr(g, "__dict__") else str(g) for g in _gains_on_board(dev)]

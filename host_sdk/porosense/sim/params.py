@@ -244,8 +244,10 @@ class Physics:
         """Read a parameter file written by :meth:`save` (or ``porosense calibrate``)."""
         try:
             d = json.loads(Path(path).read_text())
-        except (OSError, ValueError) as exc:
+        except OSError as exc:
             raise InputError(f"cannot read simulator parameters {path}: {exc}") from None
+        except ValueError as exc:
+            raise InputError(f"{path} is not a simulator parameter file (not JSON: {exc})") from None
         if not isinstance(d, dict) or d.get("format") != "porosense.sim.physics":
             raise InputError(f"{path} is not a simulator parameter file (format porosense.sim.physics)")
         return cls.from_dict(d)

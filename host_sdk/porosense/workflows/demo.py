@@ -210,6 +210,7 @@ def run_demo(
     seed: int = 0,
     progress: bool = True,
     log=print,
+    physics=None,
 ) -> DemoResult:
     """Run the whole pipeline for one actuator (see the module docstring).
 
@@ -233,6 +234,8 @@ def run_demo(
         Show progress bars.
     log : callable
         Receives the demo's lines.
+    physics : porosense.sim.Physics, optional
+        Parameters of a simulated actuator (``porosense calibrate``; default the built-in ones).
 
     Returns
     -------
@@ -249,7 +252,7 @@ def run_demo(
     clock = {}
     t0 = time.perf_counter()
     log(f"[{actuator}] board: {board}")
-    with open_board(board, actuator=actuator, seed=seed) as opened:
+    with open_board(board, actuator=actuator, seed=seed, physics=physics) as opened:
         dev, truth, upload = opened.device, opened.truth, opened.upload
         hello = dev.hello()
         log(f"  {hello}")

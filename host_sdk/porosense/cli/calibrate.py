@@ -1,0 +1,126 @@
+"""``porosense calibrate``: fit the simulator's parameters to measured recordings."""
+
+from __future__ import annotations
+
+import argparse
+
+from porosense.cli._args import ACTUATORS, parse_range
+from porosense.cli._data import add_data_options, add_json_options, emit_json, output_file, say
+
+MATERIAL = "material"
+
+
+def register(sub) -> argparse.ArgumentParser:
+    p = sub.add_parser(
+        "calibrate",
+        help="fit the simulator's parameters to recordings (an actuator's, or a tensile test's)",
+        description=(
+            "Fit the simulator to measurements and write its parameter file (JSON), which "
+            "simulate, emulator, simboard, demo and control take with --params. ACTUATOR: "
+            "recordings of commanded vacuum (p_cmd_C, kPa), dR_C (%) and, where present, the "
+            "measured outputs (strain_0 %, curvature 1/m, theta_x/theta_y deg, dz mm) of one "
+            "print. material: a tensile test (strain imposed, resistance and time measured); the "
+            "piezoresistive law is fitted with each recording's own R0 and R0 drift, on the "
+            "samples of --estimation A:B (the rest is held out and scored)."
+        ),
+        epilog=(
+            "examples: porosense calibrate contractor --data rec1.csv rec2.csv --out params.json; "
+            "porosense calibrate material --data tensile.csv --strain strain --resistance R "
+            "--estimation 0:3000 --out law.json"
+        ),
+    )
+    p.add_argument("actuator", choices=(*ACTUATORS, MATERIAL), help="which actuator, or the material alone")
+    p.add_argument("--data", nargs="+", required=True, metavar="REC", help="recordings (CSV or .mat)")
+    p.add_argument("--out", required=True, metavar="PARAMS.json", help="parameter file to write")
+    p.add_argument("--strain", metavar="COL", help="material: the strain column (%% unless the file states 1)")
+    p.add_argument("--resistance", metavar="COL", help="material: the resistance column (ohm)")
+    p.add_argument("--estimation", metavar="A:B", help="material: estimation samples of each recording (default: all)")
+    p.add_argument("--ablation", action="store_true", help="material: refit without each effect and report it")
+    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    add_data_options(p)
+    add_json_options(p, "the calibration's figures")
+    p.set_defaults(func=run)
+    return p
+
+
+def strain_fraction(table, col: str):
+    """The strain column as a fraction: % unless the file states the unit as 1 or fraction."""
+    unit = str(table.units.get(col, "%")).strip().lower()
+    return table[col] / (1.0 if unit in ("1", "fraction", "-") else 100.0)
+
+
+def time_axis(table, ts: float):
+    import numpy as np
+
+    if table.time is not None:
+        return np.asarray(table.time, dtype=float)
+    return np.arange(len(table)) * ts
+
+
+def material_records(tables, args, ts: float, estimation=None):
+    import numpy as np
+
+    from porosense.cli._data import require_columns
+    from porosense.sim.calibrate import MaterialRecord
+
+    out = []
+    for table in tables:
+        require_columns(table, [args.strain, args.resistance])
+        mask = np.zeros(len(table), bool)
+        mask[estimation if estimation is not None else slice(None)] = True
+        out.append(
+            MaterialRecord(
+                time_axis(table, ts), strain_fraction(table, args.strain), table[args.resistance], mask, str(table.path)
+            )
+        )
+    return out
+
+
+def actuator_record(table, actuator: str, ts: float):
+    import numpy as np
+
+    from porosense.cli._data import require_columns
+    from porosense.sim import OUTPUTS
+    from porosense.sim.calibrate import ActuatorRecord
+
+    n = 3 if actuator == "3dof" else 1
+    p_cols = [f"p_cmd_{c}" for c in range(n)]
+    dr_cols = [f"dR_{c}" for c in range(n)]
+    require_columns(table, p_cols + dr_cols)
+    outputs = {k: table[k] for k in OUTPUTS[actuator] if k in table.columns}
+    return ActuatorRecord(
+        np.column_stack([table[c] for c in p_cols]),
+        ts,
+        np.column_stack([table[c] for c in dr_cols]),
+        outputs,
+        name=str(table.path),
+    )
+
+
+def run(args) -> int:
+    from porosense.cli._data import read_tables, sample_period
+    from porosense.errors import InputError
+
+    out = output_file(args.out, "--out")
+    if args.actuator == MATERIAL and not (args.strain and args.resistance):
+        raise InputError("calibrate material needs --strain COL and --resistance COL")
+    tables = read_tables(args.data, args)
+    ts = sample_period(tables, args)
+    if args.actuator == MATERIAL:
+        from porosense.sim.calibrate import calibrate_material
+
+        cal = calibrate_material(
+            material_records(tables, args, ts, parse_range(args.estimation)), ablation=args.ablation
+        )
+        cal.physics = cal.physics.with_(piezo={"r0_ohm": float(sum(cal.r0_ohm) / len(cal.r0_ohm))})
+        cal.physics.save(out, fit=cal.to_dict())
+    else:
+        from porosense.sim.calibrate import calibrate_actuator
+
+        cal = calibrate_actuator(args.actuator, [actuator_record(t, args.actuator, ts) for t in tables])
+        cal.physics.save(out, fit=cal.to_dict())
+    if not args.quiet:
+        say(args, str(cal))
+        say(args, f"wrote {out}")
+    emit_json({"params": str(out), **cal.to_dict()}, args)
+    return 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 
-def replay(args, physics) -> int:
+def replay(args, physics, effects=None) -> int:
     """Write the simulated columns beside ``t`` and print their fit against the recording's."""
     import numpy as np
 
@@ -48,7 +48,7 @@ def replay(args, physics) -> int:
 
         physics = (physics or Physics()).without("baseline_drift")
         rec = actuator_record(table, args.actuator, ts)
-        sim = simulate_record(args.actuator, physics, rec, porosity=args.porosity)
+        sim = simulate_record(args.actuator, physics, rec, porosity=args.porosity, effects=effects or None)
         for c in range(rec.dr.shape[1]):
             for name, unit in (("R", "ohm"), ("dR", "%"), ("strain", "%")):
                 columns[f"{name}_sim_{c}"], units[f"{name}_sim_{c}"] = sim[f"{name}_{c}"], unit

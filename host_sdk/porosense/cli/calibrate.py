@@ -30,7 +30,7 @@ def register(sub) -> argparse.ArgumentParser:
         ),
     )
     p.add_argument("actuator", choices=(*ACTUATORS, MATERIAL), help="which actuator, or the material alone")
-    p.add_argument("--data", nargs="+", required=True, metavar="REC", help="recordings (CSV or .mat)")
+    p.add_argument("--data", nargs="+", required=True, metavar="FILE", help="recordings (CSV or .mat)")
     p.add_argument("--out", required=True, metavar="PARAMS.json", help="parameter file to write")
     p.add_argument("--strain", metavar="COL", help="material: the strain column (%% unless the file states 1)")
     p.add_argument("--resistance", metavar="COL", help="material: the resistance column (ohm)")

@@ -13,6 +13,7 @@ from control_samples import controlled_samples
 from porosense.device import ControlGains, NakError
 from porosense.errors import InputError
 from porosense.protocol import Result, StatusFlag
+from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
 
 GAINS = ControlGains(kp_kpa=2.0, ki_kpa_per_s=1.0, slew_per_s=50.0)
 
@@ -119,6 +120,10 @@ def test_autostart_controls_after_reset_and_a_new_host_reads_its_targets(dev, bl
     dev.write_trajectory([0.0, 1.0], [500 * scale, 500 * scale])
     dev.set_control_gains(GAINS, save=True)  # at SAMPLE_RATE_HZ: the rate autostart streams at
     dev.config_set("AUTOSTART", 2)
+    # The longest watchdog the board takes (10 s of board time, 2 s of wall time on a simulated
+    # board at 5x): the pings below come every 10 samples, and a loaded host computer can stall
+    # the reader longer than the default 1 s of board time (0.2 s of wall time there).
+    dev.config_set("WATCHDOG_MS", CONFIG_SPECS[ConfigKey.WATCHDOG_MS].max)
     dev.config_save()
     try:
         dev.reset()
@@ -134,6 +139,7 @@ def test_autostart_controls_after_reset_and_a_new_host_reads_its_targets(dev, bl
         dev.stop_control()
         dev.stop_stream()
         dev.config_set("AUTOSTART", 0)
+        dev.config_set("WATCHDOG_MS", CONFIG_SPECS[ConfigKey.WATCHDOG_MS].default)
         dev.config_save()
     on = [s for s in samples if s.status & StatusFlag.CONTROL_ACTIVE]
     assert on and all(s.status & StatusFlag.STANDALONE for s in on)

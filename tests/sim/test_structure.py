@@ -84,7 +84,8 @@ def test_no_wh_model_is_exact_on_the_default_physics():
     """Noiseless records (no sensor, regulator or camera noise): a WH of 4 poles and 2 zeros
     (above the paper's 2 and 1) fits the chain without the effects beyond WH to within the
     piecewise-linear map's approximation (measured 98.8 %), and misses the default chain by a
-    measured share (88.1 %: 10.7 points the physics beyond WH costs a WH model without noise)."""
+    measured share (92.8 %: 6.0 points the physics beyond WH costs a WH model without noise;
+    deterministic: noiseless records of fixed seeds)."""
     without = _wh_fit(Physics().without(*WH_OFF, "repeat_variation"))
     default = _wh_fit(Physics())
     print(f"WH 4p2z mean fit on noiseless records: {without:.2f} % without the effects beyond WH, {default:.2f} % with")

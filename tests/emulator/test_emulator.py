@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
-from models import make_blob
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "device"))  # tests/device/models.py
+from models import make_blob  # noqa: E402
 
 from porosense.device import Device, NakError
 from porosense.emulator import Emulator, Faults

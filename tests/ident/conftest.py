@@ -59,12 +59,12 @@ def recordings(system: EstimatorStructure, n: int, seeds, snr_db: float | None =
     return us, ys, clean
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def truth():
     return truth_system
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def make_recordings():
     return recordings
 

@@ -80,7 +80,7 @@ def test_fitted_orders_below_the_truth_are_refuted_and_the_truth_is_not(seed):
     limit = bla.threshold(0.01)
     misfit = {}
     for p, z in [(1, 0), (2, 0), (2, 1), (3, 1), (3, 2), (4, 2)]:
-        m = ident.Linear(n_poles=p, n_zeros=z, max_nfev=100).fit(u=us, y=ys)
+        m = ident.Linear(n_poles=p, n_zeros=z, max_nfev=100).fit(u=us, y=ys, ts=1.0)
         misfit[(p, z)] = bla.misfit(m, us)
     print(f"seed {seed}: limit {limit:.3f}, " + ", ".join(f"{p}p{z}z {v:.2f}" for (p, z), v in misfit.items()))
     assert misfit[(1, 0)] > limit and misfit[(2, 1)] <= limit

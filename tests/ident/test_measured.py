@@ -117,7 +117,18 @@ SEARCH_RATIO = 2.0  # the issue's goal: linear / selected WH test RMSE
 SAFE_RATIO = 1.0  # on the other five realisations: never a WH that tests worse than linear
 
 
+# The search below costs 193-239 s of wall time alone on 2 cores and 517 s beside the rest of
+# the suite in CI: it runs on request (WH_PROCESS_NOISE_SEARCH=1) and in
+# ``porosense bench ident --only measured``, which prints the same figures.
+LONG_SEARCH = os.environ.get("WH_PROCESS_NOISE_SEARCH") == "1"
+
+
 @pytest.mark.slow
+@pytest.mark.skipif(
+    not LONG_SEARCH,
+    reason="a search of 3-9 minutes: WH_PROCESS_NOISE_SEARCH=1 runs it, 'porosense bench ident --only measured' "
+    "prints its figures",
+)
 @pytest.mark.parametrize(
     "first, bound",
     [
@@ -145,9 +156,9 @@ def test_default_search_with_process_noise_selects_a_wh_twice_better_than_linear
     Each structure's model is the one the search's rule selects among that structure's
     candidates (``identify --structure wh`` and ``--structure linear``).
 
-    CI size: the grid's 6-pole orders only and 100 evaluations per refinement; the suite runs
-    realisations 0-4 (``WH_SECOND_HALF=1`` adds 5-9: both took 8-9 minutes each beside the rest of
-    the suite on 2 cores). Measured at this
+    The grid's 6-pole orders only and 100 evaluations per refinement; ``WH_PROCESS_NOISE_SEARCH=1``
+    runs realisations 0-4 (``WH_SECOND_HALF=1`` adds 5-9: both took 8-9 minutes each beside the rest
+    of the suite on 2 cores). Measured at this
     size (2 cores, alone): realisations 0-4: BLA order 6p5z, WH 6p5z with process noise (the
     BLA split's identity start) 14.37 mV against linear 37.33 mV, ratio 2.60, 193 s;
     realisations 5-9: BLA order 6p3z, the deconvolution undetermined, the output-error WH 35.38

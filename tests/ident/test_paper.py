@@ -45,6 +45,8 @@ def test_wh_ranks_first_and_hammerstein_above_linear_as_in_the_paper(actuator):
         validation=data(VALIDATION),
         poles=range(1, 5),
         zeros=(0, 1, 2),
+        criterion="paper",
+        staged=False,
         progress=False,
     )
     best = _ranking(result)
@@ -73,6 +75,8 @@ def test_miso_wh_contains_the_miso_hammerstein_on_the_3dof_segment():
         validation=data(val),
         poles=range(1, 3),
         zeros=(0, 1),
+        criterion="paper",
+        staged=False,
         progress=False,
     )
     best = _ranking(result)

@@ -36,8 +36,8 @@ ORD = dict(n_poles=1, n_zeros=0, n_breakpoints=16, max_nfev=80)
 
 def test_monotone_maps_come_out_monotone(noisy_wiener):
     us, ys = noisy_wiener
-    free = ident.Wiener(**ORD).fit(u=us, y=ys)
-    mono = ident.Wiener(monotone=True, **ORD).fit(u=us, y=ys)
+    free = ident.Wiener(**ORD).fit(u=us, y=ys, ts=1.0)
+    mono = ident.Wiener(monotone=True, **ORD).fit(u=us, y=ys, ts=1.0)
     steps_free, steps_mono = np.diff(_g_values(free)), np.diff(_g_values(mono))
     span = np.ptp(_g_values(mono))
     sign = np.sign(_g_values(mono)[-1] - _g_values(mono)[0])
@@ -50,7 +50,7 @@ def test_smoothness_weight_reduces_the_bending_of_the_map(noisy_wiener):
     us, ys = noisy_wiener
     bend = {}
     for w in (0.0, 1e-2):
-        m = ident.Wiener(smoothness=w, **ORD).fit(u=us, y=ys)
+        m = ident.Wiener(smoothness=w, **ORD).fit(u=us, y=ys, ts=1.0)
         bend[w] = float(np.sum(np.diff(_g_values(m), 2) ** 2))
         assert np.all(np.diff(pwl_positions(m.theta[m.spec.slices()["g.p"]])[0]) > 0)
     print("sum of squared second differences:", bend)

@@ -22,6 +22,9 @@ def tables():
     )
 
 
+TS = 1.0 / 78_125.0  # s: the benchmark's sample rate, 78,125 Hz (the files' fs column)
+
+
 def records(n):
     """(us, ys, test u, test y): the estimation realisations ((N, 1) inputs, volts), the first
     ``n`` or those ``n`` lists, and the test multisine."""

@@ -19,7 +19,7 @@ import numpy as np
 from wh_benchmark import realisations, records
 
 from porosense import ident
-from porosense.ident.search import STRUCTURES
+from porosense.ident import STRUCTURES
 
 SKIP = 200
 FS = 78125.0  # Hz

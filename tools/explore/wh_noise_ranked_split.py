@@ -14,10 +14,10 @@ import time
 from dataclasses import replace
 
 import numpy as np
-from wh_benchmark import records
+from wh_benchmark import TS, records
 
 from porosense import ident
-from porosense.ident import bla_split, estimate, noise_level
+from porosense.ident import bla_split, noise_level, output_error, process_noise, refine
 from porosense.ident.chain import Chain
 
 SKIP = 200
@@ -29,7 +29,7 @@ def main() -> int:
     us, ys, ut, yt = records(n)
     t0 = time.perf_counter()
     wh = ident.WienerHammerstein(n_poles=6, n_zeros=3, n_breakpoints=10, skip=SKIP, starts=1, process_noise=True).fit(
-        u=us, y=ys
+        u=us, y=ys, ts=TS
     )
     selected = wh.info["sse"] / wh.y_std**2
     print(
@@ -38,26 +38,26 @@ def main() -> int:
     )
     nus = [u / wh.u_scale for u in us]
     nys = [(y - wh.y_mean) / wh.y_std for y in ys]
-    opts = estimate.Options(skip=SKIP)
-    lin = estimate.fit_linear(nus, nys, 6, 3, 0, estimate._bla_options(opts))
+    opts = refine.Options(skip=SKIP)
+    lin = output_error.fit_linear(nus, nys, 6, 3, 0, output_error.bla_options(opts))
     best = None
     for sse_oe, spec, theta, _, split in bla_split.ranked_split_starts(
         lin.spec, lin.theta, nus, nys, 10, SKIP, keep=10_000
     ):
-        fit = estimate.Fit(spec, theta, sse_oe)
+        fit = refine.Fit(spec, theta, sse_oe)
         spread = float(np.std(np.concatenate([Chain(spec, theta).linear_sum(u)[SKIP:] for u in nus])))
-        g = estimate._at_noise_level(
+        g = process_noise.at_noise_level(
             fit,
             replace(spec, g_noise=True),
             nus,
             nys,
             LEVEL * spread,
-            replace(opts, smoothness=estimate.NOISE_MIN_SMOOTHNESS),
+            replace(opts, smoothness=process_noise.NOISE_MIN_SMOOTHNESS),
             refine_blocks=False,
         )
         if best is None or g.sse < best[0]:
             best = (g.sse, fit, split)
-    out = estimate._noise_from_periods(best[1], nus, nys, opts, noise_level.PeriodData(nus, nys, SKIP))
+    out = process_noise.noise_from_periods(best[1], nus, nys, opts, noise_level.PeriodData(nus, nys, SKIP))
     z = Chain(out.spec, out.theta).simulate(ut / wh.u_scale, expected=False) * wh.y_std + wh.y_mean
     print(
         f"split ranked by its noise-aware error ({best[2].describe()}): error / the selected build's "

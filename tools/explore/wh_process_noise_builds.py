@@ -10,7 +10,7 @@ g's input explains the colour of the period differences (porosense.ident.noise_c
 chi-square misfit over the bands and its p-value), and the RMS distance (mV) of its noise-free
 output on the estimation inputs from the build the tie rule keeps. Then the output-error builds'
 test RMSE, and the deconvolution check of the kept build as the estimator makes it
-(estimate.deconvolution_spread: its move from its output-error fit against the spread of the
+(process_noise.deconvolution_spread: its move from its output-error fit against the spread of the
 tied builds).
 ``--starts K``: starts per nonlinear model (default 1; ``identify`` uses 2).
 Run: .venv/bin/python tools/explore/wh_process_noise_builds.py [N | A-B realisations, default 5] [poles,zeros] [--starts K]
@@ -23,7 +23,7 @@ import numpy as np
 from wh_benchmark import realisations, records
 
 from porosense import ident
-from porosense.ident import estimate, noise_level
+from porosense.ident import noise_level, output_error, process_noise, refine
 from porosense.ident.chain import Chain
 from porosense.ident.metrics import relative_standard_error
 
@@ -45,13 +45,15 @@ def main() -> int:
     all_y = np.concatenate(ys)
     mean, std = float(np.mean(all_y)), float(np.std(all_y))
     nus, nys = [u / scale for u in us], [(y - mean) / std for y in ys]
-    opts = estimate.Options(skip=SKIP, starts=starts, max_nfev=200)
-    oe = estimate.wh_fits(nus, nys, *order[0], 10, 0, opts)
+    opts = refine.Options(skip=SKIP, starts=starts, max_nfev=200)
+    oe = output_error.wh_fits(nus, nys, *order[0], 10, 0, opts)
     periods = noise_level.PeriodData(nus, nys, SKIP)
-    builds = estimate._map_builds(partial(estimate._noise_from_periods, us=nus, ys=nys, opts=opts, periods=periods), oe)
+    builds = process_noise.map_builds(
+        partial(process_noise.noise_from_periods, us=nus, ys=nys, opts=opts, periods=periods), oe
+    )
     low = min(f.sse for f in builds)
     n_res = sum(len(y) - SKIP for y in ys)
-    tied = estimate._within_noise([f for f in builds if f.notes["process_noise"]["consistent"]], n_res)
+    tied = process_noise.within_noise([f for f in builds if f.notes["process_noise"]["consistent"]], n_res)
     kept = min(tied, key=lambda f: (f.spec.n_params, f.sse)) if tied else None
 
     def noise_free(f, u):
@@ -79,7 +81,7 @@ def main() -> int:
         print(f"  output error {f.build}: test RMSE {ident.rmse(yt[SKIP:], noise_free(f, ut)[SKIP:]) * 1e3:.2f} mV")
     if kept is not None:
         parent = oe[next(i for i, f in enumerate(builds) if f is kept)]  # by identity: Fits hold arrays
-        d = estimate.deconvolution_spread(kept, parent, tied, nus, SKIP)
+        d = process_noise.deconvolution_spread(kept, parent, tied, nus, SKIP)
         print(
             f"deconvolution check of the kept build: moved {d['correction'] * std * 1e3:.2f} mV from its output-error "
             f"fit, spread {d['spread'] * std * 1e3:.2f} mV over {d['tied_builds']} tied builds: "

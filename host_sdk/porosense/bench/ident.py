@@ -1,25 +1,31 @@
-"""Identification benchmark: (a) the paper's order grid, (b) linear OE against SIPPY's OE.
+"""Identification benchmark (``porosense bench ident [--only PART...] [--wh2009 PATH]``).
 
-(a) 4 structures x poles 1..10 x zeros < poles, 2 starts per nonlinear model, on a SISO
-    problem of 5 recordings x 60 s at 50 Hz (3 estimation, 2 validation) from a known
-    Wiener-Hammerstein system driven by vacuum-step-like inputs; wall time on a process pool
-    (each WH order runs in one task with the Wiener and Hammerstein fits it starts from).
-(b) a linear output-error fit on 10,000 samples, porosense versus sippy_unipi's OE (when
-    installed), wall times, their ratio and both simulation fits on the same data.
-(c) the default (staged) search against the number of samples (10k, 30k, 100k) on the
-    system of (a), so that the growth of the cost is visible.
-(d) measured data (when the benchmark folder is present): the Wiener-Hammerstein benchmark with
-    process noise (estimate on 8 realisations of WH_EstimationExample, select on the other 2,
-    test on the WH_TestDataset multisine) and the Bouc-Wen benchmark (estimate on periods 1-4
-    of the 5-period multisine, select on period 5, test on the official multisine); test RMSE
-    of the selected model and of the best linear model; and the same WH benchmark with the
-    process-noise level measured from the two periods of 5 realisations (fixed orders).
-``size="small"`` runs a reduced grid (poles <= 2) on 5 x 20 s, 2,000 samples for (b), 2k/5k
-samples for (c) and skips (d).
+Parts (all by default):
+  grid      the paper's order grid: 4 structures x poles 1..10 x zeros < poles, 2 starts, the
+            paper's rule, on a SISO problem of 5 recordings x 60 s at 50 Hz (3 estimation, 2
+            validation) from a known Wiener-Hammerstein system driven by vacuum-step-like inputs.
+  oe        a linear output-error fit on 10,000 samples against SIPPY's OE and SysIdentPy's
+            polynomial NARX (when installed): times, their ratios and the simulation fits.
+  scaling   the default search (staged, 4 structures, poles <= 10) against the number of samples
+            (10k, 100k, 1M) on the system of ``grid``: CPU and wall time, peak memory.
+  cluster   the same default search (100k samples) on a Dask LocalCluster with 1 and with 2
+            workers, and on the local pool: times and whether the models agree.
+  3dof      the default search for theta_x of the 3-DoF segment (3 inputs, the paper's set
+            simulated at 100 Hz, the last file held out).
+  measured  the measured benchmarks (when the data folder is present): the WH benchmark with
+            process noise (default search on 8 realisations, 2 validate, test on the multisine;
+            SysIdentPy's NARX on the same records), the noise level from repeated periods, the
+            suite's process-noise search at its full size, and Bouc-Wen.
+  wh2009    the 2009 Wiener-Hammerstein benchmark from the user's copy (``--wh2009 PATH``,
+            :mod:`porosense.bench.wh2009`), beside the published table.
+``size="small"`` runs reduced versions (poles <= 2 on 5 x 20 s, 2,000 samples for oe, 2k/5k
+for scaling, linear and Hammerstein up to 3 poles on 4k samples for cluster) and skips 3dof
+and measured.
 
 Times: wall time, and CPU time summed over this process and its worker processes
 (resource.getrusage); on a shared machine the CPU time is the figure to compare with a bound
-"on 2 cores" (CPU / 2), the wall time depends on the load (printed).
+"on 2 cores" (CPU / 2), the wall time depends on the load (printed). A Dask cluster's
+workers report their own CPU time (resource.getrusage in each worker process).
 """
 
 from __future__ import annotations
@@ -75,6 +81,8 @@ def grid_benchmark(size: str) -> dict:
         validation=([r[0] for r in val], [r[1] for r in val]),
         poles=poles,
         starts=2,
+        criterion="paper",
+        staged=False,
         progress=False,
     )
     seconds = time.perf_counter() - t0
@@ -116,6 +124,18 @@ def oe_benchmark(size: str) -> dict:
         "oe_porosense_fit": ours_fit,
         "oe_porosense_fit_noise_free": fit_percent(y0, model.predict(u=u[:, None])),
     }
+    narx = narx_fit(u, y, u, y)
+    if narx is None:
+        out["oe_narx"] = "sysidentpy not installed"
+    else:
+        out.update(
+            {
+                "oe_narx_seconds": narx["wall_s"],
+                "oe_narx_fit": fit_percent(y, narx["yhat"]),
+                "oe_narx_fit_noise_free": fit_percent(y0, narx["yhat"]),
+                "oe_narx_terms": narx["terms"],
+            }
+        )
     try:
         from sippy_unipi import system_identification
     except ImportError:
@@ -157,33 +177,142 @@ def shared_data_folder() -> Path | None:
     return None
 
 
+def _search_records(n: int):
+    """4 recordings of ``n`` samples in all of the ``grid`` system: 3 estimate, 1 validates."""
+    recs = [step_recording(seed, n / 4 / FS_HZ) for seed in range(4)]
+    return [r[0] for r in recs[:3]], [r[1] for r in recs[:3]], ([recs[3][0]], [recs[3][1]])
+
+
+def _default_search(n: int, executor=None, progress=False, **options) -> tuple:
+    """(result, wall s, CPU s of this process and its children) of the default search (or of
+    the search with ``options`` changed)."""
+    us, ys, val = _search_records(n)
+    t0, c0 = time.perf_counter(), _cpu()
+    res = search(u=us, y=ys, ts=1 / FS_HZ, validation=val, executor=executor, progress=progress, **options)
+    return res, time.perf_counter() - t0, _cpu() - c0
+
+
 def scaling_benchmark(size: str) -> dict:
-    """Default staged search (4 structures, poles <= 10) time against the number of samples."""
-    counts = (10_000, 30_000, 100_000) if size == "full" else (2_000, 5_000)
+    """Default search (staged, 4 structures, poles <= 10) time against the number of samples."""
+    counts = (10_000, 100_000, 1_000_000) if size == "full" else (2_000, 5_000)
     rows = []
     for n in counts:
-        recs = [step_recording(seed, n / 4 / FS_HZ) for seed in range(4)]
-        t0, c0 = time.perf_counter(), _cpu()
-        res = search(
-            u=[r[0] for r in recs[:3]],
-            y=[r[1] for r in recs[:3]],
-            ts=1 / FS_HZ,
-            validation=([recs[3][0]], [recs[3][1]]),
-            criterion="fit",
-            staged=True,
-            max_nfev=200,
-            progress=False,
-        )
+        res, wall, cpu = _default_search(n)
         rows.append(
             {
                 "samples": n,
-                "wall_s": time.perf_counter() - t0,
-                "cpu_s": _cpu() - c0,
+                "wall_s": wall,
+                "cpu_s": cpu,
+                "load_average_1min": os.getloadavg()[0],
+                "peak_rss_mb": _peak_rss_mb(),
                 "selected": f"{res.best.structure} {res.best.n_poles}p{res.best.n_zeros}z",
                 "validation_fit": res.best.validation_fit,
+                "candidates": len(res.candidates),
+                "screening": "screened" in res.rule,
             }
         )
     return {"scaling": rows}
+
+
+def _peak_rss_mb() -> float:
+    """The largest resident set of this process or of any of its finished children, MB."""
+    a, b = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return max(a.ru_maxrss, b.ru_maxrss) / 1024.0
+
+
+def _worker_cpu(client) -> float:
+    """CPU seconds of every Dask worker process so far."""
+
+    def own():
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        return r.ru_utime + r.ru_stime
+
+    return float(sum(client.run(own).values()))
+
+
+# The small size's search on the cluster: linear and Hammerstein up to 3 poles (the full size
+# runs the default search).
+SMALL_CLUSTER_SEARCH = {"structures": ("linear", "hammerstein"), "poles": (1, 2, 3), "max_nfev": 60}
+
+
+def cluster_benchmark(size: str) -> dict:
+    """The same search (full size: the default one on 100,000 samples) on the local pool, then on
+    a Dask LocalCluster of 1 and of 2 worker processes: times and whether every cluster gives the
+    local pool's model."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        return {"cluster": "dask distributed not installed (pip install 'porosense[cluster]')"}
+    n = 100_000 if size == "full" else 4_000
+    options = {} if size == "full" else SMALL_CLUSTER_SEARCH
+    local, wall, cpu = _default_search(n, **options)
+    rows = [{"workers": "local pool", "wall_s": wall, "cpu_s": cpu, "same_model": True}]
+    for workers in (1, 2):
+        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as lc:
+            with Client(lc) as client:
+                w0 = _worker_cpu(client)
+                res, wall, cpu = _default_search(n, executor=client, **options)
+                w1 = _worker_cpu(client)
+        same = (res.best.structure, res.best.n_poles, res.best.n_zeros) == (
+            local.best.structure,
+            local.best.n_poles,
+            local.best.n_zeros,
+        ) and np.array_equal(res.model.theta, local.model.theta)
+        rows.append({"workers": workers, "wall_s": wall, "cpu_s": cpu + w1 - w0, "same_model": bool(same)})
+    what = "default search" if size == "full" else "linear and Hammerstein search, poles <= 3"
+    return {"cluster": {"samples": n, "search": what, "load_average_1min": os.getloadavg()[0], "rows": rows}}
+
+
+def three_dof_benchmark() -> dict:
+    """The default search of ``porosense identify`` for theta_x of the 3-DoF segment (inputs
+    dR_0..2 in %, the paper's set simulated at 100 Hz, the last file held out)."""
+    from porosense import ident
+    from porosense.sim import run_experiment
+
+    names = [f"sequential_{lv}" for lv in (10, 20, 40, 60)] + ["two_level"]
+    recs = [run_experiment("3dof", e, rate_hz=100.0, seed=0) for e in names]
+    us = [np.column_stack([r[f"dR_{i}"] for i in range(3)]) for r in recs]
+    ys = [r["theta_x"] for r in recs]
+    t0, c0 = time.perf_counter(), _cpu()
+    found = ident.identify(u=us, y=ys, ts=0.01, inputs=("dR_0", "dR_1", "dR_2"), outputs=("theta_x",), progress=False)
+    best = found.results[0].best
+    return {
+        "three_dof": {
+            "samples": int(sum(len(y) for y in ys)),
+            "wall_s": time.perf_counter() - t0,
+            "cpu_s": _cpu() - c0,
+            "load_average_1min": os.getloadavg()[0],
+            "selected": f"{best.structure} {best.n_poles}p{best.n_zeros}z",
+            "validation_fit": best.validation_fit,
+        }
+    }
+
+
+def narx_fit(u_est, y_est, u_test, y_test, lags: int = 2, degree: int = 2) -> dict | None:
+    """SysIdentPy's polynomial NARX (FROLS, AIC term selection, least squares) fitted on one
+    record and simulated free-run on another (its first ``lags`` outputs as initial state);
+    None when SysIdentPy is not installed."""
+    try:
+        from sysidentpy.basis_function import Polynomial
+        from sysidentpy.model_structure_selection import FROLS
+        from sysidentpy.parameter_estimation import LeastSquares
+    except ImportError:
+        return None
+    t0, c0 = time.perf_counter(), _cpu()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = FROLS(
+            order_selection=True,
+            n_info_values=15,
+            ylag=lags,
+            xlag=lags,
+            info_criteria="aic",
+            estimator=LeastSquares(),
+            basis_function=Polynomial(degree=degree),
+        )
+        model.fit(X=np.asarray(u_est, float)[:, None], y=np.asarray(y_est, float)[:, None])
+        yhat = model.predict(X=np.asarray(u_test, float)[:, None], y=np.asarray(y_test, float)[:lags, None]).ravel()
+    return {"yhat": yhat, "wall_s": time.perf_counter() - t0, "cpu_s": _cpu() - c0, "terms": len(model.final_model)}
 
 
 def _test_rmse(model, u, y, skip=0, periodic=False):
@@ -261,7 +390,14 @@ def real_data_benchmark() -> dict:
             },
             "rule": res.rule,
         }
+        narx = narx_fit(np.concatenate([u[:, 0] for u in us[:8]]), np.concatenate(ys[:8]), tu[:, 0], ty)
+        if narx is not None:
+            out["wh_process_noise"]["narx_test_rmse_mV"] = 1e3 * float(
+                np.sqrt(np.mean((ty[skip:] - narx["yhat"][skip:]) ** 2))
+            )
+            out["wh_process_noise"]["narx_cpu_s"] = narx["cpu_s"]
         out["wh_process_noise_level"] = _noise_level_benchmark(us[:5], ys[:5], ts, skip, tu, ty)
+        out["wh_process_noise_search"] = process_noise_search(folder)
     bw = folder / "boucwen"
     if bw.is_dir():
         tr, te = read_table(bw / "train_multisine_5periods.csv"), read_table(bw / "test_multisine.csv")
@@ -297,25 +433,136 @@ def grid_line(out: dict, size: str) -> str:
     )
 
 
-def run(size: str = "full") -> dict:
-    """All benchmarks; figures in s, % and the data's units."""
-    out = {"size": size}
-    out.update(oe_benchmark(size))
-    out.update(grid_benchmark(size))
-    out.update(scaling_benchmark(size))
-    if size == "full":
-        out.update(real_data_benchmark())
-    s = [
-        f"linear OE, {out['oe_samples']} samples: porosense {out['oe_porosense_seconds'] * 1e3:.1f} ms, "
-        f"fit {out['oe_porosense_fit']:.2f} %"
-    ]
-    for r in out["scaling"]:
+def process_noise_search(folder, first: int = 0, poles=(6,), max_nfev: int = 100) -> dict:
+    """The search of ``identify --process-noise`` over linear and WH on 5 realisations of the
+    measured WH benchmark (the next one validates), at the suite's long size: test RMSE of each
+    structure's selected model on the test multisine, their ratio and the time."""
+    from porosense.data import read_table
+    from porosense.ident import SearchResult, rmse
+
+    est = read_table(folder / "wh_process_noise" / "WH_EstimationExample.csv")
+    test = read_table(folder / "wh_process_noise" / "WH_TestDataset.csv")
+    which = list(range(first, first + 5)) + [(first + 5) % 10]
+    us = [est.columns[f"u_{i}"][:, None] for i in which]
+    ys = [est.columns[f"y_{i}"] for i in which]
+    ts, skip = 1.0 / float(est.columns["fs"][0]), 200
+    t0, c0 = time.perf_counter(), _cpu()
+    res = search(
+        u=us[:5],
+        y=ys[:5],
+        ts=ts,
+        validation=(us[5:], ys[5:]),
+        validation_skip=skip,
+        skip=skip,
+        structures=("linear", "wh"),
+        poles=poles,
+        max_nfev=max_nfev,
+        process_noise=True,
+        progress=False,
+    )
+    wall, cpu = time.perf_counter() - t0, _cpu() - c0
+    u, y = test.columns["u_0"][:, None], test.columns["y_0"]
+    err = {}
+    for structure in ("linear", "wh"):
+        own = SearchResult([c for c in res.candidates if c.structure == structure], 0.0, res.tie_tol, res.criterion)
+        err[structure] = 1e3 * rmse(y[skip:], own.model.predict(u=u)[skip:])
+    return {
+        "realisations": f"{which[0]}-{which[4]}",
+        "poles": list(poles),
+        "max_nfev": max_nfev,
+        "wall_s": wall,
+        "cpu_s": cpu,
+        "linear_test_rmse_mV": err["linear"],
+        "wh_test_rmse_mV": err["wh"],
+        "ratio": err["linear"] / err["wh"],
+        "rule": res.rule,
+    }
+
+
+PARTS = ("oe", "grid", "scaling", "cluster", "3dof", "measured", "wh2009")
+SMALL_PARTS = ("oe", "grid", "scaling", "cluster")
+
+
+def run(size: str = "full", only=None, wh2009=None) -> dict:
+    """The benchmark parts (``only``: a subset of PARTS; default all that ``size`` runs, and
+    wh2009 when its file is given); figures in s, %, MB and the data's units."""
+    from porosense.errors import InputError
+
+    parts = tuple(only) if only else (PARTS if size == "full" else SMALL_PARTS)
+    unknown = sorted(set(parts) - set(PARTS))
+    if unknown:
+        raise InputError(f"unknown bench ident part(s) {', '.join(unknown)}; choose from {', '.join(PARTS)}")
+    if wh2009 is None:
+        parts = tuple(p for p in parts if p != "wh2009")
+    elif "wh2009" not in parts:
+        parts += ("wh2009",)
+    out = {"size": size, "parts": list(parts)}
+    s = []
+    if "oe" in parts:
+        out.update(oe_benchmark(size))
         s.append(
-            f"default staged search, {r['samples']:,} samples: {r['wall_s']:.1f} s wall, {r['cpu_s']:.1f} s CPU "
-            f"(about {r['cpu_s'] / 2:.0f} s on 2 dedicated cores; goal at 100,000: <= 300 s), "
-            f"selected {r['selected']}"
+            f"linear OE, {out['oe_samples']:,} samples: porosense {out['oe_porosense_seconds'] * 1e3:.1f} ms, "
+            f"fit {out['oe_porosense_fit']:.2f} % ({out['oe_porosense_fit_noise_free']:.2f} % of the noise-free output)"
         )
-    s.append(grid_line(out, size))
+        if "oe_sippy_seconds" in out:
+            s.append(
+                f"SIPPY OE: {out['oe_sippy_seconds'] * 1e3:.1f} ms, fit {out['oe_sippy_fit']:.2f} %; "
+                f"porosense is {out['oe_speedup']:.1f}x faster"
+            )
+        if "oe_narx_seconds" in out:
+            s.append(
+                f"SysIdentPy polynomial NARX (FROLS, {out['oe_narx_terms']} terms): "
+                f"{out['oe_narx_seconds'] * 1e3:.1f} ms, fit {out['oe_narx_fit']:.2f} % "
+                f"({out['oe_narx_fit_noise_free']:.2f} % noise-free); time ratio NARX / porosense "
+                f"{out['oe_narx_seconds'] / out['oe_porosense_seconds']:.1f}"
+            )
+    if "grid" in parts:
+        out.update(grid_benchmark(size))
+        s.append(grid_line(out, size))
+    if "scaling" in parts:
+        out.update(scaling_benchmark(size))
+        for r in out["scaling"]:
+            s.append(
+                f"default search, {r['samples']:,} samples: {r['cpu_s']:.0f} s CPU (about {r['cpu_s'] / 2:.0f} s on "
+                f"2 dedicated cores), {r['wall_s']:.0f} s wall at load {r['load_average_1min']:.1f}, peak memory "
+                f"{r['peak_rss_mb']:.0f} MB, {r['candidates']} candidates"
+                + (" (screened, finalists refined on all samples)" if r["screening"] else "")
+                + f", selected {r['selected']} (validation fit {r['validation_fit']:.2f} %)"
+            )
+    if "cluster" in parts:
+        out.update(cluster_benchmark(size))
+        c = out["cluster"]
+        if isinstance(c, dict):
+            for r in c["rows"]:
+                who = r["workers"] if isinstance(r["workers"], str) else f"Dask LocalCluster, {r['workers']} worker(s)"
+                s.append(
+                    f"{c['search']}, {c['samples']:,} samples on {who}: {r['wall_s']:.0f} s wall, "
+                    f"{r['cpu_s']:.0f} s CPU, same model as the local pool: {r['same_model']}"
+                )
+        else:
+            s.append(c)
+    if "3dof" in parts:
+        out.update(three_dof_benchmark())
+        r = out["three_dof"]
+        s.append(
+            f"3-DoF segment, theta_x from dR_0..2 ({r['samples']:,} samples), default search: {r['cpu_s']:.0f} s CPU "
+            f"(about {r['cpu_s'] / 2:.0f} s on 2 cores; goal <= 300 s per output), {r['wall_s']:.0f} s wall at "
+            f"load {r['load_average_1min']:.1f}, selected {r['selected']} ({r['validation_fit']:.2f} %)"
+        )
+    if "measured" in parts:
+        out.update(real_data_benchmark())
+        s += _measured_lines(out)
+    if "wh2009" in parts:
+        from porosense.bench import wh2009 as wh09
+
+        out["wh2009"] = wh09.run(wh2009)
+        s += wh09.summary(out["wh2009"])
+    out["summary"] = s
+    return out
+
+
+def _measured_lines(out: dict) -> list[str]:
+    s = []
     if "wh_process_noise" in out:
         r = out["wh_process_noise"]
         s.append(
@@ -324,6 +571,11 @@ def run(size: str = "full") -> dict:
             f"(ratio {r['linear_test_rmse_mV'] / r['selected_test_rmse_mV']:.2f}); {r['wall_s']:.0f} s wall, "
             f"{r['cpu_s']:.0f} s CPU"
         )
+        if "narx_test_rmse_mV" in r:
+            s.append(
+                f"SysIdentPy polynomial NARX on the same 8 realisations: test RMSE {r['narx_test_rmse_mV']:.2f} mV "
+                f"(ours / NARX {r['selected_test_rmse_mV'] / r['narx_test_rmse_mV']:.2f}), {r['narx_cpu_s']:.0f} s CPU"
+            )
     if "wh_process_noise_level" in out:
         r = out["wh_process_noise_level"]
         s.append(
@@ -333,16 +585,17 @@ def run(size: str = "full") -> dict:
             f"goal >= 2); level {r['noise_level_per_spread']:.2f} x g's input spread; {r['wall_s']:.0f} s wall, "
             f"{r['cpu_s']:.0f} s CPU"
         )
+    if "wh_process_noise_search" in out:
+        r = out["wh_process_noise_search"]
+        s.append(
+            f"WH process-noise search (identify --process-noise, linear and WH, 6 poles, {r['max_nfev']} "
+            f"evaluations, realisations {r['realisations']}): WH {r['wh_test_rmse_mV']:.2f} mV, linear "
+            f"{r['linear_test_rmse_mV']:.2f} mV, ratio {r['ratio']:.2f}; {r['cpu_s']:.0f} s CPU, {r['wall_s']:.0f} s wall"
+        )
     if "boucwen" in out:
         r = out["boucwen"]
         s.append(
             f"Bouc-Wen benchmark: selected {r['selected']} test RMSE {r['selected_test_rmse_m']:.3e} m, "
             f"linear {r['linear_test_rmse_m']:.3e} m; {r['wall_s']:.0f} s wall, {r['cpu_s']:.0f} s CPU"
         )
-    if "oe_sippy_seconds" in out:
-        s.append(
-            f"SIPPY OE: {out['oe_sippy_seconds'] * 1e3:.1f} ms, fit {out['oe_sippy_fit']:.2f} %; "
-            f"porosense is {out['oe_speedup']:.1f}x faster"
-        )
-    out["summary"] = s
-    return out
+    return s

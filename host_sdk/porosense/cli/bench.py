@@ -31,6 +31,19 @@ def register(sub) -> argparse.ArgumentParser:
         default="small" if os.environ.get("CI") else "full",
         help="problem size (default: small under CI, full otherwise)",
     )
+    p.add_argument(
+        "--only",
+        nargs="+",
+        metavar="PART",
+        help="ident only: run these parts (oe, grid, scaling, cluster, 3dof, measured, wh2009; default all)",
+    )
+    p.add_argument(
+        "--wh2009",
+        metavar="PATH",
+        help="ident only: the 2009 Wiener-Hammerstein benchmark file (WienerHammerBenchmark.csv, "
+        "nonlinearbenchmark.org): identify on the official estimation samples, print the test RMSE "
+        "beside the published figures",
+    )
     p.set_defaults(func=run)
     return p
 
@@ -40,7 +53,12 @@ def run(args) -> int:
         module = importlib.import_module(f"porosense.bench.{args.area}")
     except ModuleNotFoundError as exc:
         raise InputError(f"benchmark area '{args.area}' is not available in this build") from exc
-    result = module.run(args.size)
+    if args.area == "ident":
+        result = module.run(args.size, only=args.only, wh2009=args.wh2009)
+    elif args.only or args.wh2009:
+        raise InputError("--only and --wh2009 belong to 'porosense bench ident'")
+    else:
+        result = module.run(args.size)
     emit_json(result, args)
     if not args.json:
         for line in result.get("summary", []):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from porosense.cli._args import add_deprecated, columns, parse_range
+from porosense.cli._args import add_deprecated, columns, parse_range, warn
 from porosense.cli._data import (
     add_data_options,
     add_json_options,
@@ -22,8 +22,8 @@ MAX_POLES_UNFORCED = 20  # the paper searches up to 10; beyond 20 the grid takes
 
 STRUCTURE_CHOICES = ("linear", "hammerstein", "wiener", "wh", "all")
 CRITERION_CHOICES = ("fit", "aic", "bic")
-HOLDOUT_FRACTION = 0.25
-MIN_SCORED = 20  # samples a held-out part needs to be scored
+COST_WARNING_S = 180  # a search estimated to run longer than this is announced, with ways to shorten it
+SCHEDULER_TIMEOUT_S = 10  # seconds to reach a Dask scheduler
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -136,6 +136,20 @@ def register(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--jobs", type=int, metavar="N", help="worker processes of the order search (default: all cores)")
     p.add_argument(
+        "--scheduler",
+        metavar="tcp://HOST:8786",
+        help="run the order search's candidates on a Dask cluster (optional extra porosense[cluster]; "
+        "same model as the local pool; docs/cluster.md)",
+    )
+    p.add_argument(
+        "--decimate",
+        type=int,
+        default=1,
+        metavar="N",
+        help="decimate every file by N first, through an anti-alias filter (zero-phase FIR at the new "
+        "Nyquist frequency): N times fewer samples, a model at 1/N of the data's rate (default 1: none)",
+    )
+    p.add_argument(
         "--out", default="model.json", metavar="MODEL.json", help="where to write the model (default model.json)"
     )
     add_deprecated(p, "--save", "--out", "out")
@@ -176,39 +190,6 @@ def load_recordings(tables, inputs, outputs, rng: slice):
     return us, ys, starts[0]
 
 
-def load_with_tail_holdout(tables, inputs, outputs, rng: slice):
-    """Estimation on the first 75 % of the range of every file, validation on the last 25 %.
-
-    Returns (est_u, est_y, est_skip, (val_u, val_y, val_skips)); every validation recording is
-    the whole file up to the range's end, simulated from rest, scored from its own split point.
-    """
-    import numpy as np
-
-    est_u, est_y, val_u, val_y, val_skips, starts = [], [], [], [], [], []
-    for table in tables:
-        f = table.path
-        require_columns(table, inputs + outputs)
-        start, stop, _ = rng.indices(len(table))
-        cut = start + int(round((1.0 - HOLDOUT_FRACTION) * (stop - start)))
-        if stop - cut < MIN_SCORED or cut - start < 10:
-            raise InputError(
-                f"{f}: the hold-out (last 25 % of {max(stop - start, 0)} samples) is too short to "
-                f"score (need >= {MIN_SCORED} samples); give --validation or --validation-data"
-            )
-        table.require_finite(inputs + outputs, slice(0, stop), "selected range")
-        u = np.column_stack([table.columns[c] for c in inputs])[:stop]
-        y = np.column_stack([table.columns[c] for c in outputs])[:stop]
-        est_u.append(u[:cut])
-        est_y.append(y[:cut])
-        val_u.append(u)
-        val_y.append(y)
-        val_skips.append(cut)
-        starts.append(start)
-    if len(set(starts)) > 1:
-        raise InputError("the sample range starts at different samples in different files (negative A?)")
-    return est_u, est_y, starts[0], (val_u, val_y, val_skips)
-
-
 def data_units(tables, inputs, outputs):
     """(input units, output units) the first file's sidecar states: an input unit the model can
     carry ("%" or "dR/100") or None; an output unit as free text or None."""
@@ -220,9 +201,6 @@ def data_units(tables, inputs, outputs):
 
 
 def run(args) -> int:
-    import os
-    from concurrent.futures import ProcessPoolExecutor
-
     from porosense import ident
 
     normalise_json_args(args)
@@ -241,6 +219,12 @@ def run(args) -> int:
         )
     if args.max_poles < 1:
         raise InputError("--max-poles must be >= 1")
+    if args.decimate < 1:
+        raise InputError(f"--decimate must be >= 1, not {args.decimate}")
+    if args.jobs is not None and args.jobs < 1:
+        raise InputError(f"--jobs must be >= 1, not {args.jobs}")
+    if args.jobs is not None and args.scheduler:
+        raise InputError("give either --jobs (local worker processes) or --scheduler (a Dask cluster), not both")
     output_file(args.out, "--out")
     tables = read_tables(args.data, args)
     args.ts = sample_period(tables, args)
@@ -252,140 +236,176 @@ def run(args) -> int:
         raise InputError("--breakpoints must be 2..64")
     if args.criterion not in CRITERION_CHOICES:
         raise InputError(f"unknown --criterion '{args.criterion}'; choose from {', '.join(CRITERION_CHOICES)}")
-    smooth = None
-    if args.smoothness != "auto":
-        try:
-            smooth = float(args.smoothness)
-        except ValueError:
-            raise InputError(f"--smoothness must be 'auto' or a weight >= 0, not '{args.smoothness}'") from None
-        if not smooth >= 0:
-            raise InputError(f"--smoothness must be 'auto' or a weight >= 0, not '{args.smoothness}'")
     if args.max_iter < 1:
         raise InputError("--max-iter must be at least 1")
     if args.validation is not None and args.validation_data:
         raise InputError("give either --validation (a range) or --validation-data (files), not both")
     est_range = parse_range(args.estimation) or slice(None)
-    holdout = ""
+    validation, holdout = None, ""
     if args.validation is not None:
         est_u, est_y, est_skip = load_recordings(tables, inputs, outputs, est_range)
-        val = load_recordings(tables, inputs, outputs, parse_range(args.validation) or slice(None))
-        holdout = f"range {args.validation} of every file"
+        validation = load_recordings(tables, inputs, outputs, parse_range(args.validation) or slice(None))
+        holdout = f"validation: range {args.validation} of every file"
     elif args.validation_data:
         est_u, est_y, est_skip = load_recordings(tables, inputs, outputs, est_range)
-        val = load_recordings(read_tables(args.validation_data, args), inputs, outputs, slice(None))
-        holdout = f"{len(args.validation_data)} separate file(s)"
-    elif len(tables) >= 3:
-        est_u, est_y, est_skip = load_recordings(tables[:-1], inputs, outputs, est_range)
-        val = load_recordings(tables[-1:], inputs, outputs, est_range)
-        holdout = f"hold-out: the last file ({args.data[-1]}) left out of estimation"
+        validation = load_recordings(read_tables(args.validation_data, args), inputs, outputs, slice(None))
+        holdout = f"validation: {len(args.validation_data)} separate file(s)"
     else:
-        est_u, est_y, est_skip, val = load_with_tail_holdout(tables, inputs, outputs, est_range)
-        holdout = "hold-out: the last 25 % of every file left out of estimation"
+        est_u, est_y, est_skip = load_recordings(tables, inputs, outputs, est_range)
     from porosense.ident.excitation import check_identifiable
 
     check_identifiable(est_u, est_y, inputs, outputs)
-    say(args, holdout if holdout.startswith("hold-out") else f"validation: {holdout}")
     input_units, output_units = data_units(tables, inputs, outputs)
     structures = tuple(ident.KINDS) if args.structure == "all" else (args.structure,)
-    if args.poles is not None:
-        poles = [args.poles]
-        zeros = [args.zeros] if args.zeros is not None else None
-    else:
-        poles = range(1, args.max_poles + 1)
-        zeros = [args.zeros] if args.zeros is not None else None
-    grid = ident.order_grid(structures, poles, zeros)
-    if args.poles == 0:
-        grid = [(s, 0, 0) for s in structures]
-    if not grid:
-        raise InputError("the orders given leave no model to estimate (zeros must be < poles)")
-    executor = ProcessPoolExecutor(max_workers=args.jobs or os.cpu_count() or 1) if len(grid) > 1 else None
-    models, reports = [], []
+    poles = [args.poles] if args.poles is not None else range(1, args.max_poles + 1)
+    zeros = [args.zeros] if args.zeros is not None else None
+    options = ident.SearchOptions(
+        structures=structures,
+        poles=tuple(poles),
+        zeros=tuple(zeros) if zeros is not None else None,
+        n_breakpoints=args.breakpoints,
+        delay=args.delay,
+        starts=args.starts,
+        max_nfev=args.max_iter,
+        skip=est_skip,
+        criterion=args.criterion,
+        staged=args.poles is None and not args.full_grid,
+        monotone=args.monotone,
+        process_noise=args.process_noise,
+        holdout=holdout,
+    )
+    options.order_grid()  # an empty grid fails here, before any work
+    executor = _executor(args)
+    reporter = CostReporter(args, outputs)
     try:
-        for j, name in enumerate(outputs):
-            result = ident.search(
-                u=est_u,
-                y=[y[:, j] for y in est_y],
-                ts=args.ts,
-                validation=(val[0], [y[:, j] for y in val[1]]) if val else None,
-                grid=grid,
-                n_breakpoints=args.breakpoints,
-                delay=args.delay,
-                starts=args.starts,
-                skip=est_skip,
-                validation_skip=val[2] if val else 0,
-                max_nfev=args.max_iter,
-                criterion=args.criterion,
-                holdout=holdout,
-                staged=args.poles is None and not args.full_grid,
-                smoothness=smooth or 0.0,
-                monotone=args.monotone,
-                process_noise=args.process_noise,
-                input_unit=input_units,
-                output_unit=output_units[j],
-                inputs=inputs,
-                output=name,
-                executor=executor,
-                progress=not (args.quiet or args.json),
-            )
-            say(args, f"{name}:")
-            say(args, str(result))
-            model_j, choice = result.model, None
-            measured_noise = result.model.info.get("process_noise") or {}
-            if measured_noise.get("method") == "repeated periods":
-                # Validation data carry the same process noise: they cannot choose g's smoothness
-                # (a smoother g validates alike), so the noise fit's own weight stays.
-                say(
-                    args,
-                    f"smoothness weight {measured_noise['smoothness']:g} kept: the process-noise level was "
-                    "measured, and validation data carrying the same noise cannot choose the weight",
-                )
-            elif smooth is None and val is not None and result.best.structure != "linear":
-                choice = ident.choose_smoothness(
-                    result,
-                    u=est_u,
-                    y=[y[:, j] for y in est_y],
-                    ts=args.ts,
-                    validation=(val[0], [y[:, j] for y in val[1]]),
-                    validation_skip=val[2],
-                    monotone=args.monotone,
-                    inputs=inputs,
-                    output=name,
-                )
-                model_j = choice.model
-                say(args, str(choice))
-            models.append(model_j)
-            noise = _process_noise_line(model_j) if args.process_noise else None
-            if noise:
-                say(args, noise)
-            reports.append(
-                {
-                    "output": name,
-                    **result.to_dict(),
-                    "smoothness": {"weight": choice.weight, "validation_fit": choice.fits} if choice else None,
-                    "process_noise": model_j.info.get("process_noise"),
-                }
-            )
+        found = ident.identify(
+            u=est_u,
+            y=est_y,
+            ts=args.ts,
+            validation=(validation[0], validation[1], [validation[2]] * len(validation[0])) if validation else None,
+            options=options,
+            inputs=inputs,
+            outputs=outputs,
+            input_unit=input_units,
+            output_units=output_units,
+            smoothness=args.smoothness,
+            decimate_by=args.decimate,
+            record_names=list(args.data),
+            executor=executor,
+            progress=reporter,
+            log=lambda line: say(args, line),
+        )
     finally:
-        if executor is not None:
-            executor.shutdown()
-    model = models[0] if len(models) == 1 else ident.ModelSet(models)
-    model.save(args.out)
+        reporter.close()  # the bar's line is cleared before anything else prints
+        if executor is not None and hasattr(executor, "close"):
+            executor.close()  # a Dask client (a local pool is shut down by identify)
+    for name, result, choice, model in zip(outputs, found.results, found.smoothness, found.models):
+        say(args, f"{name}:")
+        say(args, str(result))
+        if choice is not None:
+            say(args, str(choice))
+        noise = _process_noise_line(model) if args.process_noise else None
+        if noise:
+            say(args, noise)
+    for note in found.notes:
+        say(args, note)
+    found.save(args.out)
     say(args, f"model saved to {args.out}")
     report = {
         "files": list(args.data),
         "inputs": inputs,
         "outputs": outputs,
-        "ts": args.ts,
+        "ts": found.ts,
         "estimation": args.estimation,
         "validation": args.validation,
         "validation_data": args.validation_data,
-        "holdout": holdout,
+        "holdout": found.holdout,
         "criterion": args.criterion,
+        "decimate": args.decimate,
+        "scheduler": args.scheduler,
         "model": str(args.out),
-        "results": reports,
+        "notes": found.notes,
+        "results": found.to_dict()["results"],
     }
     emit_json(report, args)
     return 0
+
+
+def _executor(args):
+    """The Dask client of --scheduler, a local pool of --jobs workers, or None (identify's own)."""
+    if args.scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise InputError(
+                "--scheduler needs Dask distributed, an optional extra: pip install 'porosense[cluster]'"
+            ) from None
+        try:
+            return Client(args.scheduler, timeout=SCHEDULER_TIMEOUT_S)
+        except (OSError, TimeoutError) as exc:
+            raise InputError(f"cannot reach the Dask scheduler at {args.scheduler}: {exc}") from None
+    if args.jobs:
+        from porosense.ident.workers import local_pool
+
+        return local_pool(args.jobs)
+    return None
+
+
+class CostReporter:
+    """The search's progress for the command line: a progress bar (unless --quiet or --json) and,
+    once the first candidates have told what a candidate costs, one warning line when the
+    search will take longer than COST_WARNING_S, with the options that shorten it."""
+
+    def __init__(self, args, outputs):
+        self.args, self.outputs = args, list(outputs)
+        self.quiet = bool(args.quiet or args.json)
+        self.warned = False
+        self.bar = None
+        self.stage = None
+
+    def __call__(self, p) -> None:
+        if p.eta_seconds is not None and not self.warned:
+            self.warned = True
+            if p.eta_seconds > COST_WARNING_S:
+                warn("porosense identify", self._warning(p))
+        if self.quiet:
+            return
+        from tqdm.auto import tqdm
+
+        if p.stage != self.stage:
+            self.close()
+            self.stage = p.stage
+            self.bar = tqdm(total=p.total, desc=p.stage, unit="task", leave=False)
+        self.bar.n = p.done
+        if p.eta_seconds is not None:
+            self.bar.set_postfix_str(f"about {_duration(p.eta_seconds)} left", refresh=False)
+        self.bar.refresh()
+        if p.done == p.total:
+            self.close()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+        self.bar, self.stage = None, None
+
+    def _warning(self, p) -> str:
+        import numpy as np
+
+        args = self.args
+        factor = max(2, int(np.ceil(p.eta_seconds / max(COST_WARNING_S, 1.0))))
+        rate = 1.0 / (args.ts * args.decimate)
+        more = f" for each of {len(self.outputs)} outputs" if len(self.outputs) > 1 else ""
+        return (
+            f"this search will take about {_duration(p.eta_seconds)}{more} on {p.workers} worker(s) "
+            f"(estimated from the first candidates); to shorten it: --decimate {factor * args.decimate} "
+            f"(anti-alias filtered, {factor}x fewer samples; the model then runs at {rate / factor:g} Hz), "
+            f"--max-poles {min(args.max_poles, 5)} (fewer orders), --structure wh (one structure), "
+            "or --scheduler tcp://HOST:8786 (a Dask cluster)"
+        )
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
 
 
 def _process_noise_line(model) -> str | None:

@@ -5,6 +5,8 @@ recordings, stable by construction, with the paper's order search and selection.
 converts to :class:`porosense.structure.EstimatorStructure` (what quant and the firmware run).
 """
 
+from porosense.ident.candidates import Candidate, SearchResult, approx_blob_bytes, tie_tolerance
+from porosense.ident.identify import Identification, identify
 from porosense.ident.metrics import fit_percent, information_criteria, rms_percent, rmse
 from porosense.ident.models import (
     KINDS,
@@ -14,21 +16,14 @@ from porosense.ident.models import (
     ModelSet,
     Wiener,
     WienerHammerstein,
-    load_model,
     make_model,
     save_models,
 )
+from porosense.ident.options import CRITERIA, STRUCTURES, SearchOptions, order_grid
 from porosense.ident.scoring import SimulationFit, format_percent, simulation_fit
-from porosense.ident.search import (
-    CRITERIA,
-    Candidate,
-    SearchResult,
-    SmoothnessChoice,
-    approx_blob_bytes,
-    choose_smoothness,
-    order_grid,
-    search,
-)
+from porosense.ident.search import search
+from porosense.ident.smoothness import SmoothnessChoice, choose_smoothness
+from porosense.ident.storage import load_model
 
 __all__ = [
     "CRITERIA",
@@ -37,11 +32,15 @@ __all__ = [
     "SmoothnessChoice",
     "choose_smoothness",
     "Hammerstein",
+    "Identification",
+    "identify",
     "Linear",
     "Model",
     "ModelSet",
+    "SearchOptions",
     "SearchResult",
     "SimulationFit",
+    "STRUCTURES",
     "Wiener",
     "WienerHammerstein",
     "approx_blob_bytes",
@@ -55,5 +54,6 @@ __all__ = [
     "rmse",
     "save_models",
     "search",
+    "tie_tolerance",
     "simulation_fit",
 ]

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from porosense.ident import blocks
-from porosense.ident.chain import Chain, ChainSpec, _filter
+from porosense.ident.chain import Chain, ChainSpec, block_filter
 
 # The number of splits grows as 2^(pole groups + zero groups): at most MAX_SPLITS are scored
 # (pole allocations in the outer loop, so every pole split is reached before zero variants are
@@ -138,7 +138,7 @@ def score_split(spec: ChainSpec, theta, ss, ys, skip: int):
     cols = []
     for s in ss:
         hat = blocks.pwl_eval(x, np.zeros(len(x)), s, derivatives=True)[3]
-        cols.append(np.hstack([_filter(b2, den2, hat), np.ones((len(s), 1))])[skip:])
+        cols.append(np.hstack([block_filter(b2, den2, hat), np.ones((len(s), 1))])[skip:])
     phi = np.vstack(cols)
     rhs = np.concatenate([y[skip:] for y in ys])
     # Normal equations (small, ridge-guarded): far cheaper than an SVD-based solve per split.

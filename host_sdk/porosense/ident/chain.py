@@ -5,11 +5,15 @@ One output over n inputs (all in normalised units inside ident)::
     y = offset + H2( g( sum_i B_i/F_i ( f_i( u_i[k - delay] ) ) ) )
 
 Blocks are switched on by :class:`ChainSpec`. The Jacobian of the simulated output with
-respect to every parameter is computed with filtered sensitivity signals (lfilter): for
-w = B/F v, dw/db_k = q^-k v/F and dw/da_k = -q^-k w/F; upstream sensitivities pass through
-the downstream blocks (times g'(s), then through H2). Denominators are cascades of stable
+respect to every parameter is computed with filtered sensitivity signals: for w = B/F v,
+dw/db_k = q^-k v/F and dw/da_k = -q^-k w/F; upstream sensitivities pass through the
+downstream blocks (times g'(s), then through H2). Denominators are cascades of stable
 sections (:mod:`porosense.ident.blocks`); for a section F_s, dw/da_(s,j) = -q^-j w/F_s.
 Everything simulates from rest.
+
+Cost: one Jacobian is O(N p) in time and memory (N samples, p parameters). It is built
+transposed, one row per parameter, so that every filter runs along contiguous memory, and the
+cascades run as one ``sosfilt`` call over all rows at once.
 
 Process noise (``g_noise``): a Gaussian v of standard deviation sigma = exp(theta["g.s"]) adds
 to g's input, so the expected output is y = offset + H2(E_v g(s + v)) (closed form for a
@@ -22,9 +26,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
+from scipy.signal import sosfilt
 
 from porosense.ident import blocks
+
+try:  # the compiled loop behind scipy.signal.sosfilt, without its per-call argument handling
+    from scipy.signal._sosfilt import _sosfilt as _sosfilt_loop
+except ImportError:  # pragma: no cover - another scipy layout: the public function does the same
+    _sosfilt_loop = None
 
 
 @dataclass(frozen=True)
@@ -71,36 +80,95 @@ class ChainSpec:
 
 
 def _shift(x, k: int):
-    """Delay by k samples from rest along axis 0."""
+    """Delay by k samples from rest along the last axis."""
     if k == 0:
         return x
     out = np.zeros_like(x)
-    out[k:] = x[:-k]
+    if k < x.shape[-1]:
+        out[..., k:] = x[..., :-k]
     return out
 
 
-def _filter(b, den, x):
-    """B(q) / prod F_s(q) applied to ``x`` (1-D, or 2-D along axis 0) from rest."""
-    return blocks.cascade(den, lfilter(b, [1.0], x, axis=0))
+def _fir(b, x):
+    """B(q) x along the last axis, from rest (a few shifted sums: b is short)."""
+    b = np.asarray(b, dtype=float)
+    out = b[0] * x
+    n = x.shape[-1]
+    for k in range(1, min(len(b), n)):
+        if b[k] != 0.0:
+            out[..., k:] += b[k] * x[..., : n - k]
+    return out
+
+
+def _sos(den) -> np.ndarray:
+    """scipy sos rows [1 0 0 1 a1 a2] of the denominator sections ``den`` (rows [1 a1 a2])."""
+    sos = np.zeros((len(den), 6))
+    sos[:, 0] = 1.0
+    sos[:, 3:] = den
+    return sos
+
+
+def cascade_rows(den, x):
+    """1 / prod(sections) applied along the last axis of ``x`` from rest.
+
+    The per-call argument handling of ``sosfilt`` costs more than the filtering of a few
+    thousand samples, and a Jacobian calls it hundreds of times: its compiled loop is called
+    directly (on a copy, as sosfilt does)."""
+    if len(den) == 0:
+        return np.array(x, dtype=float)
+    x = np.asarray(x, dtype=float)
+    if _sosfilt_loop is None:  # pragma: no cover
+        return sosfilt(_sos(den), x, axis=-1)
+    out = np.array(x.reshape(-1, x.shape[-1]), dtype=float, order="C")
+    _sosfilt_loop(_sos(den), out, np.zeros((out.shape[0], len(den), 2)))
+    return out.reshape(x.shape)
+
+
+def block_filter(b, den, x):
+    """B(q) / prod F_s(q) applied to ``x`` from rest: 1-D, or 2-D along axis 0 (N, k)."""
+    x = np.asarray(x, dtype=float)
+    if x.ndim == 1:
+        return cascade_rows(den, _fir(b, x))
+    return np.ascontiguousarray(cascade_rows(den, _fir(b, np.ascontiguousarray(x.T)))).T
 
 
 def _den_sensitivity(den, dden, w, n_poles):
-    """dw/dtheta (N, n_poles) of w = B/F v with respect to the denominator parameters."""
-    out = np.zeros((len(w), n_poles))
+    """dw/dtheta (n_poles, N) of w = B/F v with respect to the denominator parameters."""
+    out = np.zeros((n_poles, len(w)))
     for s, row in enumerate(den):
-        ws = lfilter([1.0], row, w)
-        cols = -np.column_stack([_shift(ws, 1), _shift(ws, 2)])
+        ws = cascade_rows(row[None, :], w)
         j = slice(2 * s, min(2 * s + 2, n_poles))
-        out[:, j] = cols @ dden[s][:, : j.stop - j.start]
+        k = j.stop - j.start
+        d = dden[s][:, :k]  # d a_(i+1) / d theta_j
+        out[j] = -(d[0][:, None] * _shift(ws, 1)[None, :] + d[1][:, None] * _shift(ws, 2)[None, :])
     return out
 
 
-def _lagged(x, n: int, start: int = 0):
-    """Columns q^-start x .. q^-(start+n-1) x, shape (N, n)."""
-    out = np.zeros((len(x), n))
+def _lagged(x, n: int):
+    """Rows q^0 x .. q^-(n-1) x, shape (n, N)."""
+    out = np.zeros((n, len(x)))
     for k in range(n):
-        out[:, k] = _shift(x, start + k)
+        out[k, k:] = x[: len(x) - k]
     return out
+
+
+def _pwl_rows(x, y, u, dxdp):
+    """(z, slope, dz/dp rows (n, N), dz/dy rows (n, N)) of the map through (x, y) at ``u``."""
+    n = len(x)
+    k = np.clip(np.searchsorted(x, u, side="right") - 1, 0, n - 2)
+    h = x[k + 1] - x[k]
+    t = (u - x[k]) / h
+    dy = y[k + 1] - y[k]
+    z = y[k] + dy * t
+    slope = dy / h
+    cols = np.arange(len(u))
+    dz_dy = np.zeros((n, len(u)))
+    dz_dy[k, cols] = 1.0 - t
+    dz_dy[k + 1, cols] = t
+    dz_dx = np.zeros((n, len(u)))
+    dz_dx[k, cols] = slope * (t - 1.0)
+    dz_dx[k + 1, cols] = -slope * t
+    return z, slope, dxdp.T @ dz_dx, dz_dy
 
 
 class Chain:
@@ -140,7 +208,7 @@ class Chain:
         u = np.asarray(u, dtype=float)
         if u.ndim == 1:
             u = u[:, None]
-        return [_shift(u[:, i].copy(), self.spec.delay) for i in range(self.spec.n_inputs)]
+        return [_shift(np.ascontiguousarray(u[:, i]), self.spec.delay) for i in range(self.spec.n_inputs)]
 
     def simulate(self, u, expected: bool = True) -> np.ndarray:
         """Output from rest for inputs ``u`` (N, n_inputs), normalised units.
@@ -154,7 +222,7 @@ class Chain:
             z = blocks.pwl_eval(self.g[0], self.g[1], s) if self.g else s
         if self.h2:
             b, den, _ = self.h2
-            z = _filter(b, den, z)
+            z = block_filter(b, den, z)
         return z + self.offset
 
     def linear_sum(self, u) -> np.ndarray:
@@ -165,53 +233,62 @@ class Chain:
             if self.f[i] is not None:
                 x = blocks.pwl_eval(self.f[i][0], self.f[i][1], x)
             b, den, _ = self.h1[i]
-            s += _filter(b, den, x)
+            s += block_filter(b, den, x)
         return s
 
     # -- Jacobian -----------------------------------------------------------------
 
     def jacobian(self, u) -> tuple[np.ndarray, np.ndarray]:
         """(y, dy/dtheta) with dy/dtheta of shape (N, n_params)."""
+        y, jt = self.jacobian_rows(u)
+        return y, jt.T
+
+    def jacobian_rows(self, u) -> tuple[np.ndarray, np.ndarray]:
+        """(y, dy/dtheta transposed): the sensitivities as rows, shape (n_params, N)."""
         spec, sl = self.spec, self.sl
         xs = self.branch_inputs(u)
         n = len(xs[0])
-        jac = np.zeros((n, spec.n_params))
+        jt = np.zeros((spec.n_params, n))
         s = np.zeros(n)
-        # Columns that pass through g and H2 are collected first (sensitivities of s).
+        # Rows that pass through g and H2 are collected first (sensitivities of s).
         for i, x in enumerate(xs):
             b, den, dden = self.h1[i]
+            # One cascade call filters every row of the branch: [f's rows through B; B v; v].
             if self.f[i] is not None:
                 fx, fy, dxdp = self.f[i]
-                v, _, dz_dx, dz_dy = blocks.pwl_eval(fx, fy, x, derivatives=True)
-                jac[:, sl[f"f{i}.p"]] = _filter(b, den, dz_dx @ dxdp)
-                jac[:, sl[f"f{i}.y"]] = _filter(b, den, dz_dy)
+                v, _, dz_dp, dz_dy = _pwl_rows(fx, fy, x, dxdp)
+                rows = cascade_rows(den, np.vstack([_fir(b, np.vstack([dz_dp, dz_dy, v[None, :]])), v[None, :]]))
+                nf = spec.f_bp
+                jt[sl[f"f{i}.p"]], jt[sl[f"f{i}.y"]] = rows[:nf], rows[nf : 2 * nf]
+                w, vf = rows[-2], rows[-1]
             else:
-                v = x
-            w = _filter(b, den, v)
+                w, vf = cascade_rows(den, np.vstack([_fir(b, x), x]))
             s += w
-            jac[:, sl[f"h1{i}.b"]] = _lagged(blocks.cascade(den, v), len(b))
+            jt[sl[f"h1{i}.b"]] = _lagged(vf, len(b))
             if spec.np1:
-                jac[:, sl[f"h1{i}.a"]] = _den_sensitivity(den, dden, w, spec.np1)
+                jt[sl[f"h1{i}.a"]] = _den_sensitivity(den, dden, w, spec.np1)
         upstream = slice(0, sl["g.p"].start if self.g else (sl["h2.a"].start if self.h2 else sl["offset"].start))
         z = s
         if self.g:
             gx, gy, dxdp = self.g
             if self.g_sigma > 0:
                 z, slope, dz_dx, dz_dy, dz_ds = blocks.pwl_expected(gx, gy, s, self.g_sigma, derivatives=True)
-                jac[:, sl["g.s"]] = (dz_ds * self.g_sigma)[:, None]  # d/d log(sigma)
+                jt[sl["g.s"]] = dz_ds * self.g_sigma  # d/d log(sigma)
+                jt[sl["g.p"]] = dxdp.T @ dz_dx.T
+                jt[sl["g.y"]] = dz_dy.T
             else:
-                z, slope, dz_dx, dz_dy = blocks.pwl_eval(gx, gy, s, derivatives=True)
-            jac[:, upstream] *= slope[:, None]
-            jac[:, sl["g.p"]] = dz_dx @ dxdp
-            jac[:, sl["g.y"]] = dz_dy
+                z, slope, jt[sl["g.p"]], jt[sl["g.y"]] = _pwl_rows(gx, gy, s, dxdp)
+            jt[upstream] *= slope[None, :]
         if self.h2:
             b, den, dden = self.h2
             through = slice(0, sl["h2.a"].start)
-            jac[:, through] = _filter(b, den, jac[:, through])
-            y = _filter(b, den, z)
-            jac[:, sl["h2.b"]] = _lagged(blocks.cascade(den, z), len(b))
+            k = through.stop
+            rows = cascade_rows(den, np.vstack([_fir(b, np.vstack([jt[through], z[None, :]])), z[None, :]]))
+            jt[through] = rows[:k]
+            y, zf = rows[k], rows[k + 1]
+            jt[sl["h2.b"]] = _lagged(zf, len(b))
             if spec.np2:
-                jac[:, sl["h2.a"]] = _den_sensitivity(den, dden, y, spec.np2)
+                jt[sl["h2.a"]] = _den_sensitivity(den, dden, y, spec.np2)
             z = y
-        jac[:, sl["offset"]] = 1.0
-        return z + self.offset, jac
+        jt[sl["offset"]] = 1.0
+        return z + self.offset, jt

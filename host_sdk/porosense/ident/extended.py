@@ -23,6 +23,7 @@ import numpy as np
 from porosense.dsp import laguerre_bank, play_operator
 from porosense.errors import InputError, ModelError
 from porosense.files import write_text
+from porosense.ident.models import Model
 
 FORMAT = "porosense.ident.extended"
 FORMAT_VERSION = 1
@@ -154,8 +155,6 @@ class ExtendedModel:
 
     @classmethod
     def from_dict(cls, d: dict) -> ExtendedModel:
-        from porosense.ident.models import Model
-
         try:
             nominal = Model.from_dict(d["nominal"])
             m = cls(

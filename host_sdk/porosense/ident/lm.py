@@ -41,20 +41,36 @@ _BLOCK_MNK = 200_000
 
 def _normal_equations(j, r):
     """(J^T J, J^T r) accumulated over row blocks of ``j`` (N, p), see _BLOCK_MNK."""
-    p = j.shape[1]
-    rows = max(8, _BLOCK_MNK // max(p * p, 1))
+    return normal_equations_rows(np.ascontiguousarray(j.T), r)
+
+
+def normal_equations_rows(jt, r):
+    """(J^T J, J^T r) of the transposed Jacobian ``jt`` (p, N), accumulated over column blocks
+    (see _BLOCK_MNK)."""
+    p = jt.shape[0]
+    cols = max(8, _BLOCK_MNK // max(p * p, 1))
     a, g = np.zeros((p, p)), np.zeros(p)
-    for i in range(0, len(j), rows):
-        blk = j[i : i + rows]
-        a += blk.T @ blk
-        g += blk.T @ r[i : i + rows]
+    for i in range(0, jt.shape[1], cols):
+        blk = jt[:, i : i + cols]
+        a += blk @ blk.T
+        g += blk @ r[i : i + cols]
     return a, g
 
 
 def levenberg_marquardt(
-    fun, jac, x0, *, max_nfev: int = 200, ftol: float = 1e-7, xtol: float = 1e-7, gtol: float = 1e-7
+    fun,
+    jac,
+    x0,
+    *,
+    normal=None,
+    max_nfev: int = 200,
+    ftol: float = 1e-7,
+    xtol: float = 1e-7,
+    gtol: float = 1e-7,
 ) -> LMResult:
-    """Minimise ||fun(x)||^2 from ``x0``; ``jac(x)`` returns d fun / dx (N, p).
+    """Minimise ||fun(x)||^2 from ``x0``; ``jac(x)`` returns d fun / dx (N, p), or ``normal(x, r)``
+    returns (J^T J, J^T r) at x with r = fun(x) directly (then ``jac`` may be None: a caller that
+    accumulates them piece by piece never holds the whole Jacobian).
 
     ``max_nfev`` bounds the residual evaluations (as MINPACK's maxfev). Only steps that lower
     the cost are taken, so the returned cost never exceeds the start's.
@@ -72,9 +88,8 @@ def levenberg_marquardt(
     eye = np.eye(x.size)
     while nfev < max(max_nfev, 1):
         if fresh:
-            j = jac(x)
+            a, g = normal(x, r) if normal is not None else _normal_equations(jac(x), r)
             njev += 1
-            a, g = _normal_equations(j, r)
             d = np.diag(a)
             if unit is None:
                 unit = max(float(np.max(d)), 1e-300)

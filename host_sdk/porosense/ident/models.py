@@ -14,17 +14,19 @@ from __future__ import annotations
 
 import copy
 import json
-from dataclasses import asdict
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from porosense.errors import InputError, ModelError
 from porosense.files import write_text
-from porosense.ident import estimate
+from porosense.ident import output_error
 from porosense.ident.blocks import sos_rows
 from porosense.ident.chain import Chain, ChainSpec
 from porosense.ident.metrics import fit_percent, information_criteria, rms_percent
+from porosense.ident.process_noise import with_process_noise
+from porosense.ident.refine import Fit, Options, refine
 from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade, input_unit_scale
 
 FORMAT = "porosense.ident.model"
@@ -50,6 +52,52 @@ def as_recordings(u, y=None):
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(v))):
             raise InputError("u and y must be finite (no NaN or inf)")
     return us, ys
+
+
+def check_ts(ts) -> float:
+    """``ts`` as a float sample period in s, or an InputError saying why it cannot be one."""
+    if isinstance(ts, bool) or not isinstance(ts, (int, float, np.integer, np.floating)):
+        raise InputError(f"ts must be a sample period in seconds (a number), not {ts!r}")
+    value = float(ts)
+    if not (np.isfinite(value) and value > 0):
+        raise InputError(f"ts must be a positive, finite sample period in seconds, not {ts!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class Scaling:
+    """The normalisation inside a model: inputs divided by ``u_scale`` (their largest magnitude),
+    the output standardised by ``y_mean`` and ``y_std`` (data units)."""
+
+    u_scale: tuple
+    y_mean: float
+    y_std: float
+
+    @classmethod
+    def of(cls, us, ys) -> Scaling:
+        """The scaling of recordings ``us`` (list of (N, n_in)) and ``ys`` (list of (N,))."""
+        scale = np.max(np.vstack([np.max(np.abs(x), axis=0) for x in us]), axis=0)
+        all_y = np.concatenate(ys)
+        return cls(
+            tuple(float(v) for v in np.where(scale > 0, scale, 1.0)),
+            float(np.mean(all_y)),
+            float(np.std(all_y)) or 1.0,
+        )
+
+    def apply(self, us, ys):
+        """(normalised inputs, normalised outputs)."""
+        scale = np.asarray(self.u_scale, dtype=float)
+        return [x / scale for x in us], [(v - self.y_mean) / self.y_std for v in ys]
+
+
+@dataclass(frozen=True)
+class Starts:
+    """Fits of the same data and orders that a nonlinear model starts from instead of estimating
+    them again (normalised units; None: estimated)."""
+
+    linear: Fit | None = None
+    wiener: Fit | None = None
+    hammerstein: Fit | None = None
 
 
 class Model:
@@ -81,9 +129,9 @@ class Model:
         self.delay, self.starts, self.max_nfev, self.skip = int(delay), int(starts), int(max_nfev), int(skip)
         if not smoothness >= 0:
             raise InputError("smoothness must be >= 0")
-        # Regularisation of the piecewise-linear values (estimate._penalty_rows).
+        # Regularisation of the piecewise-linear values (refine._penalty_rows).
         self.smoothness, self.monotone = float(smoothness), bool(monotone)
-        # Estimate a Gaussian noise at g's input with g (estimate.with_process_noise).
+        # Estimate a Gaussian noise at g's input with g (process_noise.with_process_noise).
         self.process_noise = bool(process_noise)
         if self.process_noise and self.kind not in NOISE_KINDS:
             raise InputError(
@@ -98,12 +146,16 @@ class Model:
         self.inputs: tuple[str, ...] = ()
         self.output = "y"
         self.info: dict = {}
+        self.alternatives: list[Fit] = []  # the fit's other members (alternative_models)
+        self.output_error_fit: Fit | None = None  # with process noise: the fit it was refined from
+        self.converged = True  # the last refine() met its tolerance
         self.input_units: tuple = ()  # per input "%" or "dR/100"; None entries: undeclared
         self.output_unit: str | None = None
 
     # -- estimation -----------------------------------------------------------------
 
-    def _estimate(self, us, ys, opts) -> estimate.Fit:  # pragma: no cover - abstract
+    def _estimate(self, us, ys, opts: Options, starts: Starts) -> tuple[Fit, list[Fit]]:  # pragma: no cover
+        """(the fit, its other members) on normalised data; abstract."""
         raise NotImplementedError
 
     def fit(
@@ -111,37 +163,66 @@ class Model:
         *,
         u,
         y,
-        ts: float = 1.0,
+        ts: float,
         inputs=None,
         output: str = "y",
         input_unit=None,
         output_unit: str | None = None,
         linear: Model | None = None,
+        scaling: Scaling | None = None,
     ) -> Model:
-        """Estimate on the recordings ``u`` (list of (N, n_in)), ``y`` (list of (N,)); ts in s.
+        """Estimate on the recordings ``u`` (list of (N, n_in)), ``y`` (list of (N,)).
 
-        ``input_unit``: what ``u`` holds, "%" (dR in %) or "dR/100" (dR as a fraction), one for
-        all inputs or one per input; stored in the model file and used by the quantizer.
-        ``output_unit``: free text (for example "%" of strain or "deg").
-        ``linear``: the linear model of the same orders already fitted on the same data; a
-        nonlinear structure starts from it instead of estimating it again.
+        Parameters
+        ----------
+        u, y : array or list of arrays
+            Inputs (N, n_inputs) and output (N,) of one recording or lists of them, in the
+            data's units; each recording is simulated from rest.
+        ts : float
+            Sample period in s (required: a model carries its rate to predict, quantize and
+            flash).
+        inputs, output : names of the input columns and of the output.
+        input_unit : str or list, optional
+            What ``u`` holds, "%" (dR in %) or "dR/100" (dR as a fraction), one for all inputs
+            or one per input; stored in the model file and used by the quantizer.
+        output_unit : str, optional
+            Free text (for example "%" of strain or "deg").
+        linear : Model, optional
+            The linear model of the same orders already fitted on the same data; a nonlinear
+            structure starts from it instead of estimating it again.
+        scaling : Scaling, optional
+            The normalisation to use instead of the data's own (a model fitted on part of a
+            record set keeps the scaling of the whole, so that its parameters start the fit on
+            the whole, :meth:`refine`).
+
+        Returns
+        -------
+        Model
+            ``self``, fitted.
         """
-        self._linear = linear
-        try:
-            return self._fit(
-                u=u, y=y, ts=ts, inputs=inputs, output=output, input_unit=input_unit, output_unit=output_unit
-            )
-        finally:
-            self._linear = None
+        return self._fit(
+            u=u,
+            y=y,
+            ts=ts,
+            inputs=inputs,
+            output=output,
+            input_unit=input_unit,
+            output_unit=output_unit,
+            start_models={"linear": linear},
+            scaling=scaling,
+        )
 
-    def _start_fit(self, model):
-        """The estimate.Fit of ``model`` (same data and orders as this one), or None."""
+    def _start_fit(self, model, kind: str) -> Fit | None:
+        """The Fit (normalised units) of ``model``, a fitted ``kind`` model of the same data and
+        orders as this one, or None; a process-noise model gives its output-error fit."""
         if model is None:
             return None
         same = (
             model.theta is not None
+            and model.kind == kind
             and model.n_poles == self.n_poles
             and model.n_zeros == self.n_zeros
+            and (kind == "linear" or model.n_breakpoints == self.n_breakpoints)
             and model.delay == self.delay
             and model.skip == self.skip
             and np.array_equal(model.u_scale, self.u_scale)
@@ -149,19 +230,21 @@ class Model:
             and model.y_std == self.y_std
         )
         if not same:
-            raise InputError(
-                f"the {model.kind} model to start from must be fitted on the same data with the same orders"
-            )
-        return estimate.Fit(model.spec, model.theta, model.info["sse"] / self.y_std**2)
+            raise InputError(f"the {kind} model to start from must be fitted on the same data with the same orders")
+        if model.output_error_fit is not None:
+            return model.output_error_fit
+        return Fit(model.spec, model.theta, model.info["sse"] / self.y_std**2)
 
-    def _fit(self, *, u, y, ts, inputs, output, input_unit=None, output_unit=None) -> Model:
+    def _fit(
+        self, *, u, y, ts, inputs, output, input_unit=None, output_unit=None, start_models=None, scaling=None
+    ) -> Model:
         us, ys = as_recordings(u, y)
         n_in = us[0].shape[1]
         if not 1 <= n_in <= MAX_INPUTS or any(x.shape[1] != n_in for x in us):
             raise InputError(f"every recording needs the same 1..{MAX_INPUTS} input columns")
         if min(len(v) for v in ys) < self.skip + 10:
             raise InputError(f"every recording needs at least skip + 10 = {self.skip + 10} samples")
-        self.ts = float(ts)
+        self.ts = check_ts(ts)
         self.inputs = tuple(inputs) if inputs is not None else tuple(f"u{i}" for i in range(n_in))
         self.output = output
         units = [input_unit] * n_in if input_unit is None or isinstance(input_unit, str) else list(input_unit)
@@ -171,35 +254,81 @@ class Model:
             if unit is not None:
                 input_unit_scale(unit)  # raises on an unknown unit
         self.input_units, self.output_unit = tuple(units), output_unit
-        all_u = np.vstack(us)
-        scale = np.max(np.abs(all_u), axis=0)
-        self.u_scale = np.where(scale > 0, scale, 1.0)
-        all_y = np.concatenate(ys)
-        self.y_mean = float(np.mean(all_y))
-        self.y_std = float(np.std(all_y)) or 1.0
-        nus = [x / self.u_scale for x in us]
-        nys = [(v - self.y_mean) / self.y_std for v in ys]
-        opts = estimate.Options(
+        scaling = scaling or Scaling.of(us, ys)
+        if len(scaling.u_scale) != n_in:
+            raise InputError(f"scaling: {len(scaling.u_scale)} input scales for {n_in} inputs")
+        self.u_scale = np.array(scaling.u_scale, dtype=float)
+        self.y_mean, self.y_std = float(scaling.y_mean), float(scaling.y_std)
+        nus, nys = scaling.apply(us, ys)
+        starts = Starts(**{k: self._start_fit(m, k) for k, m in (start_models or {}).items()})
+        opts = self._options()
+        result, alternatives = self._estimate(nus, nys, opts, starts)
+        self.output_error_fit = None
+        if self.process_noise:
+            # The output-error fit stays a member (the search scores it too) and the start of
+            # a WH model built from this one.
+            self.output_error_fit = result
+            noisy = with_process_noise(result, nus, nys, opts, alternatives=alternatives)
+            alternatives = [result] + list(alternatives)
+            result = noisy
+        self.alternatives = list(alternatives)
+        self._set_result(result, sum(len(v) - self.skip for v in ys))
+        return self
+
+    def refine(self, *, u, y, skip: int | None = None, max_nfev: int | None = None) -> Model:
+        """A copy of this fitted model with its parameters refined on the recordings ``u``, ``y``
+        (data units, each simulated from rest, the first ``skip`` samples unscored), keeping its
+        scaling, structure and process-noise level; its other members are dropped.
+
+        The order search fits candidates on part of long records and refines the finalists on
+        all of them this way (the fit is already close, so few evaluations are needed).
+
+        Parameters
+        ----------
+        u, y : array or list of arrays
+            Inputs (N, n_inputs) and output (N,) per recording, in the data's units.
+        skip : int, optional
+            Leading samples of every recording not scored (default the model's ``skip``); the
+            copy keeps it.
+        max_nfev : int, optional
+            Residual evaluations at most (default the model's ``max_nfev``).
+
+        Returns
+        -------
+        Model
+            The refined copy; its ``info["nfev"]`` adds the evaluations spent here and its
+            ``converged`` says whether the optimiser met its tolerance within them.
+        """
+        self._require_fitted()
+        us, ys = as_recordings(u, y)
+        if any(x.shape[1] != len(self.inputs) for x in us):
+            raise InputError(f"expected {len(self.inputs)} input columns")
+        nus, nys = Scaling(tuple(self.u_scale), self.y_mean, self.y_std).apply(us, ys)
+        frozen = (self.spec.slices()["g.s"].start,) if self.spec.g_noise else ()
+        skip = self.skip if skip is None else int(skip)
+        if min(len(v) for v in ys) < skip + 10:
+            raise InputError(f"every recording needs at least skip + 10 = {skip + 10} samples")
+        opts = replace(self._options(), skip=skip, max_nfev=int(max_nfev or self.max_nfev), frozen=frozen)
+        fit = refine(self.spec, self.theta, nus, nys, opts)
+        out = copy.copy(self)
+        out.skip, out.converged = skip, fit.converged
+        out.alternatives, out.output_error_fit = [], None
+        notes = {k: v for k, v in self.info.items() if k not in ("sse", "n_samples", "aic", "bic", "nfev")}
+        out._set_result(fit, sum(len(v) - skip for v in ys))
+        out.info.update(notes)
+        out.info["nfev"] = int(self.info.get("nfev", 0)) + fit.nfev
+        return out
+
+    def _options(self) -> Options:
+        return Options(
             max_nfev=self.max_nfev,
             skip=self.skip,
             starts=self.starts,
             smoothness=self.smoothness,
             monotone=self.monotone,
         )
-        self.alternatives = []
-        result = self._estimate(nus, nys, opts)
-        self._oe_fit = None
-        if self.process_noise:
-            # The output-error fit stays a member (the search scores it too) and the start of
-            # a WH model built from this one.
-            self._oe_fit = result
-            noisy = estimate.with_process_noise(result, nus, nys, opts, alternatives=self.alternatives)
-            self.alternatives = [result] + list(self.alternatives)
-            result = noisy
-        self._set_result(result, sum(len(v) - self.skip for v in ys))
-        return self
 
-    def _set_result(self, result: estimate.Fit, n: int) -> None:
+    def _set_result(self, result: Fit, n: int) -> None:
         """Take the parameters of ``result`` (normalised units) and its criteria over n samples."""
         self.spec, self.theta = result.spec, np.asarray(result.theta, dtype=float)
         sse = result.sse * self.y_std**2
@@ -272,9 +401,9 @@ class Model:
         from. The order search scores them too and keeps the best by its selection rule."""
         self._require_fitted()
         out = []
-        for fit in getattr(self, "alternatives", []):
+        for fit in self.alternatives:
             m = copy.copy(self)
-            m.alternatives, m._oe_fit, m.process_noise = [], None, fit.spec.g_noise
+            m.alternatives, m.output_error_fit, m.process_noise = [], None, fit.spec.g_noise
             m._set_result(fit, self.info["n_samples"])
             out.append(m)
         return out
@@ -453,8 +582,8 @@ class Linear(Model):
 
     kind = "linear"
 
-    def _estimate(self, us, ys, opts):
-        return estimate.fit_linear(us, ys, self.n_poles, self.n_zeros, self.delay, opts)
+    def _estimate(self, us, ys, opts, starts):
+        return output_error.fit_linear(us, ys, self.n_poles, self.n_zeros, self.delay, opts), []
 
 
 class Hammerstein(Model):
@@ -462,17 +591,11 @@ class Hammerstein(Model):
 
     kind = "hammerstein"
 
-    def _estimate(self, us, ys, opts):
-        return estimate.fit_hammerstein(
-            us,
-            ys,
-            self.n_poles,
-            self.n_zeros,
-            self.n_breakpoints,
-            self.delay,
-            opts,
-            lin=self._start_fit(getattr(self, "_linear", None)),
+    def _estimate(self, us, ys, opts, starts):
+        fit = output_error.fit_hammerstein(
+            us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts, lin=starts.linear
         )
+        return fit, []
 
 
 class Wiener(Model):
@@ -480,17 +603,11 @@ class Wiener(Model):
 
     kind = "wiener"
 
-    def _estimate(self, us, ys, opts):
-        return estimate.fit_wiener(
-            us,
-            ys,
-            self.n_poles,
-            self.n_zeros,
-            self.n_breakpoints,
-            self.delay,
-            opts,
-            lin=self._start_fit(getattr(self, "_linear", None)),
+    def _estimate(self, us, ys, opts, starts):
+        fit = output_error.fit_wiener(
+            us, ys, self.n_poles, self.n_zeros, self.n_breakpoints, self.delay, opts, lin=starts.linear
         )
+        return fit, []
 
 
 class WienerHammerstein(Model):
@@ -513,7 +630,7 @@ class WienerHammerstein(Model):
         *,
         u,
         y,
-        ts: float = 1.0,
+        ts: float,
         inputs=None,
         output: str = "y",
         wiener: Wiener | None = None,
@@ -521,50 +638,25 @@ class WienerHammerstein(Model):
         linear: Linear | None = None,
         input_unit=None,
         output_unit: str | None = None,
+        scaling: Scaling | None = None,
     ) -> Model:
         """As :meth:`Model.fit`; ``wiener`` / ``hammerstein`` / ``linear``: models of the same
         orders already fitted on the same data (reused as the starts instead of being estimated
         again)."""
-        self._parts = (wiener, hammerstein)
-        try:
-            return super().fit(
-                u=u,
-                y=y,
-                ts=ts,
-                inputs=inputs,
-                output=output,
-                linear=linear,
-                input_unit=input_unit,
-                output_unit=output_unit,
-            )
-        finally:
-            self._parts = (None, None)
-
-    def _part_fit(self, model):
-        if model is None:
-            return None
-        same = (
-            model.theta is not None
-            and model.n_poles == self.n_poles
-            and model.n_zeros == self.n_zeros
-            and model.n_breakpoints == self.n_breakpoints
-            and model.delay == self.delay
-            and model.skip == self.skip
-            and np.array_equal(model.u_scale, self.u_scale)
-            and model.y_mean == self.y_mean
-            and model.y_std == self.y_std
+        return self._fit(
+            u=u,
+            y=y,
+            ts=ts,
+            inputs=inputs,
+            output=output,
+            input_unit=input_unit,
+            output_unit=output_unit,
+            start_models={"linear": linear, "wiener": wiener, "hammerstein": hammerstein},
+            scaling=scaling,
         )
-        if not same:
-            raise InputError(
-                f"the {model.kind} model to start from must be fitted on the same data with the same orders"
-            )
-        if getattr(model, "_oe_fit", None) is not None:  # a process-noise model: its OE fit
-            return model._oe_fit
-        return estimate.Fit(model.spec, model.theta, model.info["sse"] / self.y_std**2)
 
-    def _estimate(self, us, ys, opts):
-        wiener, hammerstein = (self._part_fit(m) for m in getattr(self, "_parts", (None, None)))
-        fits = estimate.wh_fits(
+    def _estimate(self, us, ys, opts, starts):
+        fits = output_error.wh_fits(
             us,
             ys,
             self.n_poles,
@@ -572,12 +664,11 @@ class WienerHammerstein(Model):
             self.n_breakpoints,
             self.delay,
             opts,
-            wiener=wiener,
-            hammerstein=hammerstein,
-            linear=self._start_fit(getattr(self, "_linear", None)),
+            wiener=starts.wiener,
+            hammerstein=starts.hammerstein,
+            linear=starts.linear,
         )
-        self.alternatives = fits[1:]
-        return fits[0]
+        return fits[0], fits[1:]
 
 
 NOISE_KINDS = ("wiener", "wh")
@@ -638,34 +729,12 @@ class ModelSet:
 
 
 def save_models(models, path) -> Path:
+    """Write ``models`` (fitted, one per output) as one versioned JSON model file.
+
+    Written to a temporary file beside ``path`` and renamed over it, so an interrupted save
+    leaves the old file (or none), never a partial one.
+    """
     path = Path(path)
     doc = {"format": FORMAT, "version": FORMAT_VERSION, "models": [m.to_dict() for m in models]}
     write_text(path, json.dumps(doc, indent=1, allow_nan=False))
     return path
-
-
-def load_model(path):
-    """Load a model file: the single-output model, or a :class:`ModelSet` for several."""
-    path = Path(path)
-    try:
-        doc = json.loads(path.read_text())
-    except FileNotFoundError as exc:
-        raise ModelError(f"model file {path} not found") from exc
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ModelError(f"{path} is not a model file: {exc}") from exc
-    if isinstance(doc, dict) and doc.get("format") == "porosense.ident.extended":
-        from porosense.ident.extended import FORMAT_VERSION as EXT_VERSION
-        from porosense.ident.extended import ExtendedModel
-
-        if doc.get("version") != EXT_VERSION:
-            raise ModelError(f"{path}: extended model version {doc.get('version')}, this build reads {EXT_VERSION}")
-        return ExtendedModel.from_dict(doc)
-    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-        raise ModelError(f"{path} is not a porosense model file")
-    if doc.get("version") != FORMAT_VERSION:
-        raise ModelError(f"{path}: model format version {doc.get('version')}, this build reads {FORMAT_VERSION}")
-    try:
-        models = [Model.from_dict(d) for d in doc["models"]]
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ModelError(f"{path}: malformed model file ({exc})") from exc
-    return models[0] if len(models) == 1 else ModelSet(models)

@@ -30,7 +30,7 @@ import numpy as np
 from scipy.signal import spectrogram, welch
 
 from porosense.ident import blocks
-from porosense.ident.chain import Chain, _filter
+from porosense.ident.chain import Chain, block_filter
 
 # Two periods count as a repeat when their inputs differ by less than this fraction of the
 # input's RMS. Repeats of a generator agree to its noise (the WH benchmark: 0.03 %); two
@@ -230,5 +230,5 @@ def _noisy_output(chain: Chain, x, v) -> np.ndarray:
     z = blocks.pwl_eval(chain.g[0], chain.g[1], x + v)
     if chain.h2 is not None:
         b, den, _ = chain.h2
-        z = _filter(b, den, z)
+        z = block_filter(b, den, z)
     return z

@@ -447,6 +447,8 @@ def identify_outputs(
                 ts=1.0 / rate_hz,
                 validation=(vu, vy),
                 poles=range(1, max_poles + 1),
+                criterion="paper",  # the paper's rule: the best mean fit over all recordings
+                staged=False,
                 grid=grid,
                 n_breakpoints=bps,
                 inputs=inputs,

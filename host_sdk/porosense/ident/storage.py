@@ -1,0 +1,54 @@
+"""Model files: read any porosense model file (a model, a model set or an extended model).
+
+Writing is each model's own (:meth:`porosense.ident.models.Model.save`,
+:meth:`porosense.ident.extended.ExtendedModel.save`); reading needs to know every kind of file,
+so it sits above both and neither imports the other's reader.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from porosense.errors import ModelError
+from porosense.ident import extended
+from porosense.ident.models import FORMAT, FORMAT_VERSION, Model, ModelSet, save_models
+
+__all__ = ["load_model", "save_models"]
+
+
+def load_model(path):
+    """Load a model file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A file written by ``save`` (porosense.ident.model or porosense.ident.extended format).
+
+    Returns
+    -------
+    Model, ModelSet or ExtendedModel
+        The single-output model, a :class:`ModelSet` for several outputs, or the extended model.
+    """
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text())
+    except FileNotFoundError as exc:
+        raise ModelError(f"model file {path} not found") from exc
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ModelError(f"{path} is not a model file: {exc}") from exc
+    if isinstance(doc, dict) and doc.get("format") == extended.FORMAT:
+        if doc.get("version") != extended.FORMAT_VERSION:
+            raise ModelError(
+                f"{path}: extended model version {doc.get('version')}, this build reads {extended.FORMAT_VERSION}"
+            )
+        return extended.ExtendedModel.from_dict(doc)
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        raise ModelError(f"{path} is not a porosense model file")
+    if doc.get("version") != FORMAT_VERSION:
+        raise ModelError(f"{path}: model format version {doc.get('version')}, this build reads {FORMAT_VERSION}")
+    try:
+        models = [Model.from_dict(d) for d in doc["models"]]
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ModelError(f"{path}: malformed model file ({exc})") from exc
+    return models[0] if len(models) == 1 else ModelSet(models)

@@ -7,9 +7,9 @@ so it sits above both and neither imports the other's reader.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
+from porosense.data.model_file import read_model_document
 from porosense.errors import ModelError
 from porosense.ident import extended
 from porosense.ident.models import FORMAT, FORMAT_VERSION, Model, ModelSet, save_models
@@ -31,12 +31,9 @@ def load_model(path):
         The single-output model, a :class:`ModelSet` for several outputs, or the extended model.
     """
     path = Path(path)
-    try:
-        doc = json.loads(path.read_text())
-    except FileNotFoundError as exc:
-        raise ModelError(f"model file {path} not found") from exc
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ModelError(f"{path} is not a model file: {exc}") from exc
+    # Size, nesting depth, NaN/Infinity and field types are checked before anything is built,
+    # so a damaged or hostile file ends in one ModelError on every path that loads a model.
+    doc = read_model_document(path)
     if isinstance(doc, dict) and doc.get("format") == extended.FORMAT:
         if doc.get("version") != extended.FORMAT_VERSION:
             raise ModelError(

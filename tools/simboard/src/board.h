@@ -15,6 +15,11 @@ typedef struct plant_inputs_t {
 
 /* Monotonic board time in cycles: survives AVR resets, which may zero avr->cycle. */
 uint64_t board_cycles(void);
+/* The AVR whose cycle counter the clock reads. */
+void board_clock_attach(const avr_t* avr);
+/* Cycles added to the AVR's counter: the harness raises it when a reset zeroes the counter
+ * and when it skips idle time. */
+extern uint64_t board_cycle_base;
 
 static inline uint64_t board_us_to_cycles(double us) { return (uint64_t)(us * (BOARD_FREQUENCY_HZ / 1e6) + 0.5); }
 

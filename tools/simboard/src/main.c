@@ -49,8 +49,8 @@ typedef struct options_t {
 } options_t;
 
 static avr_t* avr;
-static uint64_t cycle_base, last_cycle;
-static plant_inputs_t inputs;
+static uint64_t last_cycle;
+static plant_inputs_t plant_in;
 static ads1115_t ads;
 static bno055_t bno;
 static twi_bus_t bus;
@@ -61,8 +61,6 @@ static int reset_after_ee; /* >0: reset once this many more EEPROM writes starte
 static int reset_pending;
 static uint8_t pending_events;
 static int cosim_fd = -1; /* the plant link; stdout itself goes to stderr */
-
-uint64_t board_cycles(void) { return cycle_base + avr->cycle; }
 
 static double wall_s(void) {
   struct timespec ts;
@@ -227,7 +225,7 @@ static void avr_board_reset(int power_cycle) {
   uint64_t now = board_cycles();
   avr_reset(avr);
   set_reset_flag(power_cycle);
-  if (avr->cycle < last_cycle) cycle_base = now - avr->cycle;
+  if (avr->cycle < last_cycle) board_cycle_base = now - avr->cycle;
   last_cycle = avr->cycle;
   avr_eeprom_desc_t d = {.ee = ee, .offset = 0, .size = EEPROM_SIZE};
   avr_ioctl(avr, AVR_IOCTL_EEPROM_SET, &d);
@@ -298,8 +296,8 @@ static int cosim_tick(uint32_t seq, int halted) {
   reply_record_t r;
   if (write_full(cosim_fd, &t, sizeof t) < 0 || read_full(0, &r, sizeof r) < 0)
     return 1; /* the plant process went away */
-  memcpy(inputs.ain_V, r.ain_V, sizeof inputs.ain_V);
-  memcpy(inputs.euler_deg, r.euler_deg, sizeof inputs.euler_deg);
+  memcpy(plant_in.ain_V, r.ain_V, sizeof plant_in.ain_V);
+  memcpy(plant_in.euler_deg, r.euler_deg, sizeof plant_in.euler_deg);
   switch (r.cmd) {
     case CMD_RESET:
       reset_pending = 1;
@@ -476,6 +474,7 @@ int main(int argc, char** argv) {
     fprintf(stderr, "simboard: libsimavr has no atmega328p core\n");
     return 2;
   }
+  board_clock_attach(avr);
   avr_init(avr);
   if (opt.elf) avr_load_firmware(avr, &fw);
   if (opt.bootloader && load_bootloader(opt.bootloader) < 0) {
@@ -494,9 +493,9 @@ int main(int argc, char** argv) {
   }
   avr_register_io_write(avr, R_EECR, on_eecr_write, NULL);
 
-  inputs = opt.inputs;
-  ads1115_init(&ads, &inputs);
-  bno055_init(&bno, &inputs, opt.bno_boot_ms);
+  plant_in = opt.inputs;
+  ads1115_init(&ads, &plant_in);
+  bno055_init(&bno, &plant_in, opt.bno_boot_ms);
   if (twi_bus_attach(&bus, avr) < 0) {
     fprintf(stderr, "simboard: no TWI in this simavr core\n");
     return 2;
@@ -535,7 +534,7 @@ int main(int argc, char** argv) {
       if (avr->cycle < last_cycle || (avr->pc == avr->reset_pc && st == cpu_Running && last_cycle)) {
         /* reset from inside (watchdog, jump to 0): simavr may have zeroed the
          * cycle counter and dropped its timers and UART flags */
-        if (avr->cycle < last_cycle) cycle_base += last_cycle;
+        if (avr->cycle < last_cycle) board_cycle_base += last_cycle;
         uart_bridge_configure(&uart);
         quiet_level_interrupts();
         arm_tick_timer(next_tick);
@@ -552,7 +551,7 @@ int main(int argc, char** argv) {
     uint64_t now = board_cycles();
     if (halted && now < next_tick) {
       /* a halted AVR still lives in time: the plant and the host go on */
-      cycle_base += next_tick - now;
+      board_cycle_base += next_tick - now;
       now = next_tick;
     }
     if (now >= next_tick) {

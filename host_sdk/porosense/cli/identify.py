@@ -357,55 +357,40 @@ class CostReporter:
     search will take longer than COST_WARNING_S, with the options that shorten it."""
 
     def __init__(self, args, outputs):
+        from porosense.ident.search import ProgressBar  # numpy and scipy: not at --help time
+
         self.args, self.outputs = args, list(outputs)
         self.quiet = bool(args.quiet or args.json)
         self.warned = False
-        self.bar = None
-        self.stage = None
+        self.bar = ProgressBar()
 
     def __call__(self, p) -> None:
         if p.eta_seconds is not None and not self.warned:
             self.warned = True
             if p.eta_seconds > COST_WARNING_S:
                 warn("porosense identify", self._warning(p))
-        if self.quiet:
-            return
-        from tqdm.auto import tqdm
-
-        if p.stage != self.stage:
-            self.close()
-            self.stage = p.stage
-            self.bar = tqdm(total=p.total, desc=p.stage, unit="task", leave=False)
-        self.bar.n = p.done
-        if p.eta_seconds is not None:
-            self.bar.set_postfix_str(f"about {_duration(p.eta_seconds)} left", refresh=False)
-        self.bar.refresh()
-        if p.done == p.total:
-            self.close()
+        if not self.quiet:
+            self.bar(p)
 
     def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
-        self.bar, self.stage = None, None
+        self.bar.close()
 
     def _warning(self, p) -> str:
         import numpy as np
+
+        from porosense.ident.search import duration_text
 
         args = self.args
         factor = max(2, int(np.ceil(p.eta_seconds / max(COST_WARNING_S, 1.0))))
         rate = 1.0 / (args.ts * args.decimate)
         more = f" for each of {len(self.outputs)} outputs" if len(self.outputs) > 1 else ""
         return (
-            f"this search will take about {_duration(p.eta_seconds)}{more} on {p.workers} worker(s) "
+            f"this search will take about {duration_text(p.eta_seconds)}{more} on {p.workers} worker(s) "
             f"(estimated from the first candidates); to shorten it: --decimate {factor * args.decimate} "
             f"(anti-alias filtered, {factor}x fewer samples; the model then runs at {rate / factor:g} Hz), "
             f"--max-poles {min(args.max_poles, 5)} (fewer orders), --structure wh (one structure), "
             "or --scheduler tcp://HOST:8786 (a Dask cluster)"
         )
-
-
-def _duration(seconds: float) -> str:
-    return f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
 
 
 def _process_noise_line(model) -> str | None:

@@ -99,7 +99,7 @@ def search(
     data = _prepare(u, y, ts, validation, opts, inputs, output, input_unit, output_unit)
     t0, c0 = time.perf_counter(), time.process_time()
     cluster = Cluster.resolve(executor, tasks=len({(p, z) for _, p, z in grid}))
-    bar = _ProgressBar() if progress is True else None
+    bar = ProgressBar() if progress is True else None
     runner = Runner(cluster, bar if bar is not None else (progress or None))
     interrupted = True
     try:
@@ -448,7 +448,7 @@ def _with_process_noise(result: SearchResult, data: SearchData, opts: SearchOpti
 # -------------------------------------------------------------------------------- progress
 
 
-class _ProgressBar:
+class ProgressBar:
     """A tqdm bar over the tasks of the current stage, with the estimated time left."""
 
     def __init__(self):
@@ -464,14 +464,18 @@ class _ProgressBar:
             self.bar = tqdm(total=p.total, desc=p.stage, unit="task", leave=False)
         self.bar.n = p.done
         if p.eta_seconds is not None:
-            self.bar.set_postfix_str(f"about {_minutes(p.eta_seconds)} left", refresh=False)
+            self.bar.set_postfix_str(f"about {duration_text(p.eta_seconds)} left", refresh=False)
         self.bar.refresh()
+        if p.done == p.total:
+            self.close()
 
     def close(self) -> None:
+        """Close the current stage's bar."""
         if self.bar is not None:
             self.bar.close()
-            self.bar = None
+        self.bar, self.stage = None, None
 
 
-def _minutes(seconds: float) -> str:
+def duration_text(seconds: float) -> str:
+    """``seconds`` (s) as a short text: seconds below 90 s, minutes above."""
     return f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"

@@ -167,7 +167,7 @@ def test_default_search_with_process_noise_selects_a_wh_twice_better_than_linear
     at 65.7 mV).
 
     The whole default grid (10 breakpoints, 2 starts, 200 evaluations;
-    ``tools/explore/wh_default_search.py 0-4 --process-noise --wh``, or ``5-9``): 0-4: BLA
+    ``porosense bench ident --only whsearch --structures wh``, or ``--realisations 5-9``): 0-4: BLA
     order 6p5z, WH with process noise 16.60 mV, ratio 2.25, 399 s; 5-9: BLA order 4p3z, the
     deconvolution undetermined, the output-error WH 35.39 mV, 472 s. With all four structures
     the rule selects linear on 0-4: the WH validates below it (within one standard error, and a
@@ -175,7 +175,7 @@ def test_default_search_with_process_noise_selects_a_wh_twice_better_than_linear
 
     How fragile the gain is: it needs a 6-pole order and the circuit's 3 | 3 split, which these
     records barely determine (on 5-9 the BLA split at 6p3z goes 2 | 4 and tests at 27.9 mV, at
-    6p5z 1 | 5; ``tools/explore/wh_process_noise_builds.py 5-9 6,5 --starts 2``), and the BLA does not
+    6p5z 1 | 5; ``porosense bench ident --only builds --realisations 5-9 --order 6,5 --starts 2``), and the BLA does not
     separate 4 or 5 from 6 poles beyond doubt (9 realisations select 5p4z).
     """
     folder = shared_data / "wh_process_noise"

@@ -548,7 +548,7 @@ def test_a_deconvolution_the_records_do_not_determine_keeps_the_output_error_fit
     tests at 1.00 x OE instead of 1.58; it keeps all five gains, and it misses seeds 3 and 7
     (their tied builds are two refinements of one route and agree). On the measured WH
     benchmark it keeps realisations 0-4 (test 16.6 mV at 6p5z) and discards 5-9 (65.7 mV, worse
-    than linear 39.1 mV: its OE fit, 35.4 mV, stays; tools/explore/wh_process_noise_builds.py 5-9 6,5 --starts 2).
+    than linear 39.1 mV: its OE fit, 35.4 mV, stays; porosense bench ident --only builds --realisations 5-9 --order 6,5 --starts 2).
     The suite runs seeds 0-5 (cost); ``DECONVOLUTION_SEEDS=8`` runs all eight. Bounds: no gain
     discarded, the check fires at least once, and never on a model it improves.
     """

@@ -16,6 +16,10 @@ Parts (all by default):
             process noise (default search on 8 realisations, 2 validate, test on the multisine;
             SysIdentPy's NARX on the same records), the noise level from repeated periods, the
             suite's process-noise search at its full size, and Bouc-Wen.
+  builds    the measured WH benchmark's process-noise builds at one order, side by side
+            (:mod:`porosense.bench.wh_noise`; only when asked for).
+  whsearch  the default search with process noise on a range of its realisations
+            (:mod:`porosense.bench.wh_noise`; only when asked for).
   wh2009    the 2009 Wiener-Hammerstein benchmark from the user's copy (``--wh2009 PATH``,
             :mod:`porosense.bench.wh2009`), beside the published table.
 ``size="small"`` runs reduced versions of oe, grid and scaling (poles <= 2 on 5 x 20 s, 2,000
@@ -479,18 +483,23 @@ def process_noise_search(folder, first: int = 0, poles=(6,), max_nfev: int = 100
     }
 
 
-PARTS = ("oe", "grid", "scaling", "cluster", "3dof", "measured", "wh2009")
+PARTS = ("oe", "grid", "scaling", "cluster", "3dof", "measured", "builds", "whsearch", "wh2009")
+# Parts run only when named: research figures on the measured WH benchmark (porosense.bench.wh_noise).
+ASKED_PARTS = ("builds", "whsearch")
 # The small size leaves the cluster out: tests/ident/test_cluster.py checks the same model on a
 # LocalCluster at a smaller cost than two cluster start-ups and three searches.
 SMALL_PARTS = ("oe", "grid", "scaling")
 
 
-def run(size: str = "full", only=None, wh2009=None) -> dict:
-    """The benchmark parts (``only``: a subset of PARTS; default all that ``size`` runs, and
-    wh2009 when its file is given); figures in s, %, MB and the data's units."""
+def run(size: str = "full", only=None, wh2009=None, wh_noise=None) -> dict:
+    """The benchmark parts (``only``: a subset of PARTS; default all that ``size`` runs but
+    ASKED_PARTS, and wh2009 when its file is given); ``wh_noise``: the
+    :class:`porosense.bench.wh_noise.Options` of builds and whsearch; figures in s, %, MB, mV
+    and the data's units."""
     from porosense.errors import InputError
 
-    parts = tuple(only) if only else (PARTS if size == "full" else SMALL_PARTS)
+    default = tuple(p for p in PARTS if p not in ASKED_PARTS) if size == "full" else SMALL_PARTS
+    parts = tuple(only) if only else default
     unknown = sorted(set(parts) - set(PARTS))
     if unknown:
         raise InputError(f"unknown bench ident part(s) {', '.join(unknown)}; choose from {', '.join(PARTS)}")
@@ -554,6 +563,8 @@ def run(size: str = "full", only=None, wh2009=None) -> dict:
     if "measured" in parts:
         out.update(real_data_benchmark())
         s += _measured_lines(out)
+    if "builds" in parts or "whsearch" in parts:
+        s += _wh_noise_parts(parts, out, wh_noise)
     if "wh2009" in parts:
         from porosense.bench import wh2009 as wh09
 
@@ -561,6 +572,25 @@ def run(size: str = "full", only=None, wh2009=None) -> dict:
         s += wh09.summary(out["wh2009"])
     out["summary"] = s
     return out
+
+
+def _wh_noise_parts(parts, out: dict, options) -> list[str]:
+    """Run builds and/or whsearch into ``out``; their summary lines."""
+    from porosense.bench import wh_noise
+
+    folder = shared_data_folder()
+    if folder is None or not (folder / "wh_process_noise").is_dir():
+        out["wh_noise"] = "benchmark data folder not found"
+        return [out["wh_noise"]]
+    options = options or wh_noise.Options()
+    s = []
+    if "builds" in parts:
+        out["wh_builds"] = wh_noise.builds(folder, options)
+        s += wh_noise.builds_lines(out["wh_builds"])
+    if "whsearch" in parts:
+        out["wh_search"] = wh_noise.whsearch(folder, options)
+        s += wh_noise.whsearch_lines(out["wh_search"])
+    return s
 
 
 def _measured_lines(out: dict) -> list[str]:

@@ -22,7 +22,7 @@ A diagnostic, reported with every process-noise fit from repeated periods. It te
 model as much as the blocks: a coloured process noise refutes every split, and a split that
 routes the noise through the whole dynamics can pass. So the selection does not use it: on the
 measured WH benchmark the build with the best noise-free test error is refuted while a poor one
-passes (tools/explore/wh_process_noise_builds.py).
+passes (``porosense bench ident --only builds``).
 """
 
 from __future__ import annotations

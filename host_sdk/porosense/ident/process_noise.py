@@ -321,7 +321,7 @@ def within_noise(fits: list[Fit], n: int) -> list[Fit]:
     (metrics.relative_standard_error; twice it for a squared error). Noise-aware builds differ
     in how they split the dynamics between H1 and H2; on the measured benchmark their expected
     outputs agree to 0.2-0.7 % against a standard error of 0.5-0.7 %
-    (tools/explore/wh_process_noise_builds.py)."""
+    (``porosense bench ident --only builds``)."""
     finite = [f for f in fits if np.isfinite(f.sse)]
     if not finite:
         return fits[:1]

@@ -177,11 +177,16 @@ def builds(folder, opts: Options) -> dict:
     return out
 
 
+def _span(which: list) -> str:
+    """``A-B`` for a range of realisations, ``A`` for one."""
+    return f"{which[0]}-{which[-1]}" if len(which) > 1 else f"{which[0]}"
+
+
 def builds_lines(r: dict) -> list[str]:
     """The builds part's figures, one line each."""
     which = r["realisations"]
     s = [
-        f"WH process-noise builds, realisations {which[0]}-{which[-1]}, {r['order'][0]}p{r['order'][1]}z, "
+        f"WH process-noise builds, realisations {_span(which)}, {r['order'][0]}p{r['order'][1]}z, "
         f"{r['starts']} start(s), {r['evaluations']} evaluations; tie: within {r['tie_pct']:.2f} % of the lowest "
         f"error; {r['cpu_s']:.0f} s CPU, {r['wall_s']:.0f} s wall"
     ]
@@ -278,7 +283,7 @@ def whsearch_lines(r: dict) -> list[str]:
     which = r["realisations"]
     s = [r["table"]]
     s.append(
-        f"WH process-noise default search on realisations {which[0]}-{which[-1]} (validation on "
+        f"WH process-noise default search on realisations {_span(which)} (validation on "
         f"{r['validation']}), {', '.join(r['structures'])}, poles {r['poles'] if isinstance(r['poles'], str) else ', '.join(map(str, r['poles']))}, {r['starts']} start(s), {r['evaluations']} "
         f"evaluations: {r['cpu_s']:.0f} s CPU, {r['wall_s']:.0f} s wall"
     )

@@ -59,7 +59,27 @@ DISTURBANCES = ("drift", "periodic_disturbance")
 
 @dataclass
 class Record:
-    """One record: inputs u (N, n_in), output y (N,), prediction yhat (N,), extra columns."""
+    """One record to diagnose: what was measured and what the thing diagnosed predicted.
+
+    Attributes
+    ----------
+    u : ndarray, shape (N, n_inputs)
+        Inputs, in the model's input units (dR in % or dR/100).
+    y : ndarray, shape (N,)
+        Measured output, output units.
+    yhat : ndarray, shape (N,)
+        The prediction diagnosed (simulated from rest or at the rest level), output units.
+    ts : float
+        Sample period, s.
+    conditions : dict of str to ndarray
+        Extra columns of N samples (e.g. ``load_g`` in g, ``p_0`` in kPa) that the load and
+        condition causes test.
+
+    Raises
+    ------
+    InputError
+        Columns of different lengths, or fewer than 50 samples.
+    """
 
     u: np.ndarray
     y: np.ndarray
@@ -88,12 +108,24 @@ class Record:
 
 
 def predict_at_rest_level(model, u: np.ndarray) -> np.ndarray:
-    """``model``'s prediction for inputs ``u`` (N, n_in) started settled at the record's rest level.
+    """``model``'s prediction for inputs ``u`` started settled at the record's rest level.
 
     Models simulate from rest (zero state). Each input is first held at its rest level
     (:func:`.signals.rest_level`: the first value of a record that starts on a hold, the mean of
-    one that starts moving) for 10 time constants of the model's slowest pole, which are
-    simulated and dropped.
+    one that starts moving) for 10 time constants of the model's slowest pole (at least 50
+    samples), which are simulated and dropped.
+
+    Parameters
+    ----------
+    model : Model
+        An identified model (``predict(u=...)``), one output.
+    u : ndarray, shape (N, n_inputs) or (N,)
+        Inputs, in the model's input units.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        The prediction, output units.
     """
     from porosense.ident.extended import settle_samples
 
@@ -115,11 +147,48 @@ BASELINES = {
 class Finding:
     """One cause: its test, evidence, the gain of its extension on validation and against what.
 
-    fit_before / fit_after: NRMSE fit (%) of the baseline and of the extension on the validation
-    samples scored; gain = fit_after - fit_before (points); gain_t, gain_p: batch-means t and
-    one-sided p of the held-out improvement; n_params: the extension's parameters beyond its
-    baseline (what the ranking's simplicity rule counts); found: test significant, evidence that
-    agrees with the name and gain confirmed; rejected: why not, when the test was significant.
+    Attributes
+    ----------
+    cause : str
+        Cause name (porosense.diagnose.CAUSES, or ``"none"``).
+    confidence : float
+        (1 - p of its test) (1 - p of its held-out gain) when found, else 0; for ``none``, 1 minus
+        the best found cause's.
+    statistic : str
+        The test and its value, in words.
+    evidence : str
+        What the test, the evidence and the held-out gain showed, in sentences.
+    extension : str
+        The extension fitted for the cause.
+    fit_before, fit_after : float
+        NRMSE fit of the baseline and of the extension on the validation samples scored, %.
+    gain : float
+        fit_after - fit_before, points.
+    baseline : str
+        What the gain is measured against (a key of ``BASELINES``: ``"nominal"``, ``"generic"``,
+        ``"adequate"``).
+    gain_t, gain_p : float
+        Batch-means t and one-sided p of the held-out improvement.
+    confirmed : bool
+        Whether the held-out improvement is positive at one-sided 5 %.
+    n_params : int
+        The extension's parameters beyond its baseline (what the ranking's simplicity rule counts).
+    found : bool
+        Test significant, evidence that agrees with the name and gain confirmed.
+    rejected : str
+        Why not found, when the test was significant.
+    rms_before, rms_after : float
+        RMS error of the baseline and the extension, % of max |y|.
+    strength : float
+        -log10 p of the cause's test.
+    significant : bool
+        Whether the test passed at alpha / K (and its gate).
+    effect_to_noise : float
+        SD of the cause's fitted terms over the SD of what remains of the residual.
+    predictor_gain : float or None
+        For a disturbance (drift, periodic_disturbance): the one-step predictor's gain, points.
+    on_device : str
+        Whether the firmware's estimator can express the extension.
     """
 
     cause: str
@@ -168,7 +237,13 @@ class Finding:
     )
 
     def to_dict(self) -> dict:
-        """The JSON form: exactly the keys of the diagnosis report (``KEYS``)."""
+        """The JSON form: exactly the keys of the diagnosis report (``KEYS``).
+
+        Returns
+        -------
+        dict
+            Floats rounded to 4 decimals; a t or p that is not finite as None.
+        """
         d = asdict(self)
         out = {k: (round(d[k], 4) if isinstance(d[k], float) and np.isfinite(d[k]) else d[k]) for k in self.KEYS}
         for k in ("gain_t", "gain_p"):
@@ -199,7 +274,33 @@ class ModelFit:
 
 @dataclass
 class Diagnosis:
-    """Ranked findings (most likely first), the fits before/after, the dynamics verdict."""
+    """Ranked findings (most likely first), the fits before and after, the dynamics verdict.
+
+    Attributes
+    ----------
+    top : str
+        The most likely cause (``"none"`` when no cause is found).
+    findings : list of Finding
+        Every cause, found ones first by held-out gain, then ``none``, then the rest by gain.
+    residual_tests : dict
+        Correlation tests of the nominal model's estimation residual (autocorrelation, input
+        cross-correlation, Billings-Voon) at the per-cause alpha.
+    curves : dict
+        Series for the figures (residuals, predictions, spectrum), sampled at ``curves["ts"]`` s.
+    ties : list of dict
+        Overlapping gains: ``{"causes": [winner, other], "evidence": ...}``.
+    extended : Model or None
+        The top cause's extended model, when refitted.
+    nominal : ModelFit or None
+        Fit (%) and RMS (% of max |y|) of the nominal model on the validation records.
+    corrected : ModelFit or None
+        The same for the corrected model (nominal + adequate-order linear correction + G0).
+    dynamics : dict
+        The dynamics verdict: significant, found, correction_order (poles), gain_against_nominal
+        (points), gain_t, data_order (poles) and a sentence.
+    why_top : str
+        Why the top cause was preferred over the runner-up, in one sentence.
+    """
 
     top: str
     findings: list
@@ -213,6 +314,14 @@ class Diagnosis:
     why_top: str = ""
 
     def to_dict(self) -> dict:
+        """The diagnosis report as a plain dict.
+
+        Returns
+        -------
+        dict
+            ``top``, ``nominal``, ``corrected``, ``dynamics``, ``why_top``, the ranking rule, the
+            baselines, every finding (:meth:`Finding.to_dict`) and the ties.
+        """
         return {
             "top": self.top,
             "nominal": self.nominal.to_dict() if self.nominal else None,
@@ -226,9 +335,28 @@ class Diagnosis:
         }
 
     def to_json(self, path) -> None:
+        """Write :meth:`to_dict` as JSON (whole or not at all).
+
+        Parameters
+        ----------
+        path : str or Path
+            The JSON file.
+        """
         write_text(path, json.dumps(self.to_dict(), indent=2) + "\n")
 
     def finding(self, cause: str) -> Finding:
+        """The finding of one cause.
+
+        Parameters
+        ----------
+        cause : str
+            Cause name.
+
+        Returns
+        -------
+        Finding
+            Its test, evidence and held-out gain.
+        """
         return next(f for f in self.findings if f.cause == cause)
 
     def __str__(self) -> str:
@@ -245,7 +373,18 @@ class Diagnosis:
         return "\n".join(lines)
 
     def plot(self, directory) -> list:
-        """Write the figures into ``directory``; returns their paths (see :mod:`.report`)."""
+        """Write the figures into a folder (see :mod:`porosense.diagnose.report`).
+
+        Parameters
+        ----------
+        directory : str or Path
+            Where to write them.
+
+        Returns
+        -------
+        list of Path
+            The figures written.
+        """
         from porosense.diagnose import report
 
         return report.write_figures(self, directory)

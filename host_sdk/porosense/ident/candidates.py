@@ -19,7 +19,39 @@ from porosense.ident.options import CRITERIA, STRUCTURES
 
 @dataclass
 class Candidate:
-    """One estimated model of the grid and its scores (fits and RMS in %, per recording)."""
+    """One estimated model of the order grid and its scores.
+
+    Fits are NRMSE fits in %, RMS errors in % of max |y|, one per recording.
+
+    Attributes
+    ----------
+    structure : str
+        ``"linear"``, ``"hammerstein"``, ``"wiener"`` or ``"wh"``.
+    n_poles, n_zeros : int
+        Its order.
+    fit_estimation, fit_validation : list of float
+        Fit per estimation and per validation recording, %.
+    rms_estimation, rms_validation : list of float
+        RMS error per recording, % of max |y|.
+    aic, bic : float
+        Information criteria on the estimation data.
+    n_params : int
+        Estimated parameters.
+    seconds : float
+        Wall time of its estimation, s.
+    feasible : bool
+        Whether it meets the device constraint (size, limits).
+    model : Model or None
+        The fitted model.
+    cpu_seconds : float
+        CPU time of its estimation, s.
+    n_validation : int
+        Validation samples scored.
+    refuted : bool
+        Its order's linear model is refuted by the nonparametric best linear approximation.
+    screened : bool
+        Fitted on the screening subset only, not refined on all the data.
+    """
 
     structure: str
     n_poles: int
@@ -51,9 +83,25 @@ class Candidate:
         return float(np.mean(vals)) if vals else float("-inf")
 
     def score(self, criterion: str) -> float:
-        """Selection score, higher is better: the mean fit (``paper``: over estimation and
-        validation; ``fit``: over validation, or estimation without validation data), or minus
-        AIC / BIC (on the estimation data)."""
+        """Selection score, higher is better.
+
+        Parameters
+        ----------
+        criterion : str
+            ``"paper"``: mean fit over estimation and validation; ``"fit"``: over validation (or
+            estimation without validation data); ``"aic"``, ``"bic"``: minus the criterion on the
+            estimation data.
+
+        Returns
+        -------
+        float
+            Fit %, or minus AIC / BIC (-inf when not finite).
+
+        Raises
+        ------
+        InputError
+            An unknown criterion.
+        """
         if criterion == "paper":
             return self.mean_fit
         if criterion == "fit":
@@ -75,6 +123,13 @@ class Candidate:
         return float(np.mean(vals)) if vals else float("nan")
 
     def to_dict(self) -> dict:
+        """The candidate's figures as a plain dict (without the model).
+
+        Returns
+        -------
+        dict
+            Structure, orders, fits and RMS (%), AIC, BIC, parameters, times (s), flags and build.
+        """
         return {
             "structure": self.structure,
             "n_poles": self.n_poles,
@@ -101,12 +156,26 @@ class Candidate:
 class SearchResult:
     """All candidates of a search and the selection.
 
-    ``criterion``: ``paper`` (mean fit over estimation + validation recordings, the paper's
-    rule), ``fit`` (mean fit on the validation recordings only), ``aic`` or ``bic``. With a fit
-    criterion, candidates whose score is within the noise of the best (one standard error of
-    the fit, (100 - fit) / sqrt(2 N) points for N scored samples, at least ``tie_tol``) are tied
-    and the one with the fewest parameters is taken. With validation data, a nonlinear model
-    that validates worse than the best linear model is never selected over it.
+    With a fit criterion, candidates whose score is within the noise of the best (one standard
+    error of the fit, (100 - fit) / sqrt(2 N) points for N scored samples, at least ``tie_tol``)
+    are tied and the one with the fewest parameters is taken. With validation data, a nonlinear
+    model that validates worse than the best linear model is never selected over it.
+
+    Attributes
+    ----------
+    candidates : list of Candidate
+        Every model estimated.
+    seconds : float
+        Wall time of the search, s.
+    tie_tol : float
+        Smallest tie tolerance, fit points.
+    criterion : str
+        ``"paper"`` (mean fit over estimation and validation recordings, the paper's rule),
+        ``"fit"`` (mean fit on the validation recordings), ``"aic"`` or ``"bic"``.
+    holdout : str
+        How the validation data were made, in words.
+    cpu_seconds : float
+        CPU time of every process that worked on the search, s.
     """
 
     candidates: list
@@ -121,12 +190,29 @@ class SearchResult:
         return [c for c in self.candidates if c.feasible]
 
     def tolerance(self, top: Candidate) -> float:
-        """Fit points within which candidates are tied (one standard error of ``top``'s fit)."""
+        """Fit points within which candidates are tied with ``top`` (:func:`tie_tolerance`).
+
+        Parameters
+        ----------
+        top : Candidate
+            The best-scoring candidate.
+
+        Returns
+        -------
+        float
+            Fit points.
+        """
         return tie_tolerance(top, self.criterion, self.tie_tol)
 
     def eligible(self) -> list:
-        """The candidates the selection may take: feasible, at orders the BLA does not refute,
-        refined on all the data (each condition dropped when no candidate meets it)."""
+        """The candidates the selection may take: feasible, at orders the BLA does not refute, refined
+        on all the data (each condition dropped when no candidate meets it).
+
+        Returns
+        -------
+        list of Candidate
+            In search order.
+        """
         pool = self.feasible or self.candidates
         pool = [c for c in pool if not c.refuted] or pool
         return [c for c in pool if not c.screened] or pool
@@ -185,8 +271,18 @@ class SearchResult:
         return self.best.model
 
     def best_per_structure(self, criterion: str = "paper") -> dict:
-        """The best candidate of each structure by ``criterion`` (default the paper's mean fit),
-        among the candidates the selection may take (:meth:`eligible`)."""
+        """The best candidate of each structure among those the selection may take.
+
+        Parameters
+        ----------
+        criterion : str
+            Selection criterion (default the paper's mean fit).
+
+        Returns
+        -------
+        dict of str to Candidate
+            Structure name to its best candidate.
+        """
         out = {}
         for c in self.eligible():
             if c.structure not in out or c.score(criterion) > out[c.structure].score(criterion):
@@ -194,11 +290,25 @@ class SearchResult:
         return out
 
     def table(self) -> list[dict]:
-        """One plain dict per candidate, best first (no pandas needed)."""
+        """One plain dict per candidate, best mean fit first (no pandas needed).
+
+        Returns
+        -------
+        list of dict
+            :meth:`Candidate.to_dict` rows.
+        """
         rows = [c.to_dict() for c in self.candidates]
         return sorted(rows, key=lambda r: -r["mean_fit"] if np.isfinite(r["mean_fit"]) else np.inf)
 
     def to_dict(self) -> dict:
+        """The search as a plain dict.
+
+        Returns
+        -------
+        dict
+            The selected candidate, time (s), criterion, rule, hold-out, the best per structure and
+            every candidate.
+        """
         best = self.best
         return {
             "best": best.to_dict(),
@@ -236,7 +346,18 @@ class SearchResult:
         return "\n".join(lines)
 
     def plot(self, ax=None):
-        """Mean fit versus number of poles, one line per structure (best over zeros)."""
+        """Mean fit versus number of poles, one line per structure (best over zeros).
+
+        Parameters
+        ----------
+        ax : matplotlib Axes or None
+            Where to draw (None: a new figure).
+
+        Returns
+        -------
+        matplotlib Axes
+            Fit (%) against poles.
+        """
         import matplotlib.pyplot as plt
 
         if ax is None:
@@ -257,8 +378,23 @@ class SearchResult:
 
 
 def tie_tolerance(top: Candidate, criterion: str, tie_tol: float = 0.01) -> float:
-    """Score points within which candidates are tied with ``top``: one standard error of its
-    fit, (100 - fit) / sqrt(2 N) for N scored samples (at least ``tie_tol``); 0 for AIC/BIC."""
+    """Score points within which candidates are tied with ``top``.
+
+    Parameters
+    ----------
+    top : Candidate
+        The best-scoring candidate.
+    criterion : str
+        The selection criterion (``"paper"``, ``"fit"``, ``"aic"``, ``"bic"``).
+    tie_tol : float
+        Smallest tolerance, fit points.
+
+    Returns
+    -------
+    float
+        One standard error of ``top``'s fit, (100 - fit) / sqrt(2 N) points for N scored samples
+        (at least ``tie_tol``); ``tie_tol`` for the paper's rule; 0 for AIC and BIC.
+    """
     if criterion not in ("fit", "paper"):
         return 0.0
     n = top.n_validation if top.fit_validation else top.model.info.get("n_samples", 0) if top.model else 0
@@ -279,9 +415,19 @@ def feasible(model, constraint, size_fn, max_bytes) -> bool:
 
 
 def approx_blob_bytes(structure) -> int:
-    """Rough size (bytes) of a fixed-point model blob: 16-bit coefficients, 32-bit PWL points.
+    """Rough size of a fixed-point model blob: 16-bit coefficients, 32-bit PWL points.
 
     An estimate for the device constraint; the exact size comes from porosense.quant.
+
+    Parameters
+    ----------
+    structure : EstimatorStructure
+        The model.
+
+    Returns
+    -------
+    int
+        Estimated blob size, bytes.
     """
     size = 16
     for out in structure.outputs:

@@ -32,8 +32,23 @@ MIN_FILES_FOR_FILE_HOLDOUT = 3  # with this many records, the last one is held o
 class Identification:
     """Models identified for every output, with the searches that selected them.
 
-    ``holdout`` says how the validation data were made, ``notes`` what else was done to the data
-    (decimation), ``smoothness[j]`` the weight chosen for output j (None when none was tried)."""
+    Attributes
+    ----------
+    models : list of Model
+        One per output.
+    results : list of SearchResult
+        The search of each output.
+    smoothness : list of SmoothnessChoice or None
+        Per output, the smoothness weight chosen (None when none was tried).
+    outputs : tuple of str
+        Output names.
+    holdout : str
+        How the validation data were made.
+    notes : list of str
+        What else was done to the data (decimation).
+    ts : float
+        The models' sample period, s.
+    """
 
     models: list
     results: list[SearchResult]
@@ -49,10 +64,29 @@ class Identification:
         return self.models[0] if len(self.models) == 1 else ModelSet(self.models)
 
     def save(self, path):
-        """Write the model file (atomically: an interrupted save leaves no partial file)."""
+        """Write the model file (whole or not at all).
+
+        Parameters
+        ----------
+        path : str or Path
+            The model file.
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
         return self.model.save(path)
 
     def to_dict(self) -> dict:
+        """The identification as a plain dict.
+
+        Returns
+        -------
+        dict
+            ``holdout``, ``notes``, ``ts`` (s) and per output its search, smoothness choice and
+            process-noise level.
+        """
         out = []
         for name, res, choice, model in zip(self.outputs, self.results, self.smoothness, self.models):
             out.append(
@@ -194,6 +228,8 @@ def identify(
     executor, progress : as :func:`porosense.ident.search`; one local pool serves every output.
     log : callable, optional
         Receives one line per step (hold-out, smoothness); None: silent.
+    **overrides
+        SearchOptions fields replacing those of ``options`` (an unknown name is an InputError).
 
     Returns
     -------

@@ -18,7 +18,22 @@ def relative_standard_error(n_samples: int) -> float:
 
 
 def information_criteria(sse: float, n_samples: int, n_params: int) -> tuple[float, float]:
-    """(AIC, BIC) of a Gaussian least-squares fit: N ln(SSE/N) + 2p, N ln(SSE/N) + p ln N."""
+    """AIC and BIC of a Gaussian least-squares fit.
+
+    Parameters
+    ----------
+    sse : float
+        Sum of squared errors (any unit squared; only ratios between fits of one data set matter).
+    n_samples : int
+        Samples scored, N.
+    n_params : int
+        Estimated parameters, p.
+
+    Returns
+    -------
+    aic, bic : float
+        N ln(SSE/N) + 2p and N ln(SSE/N) + p ln N.
+    """
     n = max(int(n_samples), 1)
     base = n * np.log(max(sse, 1e-300) / n)
     return float(base + 2 * n_params), float(base + n_params * np.log(n))

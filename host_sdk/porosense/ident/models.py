@@ -101,7 +101,38 @@ class Starts:
 
 
 class Model:
-    """Common base: orders, fitting, prediction, conversion and storage."""
+    """Common base of the four structures: orders, fitting, prediction, conversion and storage.
+
+    One output over 1 to 3 inputs, discrete time at the data's sample period; fitted on
+    simulation error jointly over several recordings (each simulated from rest).
+
+    Parameters
+    ----------
+    n_poles, n_zeros : int
+        Order of the main linear block, >= 0 (the Wiener-Hammerstein's other block is first order).
+    n_breakpoints : int
+        Breakpoints of each piecewise-linear map, 2..64 (the firmware takes 16).
+    delay : int
+        Pure input delay, samples, >= 0.
+    starts : int
+        Starting points refined for a nonlinear structure (the best is kept).
+    max_nfev : int
+        Residual evaluations per refinement at most.
+    skip : int
+        Leading samples of every recording not scored (a transient the model cannot know).
+    smoothness : float
+        Weight of the second differences of the maps' values, >= 0, dimensionless (0: none).
+    monotone : bool
+        Keep every piecewise-linear map monotone.
+    process_noise : bool
+        Also estimate a Gaussian process noise at g's input (Wiener and WH models only).
+
+    Raises
+    ------
+    InputError
+        Negative orders or delay, breakpoints outside 2..64, negative smoothness, or process noise
+        for a structure without g.
+    """
 
     kind = "base"
 
@@ -345,13 +376,32 @@ class Model:
             raise ModelError(f"{type(self).__name__} is not fitted yet")
 
     def predict(self, *, u, expected: bool = False) -> np.ndarray:
-        """Simulate from rest; ``u`` (N, n_inputs) in the units of the data; returns (N,).
+        """Simulate from rest.
 
-        A model with process noise (``process_noise_std`` > 0) predicts the noise-free system
-        by default: g itself, the map the board runs after ``quantize``, and what a recording
-        without that noise shows. ``expected=True`` gives instead the output averaged over the
-        estimated noise, E[H2 g(H1 u + v)], which is what a recording carrying the same noise
-        matches best (the order search scores such models this way). Other models: the same.
+        A model with process noise (``process_noise_std`` > 0) predicts the noise-free system by
+        default: g itself, the map the board runs after ``quantize``, and what a recording without
+        that noise shows. ``expected=True`` gives instead the output averaged over the estimated
+        noise, E[H2 g(H1 u + v)], which is what a recording carrying the same noise matches best
+        (the order search scores such models this way). Other models: the same.
+
+        Parameters
+        ----------
+        u : array_like, shape (N, n_inputs) or (N,)
+            Inputs, in the units of the data the model was fitted on.
+        expected : bool
+            Average over the process noise (see above).
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            Output, output units.
+
+        Raises
+        ------
+        ModelError
+            A model not fitted yet.
+        InputError
+            Another number of input columns.
         """
         self._require_fitted()
         x = np.asarray(u, dtype=float)
@@ -368,10 +418,21 @@ class Model:
         return Chain(self.spec, self.theta).g_sigma if self.spec.g_noise else 0.0
 
     def score(self, *, u, y, skip: int = 0, expected: bool = False) -> dict:
-        """Per recording fit % and RMS % (docs/design.md metrics) of the output simulated from rest.
+        """Per recording fit and RMS (docs/design.md metrics) of the output simulated from rest.
 
-        The first ``skip`` samples of each recording are simulated but not scored;
-        ``expected``: as in :meth:`predict`.
+        Parameters
+        ----------
+        u, y : array or list of arrays
+            Inputs (N, n_inputs) and output (N,) per recording, data units.
+        skip : int
+            Leading samples of each recording simulated but not scored.
+        expected : bool
+            As in :meth:`predict`.
+
+        Returns
+        -------
+        dict
+            ``fit``: NRMSE fit per recording, %; ``rms``: RMS error per recording, % of max |y|.
         """
         us, ys = as_recordings(u, y)
         preds = [self.predict(u=x, expected=expected)[skip:] for x in us]
@@ -395,10 +456,18 @@ class Model:
         return self.info.get("bic", float("nan"))
 
     def alternative_models(self) -> list:
-        """The other members of this fit, as models: for WH the other build's refinement and the
-        starting models (WH models with identity blocks, equal to the Wiener / Hammerstein
-        model each came from); with process noise also the output-error fit it was refined
-        from. The order search scores them too and keeps the best by its selection rule."""
+        """The other members of this fit, as models.
+
+        For WH the other build's refinement and the starting models (WH models with identity
+        blocks, equal to the Wiener / Hammerstein model each came from); with process noise also
+        the output-error fit it was refined from. The order search scores them too and keeps the
+        best by its selection rule.
+
+        Returns
+        -------
+        list of Model
+            Fitted models of this model's class.
+        """
         self._require_fitted()
         out = []
         for fit in self.alternatives:
@@ -411,7 +480,19 @@ class Model:
     # -- conversion -------------------------------------------------------------------
 
     def to_structure(self) -> EstimatorStructure:
-        """The float estimator structure (raw data units) that quant and the firmware run."""
+        """The float estimator structure that quant and the firmware run.
+
+        Returns
+        -------
+        EstimatorStructure
+            One output, in the raw units of the data (scalings folded into the blocks), with the
+            input units and identification peaks.
+
+        Raises
+        ------
+        ModelError
+            A model not fitted yet.
+        """
         self._require_fitted()
         return EstimatorStructure(
             inputs=self.inputs,
@@ -437,7 +518,13 @@ class Model:
         }
 
     def output_chain(self) -> OutputChain:
-        """This model as one :class:`OutputChain` with the scalings folded into the blocks."""
+        """This model as one output chain with the scalings folded into the blocks.
+
+        Returns
+        -------
+        OutputChain
+            In the raw units of the data.
+        """
         self._require_fitted()
         c = Chain(self.spec, self.theta)
         out_gain_on_h1 = c.g is None and c.h2 is None
@@ -465,9 +552,13 @@ class Model:
         )
 
     def linear_blocks(self) -> dict:
-        """python-control TransferFunction of each linear block (``h1[i]``, ``h2``), dt = ts.
+        """python-control TransferFunction of each linear block, in the structure's units.
 
-        In the structure's units (the scalings folded in as :meth:`to_structure` does).
+        Returns
+        -------
+        dict of str to control.TransferFunction
+            ``h1[<input name>]`` per input and ``h2`` when present, sample time ``ts`` s (delays
+            included).
         """
         import control
 
@@ -482,7 +573,18 @@ class Model:
         return blocks
 
     def c_header(self, name: str | None = None) -> str:
-        """A C header with the float coefficients of :meth:`to_structure`."""
+        """A C header with the float coefficients of :meth:`to_structure`.
+
+        Parameters
+        ----------
+        name : str or None
+            C name (None: ``porosense_<output>``).
+
+        Returns
+        -------
+        str
+            The header text.
+        """
         from porosense.ident.export import c_header
 
         return c_header(self.to_structure(), name or f"porosense_{self.output}")
@@ -490,7 +592,14 @@ class Model:
     # -- storage ----------------------------------------------------------------------
 
     def to_dict(self) -> dict:
-        """Plain JSON types; floats survive json.dumps/json.loads exactly (shortest repr)."""
+        """The model file's entry for this model, in plain JSON types.
+
+        Returns
+        -------
+        dict
+            Kind, orders, options, parameters, scaling, ``ts`` (s), signals with their units and
+            the fit's information; floats survive json.dumps/json.loads exactly.
+        """
         self._require_fitted()
         return {
             "format": FORMAT,
@@ -522,6 +631,23 @@ class Model:
 
     @classmethod
     def from_dict(cls, d: dict) -> Model:
+        """A fitted model from :meth:`to_dict` output.
+
+        Parameters
+        ----------
+        d : dict
+            One model of a model file.
+
+        Returns
+        -------
+        Model
+            An instance of its kind's class.
+
+        Raises
+        ------
+        ModelError
+            An unknown kind or a parameter count that does not match the structure.
+        """
         kind = d.get("kind")
         klass = KINDS.get(kind)
         if klass is None:
@@ -558,7 +684,18 @@ class Model:
         }
 
     def save(self, path) -> Path:
-        """Write the versioned JSON model file."""
+        """Write the versioned JSON model file (whole or not at all).
+
+        Parameters
+        ----------
+        path : str or Path
+            The model file.
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
         return save_models([self], path)
 
     def __repr__(self) -> str:
@@ -578,7 +715,10 @@ def _tf(control, b, a, ts, delay):
 
 
 class Linear(Model):
-    """Output-error model: y = sum_i B_i(q)/F_i(q) u_i[k - delay] + c (like tfest/oe)."""
+    """Output-error model: y = sum_i B_i(q)/F_i(q) u_i[k - delay] + c (like tfest/oe).
+
+    Constructed with the parameters of :class:`Model`.
+    """
 
     kind = "linear"
 
@@ -587,7 +727,10 @@ class Linear(Model):
 
 
 class Hammerstein(Model):
-    """y = sum_i B_i/F_i f_i(u_i) + c with piecewise-linear f_i."""
+    """Hammerstein model: y = sum_i B_i/F_i f_i(u_i) + c with piecewise-linear f_i.
+
+    Constructed with the parameters of :class:`Model`.
+    """
 
     kind = "hammerstein"
 
@@ -599,7 +742,10 @@ class Hammerstein(Model):
 
 
 class Wiener(Model):
-    """y = g(sum_i B_i/F_i u_i) + c with piecewise-linear g."""
+    """Wiener model: y = g(sum_i B_i/F_i u_i) + c with piecewise-linear g.
+
+    Constructed with the parameters of :class:`Model`.
+    """
 
     kind = "wiener"
 
@@ -640,9 +786,39 @@ class WienerHammerstein(Model):
         output_unit: str | None = None,
         scaling: Scaling | None = None,
     ) -> Model:
-        """As :meth:`Model.fit`; ``wiener`` / ``hammerstein`` / ``linear``: models of the same
-        orders already fitted on the same data (reused as the starts instead of being estimated
-        again)."""
+        """Estimate on the recordings, as :meth:`Model.fit`, optionally from models already fitted.
+
+        Parameters
+        ----------
+        u, y : array or list of arrays
+            Inputs (N, n_inputs) and output (N,) of one recording or lists of them, data units; each
+            recording is simulated from rest.
+        ts : float
+            Sample period, s.
+        inputs : sequence of str or None
+            Input names (None: ``u0``, ``u1``, ...).
+        output : str
+            Output name.
+        wiener, hammerstein, linear : Model or None
+            Models of the same orders already fitted on the same data, reused as the starts instead
+            of being estimated again.
+        input_unit : str or sequence of str or None
+            ``"%"`` (dR in %) or ``"dR/100"``, one for all inputs or one per input.
+        output_unit : str or None
+            Free text (e.g. ``"%"`` of strain, ``"deg"``).
+        scaling : Scaling or None
+            The normalisation to use instead of the data's own.
+
+        Returns
+        -------
+        Model
+            ``self``, fitted.
+
+        Raises
+        ------
+        InputError
+            Recordings of different widths, too short, not finite, or a bad unit or period.
+        """
         return self._fit(
             u=u,
             y=y,
@@ -676,14 +852,44 @@ KINDS = {"linear": Linear, "hammerstein": Hammerstein, "wiener": Wiener, "wh": W
 
 
 def make_model(kind: str, **kwargs) -> Model:
-    """Model of ``kind`` (linear, hammerstein, wiener, wh) with the given orders."""
+    """A model of ``kind`` with the given orders, not fitted.
+
+    Parameters
+    ----------
+    kind : str
+        ``"linear"``, ``"hammerstein"``, ``"wiener"`` or ``"wh"``.
+    **kwargs
+        The constructor's parameters (:class:`Model`: ``n_poles``, ``n_zeros``, ``n_breakpoints``,
+        ...).
+
+    Returns
+    -------
+    Model
+        An instance of the structure's class.
+
+    Raises
+    ------
+    InputError
+        An unknown structure or a bad order.
+    """
     if kind not in KINDS:
         raise InputError(f"unknown structure {kind!r}; choose from {', '.join(KINDS)}")
     return KINDS[kind](**kwargs)
 
 
 class ModelSet:
-    """Several single-output models over the same inputs: one estimator with several outputs."""
+    """Several single-output models over the same inputs: one estimator with several outputs.
+
+    Parameters
+    ----------
+    models : sequence of Model
+        Fitted models, one per output, with the same inputs, input units and sample period.
+
+    Raises
+    ------
+    ModelError
+        No model, or models whose inputs, units or sample periods differ.
+    """
 
     def __init__(self, models):
         self.models = list(models)
@@ -708,10 +914,30 @@ class ModelSet:
         return self.models[0].ts
 
     def predict(self, *, u, expected: bool = False) -> np.ndarray:
-        """(N, n_outputs) simulation from rest (``expected``: as in :meth:`Model.predict`)."""
+        """Simulate every output from rest.
+
+        Parameters
+        ----------
+        u : array_like, shape (N, n_inputs)
+            Inputs, data units.
+        expected : bool
+            As in :meth:`Model.predict`.
+
+        Returns
+        -------
+        ndarray, shape (N, n_outputs)
+            Outputs, each in its unit.
+        """
         return np.column_stack([m.predict(u=u, expected=expected) for m in self.models])
 
     def to_structure(self) -> EstimatorStructure:
+        """One estimator with every output.
+
+        Returns
+        -------
+        EstimatorStructure
+            The outputs' chains over the shared inputs, sample period ``ts`` s.
+        """
         units = [m._units() for m in self.models]
         peak = tuple(np.max([u["input_peak"] for u in units], axis=0))
         return EstimatorStructure(
@@ -725,6 +951,18 @@ class ModelSet:
         )
 
     def save(self, path) -> Path:
+        """Write the versioned JSON model file (whole or not at all).
+
+        Parameters
+        ----------
+        path : str or Path
+            The model file.
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
         return save_models(self.models, path)
 
 
@@ -733,6 +971,18 @@ def save_models(models, path) -> Path:
 
     Written to a temporary file beside ``path`` and renamed over it, so an interrupted save
     leaves the old file (or none), never a partial one.
+
+    Parameters
+    ----------
+    models : sequence of Model
+        Fitted models, one per output.
+    path : str or Path
+        The model file.
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     path = Path(path)
     doc = {"format": FORMAT, "version": FORMAT_VERSION, "models": [m.to_dict() for m in models]}

@@ -114,8 +114,25 @@ class SearchOptions:
 
     @classmethod
     def with_overrides(cls, options: SearchOptions | None = None, **overrides) -> SearchOptions:
-        """``options`` (default: the defaults) with the named fields replaced; an unknown name is
-        an InputError that lists the known ones."""
+        """Options with named fields replaced.
+
+        Parameters
+        ----------
+        options : SearchOptions or None
+            The options to start from (None: the defaults).
+        **overrides
+            Field name to value (``poles=(4,)``, ``criterion="bic"``, ...).
+
+        Returns
+        -------
+        SearchOptions
+            The copy.
+
+        Raises
+        ------
+        InputError
+            An unknown field name (the message lists the known ones) or a bad value.
+        """
         names = {f.name for f in fields(cls)}
         unknown = sorted(set(overrides) - names)
         if unknown:
@@ -123,8 +140,19 @@ class SearchOptions:
         return replace(options or cls(), **overrides)
 
     def order_grid(self) -> list[tuple[str, int, int]]:
-        """The (structure, n_poles, n_zeros) to estimate: ``grid`` or every structure, pole
-        count and zero count < poles (0 poles: the static models)."""
+        """The (structure, n_poles, n_zeros) to estimate: ``grid``, or every structure, pole count and
+        zero count < poles (0 poles: the static models).
+
+        Returns
+        -------
+        list of (str, int, int)
+            The grid.
+
+        Raises
+        ------
+        InputError
+            Orders that leave no model to estimate.
+        """
         grid = list(self.grid) if self.grid is not None else order_grid(self.structures, self.poles, self.zeros)
         if not grid:
             raise InputError("the orders given leave no model to estimate (zeros must be < poles)")
@@ -134,8 +162,25 @@ class SearchOptions:
 def order_grid(structures=STRUCTURES, poles=range(1, MAX_POLES + 1), zeros=None) -> list[tuple[str, int, int]]:
     """(structure, n_poles, n_zeros) for every structure, pole count and zero count < poles.
 
-    ``zeros`` restricts the zero counts (still < poles); default all of 0..n_poles-1. A pole
-    count of 0 gives the static model (0 poles, 0 zeros) of each structure.
+    Parameters
+    ----------
+    structures : sequence of str
+        Structures (default all four).
+    poles : iterable of int
+        Pole counts (default 1..10, the paper's); 0 gives each structure's static model (0 poles,
+        0 zeros).
+    zeros : iterable of int or None
+        Zero counts allowed (still < poles); None: all of 0..n_poles-1.
+
+    Returns
+    -------
+    list of (str, int, int)
+        The grid, structure by structure.
+
+    Raises
+    ------
+    InputError
+        An unknown structure.
     """
     grid = []
     for s in structures:

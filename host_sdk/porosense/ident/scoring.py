@@ -21,16 +21,41 @@ INITIAL_CONDITION = "rest"  # zero initial state; stated wherever a fit is print
 
 
 def format_percent(value: float, digits: int = 2) -> str:
-    """``value`` (%) as text with ``digits`` decimals and a percent sign; 'n/a' when not finite."""
+    """A percentage as text.
+
+    Parameters
+    ----------
+    value : float or None
+        The value, %.
+    digits : int
+        Decimals.
+
+    Returns
+    -------
+    str
+        ``"84.46 %"``; ``"n/a"`` when None or not finite.
+    """
     return f"{value:.{digits}f} %" if value is not None and math.isfinite(value) else "n/a"
 
 
 @dataclass
 class SimulationFit:
-    """Fit (%) and RMS (% of max |y|) per output of a model simulated from rest on one record.
+    """Fit and RMS per output of a model simulated from rest on one record.
 
-    ``fit[name]`` is NaN when the measured output is constant (no spread to explain); printed
-    as 'n/a'. ``yhat`` is the simulated output, (N, n_outputs), in the output's unit.
+    Attributes
+    ----------
+    outputs : list of str
+        Output names.
+    fit : dict of str to float
+        Output name to NRMSE fit, % (NaN when the measured output is constant: printed 'n/a').
+    rms : dict of str to float
+        Output name to RMS error, % of max |y|.
+    samples : int
+        Samples scored.
+    yhat : ndarray, shape (N, n_outputs)
+        The simulated output, in each output's unit.
+    initial : str
+        The initial condition, ``"rest"`` (zero state).
     """
 
     outputs: list[str]
@@ -41,13 +66,31 @@ class SimulationFit:
     initial: str = INITIAL_CONDITION
 
     def line(self, name: str) -> str:
-        """'strain_0: fit 84.46 %, RMS 3.21 % of max |strain_0|'."""
+        """One output's fit in words.
+
+        Parameters
+        ----------
+        name : str
+            Output name.
+
+        Returns
+        -------
+        str
+            E.g. ``"strain_0: fit 84.46 %, RMS 3.21 % of max |strain_0|"``.
+        """
         return f"{name}: fit {format_percent(self.fit[name])}, RMS {format_percent(self.rms[name])} of max |{name}|"
 
     def __str__(self) -> str:
         return "\n".join(self.line(o) for o in self.outputs)
 
     def to_dict(self) -> dict:
+        """The figures as a plain dict (without the simulated output).
+
+        Returns
+        -------
+        dict
+            ``outputs``, ``fit`` (%), ``rms`` (% of max |y|), ``samples``, ``initial``.
+        """
         return {
             "outputs": list(self.outputs),
             "fit": dict(self.fit),

@@ -78,6 +78,8 @@ def search(
         True: a progress bar; a callable receives a :class:`workers.Progress` at every step.
     inputs, output : names stored in every model.
     input_unit, output_unit : units stored in every model (:meth:`Model.fit`).
+    **overrides
+        SearchOptions fields replacing those of ``options`` (an unknown name is an InputError).
 
     Returns
     -------

@@ -14,8 +14,17 @@ from porosense.ident.tasks import score_records
 
 @dataclass
 class SmoothnessChoice:
-    """Weights of the breakpoint smoothness penalty tried on the selected model, with their
-    validation fits (%); ``weight`` the one kept (0 = no penalty)."""
+    """Weights of the breakpoint smoothness penalty tried on the selected model.
+
+    Attributes
+    ----------
+    weight : float
+        The weight kept, dimensionless (0: no penalty).
+    fits : dict of float to float
+        Weight to the validation fit it gave, %.
+    model : Model
+        The model refined with the weight kept.
+    """
 
     weight: float
     fits: dict
@@ -39,11 +48,36 @@ def choose_smoothness(
     inputs=None,
     output: str | None = None,
 ) -> SmoothnessChoice:
-    """The selected (nonlinear) model refined with each smoothness weight (dimensionless, see
-    ``refine._penalty_rows``) from its own parameters on the estimation records ``u``, ``y``;
-    the weight with the best validation fit is kept, the unpenalised model being the weight-0
-    entry. Linear models have no breakpoints: returned as is. (``ts``, ``inputs`` and
-    ``output`` are the selected model's own; the arguments are accepted for older callers.)"""
+    """The smoothness weight of the selected model's maps, chosen on validation data.
+
+    The selected (nonlinear) model is refined with each weight from its own parameters on the
+    estimation records; the weight with the best validation fit is kept, the unpenalised model
+    being the weight-0 entry. A linear model has no breakpoints: returned as is.
+
+    Parameters
+    ----------
+    result : SearchResult
+        The search whose selected model is refined.
+    u, y : list of ndarray
+        Estimation inputs (N, n_inputs) and outputs (N,) per recording, data units.
+    ts : float or None
+        Accepted for older callers; the model's own period is used, s.
+    validation : tuple or None
+        (inputs, outputs) of the validation recordings; None: no choice (weight 0).
+    validation_skip : int or sequence of int
+        Leading samples of each validation recording not scored.
+    weights : sequence of float
+        Weights tried, dimensionless (see ``refine._penalty_rows``).
+    monotone : bool
+        Keep the maps monotone while refining.
+    inputs, output : optional
+        Accepted for older callers; the model's own names are used.
+
+    Returns
+    -------
+    SmoothnessChoice
+        The weight kept, the fit of each weight and the model.
+    """
     best = result.best
     base = best.model
     if best.structure == "linear" or validation is None:

@@ -41,7 +41,24 @@ EFFECT_NAMES = tuple(DEFAULTS)
 
 
 def resolve_effects(effects) -> dict[str, dict[str, float]]:
-    """Normalise ``effects`` (None, names, or {name: params}) to {name: full params}."""
+    """Normalise named extra effects to their full parameters.
+
+    Parameters
+    ----------
+    effects : None, str, sequence of str or dict
+        None (no effect), one name, names (default parameters), or ``{name: {param: value}}``
+        (missing parameters take their defaults; units in the module notes).
+
+    Returns
+    -------
+    dict of str to dict of str to float
+        Effect name to every one of its parameters.
+
+    Raises
+    ------
+    InputError
+        An unknown effect or parameter.
+    """
     if effects is None:
         return {}
     if isinstance(effects, str):

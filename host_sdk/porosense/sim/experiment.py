@@ -48,12 +48,43 @@ def run_experiment(
     noise: bool = True,
     specimen: int = 0,
 ) -> Recording:
-    """Simulate ``experiment`` (a name or a :class:`Schedule`) and return its Recording.
+    """Simulate one of the paper's experiments on an actuator and record it.
 
-    ``porosity`` in %, ``load_g`` in g, ``rate_hz`` the sample rate (Hz), ``seed`` of the
-    recording (noise, drift, softening state), ``effects`` named extra effects (off by
-    default), ``physics`` the parameters (porosense.sim.params), ``noise=False`` for noiseless
-    sensors, ``specimen`` the printed actuator (duplicates: one specimen, two seeds).
+    Parameters
+    ----------
+    actuator : str
+        ``"contractor"``, ``"bending"`` or ``"3dof"``.
+    experiment : str or Schedule
+        A schedule name (:func:`experiment_names`) or a schedule.
+    porosity : float or None
+        Porosity, % (None: the actuator's default).
+    load_g : float
+        Hanging load, g.
+    rate_hz : float
+        Sample rate, Hz.
+    seed : int
+        Seed of the recording (noise, drift, softening state).
+    effects : list of str, dict or None
+        Named extra effects (porosense.sim.effects), off by default.
+    physics : Physics or None
+        Stage parameters (porosense.sim.params).
+    noise : bool
+        False for noiseless sensors.
+    specimen : int
+        The printed actuator (duplicates: one specimen, two seeds).
+
+    Returns
+    -------
+    Recording
+        ``p_cmd_c`` and ``p_c`` (kPa), ``adc_c`` (counts), ``R_c`` (ohm), ``dR_c`` (%, R0 from the
+        first second of rest), the ground truth (``strain_0`` %, ``curvature`` 1/m, or
+        ``theta_x``/``theta_y`` deg and ``dz`` mm) and ``load_g`` (g); dropped samples (the
+        ``outliers`` effect) are missing rows.
+
+    Raises
+    ------
+    InputError
+        A sample rate <= 0, a 3-DoF experiment on another actuator, or a bad plant argument.
     """
     sched = experiment if isinstance(experiment, Schedule) else schedule(experiment)
     if not rate_hz > 0:

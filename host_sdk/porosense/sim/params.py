@@ -198,7 +198,25 @@ PHYSICS_EFFECTS = (
 
 @dataclass(frozen=True)
 class Physics:
-    """All stage parameters of a plant."""
+    """All stage parameters of a plant, one frozen dataclass per stage (units on each field).
+
+    Attributes
+    ----------
+    pneumatics : Pneumatics
+        Regulated vacuum line, valve and chamber (time constants s, pressures kPa).
+    foam : Foam
+        Porous TPE under vacuum (moduli and stresses kPa, areas mm^2, creep time constants s).
+    piezo : Piezo
+        Piezoresistive contact network (R0 ohm, dR %, time constants s).
+    electronics : Electronics
+        Divider and ADS1115 (V, ohm).
+    sensors : Sensors
+        Ground-truth instruments (camera fps, noise mm and deg rms, lags s).
+    geometry : Geometry
+        Kinematics of the three actuators (mm, porosity %).
+    variation : Variation
+        Print-to-print and recording-to-recording spread (relative standard deviations).
+    """
 
     pneumatics: Pneumatics = field(default_factory=Pneumatics)
     foam: Foam = field(default_factory=Foam)
@@ -209,11 +227,34 @@ class Physics:
     variation: Variation = field(default_factory=Variation)
 
     def to_dict(self) -> dict:
+        """Every stage's parameters as plain dicts.
+
+        Returns
+        -------
+        dict
+            Stage name to its fields.
+        """
         return asdict(self)
 
     @classmethod
     def from_dict(cls, d: dict) -> Physics:
-        """Physics from :meth:`to_dict` output; missing fields keep their defaults."""
+        """Physics from :meth:`to_dict` output; missing fields keep their defaults.
+
+        Parameters
+        ----------
+        d : dict
+            Stage name to fields (``format``, ``version``, ``notes`` and ``fit`` keys are ignored).
+
+        Returns
+        -------
+        Physics
+            The parameters.
+
+        Raises
+        ------
+        InputError
+            An unknown stage or parameter.
+        """
         stages = {}
         for f in fields(cls):
             values = dict(d.get(f.name) or {})
@@ -231,7 +272,20 @@ class Physics:
         return cls(**stages)
 
     def save(self, path, **extra) -> Path:
-        """Write the parameters as JSON (``extra`` keys are stored beside them)."""
+        """Write the parameters as JSON.
+
+        Parameters
+        ----------
+        path : str or Path
+            The file (its folder is made).
+        **extra
+            Keys stored beside the stages (notes, fit figures).
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(
@@ -241,7 +295,23 @@ class Physics:
 
     @classmethod
     def load(cls, path) -> Physics:
-        """Read a parameter file written by :meth:`save` (or ``porosense calibrate``)."""
+        """Read a parameter file written by :meth:`save` (or ``porosense calibrate``).
+
+        Parameters
+        ----------
+        path : str or Path
+            The JSON file.
+
+        Returns
+        -------
+        Physics
+            The parameters.
+
+        Raises
+        ------
+        InputError
+            An unreadable file, not a simulator parameter file, or an unknown stage or parameter.
+        """
         try:
             d = json.loads(Path(path).read_text())
         except OSError as exc:
@@ -253,12 +323,39 @@ class Physics:
         return cls.from_dict(d)
 
     def with_(self, **stages) -> Physics:
-        """A copy with stage fields replaced: ``with_(piezo={'relax_s': (2.0, 9.0)})``."""
+        """A copy with stage fields replaced: ``with_(piezo={'relax_s': (2.0, 9.0)})``.
+
+        Parameters
+        ----------
+        **stages : dict
+            Stage name to the fields replaced (units as on each stage).
+
+        Returns
+        -------
+        Physics
+            The copy.
+        """
         updated = {name: replace(getattr(self, name), **values) for name, values in stages.items()}
         return replace(self, **updated)
 
     def without(self, *effects) -> Physics:
-        """A copy with the named effects of :data:`PHYSICS_EFFECTS` switched off."""
+        """A copy with named effects switched off.
+
+        Parameters
+        ----------
+        *effects : str
+            Names from :data:`PHYSICS_EFFECTS`.
+
+        Returns
+        -------
+        Physics
+            The copy.
+
+        Raises
+        ------
+        InputError
+            An unknown effect.
+        """
         unknown = set(effects) - set(PHYSICS_EFFECTS)
         if unknown:
             raise InputError(f"unknown physics effect(s) {sorted(unknown)} (known: {', '.join(PHYSICS_EFFECTS)})")

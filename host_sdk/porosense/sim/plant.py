@@ -54,9 +54,15 @@ REGULATOR_FULL_KPA = 10.0  # the regulator's wander reaches its full size beyond
 class PlantReading:
     """What the board's sensors see after one step, plus the ground truth.
 
-    ``voltage_V``: (3,) ADC input voltages (0 for unconnected channels); ``euler_deg``: (3,)
-    BNO055 heading, roll, pitch (deg, 1/16 deg steps); ``truth``: recording-named values
-    (``p_0`` kPa, ``R_0`` ohm, ``dR_0`` %, ``strain_0`` %, ``curvature`` 1/m, ``theta_x`` deg, ...).
+    Attributes
+    ----------
+    voltage_V : ndarray, shape (3,)
+        ADC input voltages, V (0 for unconnected channels).
+    euler_deg : ndarray, shape (3,)
+        BNO055 heading, roll, pitch, deg, in 1/16 deg steps.
+    truth : dict
+        Recording-named values: ``p_0`` kPa, ``R_0`` ohm, ``dR_0`` %, ``strain_0`` %,
+        ``curvature`` 1/m, ``theta_x`` deg, ...
     """
 
     voltage_V: np.ndarray
@@ -80,7 +86,32 @@ def check_actuator(actuator: str) -> str:
 
 
 class Plant:
-    """One actuator (see module docstring); build it with :func:`make_plant`."""
+    """One actuator's physical chain (see the module notes); build it with :func:`make_plant`.
+
+    Parameters
+    ----------
+    actuator : str
+        ``"contractor"``, ``"bending"`` or ``"3dof"``.
+    porosity : float or None
+        Porosity, % (60-90; None: 82 for the contractor, 84 bending, 76 3-DoF).
+    load_g : float
+        Hanging load, g (0-500).
+    seed : int
+        Seed of the recording: its noise and its share of the variation.
+    effects : list of str, dict or None
+        Named extra effects (porosense.sim.effects), off by default.
+    physics : Physics or None
+        Stage parameters (None: the defaults, porosense.sim.params).
+    noise : bool
+        False for noiseless sensors (the realisation drawn from the seeds stays).
+    specimen : int
+        The printed actuator (porosense.sim.variation): duplicates share one specimen.
+
+    Raises
+    ------
+    InputError
+        An unknown actuator or effect, or a porosity or load outside its range.
+    """
 
     def __init__(
         self,
@@ -132,7 +163,18 @@ class Plant:
 
     # --- shared pieces --------------------------------------------------------------------
     def load_at(self, t):
-        """Load (g) at plant time ``t`` (s): constant unless ``load_dependence`` is on."""
+        """The load at plant time ``t``: constant unless ``load_dependence`` is on.
+
+        Parameters
+        ----------
+        t : float or array_like
+            Plant time, s.
+
+        Returns
+        -------
+        ndarray
+            Load, g.
+        """
         eff = self.effects.get("load_dependence")
         if eff is None:
             return self.load_g + 0.0 * np.asarray(t, dtype=float)
@@ -174,7 +216,19 @@ class Plant:
         return [c.strain(s - a * total) for c, s in zip(curves, stress)]
 
     def static_strains_scalar(self, stress: list) -> list:
-        """:meth:`_static_strains` for one float per channel (plant stepping)."""
+        """Static strain of each channel at given stresses, the segment's axial coupling solved (one
+        float per channel, for stepping).
+
+        Parameters
+        ----------
+        stress : list of float
+            Compressive stress per channel, kPa.
+
+        Returns
+        -------
+        list of float
+            Strain per channel, fraction of the unloaded length.
+        """
         curves = self.curves
         if self._axial == 0.0:
             return [c.strain_scalar(s) for c, s in zip(curves, stress)]
@@ -187,7 +241,20 @@ class Plant:
         return [c.strain_scalar(s - a * total) for c, s in zip(curves, stress)]
 
     def rest_state(self, load_g: float) -> tuple[list, list]:
-        """Strain (fraction) and contact strain (fraction) of each channel at rest under ``load_g``."""
+        """Strain and contact strain of each channel at rest under a load.
+
+        Parameters
+        ----------
+        load_g : float
+            Hanging load, g.
+
+        Returns
+        -------
+        strain : list of float
+            Per channel, fraction of the unloaded length.
+        contact_strain : list of float
+            Per channel, fraction (the strain less what the load's tension holds open).
+        """
         sigma = float(load_stress_kpa(load_g, self.physics.foam))
         eps = self.static_strains_scalar([-sigma] * self.n_channels)
         return eps, [e - lc * sigma for e, lc in zip(eps, self._load_contact)]
@@ -219,7 +286,27 @@ class Plant:
 
     # --- one sample -----------------------------------------------------------------------
     def step(self, dt_s: float, setpoint_kpa, pump, valve) -> PlantReading:
-        """Advance ``dt_s`` seconds with the given actuation (arrays of 3) and read the sensors."""
+        """Advance one time step with the given actuation and read the sensors.
+
+        Parameters
+        ----------
+        dt_s : float
+            Time step, s (> 0).
+        setpoint_kpa : sequence of float
+            Regulator setpoint per channel (3), kPa (<= 0).
+        pump, valve : sequence of bool
+            Pump and valve state per channel (3).
+
+        Returns
+        -------
+        PlantReading
+            ADC voltages (V), BNO055 angles (deg) and the ground truth.
+
+        Raises
+        ------
+        InputError
+            A time step that is not positive.
+        """
         dt = float(dt_s)
         if not dt > 0.0:
             raise InputError(f"time step must be positive, got {dt_s}")
@@ -323,10 +410,21 @@ class Plant:
     def run(self, dt_s: float, setpoint_kpa, pump, valve) -> dict:
         """Simulate an actuation series from rest (the plant's own state is not touched).
 
-        ``setpoint_kpa``, ``pump``, ``valve``: (N, 3) arrays, sample k applied over
-        ``(k dt, (k+1) dt]``. Returns arrays: ``voltage_V`` (N, 3), ``euler_deg`` (N, 3),
-        ``dropped`` (N,) bool, and the truth columns (``p_0``, ``R_0``, ``dR_0``,
-        ``strain_0``, outputs, ``load_g``) as in :meth:`step`.
+        Parameters
+        ----------
+        dt_s : float
+            Sample period, s; sample k is applied over (k dt, (k+1) dt].
+        setpoint_kpa : array_like, shape (N, 3)
+            Regulator setpoints, kPa (<= 0).
+        pump, valve : array_like of bool, shape (N, 3)
+            Pump and valve states.
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``voltage_V`` (N, 3) V, ``euler_deg`` (N, 3) deg, ``dropped`` (N,) bool, the truth
+            columns (``p_c`` kPa, ``R_c`` ohm, ``dR_c`` %, ``strain_c`` %, the actuator's outputs,
+            ``load_g`` g) and ``t_plant`` (s).
         """
         dt = float(dt_s)
         setpoint_kpa = np.atleast_2d(np.asarray(setpoint_kpa, dtype=float))
@@ -444,12 +542,35 @@ def make_plant(
     noise: bool = True,
     specimen: int = 0,
 ) -> Plant:
-    """A plant of ``actuator`` ('contractor', 'bending', '3dof') at rest.
+    """A plant of ``actuator`` at rest.
 
-    ``porosity`` in % (60-90; default 82 for the contractor, 84 bending, 76 3-DoF), ``load_g``
-    hanging load in g (0-500), ``seed`` of the recording (its noise and its share of the
-    variation), ``effects`` (see porosense.sim.effects), ``physics`` to override stage
-    parameters (porosense.sim.params), ``noise=False`` for noiseless sensors (the realisation
-    drawn from the seeds stays), ``specimen`` the printed actuator (porosense.sim.variation).
+    Parameters
+    ----------
+    actuator : str
+        ``"contractor"``, ``"bending"`` or ``"3dof"``.
+    porosity : float or None
+        Porosity, % (60-90; None: 82 for the contractor, 84 bending, 76 3-DoF).
+    load_g : float
+        Hanging load, g (0-500).
+    seed : int
+        Seed of the recording: its noise and its share of the variation.
+    effects : list of str, dict or None
+        Named extra effects (see porosense.sim.effects), off by default.
+    physics : Physics or None
+        Stage parameters to use instead of the defaults (porosense.sim.params).
+    noise : bool
+        False for noiseless sensors (the realisation drawn from the seeds stays).
+    specimen : int
+        The printed actuator (porosense.sim.variation).
+
+    Returns
+    -------
+    Plant
+        The plant at rest; ``step`` advances it one sample, ``run`` a whole actuation series.
+
+    Raises
+    ------
+    InputError
+        An unknown actuator or effect, or a porosity or load outside its range.
     """
     return Plant(actuator, porosity, load_g, seed, effects, physics, noise, specimen)

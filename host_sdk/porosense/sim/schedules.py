@@ -34,7 +34,20 @@ REST_S = 5.0
 
 @dataclass(frozen=True)
 class Schedule:
-    """Timed setpoints per channel: ``changes[c] = ((t_s, kPa), ...)``, ``duration_s`` total."""
+    """Timed setpoints per channel.
+
+    Attributes
+    ----------
+    name : str
+        Schedule name (``"step_20"``, ``"staircase"``, ...).
+    duration_s : float
+        Total length, s.
+    changes : tuple
+        Per channel (3), ``((t_s, setpoint_kpa), ...)``: each setpoint (kPa, 0 vented, < 0 pump on
+        at that vacuum) holds from its time (s) until the next change.
+    description : str
+        One line in words.
+    """
 
     name: str
     duration_s: float
@@ -42,7 +55,18 @@ class Schedule:
     description: str = ""
 
     def setpoints(self, t) -> np.ndarray:
-        """(N, 3) commanded vacuum (kPa) at times ``t`` (s)."""
+        """The commanded vacuum at given times.
+
+        Parameters
+        ----------
+        t : array_like
+            Times, s.
+
+        Returns
+        -------
+        ndarray, shape (N, 3)
+            Setpoint per channel, kPa (0 vented, < 0 pump on).
+        """
         t = np.asarray(t, dtype=float)
         out = np.zeros((t.size, N_CHANNELS))
         for c, changes in enumerate(self.changes):
@@ -55,19 +79,57 @@ class Schedule:
         return out
 
     def actuation(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Setpoint (kPa), pump and valve (bool) arrays (N, 3) at times ``t``."""
+        """Setpoints, pumps and valves at given times (pump and valve on wherever the setpoint is < 0).
+
+        Parameters
+        ----------
+        t : array_like
+            Times, s.
+
+        Returns
+        -------
+        setpoint_kpa : ndarray, shape (N, 3)
+            kPa.
+        pump, valve : ndarray of bool, shape (N, 3)
+            On or off.
+        """
         sp = self.setpoints(t)
         on = sp < 0.0
         return sp, on, on.copy()
 
     def times(self, rate_hz: float) -> np.ndarray:
-        """Sample times (s) from 0 to the end at ``rate_hz``."""
+        """Sample times from 0 to the end.
+
+        Parameters
+        ----------
+        rate_hz : float
+            Sample rate, Hz.
+
+        Returns
+        -------
+        ndarray
+            Times, s.
+        """
         return np.arange(int(round(self.duration_s * rate_hz))) / float(rate_hz)
 
     def channels_used(self) -> list[int]:
+        """The channels the schedule ever evacuates.
+
+        Returns
+        -------
+        list of int
+            Channel indices, 0..2.
+        """
         return [c for c, ch in enumerate(self.changes) if any(v < 0 for _, v in ch)]
 
     def to_dict(self) -> dict:
+        """The schedule as a plain dict.
+
+        Returns
+        -------
+        dict
+            ``name``, ``duration_s`` (s), ``description`` and ``changes`` ([t s, kPa] per channel).
+        """
         return {
             "name": self.name,
             "duration_s": self.duration_s,
@@ -77,6 +139,23 @@ class Schedule:
 
     @classmethod
     def from_dict(cls, d: dict) -> Schedule:
+        """A schedule from :meth:`to_dict` output.
+
+        Parameters
+        ----------
+        d : dict
+            ``name``, ``duration_s``, ``changes`` and optionally ``description``.
+
+        Returns
+        -------
+        Schedule
+            The schedule.
+
+        Raises
+        ------
+        InputError
+            A field missing or malformed.
+        """
         try:
             changes = tuple(tuple((float(t), float(v)) for t, v in ch) for ch in d["changes"])
             return cls(str(d["name"]), float(d["duration_s"]), changes, str(d.get("description", "")))
@@ -84,10 +163,28 @@ class Schedule:
             raise InputError(f"malformed schedule: {exc}") from None
 
     def to_json(self) -> str:
+        """The schedule as JSON text.
+
+        Returns
+        -------
+        str
+            :meth:`to_dict` in JSON.
+        """
         return json.dumps(self.to_dict())
 
     def plot(self, ax=None):
-        """Step plot of the setpoints; returns the axes."""
+        """Step plot of the setpoints of the channels used.
+
+        Parameters
+        ----------
+        ax : matplotlib Axes or None
+            Where to draw (None: a new figure).
+
+        Returns
+        -------
+        matplotlib Axes
+            Setpoint (kPa) against time (s).
+        """
         import matplotlib.pyplot as plt
 
         ax = ax or plt.subplots(figsize=(8, 2.5))[1]
@@ -173,7 +270,14 @@ def _two_level() -> Schedule:
 
 
 def experiment_names() -> list[str]:
-    """Every schedule name :func:`schedule` accepts."""
+    """Every schedule name :func:`schedule` accepts.
+
+    Returns
+    -------
+    list of str
+        ``step_L``, ``staircase``, ``sequential_L``, ``parallel_L`` (L = 10, 20, 40, 60 kPa),
+        ``sequential``, ``parallel`` and ``two_level``.
+    """
     names = [f"step_{lv}" for lv in LEVELS_KPA] + ["staircase"]
     names += [f"sequential_{lv}" for lv in LEVELS_KPA] + ["sequential"]
     names += [f"parallel_{lv}" for lv in LEVELS_KPA] + ["parallel", "two_level"]
@@ -184,7 +288,23 @@ THREE_DOF_ONLY = ("sequential", "parallel", "two_level")
 
 
 def schedule(name: str) -> Schedule:
-    """The schedule called ``name`` (see :func:`experiment_names`)."""
+    """The schedule called ``name``.
+
+    Parameters
+    ----------
+    name : str
+        One of :func:`experiment_names`.
+
+    Returns
+    -------
+    Schedule
+        Its timed setpoints.
+
+    Raises
+    ------
+    InputError
+        An unknown name.
+    """
     base, _, level = name.partition("_")
     if name == "staircase":
         return _staircase()

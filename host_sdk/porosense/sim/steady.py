@@ -15,14 +15,29 @@ _DS_KPA = 0.5  # stress step for the local sensitivity
 def steady_state(
     actuator: str, *, porosity=None, load_g: float = 0.0, vacuum_kpa: float = -60.0, physics: Physics | None = None
 ) -> dict:
-    """Settled response of ``actuator`` to a constant chamber vacuum (all channels).
+    """Settled response of ``actuator`` to a constant chamber vacuum (all channels), for print planning.
 
-    ``vacuum_kpa`` is the gauge pressure (<= 0; a positive value is read as its magnitude).
-    Returns ``strain_pct`` (strain of each contractor, % of the unloaded length; relative to
-    the loaded rest in ``stroke_pct``), ``dR_pct`` (relative to R0 at rest under the load),
-    ``R_ohm``, ``voltage_V``, ``stress_kpa``, ``sensitivity`` (d dR / d strain, % per %, around
-    this point), the actuator's outputs (``curvature_per_m``, or ``theta_x_deg``,
-    ``theta_y_deg``, ``dz_mm``) and the inputs.
+    Parameters
+    ----------
+    actuator : str
+        ``"contractor"``, ``"bending"`` or ``"3dof"``.
+    porosity : float or None
+        Porosity, % (None: the actuator's default).
+    load_g : float
+        Hanging load, g.
+    vacuum_kpa : float
+        Chamber gauge pressure, kPa (<= 0; a positive value is read as its magnitude).
+    physics : Physics or None
+        Stage parameters (print-to-print variation and drift are switched off).
+
+    Returns
+    -------
+    dict
+        ``strain_pct`` (strain of each contractor, % of the unloaded length), ``stroke_pct``
+        (relative to the loaded rest, %), ``dR_pct`` (relative to R0 at rest under the load, %),
+        ``R_ohm``, ``voltage_V``, ``stress_kpa``, ``sensitivity`` (d dR / d strain, % per %, around
+        this point), the actuator's outputs (``curvature_per_m``, or ``theta_x_deg``,
+        ``theta_y_deg``, ``dz_mm``) and the inputs.
     """
     check_actuator(actuator)
     physics = (physics or Physics()).without("repeat_variation", "baseline_drift")

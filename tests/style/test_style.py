@@ -73,3 +73,16 @@ def test_pre_commit_hooks_run_the_suites_checks():
     files = [f for f in listed.stdout.split() if f not in GENERATED]
     missed = [f for f in files if not re.match(pattern, f)]
     assert not missed, f"clang-format hook misses: {missed[:10]}"
+
+
+def test_test_modules_outside_packages_have_unique_names():
+    """pytest imports a test module of a folder without __init__.py under its bare name: two such
+    modules of one name make the second an import error (tests/ident and tests/sim both had
+    test_paper.py, and the second was never run)."""
+    tests = Path(__file__).resolve().parents[1]
+    seen: dict[str, list[str]] = {}
+    for path in tests.rglob("*.py"):
+        if not (path.parent / "__init__.py").exists() and path.name != "conftest.py":
+            seen.setdefault(path.name, []).append(str(path.relative_to(tests)))
+    clashes = {name: where for name, where in seen.items() if len(where) > 1}
+    assert not clashes, clashes

@@ -59,7 +59,7 @@ def _pair_roots(roots, n_poles: int):
     roots = np.asarray(roots, dtype=complex)
     cplx = [r for r in roots if r.imag > 1e-12]
     real = sorted([r.real for r in roots if abs(r.imag) <= 1e-12], key=abs, reverse=True)
-    groups = [(r, np.conj(r)) for r in cplx]
+    groups: list[tuple] = [(r, np.conj(r)) for r in cplx]
     lone = None
     if n_poles % 2 == 1 and real:
         lone = real.pop()

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from porosense.errors import InputError
+from porosense.errors import InputError, ModelError
 from porosense.ident.metrics import relative_standard_error
 from porosense.ident.models import Model
 from porosense.ident.options import CRITERIA, STRUCTURES
@@ -268,7 +268,10 @@ class SearchResult:
     @property
     def model(self) -> Model:
         """The selected model."""
-        return self.best.model
+        model = self.best.model
+        if model is None:
+            raise ModelError("the selected candidate holds no model")
+        return model
 
     def best_per_structure(self, criterion: str = "paper") -> dict:
         """The best candidate of each structure among those the selection may take.
@@ -283,7 +286,7 @@ class SearchResult:
         dict of str to Candidate
             Structure name to its best candidate.
         """
-        out = {}
+        out: dict[str, Candidate] = {}
         for c in self.eligible():
             if c.structure not in out or c.score(criterion) > out[c.structure].score(criterion):
                 out[c.structure] = c
@@ -363,7 +366,7 @@ class SearchResult:
         if ax is None:
             _, ax = plt.subplots(figsize=(6, 4))
         for s in STRUCTURES:
-            pts = {}
+            pts: dict[int, float] = {}
             for c in self.candidates:
                 if c.structure == s and c.feasible:
                     pts[c.n_poles] = max(pts.get(c.n_poles, -np.inf), c.mean_fit)

@@ -180,7 +180,7 @@ class Chain:
         sl = spec.slices()
         self.sl = sl
         t = self.theta
-        self.f = []
+        self.f: list[tuple[np.ndarray, np.ndarray, np.ndarray] | None] = []  # None: no static part
         self.h1 = []
         for i in range(spec.n_inputs):
             if spec.f_bp:
@@ -230,8 +230,9 @@ class Chain:
         xs = self.branch_inputs(u)
         s = np.zeros(len(xs[0]))
         for i, x in enumerate(xs):
-            if self.f[i] is not None:
-                x = blocks.pwl_eval(self.f[i][0], self.f[i][1], x)
+            f = self.f[i]
+            if f is not None:
+                x = blocks.pwl_eval(f[0], f[1], x)
             b, den, _ = self.h1[i]
             s += block_filter(b, den, x)
         return s
@@ -254,8 +255,9 @@ class Chain:
         for i, x in enumerate(xs):
             b, den, dden = self.h1[i]
             # One cascade call filters every row of the branch: [f's rows through B; B v; v].
-            if self.f[i] is not None:
-                fx, fy, dxdp = self.f[i]
+            f = self.f[i]
+            if f is not None:
+                fx, fy, dxdp = f
                 v, _, dz_dp, dz_dy = _pwl_rows(fx, fy, x, dxdp)
                 rows = cascade_rows(den, np.vstack([_fir(b, np.vstack([dz_dp, dz_dy, v[None, :]])), v[None, :]]))
                 nf = spec.f_bp

@@ -277,7 +277,7 @@ def identify(
     units = list(output_units) if output_units is not None else [None] * n_out
     own = executor is None and len(opts.order_grid()) > 1
     cluster = Cluster.resolve(executor, tasks=len(opts.order_grid())) if own else None
-    pool = cluster.executor if own else executor
+    pool = cluster.executor if cluster is not None else executor
     models, results, choices = [], [], []
     interrupted = True
     try:

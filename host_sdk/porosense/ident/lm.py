@@ -81,7 +81,7 @@ def levenberg_marquardt(
     f = float(r @ r)
     if x.size == 0 or f == 0.0 or not np.isfinite(f):
         return LMResult(x, f, nfev, njev, "zero or non-finite cost, or no parameters")
-    unit = None
+    unit: float | None = None  # the damping's scale: the largest curvature at the first Jacobian
     mu, nu = MU0, 2.0
     status = "max_nfev"
     fresh = True
@@ -104,6 +104,7 @@ def levenberg_marquardt(
                 status = "xtol"
                 break
             fresh = False
+        assert unit is not None  # the first pass is fresh and sets it
         try:
             step = -cho_solve(cho_factor(a + (mu * unit) * eye), g)
         except (LinAlgError, ValueError):

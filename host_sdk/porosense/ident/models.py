@@ -16,6 +16,7 @@ import copy
 import json
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -100,6 +101,15 @@ class Starts:
     hammerstein: Fit | None = None
 
 
+class Fitted(NamedTuple):
+    """What a fitted model holds beyond its orders: structure, parameters (normalised units)
+    and the input scales (data units per normalised unit)."""
+
+    spec: ChainSpec
+    theta: np.ndarray
+    u_scale: np.ndarray
+
+
 class Model:
     """Common base of the four structures: orders, fitting, prediction, conversion and storage.
 
@@ -170,7 +180,7 @@ class Model:
             )
         self.spec: ChainSpec | None = None
         self.theta: np.ndarray | None = None
-        self.u_scale = None
+        self.u_scale: np.ndarray | None = None
         self.y_mean = 0.0
         self.y_std = 1.0
         self.ts = 1.0
@@ -248,6 +258,7 @@ class Model:
         orders as this one, or None; a process-noise model gives its output-error fit."""
         if model is None:
             return None
+        assert self.u_scale is not None  # _fit sets this model's scaling before its starts
         same = (
             model.theta is not None
             and model.kind == kind
@@ -330,17 +341,17 @@ class Model:
             The refined copy; its ``info["nfev"]`` adds the evaluations spent here and its
             ``converged`` says whether the optimiser met its tolerance within them.
         """
-        self._require_fitted()
+        spec, theta, u_scale = self._require_fitted()
         us, ys = as_recordings(u, y)
         if any(x.shape[1] != len(self.inputs) for x in us):
             raise InputError(f"expected {len(self.inputs)} input columns")
-        nus, nys = Scaling(tuple(self.u_scale), self.y_mean, self.y_std).apply(us, ys)
-        frozen = (self.spec.slices()["g.s"].start,) if self.spec.g_noise else ()
+        nus, nys = Scaling(tuple(u_scale), self.y_mean, self.y_std).apply(us, ys)
+        frozen = (spec.slices()["g.s"].start,) if spec.g_noise else ()
         skip = self.skip if skip is None else int(skip)
         if min(len(v) for v in ys) < skip + 10:
             raise InputError(f"every recording needs at least skip + 10 = {skip + 10} samples")
         opts = replace(self._options(), skip=skip, max_nfev=int(max_nfev or self.max_nfev), frozen=frozen)
-        fit = refine(self.spec, self.theta, nus, nys, opts)
+        fit = refine(spec, theta, nus, nys, opts)
         out = copy.copy(self)
         out.skip, out.converged = skip, fit.converged
         out.alternatives, out.output_error_fit = [], None
@@ -371,9 +382,11 @@ class Model:
 
     # -- use --------------------------------------------------------------------------
 
-    def _require_fitted(self):
-        if self.theta is None:
+    def _require_fitted(self) -> Fitted:
+        """The fitted parts; a ModelError before fitting."""
+        if self.spec is None or self.theta is None or self.u_scale is None:
             raise ModelError(f"{type(self).__name__} is not fitted yet")
+        return Fitted(self.spec, self.theta, self.u_scale)
 
     def predict(self, *, u, expected: bool = False) -> np.ndarray:
         """Simulate from rest.
@@ -403,19 +416,19 @@ class Model:
         InputError
             Another number of input columns.
         """
-        self._require_fitted()
+        spec, theta, u_scale = self._require_fitted()
         x = np.asarray(u, dtype=float)
         x = x[:, None] if x.ndim == 1 else x
         if x.shape[1] != len(self.inputs):
             raise InputError(f"expected {len(self.inputs)} input columns, got {x.shape[1]}")
-        return Chain(self.spec, self.theta).simulate(x / self.u_scale, expected=expected) * self.y_std + self.y_mean
+        return Chain(spec, theta).simulate(x / u_scale, expected=expected) * self.y_std + self.y_mean
 
     @property
     def process_noise_std(self) -> float:
         """Standard deviation of the estimated Gaussian noise at g's input, in the units of g's
         input in :meth:`to_structure` (0 for a model without process noise)."""
-        self._require_fitted()
-        return Chain(self.spec, self.theta).g_sigma if self.spec.g_noise else 0.0
+        spec, theta, _ = self._require_fitted()
+        return Chain(spec, theta).g_sigma if spec.g_noise else 0.0
 
     def score(self, *, u, y, skip: int = 0, expected: bool = False) -> dict:
         """Per recording fit and RMS (docs/design.md metrics) of the output simulated from rest.
@@ -493,7 +506,7 @@ class Model:
         ModelError
             A model not fitted yet.
         """
-        self._require_fitted()
+        spec = self._require_fitted().spec
         return EstimatorStructure(
             inputs=self.inputs,
             outputs=(self.output_chain(),),
@@ -502,7 +515,7 @@ class Model:
                 "kind": self.kind,
                 "n_poles": self.n_poles,
                 "n_zeros": self.n_zeros,
-                **({"process_noise_std": self.process_noise_std} if self.spec.g_noise else {}),
+                **({"process_noise_std": self.process_noise_std} if spec.g_noise else {}),
             },
             **self._units(),
         )
@@ -514,7 +527,7 @@ class Model:
         return {
             "input_units": units,
             "output_units": (self.output_unit,),
-            "input_peak": tuple(float(v) for v in self.u_scale),
+            "input_peak": tuple(float(v) for v in self._require_fitted().u_scale),
         }
 
     def output_chain(self) -> OutputChain:
@@ -525,21 +538,22 @@ class Model:
         OutputChain
             In the raw units of the data.
         """
-        self._require_fitted()
-        c = Chain(self.spec, self.theta)
+        spec, theta, u_scale = self._require_fitted()
+        c = Chain(spec, theta)
         out_gain_on_h1 = c.g is None and c.h2 is None
         branches = []
-        for i in range(self.spec.n_inputs):
+        for i in range(spec.n_inputs):
             b, den, _ = c.h1[i]
             b = np.array(b, dtype=float)
             f = None
-            if c.f[i] is not None:
-                f = PiecewiseLinear(c.f[i][0] * self.u_scale[i], np.array(c.f[i][1], dtype=float))
+            fi = c.f[i]
+            if fi is not None:
+                f = PiecewiseLinear(fi[0] * u_scale[i], np.array(fi[1], dtype=float))
             else:
-                b = b / self.u_scale[i]
+                b = b / u_scale[i]
             if out_gain_on_h1:
                 b = b * self.y_std
-            branches.append(Branch(input=i, h1=SOSCascade(sos_rows(b, den)), f=f, delay=self.spec.delay))
+            branches.append(Branch(input=i, h1=SOSCascade(sos_rows(b, den)), f=f, delay=spec.delay))
         g = h2 = None
         if c.g is not None:
             gy = np.array(c.g[1], dtype=float) * (1.0 if c.h2 else self.y_std)
@@ -600,7 +614,7 @@ class Model:
             Kind, orders, options, parameters, scaling, ``ts`` (s), signals with their units and
             the fit's information; floats survive json.dumps/json.loads exactly.
         """
-        self._require_fitted()
+        spec, theta, u_scale = self._require_fitted()
         return {
             "format": FORMAT,
             "version": FORMAT_VERSION,
@@ -619,9 +633,9 @@ class Model:
                 **({"monotone": True} if self.monotone else {}),
                 **({"process_noise": True} if self.process_noise else {}),
             },
-            "spec": asdict(self.spec),
-            "theta": [float(v) for v in self.theta],
-            "scaling": {"u_scale": [float(v) for v in self.u_scale], "y_mean": self.y_mean, "y_std": self.y_std},
+            "spec": asdict(spec),
+            "theta": [float(v) for v in theta],
+            "scaling": {"u_scale": [float(v) for v in u_scale], "y_mean": self.y_mean, "y_std": self.y_std},
             "ts": self.ts,
             "inputs": list(self.inputs),
             "output": self.output,
@@ -649,7 +663,7 @@ class Model:
             An unknown kind or a parameter count that does not match the structure.
         """
         kind = d.get("kind")
-        klass = KINDS.get(kind)
+        klass = KINDS.get(kind) if isinstance(kind, str) else None
         if klass is None:
             raise ModelError(f"unknown model kind {kind!r}")
         m = klass(**d["orders"], **d["options"])
@@ -781,7 +795,7 @@ class WienerHammerstein(Model):
         output: str = "y",
         wiener: Wiener | None = None,
         hammerstein: Hammerstein | None = None,
-        linear: Linear | None = None,
+        linear: Model | None = None,
         input_unit=None,
         output_unit: str | None = None,
         scaling: Scaling | None = None,

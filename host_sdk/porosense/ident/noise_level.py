@@ -83,7 +83,7 @@ class _Bands:
             _, p = welch(d, nperseg=min(SEGMENT, len(d)))
             total = total + p * len(d)
             weight += len(d)
-        p = total / weight
+        p = np.asarray(total / weight)
         return np.array([p[a:b].mean() for a, b in zip(self.edges[:-1], self.edges[1:])])
 
     def segment_powers(self, diffs) -> list[np.ndarray]:
@@ -140,8 +140,8 @@ class PeriodData:
                 if diffs:
                     self.records.append((i, p, diffs))
         self.skip = skip
+        self.bands: _Bands | None = None  # None: no recording repeats its input
         if not self.records:
-            self.bands = None
             return
         n_grid = SEGMENT // 2 + 1
         edges = np.unique(np.round(np.geomspace(1, n_grid, N_BANDS)).astype(int))
@@ -164,6 +164,12 @@ class PeriodData:
     def __bool__(self) -> bool:
         return bool(self.records)
 
+    def require_bands(self) -> _Bands:
+        """The frequency bands of the comparison; a ValueError when no recording repeats its input."""
+        if self.bands is None:
+            raise ValueError("no recording repeats its input: no period differences to compare")
+        return self.bands
+
     @property
     def n_pairs(self) -> int:
         return sum(len(ds) for _, _, ds in self.records)
@@ -179,7 +185,8 @@ class PeriodData:
         """Fit the noise spectrum's shape for the model (``spec``, ``theta``) with its noise at
         ``sigma`` and return the simulated/measured power ratio of the period differences."""
         chain = Chain(spec, theta)
-        used, edges = self.bands.used, self.bands.edges
+        bands = self.require_bands()
+        used, edges = bands.used, bands.edges
         shape = np.where(used, 1.0, 1e-6)
         inputs = [(chain.linear_sum(us[i]), p) for i, p, _ in self.records]
         ratio, misfit = np.nan, np.inf
@@ -193,14 +200,14 @@ class PeriodData:
                     # the same input, as in the measured pairs.
                     first, second = _split(y[0], p, self.skip), _split(y[1], p, self.skip)
                     simulated += [b - a for a, b in zip(first[0], second[1])]
-            sim = self.bands.powers(simulated)
+            sim = bands.powers(simulated)
             m, s = self.measured[used], sim[used]
             ratio = float(np.sum(s * np.diff(edges)[used]) / np.sum(m * np.diff(edges)[used]))
             update = (m / m.sum()) / (s / s.sum())
             misfit = float(np.max(np.abs(np.log(update))))
             shape[used] *= update
             shape /= shape.max()
-        error = float(np.hypot(self.measured_error, self.bands.relative_error(simulated)))
+        error = float(np.hypot(self.measured_error, bands.relative_error(simulated)))
         return PeriodNoise(sigma, ratio, shape[used].copy(), edges / SEGMENT, misfit, self.n_pairs, error)
 
 
@@ -227,6 +234,7 @@ def _coloured(shape, edges, sigma: float, n: int, rng) -> np.ndarray:
 
 def _noisy_output(chain: Chain, x, v) -> np.ndarray:
     """H2(g(x + v)) for the model's blocks (normalised units, no offset)."""
+    assert chain.g is not None  # process noise enters at g's input: every noise spec has g
     z = blocks.pwl_eval(chain.g[0], chain.g[1], x + v)
     if chain.h2 is not None:
         b, den, _ = chain.h2

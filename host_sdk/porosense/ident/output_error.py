@@ -47,6 +47,7 @@ def fit_linear(us, ys, n_poles, n_zeros, delay, opts: Options) -> Fit:
         cost = sse(spec, theta, us, ys, opts.skip)
         if best is None or cost < best[1]:
             best = (theta, cost)
+    assert best is not None  # the loop ran twice
     return refine(spec, best[0], us, ys, opts)
 
 

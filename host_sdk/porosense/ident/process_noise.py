@@ -34,6 +34,7 @@ def _noise_start(spec: ChainSpec, theta, us, ys, skip: int) -> np.ndarray:
     """
     chain = Chain(spec, theta)
     sl = spec.slices()
+    assert chain.g is not None  # process noise enters at g's input: every noise spec has g
     gx = chain.g[0]
     cols, rhs = [], []
     for u, y in zip(us, ys):
@@ -102,14 +103,14 @@ def with_process_noise(fit: Fit, us, ys, opts: Options, starts=NOISE_STARTS, alt
     spec = replace(fit.spec, g_noise=True)
     sl, old = spec.slices(), fit.spec.slices()
     chain = Chain(fit.spec, fit.theta)
-    spread = float(np.std(np.concatenate([chain.linear_sum(u)[opts.skip :] for u in us]))) or 1.0
+    g_input_std = float(np.std(np.concatenate([chain.linear_sum(u)[opts.skip :] for u in us]))) or 1.0
     thetas = []
     with np.errstate(all="ignore"):
         for frac in starts:
             theta = np.zeros(spec.n_params)
             cut = old["g.y"].stop
             theta[:cut] = fit.theta[:cut]
-            theta[sl["g.s"]] = np.log(frac * spread)
+            theta[sl["g.s"]] = np.log(frac * g_input_std)
             theta[sl["g.s"].stop :] = fit.theta[cut:]
             thetas.append(_noise_start(spec, theta, us, ys, opts.skip))
         costs = [sse(spec, t, us, ys, opts.skip) for t in thetas]

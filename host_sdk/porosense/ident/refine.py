@@ -9,6 +9,7 @@ of (N_r,) arrays, one pair per recording (each simulated from rest). They return
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Protocol
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -25,6 +26,19 @@ def lstsq(phi, rhs):
         return np.linalg.solve(gram + ridge * np.eye(len(gram)), phi.T @ rhs)
     except np.linalg.LinAlgError:
         return np.full(phi.shape[1], np.nan)
+
+
+class ExtraResiduals(Protocol):
+    """Extra residuals a refinement minimises beside the simulation error (a penalty or a
+    soft constraint on the parameters)."""
+
+    def residual(self, theta: np.ndarray) -> np.ndarray:
+        """The extra residuals at ``theta``, shape (m,)."""
+        ...
+
+    def jacobian(self, theta: np.ndarray) -> np.ndarray:
+        """Their derivatives d residual / d theta, shape (m, n_params)."""
+        ...
 
 
 @dataclass
@@ -49,7 +63,7 @@ class Options:
     smoothness: float = 0.0
     monotone: bool = False
     frozen: tuple = ()  # indices of parameters held at their starting values
-    constraint: object = None  # .residual(theta) and .jacobian(theta): extra residuals and their rows, or None
+    constraint: ExtraResiduals | None = None  # extra residuals and their rows, or None
 
 
 def sse(spec, theta, us, ys, skip=0) -> float:
@@ -85,7 +99,7 @@ def _penalty_rows(spec: ChainSpec, theta, n_res: int, opts: Options):
             step = np.diff(v) * sign
             active = step < 0
             m = np.zeros((len(v) - 1, spec.n_params))
-            for k in np.flatnonzero(active):
+            for k in np.flatnonzero(active).tolist():
                 m[k, idx[k]], m[k, idx[k + 1]] = -w * sign, w * sign
             rows.append(np.where(active, w * step, 0.0))
             jac.append(m)

@@ -97,7 +97,7 @@ class ResidResult:
     cross_band: np.ndarray  # (n_y, n_u, 2L + 1): 99 % band of each lag
     whiteness_p: np.ndarray  # (n_y,)
     independence_p: np.ndarray  # (n_y, n_u)
-    residuals: np.ndarray = field(repr=False, default=None)  # (N, n_y), output units
+    residuals: np.ndarray | None = field(repr=False, default=None)  # (N, n_y), output units
 
     @property
     def band(self) -> float:

@@ -62,7 +62,7 @@ class SimulationFit:
     fit: dict[str, float]
     rms: dict[str, float]
     samples: int
-    yhat: np.ndarray = field(repr=False, default=None)
+    yhat: np.ndarray | None = field(repr=False, default=None)
     initial: str = INITIAL_CONDITION
 
     def line(self, name: str) -> str:

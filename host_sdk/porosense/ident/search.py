@@ -177,6 +177,7 @@ def _settle(data: SearchData, cap: int) -> int:
     lin = Linear(n_poles=2, n_zeros=1, max_nfev=40, skip=data.skip).fit(
         u=heads_u, y=heads_y, ts=data.ts, scaling=data.scaling
     )
+    assert lin.spec is not None  # fitted just above
     chain = Chain(lin.spec, lin.theta)
     poles = np.concatenate([_roots(den) for _, den, _ in chain.h1 if len(den)] or [np.zeros(0)])
     return settle_samples(poles, cap // 2)
@@ -188,7 +189,7 @@ def _roots(den) -> np.ndarray:
 
 def _model_kwargs(opts: SearchOptions, skip: int) -> dict:
     """The make_model options every candidate of a search shares (the penalties only when set)."""
-    kwargs = {
+    kwargs: dict[str, int | float | bool] = {
         "n_breakpoints": opts.n_breakpoints,
         "delay": opts.delay,
         "starts": opts.starts,
@@ -425,13 +426,15 @@ def _with_process_noise(result: SearchResult, data: SearchData, opts: SearchOpti
             best.refuted = top.refuted
             candidates[candidates.index(top)] = best
         method = model.info.get("process_noise", {}).get("method", "")
+        kept_model = best.model
+        assert kept_model is not None and kept_model.spec is not None  # best_member scores fitted models
         kept = (
             "process noise rejected by the period differences, output error kept"
             if method.endswith("rejected")
             else "process noise undetermined by the records, output error kept"
             if method.endswith("undetermined")
             else "process noise"
-            if best.model.spec.g_noise
+            if kept_model.spec.g_noise
             else "output error kept"
         )
         refitted.append(f"{structure} {top.n_poles}p{top.n_zeros}z ({kept})")
@@ -460,14 +463,15 @@ class ProgressBar:
     def __call__(self, p: Progress) -> None:
         from tqdm.auto import tqdm
 
-        if p.stage != self.stage:
+        bar = self.bar
+        if p.stage != self.stage or bar is None:
             self.close()
             self.stage = p.stage
-            self.bar = tqdm(total=p.total, desc=p.stage, unit="task", leave=False)
-        self.bar.n = p.done
+            bar = self.bar = tqdm(total=p.total, desc=p.stage, unit="task", leave=False)
+        bar.n = p.done
         if p.eta_seconds is not None:
-            self.bar.set_postfix_str(f"about {duration_text(p.eta_seconds)} left", refresh=False)
-        self.bar.refresh()
+            bar.set_postfix_str(f"about {duration_text(p.eta_seconds)} left", refresh=False)
+        bar.refresh()
         if p.done == p.total:
             self.close()
 

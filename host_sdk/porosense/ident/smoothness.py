@@ -28,7 +28,7 @@ class SmoothnessChoice:
 
     weight: float
     fits: dict
-    model: Model = field(repr=False, default=None)
+    model: Model = field(repr=False)
 
     def __str__(self) -> str:
         tried = ", ".join(f"{w:g}: {f:.2f} %" for w, f in self.fits.items())
@@ -79,7 +79,7 @@ def choose_smoothness(
         The weight kept, the fit of each weight and the model.
     """
     best = result.best
-    base = best.model
+    base = result.model
     if best.structure == "linear" or validation is None:
         return SmoothnessChoice(0.0, {}, base)
     vu, vy = as_recordings(*validation)

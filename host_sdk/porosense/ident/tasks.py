@@ -66,7 +66,7 @@ def score_records(model: Model, us, ys, skips) -> dict:
 
     A model with process noise is scored by its expected output: the recordings it is
     selected on carry the noise it models (Model.predict)."""
-    out = {"fit": [], "rms": []}
+    out: dict[str, list[float]] = {"fit": [], "rms": []}
     for u, y, k in zip(us, ys, skips):
         r = model.score(u=[u], y=[y], skip=int(k), expected=True)
         out["fit"] += r["fit"]
@@ -169,6 +169,7 @@ def refine_candidate(candidate: Candidate, data: SearchData, max_nfev: int) -> t
     """Worker: ``candidate``'s model refined on all the estimation records for at most
     ``max_nfev`` evaluations, rescored; (candidate, converged)."""
     t0, c0 = time.perf_counter(), time.process_time()
+    assert candidate.model is not None  # every scored candidate holds its model (score)
     model = candidate.model.refine(u=data.us, y=data.ys, skip=data.skip, max_nfev=max_nfev)
     out = score(candidate.structure, candidate.n_poles, candidate.n_zeros, model, data)
     out.seconds = candidate.seconds + time.perf_counter() - t0

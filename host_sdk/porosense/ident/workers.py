@@ -13,8 +13,12 @@ import os
 import signal
 import time
 from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, Executor, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
+from typing import Any, ParamSpec, TypeVar
+
+_P = ParamSpec("_P")
+_T = TypeVar("_T")
 
 # Seconds between wake-ups of the main process while it waits for workers (the progress
 # display's clock and the reaction time to Ctrl-C).
@@ -58,7 +62,7 @@ class Cluster:
     scatters the records once to every worker instead of sending them with every task."""
 
     executor: Executor
-    client: object = None  # distributed.Client, when the executor is its
+    client: Any = None  # distributed.Client, when the executor is its
     workers: int = 1
     own: bool = False  # created here: stopped here
 
@@ -94,10 +98,8 @@ class Cluster:
 class _InProcess(Executor):
     """Runs each task in this process at submission (one task needs no pool)."""
 
-    def submit(self, fn, *args, **kwargs):
-        from concurrent.futures import Future
-
-        fut = Future()
+    def submit(self, fn: Callable[_P, _T], /, *args: _P.args, **kwargs: _P.kwargs) -> Future[_T]:
+        fut: Future[_T] = Future()
         try:
             fut.set_result(fn(*args, **kwargs))
         except BaseException as exc:  # KeyboardInterrupt included: raised where it is waited for

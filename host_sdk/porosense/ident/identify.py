@@ -313,6 +313,7 @@ def identify(
                     validation_skip=list(val[2]),
                     monotone=opts.monotone,
                 )
+                assert choice.model is not None  # choose_smoothness always returns a model
                 model = choice.model
             models.append(model)
             results.append(result)

@@ -28,7 +28,7 @@ class SmoothnessChoice:
 
     weight: float
     fits: dict
-    model: Model = field(repr=False)
+    model: Model | None = field(repr=False, default=None)
 
     def __str__(self) -> str:
         tried = ", ".join(f"{w:g}: {f:.2f} %" for w, f in self.fits.items())

@@ -25,6 +25,7 @@ from porosense.errors import ModelError
 MAX_BYTES = 16 * 1024 * 1024
 MAX_DEPTH = 32
 MODEL_FORMAT = "porosense.ident.model"
+MODEL_FORMAT_VERSION = 1  # the version this build reads (porosense.ident.models writes it)
 
 _STRINGS = re.compile(r'"(?:[^"\\]|\\.)*"')
 _BRACKETS = re.compile(r"[\[\]{}]")
@@ -83,6 +84,11 @@ def read_model_document(path) -> dict:
     if not isinstance(doc, dict):
         raise ModelError(f"{path} is not a porosense model file (its JSON is not an object)")
     if doc.get("format") == MODEL_FORMAT:
+        # The version first: another version's fields may be laid out otherwise.
+        if doc.get("version") != MODEL_FORMAT_VERSION:
+            raise ModelError(
+                f"{path}: model format version {doc.get('version')}, this build reads {MODEL_FORMAT_VERSION}"
+            )
         models = doc.get("models")
         if not isinstance(models, list) or not models:
             raise ModelError(f"{path}: 'models' must be a non-empty list of models")

@@ -20,6 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from porosense.data.model_file import MODEL_FORMAT, MODEL_FORMAT_VERSION
 from porosense.errors import InputError, ModelError
 from porosense.files import write_text
 from porosense.ident import output_error
@@ -30,8 +31,7 @@ from porosense.ident.process_noise import with_process_noise
 from porosense.ident.refine import Fit, Options, refine
 from porosense.structure import Branch, EstimatorStructure, OutputChain, PiecewiseLinear, SOSCascade, input_unit_scale
 
-FORMAT = "porosense.ident.model"
-FORMAT_VERSION = 1
+FORMAT, FORMAT_VERSION = MODEL_FORMAT, MODEL_FORMAT_VERSION  # one definition, beside the file check
 MAX_BREAKPOINTS = 64
 MAX_INPUTS = 3
 

@@ -14,7 +14,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
+import threading
 
 from porosense._version import __version__
 from porosense.errors import PorosenseError
@@ -81,6 +83,7 @@ def _one_line(text: str) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the process exit status."""
+    previous = _latch_sigint()
     try:
         return _run(argv)
     except BrokenPipeError:
@@ -90,12 +93,41 @@ def main(argv: list[str] | None = None) -> int:
         return SIGPIPE_EXIT
     except KeyboardInterrupt:  # before a command started: while the parser was being built
         return _interrupted("porosense")
+    except Exception:
+        if _sigint_seen.is_set():
+            return _interrupted("porosense")
+        raise
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+
+
+# Set once Ctrl-C arrived. A C extension that is being imported when the KeyboardInterrupt is
+# raised (numpy's, importing datetime) reports it as an ImportError; any error after Ctrl-C is the
+# interrupt's consequence and ends as one.
+_sigint_seen = threading.Event()
+
+
+def _raise_interrupt(signum, frame):
+    _sigint_seen.set()
+    raise KeyboardInterrupt
+
+
+def _latch_sigint():
+    """Route Ctrl-C through :func:`_raise_interrupt`; returns the handler to restore, or None when
+    SIGINT is not Python's default here (ignored by the caller, or not the main thread)."""
+    _sigint_seen.clear()
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is not signal.default_int_handler:
+        return None
+    signal.signal(signal.SIGINT, _raise_interrupt)
+    return previous
 
 
 def _interrupted(who: str) -> int:
     """One line for Ctrl-C; a second Ctrl-C while it is printed is ignored."""
-    import signal
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     print(f"{who}: interrupted", file=sys.stderr)
     return INTERRUPTED_EXIT
@@ -114,11 +146,15 @@ def _run(argv: list[str] | None) -> int:
     try:
         with guard:
             status = int(args.func(args) or 0)
-    except PorosenseError as exc:
-        print(f"{who}: error: {_one_line(str(exc))}", file=sys.stderr)
-        return exc.exit_code
     except KeyboardInterrupt:
         return _interrupted(who)
+    except Exception as exc:
+        if _sigint_seen.is_set():
+            return _interrupted(who)
+        if isinstance(exc, PorosenseError):
+            print(f"{who}: error: {_one_line(str(exc))}", file=sys.stderr)
+            return exc.exit_code
+        raise
     return status
 
 

@@ -18,7 +18,17 @@ from porosense.cli import build_parser, main
 ROOT = Path(__file__).resolve().parents[2]
 
 # Commands that read recordings, and the options every one of them has (docs/cli.md, "Reading data").
-DATA_COMMANDS = ("identify", "predict", "compare", "report", "diagnose", "quantize", "verify", "control tune")
+DATA_COMMANDS = (
+    "identify",
+    "predict",
+    "compare",
+    "compensate",
+    "report",
+    "diagnose",
+    "quantize",
+    "verify",
+    "control tune",
+)
 DATA_OPTIONS = (
     "--data",
     "--ts",
@@ -29,7 +39,7 @@ DATA_OPTIONS = (
     "--decimal",
     "--skip-rows",
 )
-MODEL_COMMANDS = ("predict", "compare", "report", "diagnose", "quantize", "export", "flash", "verify")
+MODEL_COMMANDS = ("predict", "compare", "compensate", "report", "diagnose", "quantize", "export", "flash", "verify")
 # Spellings that were replaced: they may only exist hidden (as deprecated aliases).
 OLD_SPELLINGS = ("--save", "--inputs", "--load", "--no-progress", "--command", "--report")
 # Leaf commands without a JSON result, and why.

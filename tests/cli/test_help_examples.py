@@ -28,6 +28,7 @@ from porosense.cli import build_parser, main
 # Examples that cannot run here as printed, and where they are covered instead.
 COVERED_ELSEWHERE = {
     "calibrate": "its examples name a user's measured records; tests/sim/test_calibrate.py runs both forms",
+    "compensate": "its example names records under a load; tests/cli/test_compensate.py runs it on simulated ones",
     "demo": "tests/workflows runs `porosense demo` end to end (minutes per actuator)",
     "firmware": "uploading needs a board; tests/packaging runs `firmware upload` with a stand-in avrdude",
     "record": "needs a camera; tests/record runs `porosense record` on rendered video and the emulator",

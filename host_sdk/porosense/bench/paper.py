@@ -256,7 +256,8 @@ def load_drop(*, rate_hz: float = RATE_HZ, specimen: int = 0, order=PAPER_ORDER,
 
 def load_compensation(drop: dict | None = None, *, order=PAPER_ORDER, rate_hz: float = RATE_HZ) -> dict:
     """The paper's load compensation: one more transfer function in series after the no-load
-    WH model, identified for the 500 g condition.
+    WH model, identified for the 500 g condition (porosense.ident.series, what ``porosense
+    compensate`` runs).
 
     The series linear model (``order`` poles and zeros) is identified on the loaded estimation
     records (staircase, -10 and -60 kPa steps) with the no-load model's simulated output as its
@@ -264,33 +265,25 @@ def load_compensation(drop: dict | None = None, *, order=PAPER_ORDER, rate_hz: f
     loaded sets. ``drop``: a :func:`load_drop` result to reuse. Returns mean fit and RMS (%)
     without (``loaded``) and with (``series``) the compensation.
     """
-    from porosense import ident
-    from porosense.dsp.metrics import fit_percent, rms_percent
+    from porosense.ident.series import fit_series
 
     drop = drop or load_drop(rate_hz=rate_hz, order=order)
     model, recs = drop["model"], drop["loaded_records"]
     est_names = SPLIT["contractor"][0]
-    base = [model.predict(u=_u(r, "contractor"))[:, None] for _, r in recs]
     est = [k for k, (name, _) in enumerate(recs) if name in est_names]
-    result = ident.search(
-        u=[base[k] for k in est],
-        y=[np.asarray(recs[k][1]["strain_0"], dtype=float) for k in est],
-        ts=1.0 / recs[0][1].fs,
-        grid=[("linear", order[0], order[1])],
-        progress=False,
+    compensated = fit_series(
+        model,
+        [_u(recs[k][1], "contractor") for k in est],
+        [np.asarray(recs[k][1]["strain_0"], dtype=float) for k in est],
+        order=order,
+        condition="500 g",
     )
-    series = result.best_per_structure()["linear"].model
-    fits, rms = [], []
-    for (_, r), u in zip(recs, base):
-        y = np.asarray(r["strain_0"], dtype=float)
-        yhat = series.predict(u=u)
-        fits.append(fit_percent(y, yhat))
-        rms.append(rms_percent(y, yhat))
+    sc = compensated.score(u=[_u(r, "contractor") for _, r in recs], y=[r["strain_0"] for _, r in recs])
     return {
         "loaded": drop["loaded"],
-        "series": (float(np.mean(fits)), float(np.mean(rms))),
+        "series": (float(np.mean(sc["fit"])), float(np.mean(sc["rms"]))),
         "estimation": [recs[k][0] for k in est],
-        "series_model": series,
+        "series_model": compensated,
     }
 
 

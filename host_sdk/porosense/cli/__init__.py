@@ -29,6 +29,7 @@ SUBCOMMANDS = (
     "identify",
     "predict",
     "compare",
+    "compensate",
     "report",
     "export",
     "diagnose",

@@ -227,7 +227,7 @@ def load_model_checked(path):
     """A saved model, refused (ModelError) when any coefficient is not finite.
 
     An extended model (a nominal model plus terms the device cannot run) is checked through its
-    nominal model and its own coefficients."""
+    nominal model and its own coefficients, a series-compensated one through both its models."""
     from porosense.data.model_file import read_model_document
     from porosense.ident import load_model
     from porosense.ident.models import FORMAT_VERSION
@@ -243,7 +243,9 @@ def load_model_checked(path):
         raise ModelError(f"{path}: inner model format version {bad[0]}, this build reads {FORMAT_VERSION}")
     nominal = getattr(model, "nominal", None)
     _check_blocks_finite(path, nominal if nominal is not None else model)
-    if nominal is not None and not all(math.isfinite(float(c)) for c in model.coef):
+    if getattr(model, "series", None) is not None:  # a series-compensated model: its block too
+        _check_blocks_finite(path, model.series)
+    if nominal is not None and not all(math.isfinite(float(c)) for c in getattr(model, "coef", ())):
         raise ModelError(f"{path}: the {model.cause} extension has non-finite (NaN or inf) coefficients")
     return model
 

@@ -10,7 +10,7 @@ one line (ModelError, exit 4), never a traceback, a hang or an exhausted memory:
 - every model of a ``porosense.ident.model`` file: ``ts`` a positive finite number (a string
   such as ``"0.02"`` is refused), ``theta`` and ``scaling.u_scale`` lists of finite numbers,
   ``inputs`` a list of names matching ``u_scale``, ``output`` a name, ``orders`` and ``spec``
-  of integers.
+  of integers; the ``nominal`` and ``series`` models of a ``porosense.ident.series`` file alike.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ MAX_BYTES = 16 * 1024 * 1024
 MAX_DEPTH = 32
 MODEL_FORMAT = "porosense.ident.model"
 MODEL_FORMAT_VERSION = 1  # the version this build reads (porosense.ident.models writes it)
+SERIES_FORMAT = "porosense.ident.series"  # a model and its series block (porosense.ident.series)
 
 _STRINGS = re.compile(r'"(?:[^"\\]|\\.)*"')
 _BRACKETS = re.compile(r"[\[\]{}]")
@@ -94,6 +95,9 @@ def read_model_document(path) -> dict:
             raise ModelError(f"{path}: 'models' must be a non-empty list of models")
         for k, m in enumerate(models):
             _check_model(path, f"models[{k}]", m)
+    if doc.get("format") == SERIES_FORMAT:
+        for part in ("nominal", "series"):
+            _check_model(path, part, doc.get(part))
     return doc
 
 

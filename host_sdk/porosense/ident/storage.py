@@ -11,7 +11,7 @@ from pathlib import Path
 
 from porosense.data.model_file import read_model_document
 from porosense.errors import ModelError
-from porosense.ident import extended
+from porosense.ident import extended, series
 from porosense.ident.models import FORMAT, FORMAT_VERSION, Model, ModelSet, save_models
 
 __all__ = ["load_model", "save_models"]
@@ -23,12 +23,13 @@ def load_model(path):
     Parameters
     ----------
     path : str or Path
-        A file written by ``save`` (porosense.ident.model or porosense.ident.extended format).
+        A file written by ``save`` (porosense.ident.model, .extended or .series format).
 
     Returns
     -------
-    Model, ModelSet or ExtendedModel
-        The single-output model, a :class:`ModelSet` for several outputs, or the extended model.
+    Model, ModelSet, ExtendedModel or SeriesModel
+        The single-output model, a :class:`ModelSet` for several outputs, the extended model, or a
+        model followed by a series transfer function (porosense.ident.series).
     """
     path = Path(path)
     # Size, nesting depth, NaN/Infinity and field types are checked before anything is built,
@@ -40,6 +41,12 @@ def load_model(path):
                 f"{path}: extended model version {doc.get('version')}, this build reads {extended.FORMAT_VERSION}"
             )
         return extended.ExtendedModel.from_dict(doc)
+    if isinstance(doc, dict) and doc.get("format") == series.FORMAT:
+        if doc.get("version") != series.FORMAT_VERSION:
+            raise ModelError(
+                f"{path}: series model version {doc.get('version')}, this build reads {series.FORMAT_VERSION}"
+            )
+        return series.SeriesModel.from_dict(doc)
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise ModelError(f"{path} is not a porosense model file")
     if doc.get("version") != FORMAT_VERSION:

@@ -48,7 +48,9 @@ def register(sub) -> argparse.ArgumentParser:
         ),
         epilog=(
             "example: porosense diagnose --data run.csv --input p_cmd_0 --output dR_0 "
-            "--sim contractor --condition load_g --json-out diag.json --out diag/"
+            "--sim contractor --condition load_g --json-out diag.json --out diag/\n"
+            "then: porosense diagnose --data staircase.csv step_10.csv --validation-data step_40.csv --input p_cmd_0 "
+            "--output dR_0 --sim contractor --params params.json --save-extended extended.json"
         ),
     )
     p.add_argument("--data", nargs="+", required=True, metavar="FILE", help="recordings: CSV or MATLAB .mat files")
@@ -67,6 +69,13 @@ def register(sub) -> argparse.ArgumentParser:
         choices=STRUCTURES,
         metavar="STRUCTURE",
         help="identify a baseline of this structure (linear, hammerstein, wiener, wh) first",
+    )
+    p.add_argument(
+        "--params",
+        metavar="PARAMS.json",
+        help="with --sim: the simulator's parameter file (porosense calibrate ACTUATOR, or one extended by "
+        "--save-extended) run as it is; without it, porosity, output scale and offset are calibrated to the "
+        "estimation range",
     )
     p.add_argument(
         "--condition",
@@ -98,9 +107,11 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--save-extended",
         metavar="EXT.json",
-        help="write the top cause's extended model here (with --model or --baseline): a model file "
-        "that 'porosense predict' runs and, where the device structure carries it, 'quantize' "
-        "and 'flash' take",
+        help="write the top cause's extension here. With --model or --baseline: a model file that "
+        "'porosense predict' runs and, where the device structure carries it, 'quantize' and 'flash' take. "
+        "With --sim and --params: the parameter file extended by the cause, its parameters fitted on the "
+        "estimation records (which then need the dR_<channel> columns) and its gain measured on the "
+        "validation records; 'porosense simulate --params' runs it",
     )
     p.set_defaults(func=run)
     return p
@@ -164,6 +175,15 @@ def _predictor(args, inputs, est):
     """
     us = [u for u, _, _ in est]
     ys = [y for _, y, _ in est]
+    if args.sim and args.params:
+        from porosense.sim.calibrate import simulated_output
+
+        physics, effects = args.sim_params
+        return (
+            lambda u: simulated_output(args.sim, physics, u, args.ts, args.output, effects=effects),
+            None,
+            f"{args.sim} simulator of {args.params}" + (f" (effects: {', '.join(effects)})" if effects else ""),
+        )
     if args.sim:
         from porosense.diagnose.calibrate import calibrate
 
@@ -215,20 +235,41 @@ def run(args) -> int:
     conditions = [c for c in args.condition if c not in inputs and c != args.output]
     if not 0 < args.alpha < 1:
         raise InputError("--alpha must be between 0 and 1")
-    if args.save_extended and args.sim:
-        raise InputError("--save-extended needs a model to extend: use --model or --baseline, not --sim")
+    if args.params and not args.sim:
+        raise InputError("--params is the simulator's parameter file: give it with --sim ACTUATOR")
+    if args.save_extended and args.sim and not args.params:
+        raise InputError(
+            "--save-extended with --sim extends a parameter file: give --params PARAMS.json "
+            "(porosense calibrate ACTUATOR --data ... --out PARAMS.json)"
+        )
     if args.save_extended:
         output_file(args.save_extended, "--save-extended")
+    if args.params:
+        args.sim_params = _load_sim_params(args.sim, args.params)
     tables = read_tables(args.data, args)
     vtables = read_tables(args.validation_data, args) if args.validation_data else []
     args.ts = sample_period(tables + vtables, args)
     if args.model:  # a model runs per sample: on data at another rate it simulates other dynamics
         model_period(tables + vtables, load_model_checked(args.model), args)
-    est, val = _split(args, inputs, conditions, tables, vtables)
+    # the simulator's extension is fitted to every measured resistance column, not only the output
+    measured = _sim_measured_columns(args, inputs) if args.save_extended and args.sim else []
+    extra = [c for c in measured if c not in conditions and c not in inputs and c != args.output]
+    est, val = _split(args, inputs, conditions + extra, tables, vtables)
     predict, nominal, what = _predictor(args, inputs, est)
-    records = [[Record(u, y, predict(u), args.ts, cond) for u, y, cond in part] for part in (est, val)]
-    result = diagnose(records[0], records[1], alpha=args.alpha, nominal=nominal if args.save_extended else None)
+    records = [
+        [Record(u, y, predict(u), args.ts, {k: v for k, v in cond.items() if k not in extra}) for u, y, cond in part]
+        for part in (est, val)
+    ]
+    result = diagnose(
+        records[0], records[1], alpha=args.alpha, nominal=nominal if args.save_extended and not args.sim else None
+    )
     doc = result.to_dict()
+    extension, tried = None, []
+    if args.save_extended and args.sim:
+        names = _validation_names(args, tables, vtables, len(val))
+        extension, tried = _extend_simulator(args, result, measured, est, val, names)
+        doc["extension"] = extension.to_dict() if extension is not None else None
+        doc["extensions_tried"] = [e.to_dict() for e in tried]
     rest = _from_rest_fits(nominal, val, _validation_names(args, tables, vtables, len(val)))
     if rest:
         doc["nominal_from_rest"] = rest
@@ -251,7 +292,9 @@ def run(args) -> int:
             f"RMS {r['rms']:.2f} %",
         )
     say(args, str(result))
-    if args.save_extended:
+    if args.save_extended and args.sim:
+        _say_extension(args, result, extension, tried)
+    elif args.save_extended:
         if result.extended is None:
             say(args, f"no cause found: nothing to extend, {args.save_extended} not written")
         else:
@@ -259,6 +302,83 @@ def run(args) -> int:
             top = result.findings[0]
             say(args, f"extended model ({top.cause}) written to {args.save_extended}; on the device: {top.on_device}")
     return 0
+
+
+def _load_sim_params(actuator: str, path):
+    """(physics, effects) of a simulator parameter file; one clear line when it is not one."""
+    from pathlib import Path
+
+    from porosense.sim.extend import load_params
+
+    if not Path(path).is_file():
+        raise InputError(f"--params {path}: no such file")
+    try:
+        return load_params(path)
+    except (ValueError, TypeError, KeyError) as exc:
+        raise ModelError(f"--params {path} is not a simulator parameter file ({exc})") from None
+
+
+def _sim_measured_columns(args, inputs) -> list:
+    """The simulator's resistance columns (dR_0 ..) for its channels: what an extension is fitted to."""
+    from porosense import sim
+
+    n = sim.make_plant(args.sim, noise=False).n_channels
+    if len(inputs) > n:
+        raise InputError(f"--input names {len(inputs)} columns; the {args.sim} has {n} channels (p_cmd in kPa)")
+    return [f"dR_{c}" for c in range(n)]
+
+
+def _extend_simulator(args, result, measured, est, val, val_names):
+    """(the parameter file extended by the best cause, every extension tried).
+
+    Every cause the diagnosis found that extends the simulator (porosense.sim.extend) is fitted
+    on the estimation records; the one that improves their fit most is kept (chosen on the
+    records it was fitted on, so its held-out gain stays an unbiased measurement)."""
+    import numpy as np
+
+    from porosense.sim.calibrate import ActuatorRecord
+    from porosense.sim.extend import EXTENSIBLE, extend
+
+    def records(part, names):
+        out = []
+        for (u, y, cond), name in zip(part, names):
+            cols = {**cond, args.output: y}
+            dr = np.column_stack([cols[c] for c in measured])
+            outputs = {} if args.output in measured else {args.output: y}
+            out.append(ActuatorRecord(u, args.ts, dr, outputs, name=name))
+        return out
+
+    causes = [f.cause for f in result.findings if f.found and f.cause in EXTENSIBLE]
+    if not causes:
+        return None, []
+    physics, effects = args.sim_params
+    est_recs = records(est, [f"estimation {k}" for k in range(len(est))])
+    val_recs = records(val, val_names)
+    tried = [extend(args.sim, physics, c, est_recs, val_recs, effects=effects) for c in causes]
+    return max(tried, key=lambda e: e.gain_estimation), tried
+
+
+def _say_extension(args, result, extension, tried) -> None:
+    from porosense.sim.extend import EXTENSIBLE
+
+    for e in tried:
+        say(args, f"simulator {e} (estimation {e.gain_estimation:+.2f})")
+    if result.top == "none":
+        say(args, f"no cause found: nothing to extend, {args.save_extended} not written")
+    elif extension is None:
+        found = ", ".join(f.cause for f in result.findings if f.found)
+        say(
+            args,
+            f"no cause found ({found}) extends the simulator (extensible: {', '.join(EXTENSIBLE)}): "
+            f"{args.save_extended} not written",
+        )
+    else:
+        extension.save(args.save_extended)
+        say(
+            args,
+            f"parameter file extended by {extension.cause} (the largest gain on the estimation records) written "
+            f"to {args.save_extended}; held-out gain {extension.gain:+.2f} fit points",
+        )
 
 
 def _write_page(result, folder, title: str):

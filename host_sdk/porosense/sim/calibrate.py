@@ -317,6 +317,43 @@ def simulate_record(
     return out
 
 
+def simulated_output(actuator: str, physics: Physics, p_cmd, ts: float, output: str, *, effects=None) -> np.ndarray:
+    """One noiseless simulated column for a commanded vacuum series (what diagnosis compares).
+
+    Parameters
+    ----------
+    actuator : str
+        'contractor', 'bending' or '3dof'.
+    physics : Physics
+        The simulator's parameters (a calibrated parameter file's).
+    p_cmd : array_like, shape (N,) or (N, channels)
+        Commanded vacuum, kPa (<= 0 on).
+    ts : float
+        Sample period, s.
+    output : str
+        A column of :func:`simulate_record` (``dR_0``, ``strain_0``, ``curvature``, ``theta_x``, ...).
+    effects : dict, optional
+        Named effects (porosense.sim.effects) the parameter file carries.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        The column, in its unit (% for dR and strain, 1/m, deg, mm).
+
+    Raises
+    ------
+    InputError
+        An output the actuator's simulator does not have.
+    """
+    p = np.asarray(p_cmd, dtype=float)
+    p = p[:, None] if p.ndim == 1 else p
+    out = simulate_record(actuator, physics, ActuatorRecord(p, ts, np.zeros_like(p)), effects=effects or None)
+    if output not in out:
+        names = ", ".join(k for k in out if not k.startswith(("voltage", "euler", "t_")))
+        raise InputError(f"the {actuator} simulator has no output '{output}' (it has {names})")
+    return np.asarray(out[output], dtype=float)
+
+
 # (stage, field, log scale?, lower, upper) of the actuator fit; values are factors of the start
 _ACT = (
     ("foam", "solid_modulus_kpa", 0.2, 5.0),
@@ -332,6 +369,19 @@ _ACT = (
     ("piezo", "relax_gain", 0.05, 3.0),
     ("piezo", "relax_s", 0.2, 5.0),
 )
+
+
+def piled_at_extreme(y: np.ndarray, min_count: int = 10) -> np.ndarray:
+    """Samples exactly at the series' minimum or maximum when at least ``min_count`` sit there
+    (a clipped reading; a continuous measurement repeats its extreme by chance only a few times)."""
+    y = np.asarray(y, dtype=float)
+    tol = 1e-9 * (float(np.ptp(y)) or 1.0)
+    out = np.zeros(y.size, dtype=bool)
+    for ext in (y.min(), y.max()):
+        at = np.abs(y - ext) <= tol
+        if at.sum() >= min_count:
+            out |= at
+    return out
 
 
 def _actuator_physics(base: Physics, theta) -> Physics:
@@ -409,22 +459,28 @@ def calibrate_actuator(actuator: str, records, *, physics: Physics | None = None
     if not records:
         raise InputError("no recording to calibrate from")
     base = (physics or Physics()).without("repeat_variation", "baseline_drift")
-    # each column weighted by its own spread, each record by its length
+    # each column weighted by its own spread, each record by its length; samples piled up at a
+    # column's extreme (a clipped ADC or divider) say only that the value is beyond the limit:
+    # they leave the cost, so the physics is fitted to what the sensor saw and the clip stays a
+    # cause for diagnosis to name (porosense.sim.extend: saturation)
     scales = []
     for r in records:
         s = {f"dR_{c}": max(float(np.std(r.dr[:, c])), 1e-6) for c in range(r.dr.shape[1])}
         s.update({k: max(float(np.std(v)), 1e-6) for k, v in r.outputs.items()})
-        scales.append((s, 1.0 / math.sqrt(r.dr.shape[0])))
+        keep = {f"dR_{c}": ~piled_at_extreme(r.dr[:, c]) for c in range(r.dr.shape[1])}
+        keep.update({k: ~piled_at_extreme(v) for k, v in r.outputs.items()})
+        scales.append((s, 1.0 / math.sqrt(r.dr.shape[0]), keep))
 
     def residual(theta):
         ph = _actuator_physics(base, theta)
         out = []
-        for r, (s, w) in zip(records, scales):
+        for r, (s, w, keep) in zip(records, scales):
             sim = simulate_record(actuator, ph, r)
             for c in range(r.dr.shape[1]):
-                out.append(w * (sim[f"dR_{c}"] - r.dr[:, c]) / s[f"dR_{c}"])
+                col = f"dR_{c}"
+                out.append(w * keep[col] * (sim[col] - r.dr[:, c]) / s[col])
             for k, v in r.outputs.items():
-                out.append(w * (sim[k] - v) / s[k])
+                out.append(w * keep[k] * (sim[k] - v) / s[k])
         return np.nan_to_num(np.concatenate(out), nan=1e3)
 
     lo = np.log([b[2] for b in _ACT])

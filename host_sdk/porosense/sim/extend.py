@@ -75,6 +75,7 @@ class Extension:
     fit_calibrated: dict  # held-out record -> column -> fit (%)
     fit_extended: dict
     gain: float = field(default=float("nan"))  # mean fit points gained over held-out columns
+    gain_estimation: float = field(default=float("nan"))  # the same over the records it was fitted on
 
     def to_dict(self) -> dict:
         return {
@@ -84,6 +85,7 @@ class Extension:
             "fit_calibrated": self.fit_calibrated,
             "fit_extended": self.fit_extended,
             "gain": self.gain,
+            "gain_estimation": self.gain_estimation,
         }
 
     def save(self, path) -> Path:
@@ -103,6 +105,15 @@ def _fits(actuator, physics, effects, records) -> dict:
         cols.update({k: fit_percent(v, sim[k]) for k, v in r.outputs.items()})
         out[r.name] = cols
     return out
+
+
+def _clip_voltage(actuator, physics, records) -> float:
+    """The divider voltage (V) of the lowest dR the records show, on the simulator's R0."""
+    from porosense.sim.electronics import divider_voltage
+
+    r0 = float(simulate_record(actuator, physics, records[0])["R_0"][0])
+    lowest = min(float(np.min(r.dr)) for r in records)
+    return float(divider_voltage(r0 * (1.0 + lowest / 100.0), physics.electronics))
 
 
 def _mean(fits: dict) -> float:
@@ -131,7 +142,8 @@ def extend(actuator: str, physics: Physics, cause: str, estimation, held_out, *,
     -------
     Extension
         The extended parameters and effects, the fitted values, the held-out fits (%) of both
-        simulators per record and column, and the mean gain (fit points).
+        simulators per record and column, the mean gain on them and on the estimation records
+        (fit points).
     """
     if cause in NOT_PHYSICS:
         raise InputError(f"{cause} cannot extend the simulator: {NOT_PHYSICS[cause]}")
@@ -189,6 +201,12 @@ def extend(actuator: str, physics: Physics, cause: str, estimation, held_out, *,
         costs = [float(np.sum(residual([d]) ** 2)) for d in grid]
         theta = np.array([grid[int(np.argmin(costs))]])
     else:
+        if cause == "saturation":
+            # a clip has no gradient where the simulation never reaches it: start at the level the
+            # records sit at (their lowest dR as a divider voltage of the calibrated R0), on a grid
+            v0 = _clip_voltage(actuator, physics, estimation)
+            grid = np.clip(v0 * np.linspace(0.9, 1.1, 11), lo[0] + 1e-9, hi[0] - 1e-9)
+            x0 = np.array([grid[int(np.argmin([float(np.sum(residual([v]) ** 2)) for v in grid]))]])
         x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
         theta = least_squares(residual, x0, bounds=(lo, hi), max_nfev=max_nfev, diff_step=1e-3).x
     ph, eff = build(theta)
@@ -199,4 +217,5 @@ def extend(actuator: str, physics: Physics, cause: str, estimation, held_out, *,
     )
     before = _fits(actuator, physics, base_effects, held_out)
     after = _fits(actuator, ph, eff, held_out)
-    return Extension(cause, ph, eff, fitted, before, after, _mean(after) - _mean(before))
+    in_sample = _mean(_fits(actuator, ph, eff, estimation)) - _mean(_fits(actuator, physics, base_effects, estimation))
+    return Extension(cause, ph, eff, fitted, before, after, _mean(after) - _mean(before), in_sample)

@@ -21,7 +21,8 @@ from porosense.protocol.model_layout import MAX_BLOB_LEN
 
 ROOT = Path(__file__).resolve().parents[2]
 ELF = ROOT / "firmware" / "build" / "porosense.elf"
-pytestmark = [pytest.mark.simboard, pytest.mark.slow]
+# One worker runs the module (the start image is a module fixture a second worker would rebuild).
+pytestmark = [pytest.mark.simboard, pytest.mark.slow, pytest.mark.xdist_group("torn-simboard")]
 
 
 @pytest.fixture(scope="module")

@@ -5,9 +5,14 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from porosense.cli import main
 from porosense.data import Recording
+
+# One worker runs the module: every test reads the rendered scene, a session fixture that each
+# worker renders for itself.
+pytestmark = pytest.mark.xdist_group("record-cli")
 
 
 def _run(capfd, *argv):

@@ -22,6 +22,10 @@ import pytest
 
 from porosense.control.loadbench import HOLD_S, TARGETS, identify_setup, measure_load
 
+# One worker runs the module: the identified setup and the loaded runs are module fixtures, and
+# a worker builds its own copy of each (the module split over two workers built them twice).
+pytestmark = pytest.mark.xdist_group("closed-loop-emulator")
+
 
 @pytest.fixture(scope="module")
 def setup():

@@ -20,6 +20,8 @@ ROOT = Path(__file__).resolve().parents[2]
 ELF = ROOT / "firmware" / "build" / "porosense.elf"
 RATE_HZ = 50
 SECONDS = 200  # of each experiment: all of it (the 3-DoF experiments run 60-80 s)
+# One worker runs the module: split over two, each identified the three outputs itself.
+pytestmark = pytest.mark.xdist_group("demo-3dof-parts")
 
 
 @pytest.fixture(scope="module")

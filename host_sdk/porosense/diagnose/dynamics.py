@@ -27,6 +27,7 @@ import numpy as np
 from scipy import optimize, signal
 
 from porosense.diagnose import signals, stats
+from porosense.dsp.metrics import fit_percent
 
 MAX_ORDER = 10
 
@@ -194,3 +195,94 @@ def choose(us: list, es: list, max_order: int = MAX_ORDER) -> Correction:
             break
     best = min(bic, key=bic.get)
     return Correction(best, [np.asarray(f, float) for f in fits[best]], {m: float(v) for m, v in bic.items()})
+
+
+@dataclass
+class DelayOrPole:
+    """A dead time against one more pole: the two simplest linear explanations of a late response.
+
+    Both are output-error models of the measured output from the inputs with the nominal model's
+    number of poles ``order``: ``delay`` keeps that order and delays the inputs by ``delay``
+    samples (one parameter more than the nominal: the delay); ``pole`` adds one pole and one tap
+    and keeps the one-sample delay of a sampled system (two parameters more). Both are fitted on
+    the estimation records; ``test`` compares their squared errors on the validation records,
+    scored after the slower model has settled from the unknown state before each record (batch
+    means, :func:`.stats.paired_gain_test`, the delay model as the extension, one-sided 5 %).
+    ``prefers_delay``: the dead time predicts better (confirmed); ``prefers_pole``: one more pole
+    predicts better (the delay's gain refuted); neither: the data cannot tell them apart.
+    """
+
+    delay: int
+    order: int
+    fit_delay: float
+    fit_pole: float
+    test: stats.GainTest
+
+    @property
+    def prefers_delay(self) -> bool:
+        """The dead time predicts the validation records better than one more pole (one-sided 5 %)."""
+        return self.test.confirmed
+
+    @property
+    def prefers_pole(self) -> bool:
+        """One more pole predicts the validation records better than the dead time (one-sided 5 %)."""
+        return self.test.refuted
+
+    def sentence(self) -> str:
+        return (
+            f"on validation a linear model of the measured output with {self.order} pole"
+            f"{'s' if self.order > 1 else ''} and a dead time of {self.delay} samples fits {self.fit_delay:.2f} %, "
+            f"one with {self.order + 1} poles and no dead time {self.fit_pole:.2f} % "
+            f"(paired t = {self.test.t:.3g}, one-sided p = {self.test.p:.2g})"
+        )
+
+
+def _shifted(us: list, d: int) -> list:
+    return [np.column_stack([signals.shift(u[:, i], d) for i in range(u.shape[1])]) for u in us]
+
+
+def _oe_fit_predict(us_est: list, ys_est: list, us_val: list, order: int, d: int) -> tuple[float, list, float]:
+    """(estimation SSE, validation predictions per record, slowest time constant in samples) of an
+    OE model of ``order`` poles on inputs delayed by d."""
+    se, sv = _shifted(us_est, d), _shifted(us_val, d)
+    theta, _, fs = fit_output_error(se, ys_est, order)
+    sse = float(sum(np.sum((y - p) ** 2) for y, p in zip(ys_est, _simulate(theta, se, order, False)[0])))
+    radius = max([float(np.max(np.abs(np.roots(f)))) for f in fs if len(f) > 1] or [0.0])
+    tau = -1.0 / np.log(radius) if 0.0 < radius < 1.0 else 0.0
+    return sse, _simulate(theta, sv, order, False)[0], tau
+
+
+#: time constants after which a record's unknown initial state has decayed below 1 % (e^-4.6)
+SETTLE_TAUS = 4.6
+
+
+def delay_or_pole(us_est: list, ys_est: list, us_val: list, ys_val: list, order: int, delays) -> DelayOrPole:
+    """Compare a dead time (the best of ``delays`` >= 2 samples on estimation) with one more pole.
+
+    us_*: lists of (N_r, n_in) inputs; ys_*: lists of (N_r,) measured outputs; order: the nominal
+    model's poles. See :class:`DelayOrPole`.
+    """
+    us_est = [np.asarray(u, float).reshape(len(u), -1) for u in us_est]
+    us_val = [np.asarray(u, float).reshape(len(u), -1) for u in us_val]
+    ys_est = [np.asarray(y, float) for y in ys_est]
+    y_val = np.concatenate([np.asarray(y, float) for y in ys_val])
+    order = max(1, int(order))
+    fits = [(_oe_fit_predict(us_est, ys_est, us_val, order, d), d) for d in sorted({max(2, int(d)) for d in delays})]
+    (_, pred_delay, tau_delay), d = min(fits, key=lambda f: f[0][0])
+    _, pred_pole, tau_pole = _oe_fit_predict(us_est, ys_est, us_val, order + 1, 1)
+    # both are scored where the state before each record no longer matters: after SETTLE_TAUS
+    # time constants of the slower model (at most half the record)
+    keep = []
+    for y in ys_val:
+        skip = int(min(np.ceil(SETTLE_TAUS * max(tau_delay, tau_pole)) + d, len(y) // 2))
+        keep.append(np.arange(len(y)) >= skip)
+    keep = np.concatenate(keep)
+    pred_delay, pred_pole = np.concatenate(pred_delay)[keep], np.concatenate(pred_pole)[keep]
+    y_val = y_val[keep]
+    return DelayOrPole(
+        int(d),
+        order,
+        float(fit_percent(y_val, pred_delay)),
+        float(fit_percent(y_val, pred_pole)),
+        stats.paired_gain_test(y_val, pred_pole, pred_delay),
+    )

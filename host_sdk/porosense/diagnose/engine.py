@@ -18,8 +18,10 @@ Procedure:
 2. **Tests.** Each cause's test (see :mod:`.extensions`) runs at alpha / K (K causes,
    Bonferroni: alpha family-wise, 1 % by default).
 3. **Evidence that agrees with the name.** time_delay needs the measured response to start
-   later than the model's (prewhitened input-output cross-correlation) and a held-out gain
-   from the delay itself; slow_relaxation a held-out gain from the slow mode itself; hysteresis
+   later than the model's (prewhitened input-output cross-correlation), a held-out gain
+   from the delay itself and a measured output that does not prefer one more pole to a dead
+   time on held-out data (:func:`.dynamics.delay_or_pole`; when it prefers the dead time at
+   one-sided 5 %, time_delay explains the linear deficit); slow_relaxation a held-out gain from the slow mode itself; hysteresis
    a direction effect beyond static maps, a slow mode and the adequate-order linear model (its
    test is conditional on them); saturation samples at a limit where the model, fitted without
    them, predicts beyond the limit (a rest of the experiment at that level is not clipping).
@@ -415,15 +417,30 @@ def _n_params(cause: str, res, ctx) -> int:
     return k + (1 if res.n_search > 1 else 0)
 
 
-def _one_dynamics_explanation(findings: dict, improvements: dict, extended: dict, y_val: np.ndarray) -> None:
+def _one_dynamics_explanation(
+    findings: dict, improvements: dict, extended: dict, y_val: np.ndarray, results: dict
+) -> None:
     """unmodelled_dynamics, time_delay and slow_relaxation explain one linear deficit in
-    different ways. The one with the largest gain explains it (:func:`.ranking.rank`), except
-    that a specific cause (a delay, a slow mode: its own evidence, few parameters) wins an
-    overlap with the generic correction (unmodelled_dynamics, the catch-all); another stays
-    found only when its extension predicts the held-out data better than the winner's
-    (one-sided 5 %)."""
+    different ways. A found time_delay explains it when the measured output prefers a dead
+    time to one more pole on held-out data (one-sided 5 %, :func:`.dynamics.delay_or_pole`):
+    what a higher-order correction gains is then the delay rendered by poles. Otherwise the one with the largest gain
+    explains it (:func:`.ranking.rank`), except that a specific cause (a slow mode: its own
+    evidence, few parameters) wins an overlap with the generic correction (unmodelled_dynamics,
+    the catch-all); another stays found only when its extension predicts the held-out data
+    better than the winner's (one-sided 5 %)."""
     found = [c for c in DYNAMICS if findings[c].found]
     if len(found) < 2:
+        return
+    if "time_delay" in found and results["time_delay"].detail.get("prefers_delay"):
+        for c in found:
+            if c != "time_delay":
+                f = findings[c]
+                f.found, f.confidence = False, 0.0
+                f.rejected = (
+                    "time_delay explains the same linear residual: the measured output prefers a dead time to "
+                    "one more pole on held-out data"
+                )
+                f.evidence += f" Not found: {f.rejected}."
         return
     # the generic correction is the catch-all: it loses every overlap with a specific dynamic cause
     order, _ = ranking.rank(
@@ -601,7 +618,7 @@ def _diagnose(estimation, validation, alpha, nominal, refit) -> Diagnosis:
         )
         if found:
             findings[cause].confidence = float(np.clip((1.0 - res.test.p) * (1.0 - confirm.p), 0.0, 1.0))
-    _one_dynamics_explanation(findings, improvements, extended, y_val)
+    _one_dynamics_explanation(findings, improvements, extended, y_val, results)
     # input-output causes first; disturbances (tracked from the measured output, a predictor's
     # gain that a simulation gain cannot be compared with) after them
     groups = [[c for c in CAUSES if c not in DISTURBANCES], list(DISTURBANCES)]

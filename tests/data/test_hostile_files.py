@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import resource
 from collections import Counter
 from pathlib import Path
@@ -54,6 +55,18 @@ def _check(outcomes: Counter, code: int, err: str, what: str) -> None:
     ok = code in (0, 2, 4) and "Traceback" not in err and (code == 0 or len(lines) == 1)
     assert ok, f"{what}: exit {code}, stderr:\n{err[-3000:]}"
     outcomes[code] += 1
+
+
+def _overwrite(path: Path, data: bytes) -> None:
+    """Write ``data`` over the file in place and cut it to length. Path.write_bytes truncates to
+    zero first, which hands the file's block back: on a disk mounted with discard that waits
+    ~3 ms per case (28 s of the fuzz's 10,000), against 0.02 ms in place; the bytes are the same."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT, 0o644)
+    try:
+        os.write(fd, data)
+        os.ftruncate(fd, len(data))
+    finally:
+        os.close(fd)
 
 
 def _mutate(rng: np.random.Generator, data: bytes) -> bytes:
@@ -121,7 +134,7 @@ def test_fuzzed_files_end_in_one_line(seeds, kind, part, tmp_path):
     outcomes: Counter = Counter()
     rss0 = _maxrss_mb()
     for i in range(CASES):
-        target.write_bytes(_mutate(rng, base))
+        _overwrite(target, _mutate(rng, base))
         model, data = (target, seeds["csv"]) if kind == "model" else (seeds["model"], target)
         code, err = _run(model, data)
         _check(outcomes, code, err, f"{kind} case {i}")

@@ -14,10 +14,10 @@ Bounds: in every trial the diagnosis names saturation (a found cause), the loop 
 parameter file by it, the extension predicts the held-out records better than the calibrated
 file (held-out gain > 0 fit points) and ``simulate --params --replay`` of the extended file fits
 a clipped held-out record better. On the same generator without the clip, saturation is not
-named. Measured (11 s CPU per trial): seed 0, clip at 45 % of the drop: found slow_relaxation,
+named. Measured (10 s CPU per trial): seed 0, clip at 45 % of the drop: found time_delay,
 saturation, drift; saturation's extension gains +38.2 fit points on the estimation records and
 +20.5 held out, the replay of step_40 fits 61.3 -> 88.5 %; seed 1, clip at 56 %: +51.7 / +31.4,
-48.6 -> 95.4 %; seed 0 without the clip: unmodelled_dynamics and drift found, not saturation.
+48.6 -> 95.4 %; seed 0 without the clip: time_delay and drift found, not saturation.
 """
 
 from __future__ import annotations
@@ -74,7 +74,7 @@ def _loop(tmp_path, capsys, seed: int, clip: bool):
         print(
             f"seed {seed}, "
             + (f"clip at {share:.0%} of the drop" if clip else "no clip")
-            + ": found {found}; tried "
+            + f": found {found}; tried "
             + ", ".join(
                 f"{e['cause']} {e['gain_estimation']:+.2f} / held out {e['gain']:+.2f}" for e in doc["extensions_tried"]
             )

@@ -266,3 +266,24 @@ def test_an_existing_recording_is_replaced_only_with_force(scene, tmp_path, capf
     assert code == 2
     _one_line_error(err, "--force replaces it")
     assert (tmp_path / "r_board.csv").read_text() == "t\n0\n"
+
+
+def test_a_video_is_refused_unread_only_beyond_what_the_clock_fit_could_absorb(scene):
+    """The check before tracking refuses a recording longer than the video by more than
+    MAX_CLOCK_DISAGREEMENT (5 %) plus two frames, and leaves anything closer to the exact check
+    on the fitted clock (a camera whose stated rate is off by a few percent still records)."""
+    from porosense.cli.record import MAX_CLOCK_DISAGREEMENT, _refuse_a_video_too_short
+    from porosense.errors import InputError
+    from porosense.record.video import open_video
+
+    cap, fps, n_frames = open_video(scene.video)
+    cap.release()
+    video_s = n_frames / fps
+
+    def board(span_s: float) -> Recording:
+        t = np.linspace(0.0, span_s, 50)
+        return Recording(t, {"t_dev_us": 1e6 + t * 1e6})
+
+    _refuse_a_video_too_short(scene.video, board(video_s * (1.0 + 0.9 * MAX_CLOCK_DISAGREEMENT)))
+    with pytest.raises(InputError, match="s too short"):
+        _refuse_a_video_too_short(scene.video, board(video_s * (1.0 + MAX_CLOCK_DISAGREEMENT) + 3.0 / fps))

@@ -14,6 +14,10 @@ from porosense.errors import InputError
 #: Host-timestamp alignment error with a live camera: a webcam's capture-to-delivery latency
 #: (typically 30-150 ms) plus a sample period and the serial link's delivery jitter.
 HOST_CLOCK_ERROR_MS = 150.0
+#: Largest disagreement (relative) between a video file's stated frame rate and the board's clock
+#: that the clock fit may still absorb: a recording longer than the video by more than this cannot
+#: be covered, and is refused before the video is tracked (tracking reads every frame).
+MAX_CLOCK_DISAGREEMENT = 0.05
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -82,6 +86,28 @@ def _warn(text: str) -> None:
     print(f"porosense record: warning: {text}", file=sys.stderr)
 
 
+def _refuse_a_video_too_short(video_path: Path, board) -> None:
+    """Refuse a video file whose length (its frame count over its frame rate) falls short of the
+    board recording's device-time span by more than any clock disagreement could explain
+    (MAX_CLOCK_DISAGREEMENT, plus two frames). The exact check, on the fitted clock, follows the
+    tracking; this one costs no frame. A file that states no frame count is left to that check."""
+    from porosense.record.video import open_video
+
+    cap, fps, n_frames = open_video(video_path)
+    cap.release()
+    if n_frames <= 0 or "t_dev_us" not in board or len(board) < 2:
+        return
+    t_us = board["t_dev_us"]
+    span_s = float(t_us[-1] - t_us[0]) * 1e-6
+    video_s = n_frames / fps
+    short = span_s - video_s * (1.0 + MAX_CLOCK_DISAGREEMENT) - 2.0 / fps
+    if short > 0:
+        raise InputError(
+            f"the video {video_path} lasts {video_s:.2f} s but the board recording spans {span_s:.2f} s: "
+            f"the video is at least {short:.2f} s too short"
+        )
+
+
 def run(args) -> int:
     from porosense.record.calibration import Calibration
     from porosense.record.layout import Layout
@@ -127,6 +153,8 @@ def run(args) -> int:
         if not args.json:
             print(f"board samples saved to {saved}")
     video_path = Path(args.video) if args.video else out.with_suffix(".avi")
+    if args.video and camera is None:  # a camera's file is timed by the host's clock, not its stated rate
+        _refuse_a_video_too_short(video_path, board)
     timestamps = None
     if host_times is not None:
         timestamps = [t - host_times[0] for t in host_times]

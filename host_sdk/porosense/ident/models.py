@@ -24,6 +24,7 @@ from porosense.data.model_file import MODEL_FORMAT, MODEL_FORMAT_VERSION
 from porosense.errors import InputError, ModelError
 from porosense.files import write_text
 from porosense.ident import output_error
+from porosense.ident.blas import single_threaded
 from porosense.ident.blocks import sos_rows
 from porosense.ident.chain import Chain, ChainSpec
 from porosense.ident.metrics import fit_percent, information_criteria, rms_percent
@@ -277,6 +278,7 @@ class Model:
             return model.output_error_fit
         return Fit(model.spec, model.theta, model.info["sse"] / self.y_std**2)
 
+    @single_threaded
     def _fit(
         self, *, u, y, ts, inputs, output, input_unit=None, output_unit=None, start_models=None, scaling=None
     ) -> Model:

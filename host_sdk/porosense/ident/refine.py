@@ -14,6 +14,7 @@ from typing import Protocol
 import numpy as np
 from scipy.optimize import least_squares
 
+from porosense.ident.blas import single_threaded
 from porosense.ident.chain import Chain, ChainSpec
 from porosense.ident.lm import levenberg_marquardt, normal_equations_rows
 
@@ -108,6 +109,7 @@ def _penalty_rows(spec: ChainSpec, theta, n_res: int, opts: Options):
     return np.concatenate(rows), np.vstack(jac)
 
 
+@single_threaded
 def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
     """Minimise the simulation error over all recordings (LM with the exact J, :mod:`lm`),
     plus the optional smoothness / monotone penalties of :func:`_penalty_rows`."""

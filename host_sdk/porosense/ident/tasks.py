@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from porosense.ident.blas import single_threaded
 from porosense.ident.candidates import Candidate, tie_tolerance
 from porosense.ident.models import Model, Scaling, make_model
 
@@ -121,6 +122,7 @@ def best_member(structure, n_poles, n_zeros, model: Model, data: SearchData, cri
     return best
 
 
+@single_threaded
 def fit_order(structures, n_poles, n_zeros, kwargs, data: SearchData, criterion: str, linear=None) -> list:
     """Worker: the candidates of ``structures`` at one order, fitted on ``data``'s fitting records.
 
@@ -165,6 +167,7 @@ def fit_order(structures, n_poles, n_zeros, kwargs, data: SearchData, criterion:
     return out
 
 
+@single_threaded
 def refine_candidate(candidate: Candidate, data: SearchData, max_nfev: int) -> tuple[Candidate, bool]:
     """Worker: ``candidate``'s model refined on all the estimation records for at most
     ``max_nfev`` evaluations, rescored; (candidate, converged)."""

@@ -5,7 +5,8 @@ import pytest
 from porosense.bench import quant as bench
 from porosense.protocol.model_blob import MAX_BLOB_LEN
 
-pytestmark = pytest.mark.bench
+# One worker runs the module: the figures are a module fixture a second worker would compute again.
+pytestmark = [pytest.mark.bench, pytest.mark.xdist_group("quant-bench")]
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ from porosense.data import Recording
 
 # One worker runs the module: every test reads the rendered scene, a session fixture that each
 # worker renders for itself.
-pytestmark = pytest.mark.xdist_group("record-cli")
+pytestmark = pytest.mark.xdist_group("record-scene")  # with test_track.py
 
 
 def _run(capfd, *argv):

@@ -21,6 +21,11 @@ DZ_RMS_MM_BOUND = 0.15  # mm (measured worst 0.054)
 SYNC_OFFSET_FRAMES_BOUND = 0.6  # frames at 30 fps, worst frame (measured worst 0.34)
 
 
+# One worker runs the module, with test_record_cli.py: the tracked video is a module fixture and the
+# rendered scene a session fixture that another worker would make again.
+pytestmark = pytest.mark.xdist_group("record-scene")
+
+
 @pytest.fixture(scope="module")
 def tracked(scene):
     layout = Layout(**scene.layout)

@@ -3,6 +3,7 @@
 sections  pure delays in cascades of second-order sections
 filters   the discrete Laguerre bank and the play (backlash) operator
 metrics   the paper's NRMSE fit and RMS % (docs/design.md)
+blas      one BLAS thread around fits of many small products (porosense.dsp.blas.single_threaded)
 """
 
 from porosense.dsp.filters import laguerre_bank, play_operator

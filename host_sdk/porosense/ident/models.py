@@ -21,10 +21,10 @@ from typing import NamedTuple
 import numpy as np
 
 from porosense.data.model_file import MODEL_FORMAT, MODEL_FORMAT_VERSION
+from porosense.dsp.blas import single_threaded
 from porosense.errors import InputError, ModelError
 from porosense.files import write_text
 from porosense.ident import output_error
-from porosense.ident.blas import single_threaded
 from porosense.ident.blocks import sos_rows
 from porosense.ident.chain import Chain, ChainSpec
 from porosense.ident.metrics import fit_percent, information_criteria, rms_percent

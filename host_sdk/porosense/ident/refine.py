@@ -14,7 +14,7 @@ from typing import Protocol
 import numpy as np
 from scipy.optimize import least_squares
 
-from porosense.ident.blas import single_threaded
+from porosense.dsp.blas import single_threaded
 from porosense.ident.chain import Chain, ChainSpec
 from porosense.ident.lm import levenberg_marquardt, normal_equations_rows
 

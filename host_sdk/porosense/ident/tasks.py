@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from porosense.ident.blas import single_threaded
+from porosense.dsp.blas import single_threaded
 from porosense.ident.candidates import Candidate, tie_tolerance
 from porosense.ident.models import Model, Scaling, make_model
 

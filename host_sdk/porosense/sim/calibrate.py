@@ -21,13 +21,13 @@ the (calibrated) simulator.
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares
 
+from porosense.dsp.blas import single_threaded
 from porosense.dsp.metrics import fit_percent
 from porosense.errors import InputError
 from porosense.sim.material import ContactNetwork
@@ -35,32 +35,6 @@ from porosense.sim.params import Physics, Piezo
 
 CURVE_POINTS = 8  # breakpoints of the measured static curve
 MATERIAL_EFFECTS = ("rate_hysteresis", "relaxation", "softening", "drift")
-
-
-def one_blas_thread(fn):
-    """Run ``fn`` with one BLAS thread: the fits are many small least-squares steps in one process,
-    where OpenBLAS threads only add overhead (calibrate_material 14.4 -> 5.4 s CPU at load 6, the
-    same result).
-
-    Parameters
-    ----------
-    fn : callable
-        The fit.
-
-    Returns
-    -------
-    callable
-        ``fn`` limited to one BLAS thread while it runs.
-    """
-
-    @functools.wraps(fn)
-    def wrapper(*args, **kwargs):
-        from threadpoolctl import threadpool_limits
-
-        with threadpool_limits(limits=1, user_api="blas"):
-            return fn(*args, **kwargs)
-
-    return wrapper
 
 
 def _fit_percent(y, yhat) -> float:
@@ -236,7 +210,7 @@ def _material_fit(records, off=(), max_nfev: int = 60):
     return pz, result, int(sol.nfev)
 
 
-@one_blas_thread
+@single_threaded
 def calibrate_material(records, *, ablation: bool = False, max_nfev: int = 60) -> MaterialCalibration:
     """Fit the piezoresistive law to tensile recordings.
 
@@ -463,7 +437,7 @@ def _fits(actuator, physics, records) -> dict:
     return out
 
 
-@one_blas_thread
+@single_threaded
 def calibrate_actuator(actuator: str, records, *, physics: Physics | None = None, max_nfev: int = 80):
     """Fit the plant's foam and contact-law parameters to recordings of one print.
 

@@ -29,9 +29,10 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 
+from porosense.dsp.blas import single_threaded
 from porosense.dsp.metrics import fit_percent
 from porosense.errors import InputError
-from porosense.sim.calibrate import one_blas_thread, simulate_record
+from porosense.sim.calibrate import simulate_record
 from porosense.sim.effects import resolve_effects
 from porosense.sim.params import Physics
 
@@ -120,7 +121,7 @@ def _mean(fits: dict) -> float:
     return float(np.mean([v for cols in fits.values() for v in cols.values()]))
 
 
-@one_blas_thread
+@single_threaded
 def extend(actuator: str, physics: Physics, cause: str, estimation, held_out, *, effects=None, max_nfev: int = 40):
     """Add ``cause`` to a calibrated simulator, fitted on ``estimation`` records, scored on ``held_out``.
 

@@ -152,9 +152,8 @@ def identify_output(
     ``est``, ``val``: lists of (name, Recording) from :func:`paper_records`. The model of each
     structure is the candidate with the best mean fit over all five sets (the paper's rule).
     """
-    from threadpoolctl import threadpool_limits
-
     from porosense import ident
+    from porosense.dsp.blas import one_thread
 
     c0 = time.process_time()
     u = [_u(r, actuator) for _, r in est]
@@ -169,7 +168,7 @@ def identify_output(
     )
     # many small least-squares steps in one process: BLAS threads only add overhead on a busy
     # machine (3-DoF dz: 49.4 -> 30.6 s CPU, the same figures)
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_thread():
         result = _search(ident, u, y, vu, vy, rate, grid)
     names = [n for n, _ in est + val]
     figures = {}

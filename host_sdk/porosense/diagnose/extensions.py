@@ -29,6 +29,8 @@ DYNAMICS = ("unmodelled_dynamics", "time_delay", "slow_relaxation")
 #: linear model's prediction is met at its own order to 1e-8..1e-7 (a model simulated in its own
 #: form, refitted by least squares); one pole fewer leaves percents
 EXACT_RMS = 1e-6
+#: slow cosines of time per record that render a drift (its test; hysteresis is tested beyond them)
+DRIFT_TERMS = 3
 POLE_GRID = (0.3, 0.5, 0.7, 0.8, 0.9, 0.95, 0.975, 0.99, 0.995)
 
 
@@ -435,11 +437,18 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
 
     # direction dependence beyond any static map on either side (a level effect), beyond a
     # slow mode (fading, rate-dependent memory) and beyond rate-dependent level effects (a
-    # nonlinearity inside dynamics leaves a residual that grows with the speed): hysteresis is
-    # memory that neither fades nor depends on the speed
+    # nonlinearity inside dynamics leaves a residual that grows with the speed) and beyond a
+    # slow trend in time (the drift test's cosines): hysteresis is memory that neither fades,
+    # depends on the speed nor wanders with time
     (_, z_slow, _), _ = _slow_sets(ctx)
     base = np.column_stack(
-        [ctx.stack(z_static, ctx.est), ctx.stack(z_slow, ctx.est), ctx.stack(_rate_set(ctx), ctx.est), ctx.yhat_est]
+        [
+            ctx.stack(z_static, ctx.est),
+            ctx.stack(z_slow, ctx.est),
+            ctx.stack(_rate_set(ctx), ctx.est),
+            ctx.yhat_est,
+            _trend_blocks(ctx, DRIFT_TERMS),
+        ]
     )
     test = ctx.f_test(ctx.stack(z_h, ctx.est), extra_base=base)
     res = stats.f_result("F(residual ~ direction of motion at equal level | level)", test, alpha)
@@ -638,7 +647,7 @@ def _track_per_record(records, resid: np.ndarray, fn) -> np.ndarray:
 
 
 def drift(ctx: Context, alpha: float) -> CauseResult:
-    n_terms = 3
+    n_terms = DRIFT_TERMS
 
     def z(r, recs=None):
         return signals.cosine_trend_basis(len(r.y), n_terms)
@@ -860,6 +869,10 @@ def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
     res = stats.f_result(f"F(residual ~ dynamics of unused input {name})", c["dyn"], alpha, len(cols), column=name)
     inter = stats.f_result("interaction", c["inter"], alpha, len(cols))
     pred, _ = ctx.fit_apply(c["z_dyn"])
+    # a leak adds to the output: a column that changes the model's gain (an interaction with the
+    # output beyond the column's own dynamics, at the same level as the test) is a dependence on
+    # a condition, which load_dependence names
+    additive = not inter.significant
     return CauseResult(
         res,
         True,
@@ -868,7 +881,14 @@ def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
         f"p = {inter.p:.2g}; {_explained(res)})",
         f"{name} as an extra MISO input",
         pred,
-        {"column": name},
+        {
+            "column": name,
+            "evidence_ok": additive,
+            "evidence_note": ""
+            if additive
+            else f"{name} changes the model's gain (interaction with the output F = {c['inter'].f:.3g}, "
+            f"p = {inter.p:.2g}): a dependence on a condition, not an additive leak",
+        },
         Z_est=ctx.stack(c["z_dyn"], ctx.est),
         n_search=len(cols),
     )

@@ -137,7 +137,8 @@ def test_help_examples_run_as_printed(tmp_path):
     work = tmp_path
     sim = subprocess.run(
         _argv(
-            f"porosense simulate contractor -e step_10 -e step_20 -e step_40 -e step_60 --rate 50 --out {work} --json"
+            f"porosense simulate contractor -e staircase -e step_10 -e step_20 -e step_40 -e step_60 --rate 50 "
+            f"--out {work} --json"
         ),
         capture_output=True,
         text=True,
@@ -148,6 +149,11 @@ def test_help_examples_run_as_printed(tmp_path):
         src.rename(work / f"{item['experiment']}.csv")
         src.with_suffix(".json").rename(work / f"{item['experiment']}.json")
     (work / "run.csv").write_bytes((work / "step_40.csv").read_bytes())
+    # The simulator's parameter file a user has from `porosense calibrate` (covered elsewhere):
+    # here the built-in contractor's.
+    from porosense.sim import make_plant
+
+    make_plant("contractor").physics.save(work / "params.json")
     (work / "run.json").write_bytes((work / "step_40.json").read_bytes())
 
     examples = help_examples()

@@ -59,21 +59,30 @@ class Setup:
 
 
 def identify_setup(
-    rate_hz: int = 50, seed: int = 100, tau_cl_s: float | None = None, slew_per_s: float = 20.0, model_loads=(0.0,)
+    rate_hz: int = 50,
+    seed: int = 100,
+    tau_cl_s: float | None = None,
+    slew_per_s: float = 20.0,
+    model_loads=(0.0,),
+    physics=None,
 ) -> Setup:
     """Everything the controller and the baseline need, from simulations (see module doc).
 
     ``model_loads`` (g): the loads of the recordings the on-board estimator is identified on
     (each the same three estimation experiments, new seeds); the plant, the gains and the open
-    loop's static map stay those of 0 g."""
+    loop's static map stay those of 0 g. ``physics``: the simulator's parameters
+    (porosense.sim.Physics; default its defaults)."""
 
     t0 = time.perf_counter()
     ts = 1.0 / rate_hz
     names = ("staircase", "step_10", "step_60", "step_20", "step_40")
-    recs = [run_experiment("contractor", e, load_g=0.0, rate_hz=rate_hz, seed=seed + i) for i, e in enumerate(names)]
+    recs = [
+        run_experiment("contractor", e, load_g=0.0, rate_hz=rate_hz, seed=seed + i, physics=physics)
+        for i, e in enumerate(names)
+    ]
     est, val = recs[:3], recs[3:]
     est = est + [
-        run_experiment("contractor", e, load_g=float(L), rate_hz=rate_hz, seed=seed + 50 + 10 * j + i)
+        run_experiment("contractor", e, load_g=float(L), rate_hz=rate_hz, seed=seed + 50 + 10 * j + i, physics=physics)
         for j, L in enumerate(model_loads)
         if L != 0.0
         for i, e in enumerate(names[:3])
@@ -91,7 +100,7 @@ def identify_setup(
         plant, DEFAULT_TAU_CL_S if tau_cl_s is None else tau_cl_s, slew_per_s, float(blob.out_scale[0]), rate_hz
     )
     gains = lambda_pi(plant, tau, slew_per_s)
-    smap = measure_static_map(rate_hz, seed=seed + 10)
+    smap = measure_static_map(rate_hz, seed=seed + 10, physics=physics)
     return Setup(q.blob.to_bytes(), plant, gains, smap, rate_hz, fit, time.perf_counter() - t0)
 
 
@@ -104,10 +113,10 @@ def map_schedule(step_kpa: float = MAP_STEP_KPA, hold_s: float = MAP_HOLD_S, top
     return Schedule("static_map", end + 5.0, (changes + ((end, 0.0),), (), ()), "holds for the static map")
 
 
-def measure_static_map(rate_hz: int, seed: int = 0, load_g: float = 0.0) -> StaticMap:
+def measure_static_map(rate_hz: int, seed: int = 0, load_g: float = 0.0, physics=None) -> StaticMap:
     """The settled true strain at each hold of :func:`map_schedule` on the simulated contractor."""
 
-    rec = run_experiment("contractor", map_schedule(), load_g=load_g, rate_hz=rate_hz, seed=seed)
+    rec = run_experiment("contractor", map_schedule(), load_g=load_g, rate_hz=rate_hz, seed=seed, physics=physics)
     return static_map([(rec.t, -rec["p_cmd_0"], rec[OUTPUT])])
 
 
@@ -134,13 +143,16 @@ def steady_errors(rec, segments, hold_s, lead_s=1.0, *, board_timed: bool = Fals
     return out
 
 
-def measure_load(setup: Setup, load_g: float, targets, hold_s: float, *, seed: int = 0, port: str = "emulator") -> dict:
-    """Closed and open loop for one load on a fresh simulated board; errors against the truth."""
+def measure_load(
+    setup: Setup, load_g: float, targets, hold_s: float, *, seed: int = 0, port: str = "emulator", physics=None
+) -> dict:
+    """Closed and open loop for one load on a fresh simulated board; errors against the truth.
+    ``physics``: the simulated board's parameters (porosense.sim.Physics; default its defaults)."""
 
     segs = _segments(targets, hold_s)
     vac = [float(setup.smap.vacuum_for(v)) for v in targets]
     t0 = time.perf_counter()
-    with open_board(port, load_g=load_g, seed=seed) as board:
+    with open_board(port, load_g=load_g, seed=seed, physics=physics) as board:
         dev, truth = board.device, board.truth
         rate, scale = prepare_board(dev, simulated=True, model=setup.blob, gains=setup.gains)
         duration = segs[-1][0] + hold_s

@@ -27,6 +27,7 @@ from porosense.files import write_text
 from porosense.ident import output_error
 from porosense.ident.blocks import sos_rows
 from porosense.ident.chain import Chain, ChainSpec
+from porosense.ident.heap import reuses_freed_memory
 from porosense.ident.metrics import fit_percent, information_criteria, rms_percent
 from porosense.ident.process_noise import with_process_noise
 from porosense.ident.refine import Fit, Options, refine
@@ -278,6 +279,7 @@ class Model:
             return model.output_error_fit
         return Fit(model.spec, model.theta, model.info["sse"] / self.y_std**2)
 
+    @reuses_freed_memory
     @single_threaded
     def _fit(
         self, *, u, y, ts, inputs, output, input_unit=None, output_unit=None, start_models=None, scaling=None

@@ -16,6 +16,7 @@ from scipy.optimize import least_squares
 
 from porosense.dsp.blas import single_threaded
 from porosense.ident.chain import Chain, ChainSpec
+from porosense.ident.heap import reuses_freed_memory
 from porosense.ident.lm import levenberg_marquardt, normal_equations_rows
 
 
@@ -109,6 +110,7 @@ def _penalty_rows(spec: ChainSpec, theta, n_res: int, opts: Options):
     return np.concatenate(rows), np.vstack(jac)
 
 
+@reuses_freed_memory
 @single_threaded
 def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
     """Minimise the simulation error over all recordings (LM with the exact J, :mod:`lm`),

@@ -14,6 +14,7 @@ import numpy as np
 
 from porosense.dsp.blas import single_threaded
 from porosense.ident.candidates import Candidate, tie_tolerance
+from porosense.ident.heap import reuses_freed_memory
 from porosense.ident.models import Model, Scaling, make_model
 
 
@@ -122,6 +123,7 @@ def best_member(structure, n_poles, n_zeros, model: Model, data: SearchData, cri
     return best
 
 
+@reuses_freed_memory
 @single_threaded
 def fit_order(structures, n_poles, n_zeros, kwargs, data: SearchData, criterion: str, linear=None) -> list:
     """Worker: the candidates of ``structures`` at one order, fitted on ``data``'s fitting records.
@@ -167,6 +169,7 @@ def fit_order(structures, n_poles, n_zeros, kwargs, data: SearchData, criterion:
     return out
 
 
+@reuses_freed_memory
 @single_threaded
 def refine_candidate(candidate: Candidate, data: SearchData, max_nfev: int) -> tuple[Candidate, bool]:
     """Worker: ``candidate``'s model refined on all the estimation records for at most

@@ -329,15 +329,12 @@ def _sim_measured_columns(args, inputs) -> list:
 
 
 def _extend_simulator(args, result, measured, est, val, val_names):
-    """(the parameter file extended by the best cause, every extension tried).
-
-    Every cause the diagnosis found that extends the simulator (porosense.sim.extend) is fitted
-    on the estimation records; the one that improves their fit most is kept (chosen on the
-    records it was fitted on, so its held-out gain stays an unbiased measurement)."""
+    """(the parameter file extended by the best found cause, every extension tried):
+    porosense.sim.extend.extend_best on the diagnosis' found causes."""
     import numpy as np
 
     from porosense.sim.calibrate import ActuatorRecord
-    from porosense.sim.extend import EXTENSIBLE, extend
+    from porosense.sim.extend import extend_best
 
     def records(part, names):
         out = []
@@ -348,14 +345,10 @@ def _extend_simulator(args, result, measured, est, val, val_names):
             out.append(ActuatorRecord(u, args.ts, dr, outputs, name=name))
         return out
 
-    causes = [f.cause for f in result.findings if f.found and f.cause in EXTENSIBLE]
-    if not causes:
-        return None, []
     physics, effects = args.sim_params
+    causes = [f.cause for f in result.findings if f.found]
     est_recs = records(est, [f"estimation {k}" for k in range(len(est))])
-    val_recs = records(val, val_names)
-    tried = [extend(args.sim, physics, c, est_recs, val_recs, effects=effects) for c in causes]
-    return max(tried, key=lambda e: e.gain_estimation), tried
+    return extend_best(args.sim, physics, causes, est_recs, records(val, val_names), effects=effects)
 
 
 def _say_extension(args, result, extension, tried) -> None:

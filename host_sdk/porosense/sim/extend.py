@@ -221,3 +221,34 @@ def extend(actuator: str, physics: Physics, cause: str, estimation, held_out, *,
     after = _fits(actuator, ph, eff, held_out)
     in_sample = _mean(_fits(actuator, ph, eff, estimation)) - _mean(_fits(actuator, physics, base_effects, estimation))
     return Extension(cause, ph, eff, fitted, before, after, _mean(after) - _mean(before), in_sample)
+
+
+def extend_best(actuator: str, physics: Physics, causes, estimation, held_out, *, effects=None):
+    """Extend the simulator by each extensible cause and keep the one that fits the estimation best.
+
+    The choice is made on the records the extensions were fitted on, so the kept extension's
+    held-out gain stays an unbiased measurement of it.
+
+    Parameters
+    ----------
+    actuator : str
+        'contractor', 'bending' or '3dof'.
+    physics : Physics
+        The calibrated parameters (porosense.sim.calibrate).
+    causes : iterable of str
+        Causes a diagnosis found; those outside :data:`EXTENSIBLE` are passed over.
+    estimation, held_out : list of porosense.sim.calibrate.ActuatorRecord
+        Records the extensions are fitted on and the ones their gains are measured on.
+    effects : dict, optional
+        Effects the parameter file carries already (kept).
+
+    Returns
+    -------
+    best : Extension or None
+        The extension with the largest gain on the estimation records (fit points); None when no
+        cause extends the simulator.
+    tried : list of Extension
+        Every extension fitted, in the order of ``causes``.
+    """
+    tried = [extend(actuator, physics, c, estimation, held_out, effects=effects) for c in causes if c in EXTENSIBLE]
+    return (max(tried, key=lambda e: e.gain_estimation) if tried else None), tried

@@ -60,6 +60,9 @@ def test_ctrl_c_stops_the_search_and_its_workers(files):
         stderr=subprocess.PIPE,
         text=True,
         cwd=d,
+        # A shell that runs the suite in the background leaves SIGINT ignored in its children, and
+        # Python keeps an inherited SIG_IGN: give the command a terminal's default disposition.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     deadline = time.monotonic() + 120.0
     workers = []

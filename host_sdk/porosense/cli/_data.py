@@ -266,13 +266,16 @@ def _check_blocks_finite(path, model) -> None:
             raise ModelError(f"{path}: output '{out.name}' has non-finite (NaN or inf) coefficients")
 
 
-def output_file(path, what: str = "output") -> Path:
-    """``path`` as a Path whose folder exists (InputError otherwise)."""
+def output_file(path, what: str = "output", *, force: bool | None = None) -> Path:
+    """``path`` as a Path whose folder exists (InputError otherwise); with ``force`` given (the
+    command's --force), a file already there is kept unless it is True."""
     path = Path(path)
     if path.is_dir():
         raise InputError(f"{what} {path} is a folder; give a file name")
     if not path.parent.is_dir():
         raise InputError(f"{what} {path}: the folder {path.parent} does not exist")
+    if force is False and path.exists():
+        raise InputError(f"{path} exists: --force replaces it")
     return path
 
 

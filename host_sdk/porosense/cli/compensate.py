@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from porosense.cli._data import (
     add_column_options,
@@ -71,9 +70,7 @@ def run(args) -> int:
 
     normalise_json_args(args)
     if args.out:
-        output_file(args.out, "--out")
-        if Path(args.out).exists() and not args.force:
-            raise InputError(f"{args.out} exists: --force replaces it")
+        output_file(args.out, "--out", force=args.force)
     if args.poles < 1 or not 0 <= args.zeros < args.poles:
         raise InputError(f"--poles {args.poles} --zeros {args.zeros}: need poles >= 1 and 0 <= zeros < poles")
     nominal = load_model_checked(args.model)

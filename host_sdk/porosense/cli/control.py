@@ -324,9 +324,7 @@ def run_run(args) -> int:
         raise InputError(f"--target {args.target} is not a number")
     if not 0.0 <= args.load_g <= 500.0:
         raise InputError(f"--load-g {args.load_g:g} g outside 0..500")
-    out = output_file(args.out, "--out") if args.out else None
-    if out is not None and out.exists() and not args.force:
-        raise InputError(f"{out} exists: --force replaces it")
+    out = output_file(args.out, "--out", force=args.force) if args.out else None
     plot = output_file(args.plot, "--plot") if args.plot else None
     trajectory = read_trajectory(args.trajectory) if args.trajectory else None
     gains = None

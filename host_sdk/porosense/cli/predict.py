@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from porosense.cli._data import (
     add_column_options,
@@ -65,14 +64,13 @@ def run(args) -> int:
     from porosense.ident.scoring import format_percent, model_outputs, score_simulation
 
     normalise_json_args(args)
-    for opt in ("out", "plot"):
-        if getattr(args, opt):
-            output_file(getattr(args, opt), f"--{opt}")
+    if args.out:
+        output_file(args.out, "--out", force=args.force)
+    if args.plot:
+        output_file(args.plot, "--plot")
     if len(args.data) != 1:
         raise InputError(f"--data names {len(args.data)} files; predict takes one (porosense compare scores many)")
     args.data = args.data[0]
-    if args.out and Path(args.out).exists() and not args.force:
-        raise InputError(f"{args.out} exists: --force replaces it")
     model = load_model_checked(args.model)
     (table,) = read_tables([args.data], args)
     ts = model_period([table], model, args)

@@ -93,11 +93,10 @@ def run(args) -> int:
     normalise_json_args(args)
     args.out = args.out or str(Path(args.model).with_suffix(".bin"))
     args.report = getattr(args, "report", None)  # the old spelling of --json-out (quantization report only)
-    for opt in ("out", "report", "header"):
+    output_file(args.out, "--out", force=bool(getattr(args, "force", False)))
+    for opt in ("report", "header"):
         if getattr(args, opt):
             output_file(getattr(args, opt), f"--{opt}")
-    if Path(args.out).exists() and not getattr(args, "force", False):
-        raise InputError(f"{args.out} exists: --force replaces it")
     if args.input_range is not None:
         lo, hi = args.input_range
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from porosense.cli._args import add_deprecated
-from porosense.cli._data import add_json_options, emit_json
+from porosense.cli._data import add_json_options, emit_json, output_file
 from porosense.errors import InputError
 
 #: Host-timestamp alignment error with a live camera: a webcam's capture-to-delivery latency
@@ -236,8 +236,7 @@ def _refuse_to_replace(out: Path, args) -> None:
     if args.port and not args.video:
         written.append(out.with_suffix(".avi"))
     for path in written:
-        if path.exists() and not args.force:
-            raise InputError(f"{path} exists: --force replaces it")
+        output_file(path, "--out", force=args.force)
 
 
 def _run_board(args, camera, video_path: Path, progress: bool):

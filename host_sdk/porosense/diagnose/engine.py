@@ -51,6 +51,7 @@ import numpy as np
 from porosense.diagnose import extensions, ranking, signals, stats
 from porosense.diagnose.catalogue import CAUSES, EXPRESSIBLE, NONE
 from porosense.diagnose.extensions import ADEQUATE, DYNAMICS, GENERIC
+from porosense.dsp.blas import one_thread
 from porosense.dsp.metrics import fit_percent, rms_percent
 from porosense.errors import InputError
 from porosense.files import write_text
@@ -522,10 +523,8 @@ def diagnose(
     """
     if not estimation or not validation:
         raise InputError("diagnosis needs at least one estimation and one validation record")
-    from threadpoolctl import threadpool_limits
-
     # many small least-squares problems: BLAS threads only add overhead (5x the CPU time measured)
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_thread():
         return _diagnose(estimation, validation, alpha, nominal, refit)
 
 

@@ -14,6 +14,7 @@ import pytest
 
 from porosense import ident
 from porosense.cli import main
+from tests.data.matlab_files import write_mat_v5
 
 RATE_HZ = 50.0
 
@@ -42,6 +43,13 @@ def work(tmp_path_factory):
     _write(d / "run.csv", t, u, y)
     _write(d / "run_ms.csv", t * 1000, u, y)
     _write(d / "run_time_ms.csv", t * 1000, u, y, header="time_ms,dR_0,strain_0")
+    _write(d / "run_time.csv", t * 1000, u, y, header="time,dR_0,strain_0")
+    write_mat_v5(d / "run_ms.mat", {"t": t * 1000, "dR_0": u, "strain_0": y})
+    back = t.copy()
+    back[[800, 801]] = back[[801, 800]]
+    _write(d / "back.csv", back, u, y)
+    _write(d / "near_const.csv", t, -20.0 + np.random.default_rng(1).normal(0, 1e-6, len(u)), y)
+    _write(d / "ohms.csv", t, 1000.0 + 3.0 * u, y, header="t,R_0,strain_0")  # a resistance in ohms
     _write(d / "run_20hz.csv", np.arange(len(u)) / 20.0, u, y)
     gap = t.copy()
     gap[900:] += 0.2
@@ -54,6 +62,9 @@ def work(tmp_path_factory):
         u=u[:, None], y=y, ts=1 / RATE_HZ, inputs=("dR_0",), output="strain_0"
     )
     m.save(d / "model.json")
+    ident.make_model("linear", n_poles=1, n_zeros=0).fit(
+        u=(1000.0 + 3.0 * u)[:, None], y=y, ts=1 / RATE_HZ, inputs=("R_0",), output="strain_0"
+    ).save(d / "ohm_model.json")
     return d
 
 
@@ -77,7 +88,7 @@ def _identify(d, data, out, *extra):
     ]
 
 
-@pytest.mark.parametrize("name", ["run_ms.csv", "run_time_ms.csv"])
+@pytest.mark.parametrize("name", ["run_ms.csv", "run_time.csv", "run_time_ms.csv", "run_ms.mat"])
 def test_time_in_ms_makes_a_50_hz_model_and_a_50_hz_blob(work, capsys, name):
     out = work / f"m_{name}.json"
     rc, text, err = _run(capsys, _identify(work, [work / name], out))
@@ -94,7 +105,9 @@ def test_time_in_ms_makes_a_50_hz_model_and_a_50_hz_blob(work, capsys, name):
         ("gap.csv", [], ["line 902", "gap of 0.22 s", "--resample"]),
         ("dup.csv", [], ["line 703", "repeats", "--resample"]),
         ("header_only.csv", [], ["no data rows"]),
+        ("back.csv", [], ["line 803", "goes back", "out of order"]),
         ("const.csv", [], ["input 'dR_0' is constant at -20", "16-bit"]),
+        ("near_const.csv", [], ["input 'dR_0' varies by only", "around -20", "16-bit"]),
         ("run.csv", ["--input", "strain_0"], ["both an input and an output"]),
     ],
 )
@@ -164,9 +177,90 @@ def test_one_fit_number_from_predict_compare_and_report(work, capsys):
     assert 0 < fit_predict < 100  # a real score: the generator's noise keeps it below 100
 
 
-def test_binary_file_and_unequal_mat_vectors_are_named(work, capsys, tmp_path):
-    from tests.data.matlab_files import write_mat_v5
+def test_diagnose_prints_predicts_fit_first_on_the_same_file(work, capsys):
+    """One file split 60/40 by diagnose: its first fit is the nominal model on the whole file,
+    every sample simulated from rest (predict's number), then the validation-record fits, named."""
+    rc, text, err = _run(capsys, ["predict", "--model", work / "model.json", "--data", work / "run.csv", "--json"])
+    assert rc == 0, err
+    scores = json.loads(text)["scores"]["strain_0"]
+    argv = ["diagnose", "--model", work / "model.json", "--data", work / "run.csv", "--input", "dR_0"]
+    rc, text, err = _run(capsys, [*argv, "--output", "strain_0", "--json-out", work / "diag1.json"])
+    assert rc == 0, err
+    rest = json.loads((work / "diag1.json").read_text())["nominal_from_rest"]
+    print(f"\npredict {scores['fit']:.6f} %, diagnose {rest[0]['fit']:.6f} %")
+    assert len(rest) == 1 and rest[0]["data"].endswith("run.csv")
+    assert abs(rest[0]["fit"] - scores["fit"]) < 1e-9 and abs(rest[0]["rms"] - scores["rms"]) < 1e-9
+    lines = text.splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith("nominal model on"))
+    assert f"fit {scores['fit']:.2f} %" in lines[first] and "every sample" in lines[first]
+    assert lines[first + 1].startswith("nominal model on the validation records")
+    assert lines[first + 2].startswith("corrected model")
+    assert not [line for line in lines if " nan" in line]  # a t that cannot be computed is "n/a"
 
+
+def test_a_model_of_resistance_in_ohms_is_not_quantized(work, capsys):
+    """The board feeds its model dR in 16-bit counts of 0.01 % (+-327.67 %): a model identified on
+    ohms (inputs near 1000) is refused, exit 4, and an existing blob is left as it was, --force or not."""
+    blob = work / "ohm.bin"
+    argv = ["quantize", "--model", work / "ohm_model.json", "--out", blob]
+    for extra in ([], ["--force"]):
+        rc, _, err = _run(capsys, [*argv, *extra])
+        assert rc == 4 and len(err.splitlines()) == 1, err
+        assert "input R_0 reached" in err and "beyond the board's input range of +-327.67" in err, err
+        if not extra:
+            assert not blob.exists()
+            blob.write_bytes(b"an older blob")  # --force allows replacing it, not quantizing the model
+        else:
+            assert blob.read_bytes() == b"an older blob"
+
+
+def test_data_in_ohms_are_refused_by_quantize(work, capsys):
+    out = work / "ohm_data.bin"
+    argv = ["quantize", "--model", work / "model.json", "--data", work / "ohms.csv", "--input", "R_0", "--out", out]
+    rc, _, err = _run(capsys, argv)
+    assert rc == 2 and len(err.splitlines()) == 1, err
+    assert "ohms.csv: input dR_0 reaches" in err and "beyond the board's input range" in err, err
+    assert not out.exists()
+
+
+def test_a_model_with_its_period_as_text_is_refused(work, capsys):
+    doc = json.loads((work / "model.json").read_text())
+    doc["models"][0]["ts"] = "0.02"
+    (work / "ts_text.json").write_text(json.dumps(doc))
+    out = work / "ts_text.csv"
+    argv = ["predict", "--model", work / "ts_text.json", "--data", work / "run.csv", "--out", out]
+    rc, _, err = _run(capsys, argv)
+    assert rc == 4 and len(err.splitlines()) == 1 and 'is a string ("0.02")' in err, err
+    assert not out.exists()
+
+
+def test_a_title_above_the_header_asks_for_skip_rows(work, capsys):
+    text = (work / "run.csv").read_text()
+    (work / "titled.csv").write_text("Logger v1.2\nexported 2026-01-05\n" + text)
+    argv = ["predict", "--model", work / "model.json", "--data", work / "titled.csv"]
+    rc, _, err = _run(capsys, argv)
+    assert rc == 2 and len(err.splitlines()) == 1 and "pass --skip-rows N" in err, err
+    rc, text, err = _run(capsys, [*argv, "--skip-rows", "2"])
+    assert rc == 0 and "fit" in text, err
+
+
+def test_a_mat_recording_states_its_porosity_and_load_in_the_report(work, capsys):
+    """A recording saved as .mat (Recording.to_mat) carries its metadata: the report's table of
+    recordings prints its porosity and load, as for a CSV with its sidecar (not '?' or 'not stated')."""
+    from porosense.data import Recording
+
+    u, y = _signals()
+    rec = Recording(np.arange(len(u)) / RATE_HZ, {"dR_0": u, "strain_0": y}, {"porosity": 82.0, "load_g": 0.0})
+    rec.to_mat(work / "rec.mat")
+    rc, _, err = _run(
+        capsys, ["report", "--model", work / "model.json", "--data", work / "rec.mat", "--out", work / "rep_mat"]
+    )
+    assert rc == 0, err
+    row = next(line for line in (work / "rep_mat" / "report.md").read_text().splitlines() if "| rec |" in line)
+    assert row.endswith("| 82 | 0 |"), row
+
+
+def test_binary_file_and_unequal_mat_vectors_are_named(work, capsys, tmp_path):
     (tmp_path / "model.bin").write_bytes(bytes(range(256)))
     rc, _, err = _run(capsys, ["predict", "--model", work / "model.json", "--data", tmp_path / "model.bin"])
     assert rc == 2 and "binary file" in err and "UnicodeDecodeError" not in err
@@ -177,8 +271,6 @@ def test_binary_file_and_unequal_mat_vectors_are_named(work, capsys, tmp_path):
 
 def test_verify_reads_a_mat_file(work, capsys, tmp_path):
     """verify reads .mat data like every command (it used to say 'MATLAB files need the .mat suffix')."""
-    from tests.data.matlab_files import write_mat_v5
-
     u, y = _signals(400)
     write_mat_v5(tmp_path / "x.mat", {"t": np.arange(400) / RATE_HZ, "dR_0": u, "strain_0": y})
     assert main(["quantize", "--model", str(work / "model.json"), "--out", str(tmp_path / "m.bin")]) == 0

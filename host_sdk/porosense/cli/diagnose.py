@@ -34,7 +34,8 @@ def register(sub) -> argparse.ArgumentParser:
             "lines, condition columns, clipping, spikes) name the most likely causes from a fixed catalogue "
             "(static_nonlinearity, hysteresis, slow_relaxation, time_delay, drift, periodic_disturbance, "
             "load_dependence, saturation, cross_coupling, outliers, unmodelled_dynamics, or none). Dynamics "
-            "first: the nominal model's fit (simulated from rest, as predict scores it) is printed, then the "
+            "first: the nominal model's fit on each file that holds validation records, whole (every sample "
+            "simulated from rest: the number predict prints), then its fit on the validation records and the "
             "corrected model's (nominal + an adequate-order linear correction, when the data need one); "
             "unmodelled_dynamics, time_delay and slow_relaxation are judged against the nominal model, every "
             "other cause against the corrected one. Each extension is refitted on the estimation range; its "
@@ -270,7 +271,7 @@ def run(args) -> int:
         extension, tried = _extend_simulator(args, result, measured, est, val, names)
         doc["extension"] = extension.to_dict() if extension is not None else None
         doc["extensions_tried"] = [e.to_dict() for e in tried]
-    rest = _from_rest_fits(nominal, val, _validation_names(args, tables, vtables, len(val)))
+    rest = _from_rest_fits(nominal, _validation_files(args, tables, vtables), inputs, args.output)
     if rest:
         doc["nominal_from_rest"] = rest
     if not _all_finite(doc):
@@ -288,7 +289,8 @@ def run(args) -> int:
     for r in rest:
         say(
             args,
-            f"nominal model on {r['data']} (simulated from rest, as predict scores it): fit {r['fit']:.2f} %, "
+            f"nominal model on {r['data']} (every sample, simulated from rest, as predict scores it): "
+            f"fit {r['fit']:.2f} %, "
             f"RMS {r['rms']:.2f} %",
         )
     say(args, str(result))
@@ -410,17 +412,35 @@ def _validation_names(args, tables, vtables, n: int) -> list:
     return [f"{t.path} [{rng}]" for t in tables][:n]
 
 
-def _from_rest_fits(model, val, names) -> list:
-    """Per validation record: the nominal model's fit and RMS (%) as every command prints them
-    (porosense.ident.simulation_fit: simulated from rest, every sample of the record)."""
+def _validation_files(args, tables, vtables) -> list:
+    """The files that hold the validation records, whole: the --validation-data files, else the
+    last of several files, else every file (a range or the 60/40 split cuts each of them)."""
+    if args.validation_data:
+        return list(vtables)
+    if args.estimation is None and args.validation is None and len(tables) > 1:
+        return [tables[-1]]
+    return list(tables)
+
+
+def _from_rest_fits(model, files, inputs, output) -> list:
+    """Per file holding validation records: the nominal model's fit and RMS (%) on the whole file,
+    as every command prints them (porosense.ident.simulation_fit: simulated from rest, every
+    sample), so that diagnose's first number is predict's for the same model and file. A file with
+    empty or non-finite cells in the model's columns is left out (only a range of it is usable)."""
     if model is None:
         return []
+    import numpy as np
+
     from porosense.ident import simulation_fit
 
     out = []
-    for name, (u, y, _) in zip(names, val):
+    for table in files:
+        u = np.column_stack([np.asarray(table.columns[c], float) for c in inputs])
+        y = np.asarray(table.columns[output], float)
+        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
+            continue
         s = simulation_fit(model, u, y, outputs=[model.output])
-        out.append({"data": name, "fit": float(s.fit[model.output]), "rms": float(s.rms[model.output])})
+        out.append({"data": str(table.path), "fit": float(s.fit[model.output]), "rms": float(s.rms[model.output])})
     return out
 
 

@@ -91,11 +91,14 @@ def load_data(
         stated = {str(k): str(v) for k, v in units.items()}
         table.units = {**stated, **table.units}  # the file's own units row wins over the sidecar
         table.units_source = table.units_source or f"the sidecar {path.with_suffix('.json').name}"
-    table.meta = meta if isinstance(meta, dict) else {}
+    own = getattr(table, "meta", None) or {}  # a .mat file's own metadata (Recording.to_mat)
+    from_sidecar = isinstance(meta, dict) and bool(meta)
+    table.meta = meta if from_sidecar else own
     if not table.ts:
         side_ts = _ts_from_meta(table.meta)
         if side_ts:
-            table.ts, table.ts_source = side_ts, path.with_suffix(".json").name
+            where = path.with_suffix(".json").name if from_sidecar else f"the recording's metadata in {path.name}"
+            table.ts, table.ts_source = side_ts, where
     if check:
         check_sampling(table, time_unit=time_unit, resample=resample)
     return table

@@ -319,8 +319,35 @@ def read_mat(path) -> Table:
         units_source=f"the units struct in {path.name}" if units else "",
         time_unit=time_unit,
         skipped=skipped,
+        meta=_recording_meta(content),
     )
     return table
+
+
+def _recording_meta(content: dict) -> dict:
+    """The recording's metadata (porosity, load_g, ...) as ``Recording.to_mat`` stores it: the exact
+    JSON in ``recording_json``, else the scalar fields of a ``meta`` struct; {} when neither reads."""
+    import json
+
+    text = content.get("recording_json")
+    if isinstance(text, str):
+        try:
+            doc = json.loads(text)
+        except (ValueError, RecursionError):
+            doc = None
+        if isinstance(doc, dict) and isinstance(doc.get("meta"), dict):
+            return doc["meta"]
+    out: dict = {}
+    meta = content.get("meta")
+    if isinstance(meta, dict):
+        for key, value in meta.items():
+            if isinstance(value, str):
+                out[str(key)] = value
+                continue
+            v = np.asarray(value)
+            if v.size == 1 and v.dtype.kind in "iuf" and np.isfinite(v.item()):
+                out[str(key)] = v.item()
+    return out
 
 
 def _text_fields(value) -> dict:

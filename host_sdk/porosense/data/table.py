@@ -49,7 +49,7 @@ class Table:
     units : dict of str to str
         Column to unit, where the file states them.
     meta : dict
-        The sidecar's metadata (porosity, load_g, ...).
+        The recording's metadata (porosity, load_g, ...): its JSON sidecar's, or a .mat file's own.
     units_source : str
         Where the units came from (``"the units row"``, ``"the sidecar"``, ...).
     time_unit : str or None
@@ -71,7 +71,7 @@ class Table:
     ts: float | None = None  # sample period (s) the file states (t column, sidecar, Ts variable)
     ts_source: str = ""  # where ts came from
     units: dict = field(default_factory=dict)  # column -> unit, when the file states them
-    meta: dict = field(default_factory=dict)  # the sidecar's metadata (porosity, load_g, ...)
+    meta: dict = field(default_factory=dict)  # the recording's metadata (porosity, load_g, ...)
     units_source: str = ""  # where the units came from ("the units row", "the sidecar", ...)
     time_unit: str | None = None  # unit of a stated Ts without a time column (a .mat TimeUnit)
     time: np.ndarray | None = field(default=None, repr=False)  # the time column in s (check_sampling)
@@ -434,8 +434,11 @@ def read_table(
                 units = {n: c.strip().strip('"') for n, c in zip(names, row[:n_named]) if c.strip().strip('"')}
                 continue
             if len(row) not in (width, n_named) and not (len(row) == width + 1 and not row[-1].strip()):
+                above = not data and len(row) > n_named  # a title line taken for the header?
                 raise InputError(
-                    f"{path}: line {line}: expected {n_named} cells, found {len(row)} (read as {seen}{hint})"
+                    f"{path}: line {line}: expected {n_named} cells, found {len(row)} (read as {seen}{hint}"
+                    + ("; or lines above the header: pass --skip-rows N" if above else "")
+                    + ")"
                 )
             try:
                 values = [_parse_cell(c) for c in row[:n_named]]

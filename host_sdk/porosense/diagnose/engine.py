@@ -256,9 +256,10 @@ class Finding:
 
     def __str__(self) -> str:
         mark = "found" if self.found else ("rejected" if self.rejected else "")
+        t = f"{self.gain_t:.3g}" if np.isfinite(self.gain_t) else "n/a"
         return (
             f"{self.cause:<21} {mark:<8} fit {self.fit_before:6.2f} -> {self.fit_after:6.2f} % "
-            f"(gain {self.gain:+.2f} vs {self.baseline}, t = {self.gain_t:.3g}; {self.n_params} parameters)  "
+            f"(gain {self.gain:+.2f} vs {self.baseline}, t = {t}; {self.n_params} parameters)  "
             f"{self.statistic}"
         )
 

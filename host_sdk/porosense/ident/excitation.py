@@ -65,11 +65,11 @@ def check_identifiable(us, ys, inputs, outputs) -> None:
             floor = variation_floor(column)
             if span == 0.0 or span < floor:
                 level = (
-                    f"constant at {column[0]:g}"
+                    f"is constant at {column[0]:g}"
                     if span == 0.0
                     else f"varies by only {span:.3g} around {np.mean(column):.6g}"
                 )
                 raise InputError(
-                    f"{what} '{name}' is {level} over the estimation data (below one count of a 16-bit converter, "
+                    f"{what} '{name}' {level} over the estimation data (below one count of a 16-bit converter, "
                     f"{floor:.3g}): {'it excites nothing' if what == 'input' else 'there is nothing'} to identify"
                 )

@@ -195,16 +195,32 @@ def _ts_us(ts: float) -> int:
 
 
 def _check_units(structure: EstimatorStructure) -> None:
-    """Refuse a model that looks fitted on dR/100 but does not say so."""
+    """Refuse a model that looks fitted on dR/100 but does not say so, and one whose inputs
+    reached beyond what the board can feed it (16-bit counts of 0.01 % of dR) in identification:
+    a model of another quantity, such as a resistance in ohms."""
+    limit = 32767 * structure.input_lsb()
     for i, name in enumerate(structure.inputs):
         unit = structure.input_unit(i)
         peak = structure.input_peak[i] if i < len(structure.input_peak) else None
+        if peak is not None and np.isfinite(peak) and peak > limit:
+            raise ModelError(
+                f"input {name} reached {peak:.4g} in identification, beyond the board's input range of "
+                f"+-{limit:.6g} ({_unit_words(unit)}): the board feeds its model dR, so a model of another "
+                "quantity (a resistance in ohms?) cannot run there; identify it on the board's dR columns"
+            )
         if unit is None and peak is not None and 0 < peak <= FRACTION_SUSPECT_PEAK:
             raise ModelError(
                 f"input {name} peaked at {peak:.3g} in identification: that is dR/100, not dR in %, "
                 "but the model does not say which; declare it (fit(..., input_unit='dR/100') or "
                 "porosense quantize --input-unit dR/100)"
             )
+
+
+def _unit_words(unit) -> str:
+    """The input unit as a reader needs it: '% of dR', or what the model states."""
+    if unit is None:
+        return "% of dR, the unit taken when a model states none"
+    return "% of dR" if unit == "%" else str(unit)
 
 
 def device_inputs(u, input_lsb: float = DEFAULT_INPUT_LSB) -> np.ndarray:
@@ -329,6 +345,16 @@ def _input_ranges(structure, recs, input_range, lsb) -> list[tuple[float, float]
     elif recs:
         u = np.concatenate([r[1] for r in recs], axis=0)
         lo, hi = np.min(u, axis=0), np.max(u, axis=0)
+        for r in recs:  # data the board cannot take are data of another quantity or unit
+            beyond = np.flatnonzero(np.max(np.abs(r[1]), axis=0) > dev_hi)
+            if beyond.size:
+                k = int(beyond[0])
+                unit = structure.input_unit(k)
+                raise InputError(
+                    f"{r[0]}: input {structure.inputs[k]} reaches {np.max(np.abs(r[1][:, k])):.4g}, beyond the board's "
+                    f"input range of +-{dev_hi:.6g} ({_unit_words(unit)}): the board feeds its model dR, not "
+                    "this quantity (a resistance in ohms?)"
+                )
         # At least 1 % of dR (100 device LSB) of span: a floor in the structure's own unit
         # would widen a range given in fractions (input_lsb 1e-4) a hundredfold too much.
         span = np.maximum(hi - lo, 100.0 * lsb)

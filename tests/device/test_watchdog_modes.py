@@ -1,8 +1,10 @@
 """A watchdog no mode escapes: in every way the outputs can be on (hosted outputs with and
 without a stream, hosted constant and trajectory control, and a board that started a stored
 trajectory by itself at power-up (AUTOSTART 2) or only its stream (AUTOSTART 1) and then heard a
-host: a plain handshake, a refused model write, a control start), a host that goes silent has the
-outputs cut within the watchdog period plus one sample period.
+host: a plain handshake, a refused model write, a control start, a trajectory restart, a stream
+restart followed by a trajectory; or, after AUTOSTART 1, hosted outputs, a refused model write
+with them on, a control start, a trajectory start), a host that goes silent has the outputs cut
+within the watchdog period plus one sample period.
 
 The cut time is measured on the device's clock: from the last command (a PING, whose PONG
 carries the device time it was handled at) to the time of the cut, which the ERROR the board
@@ -119,7 +121,7 @@ def test_hosted_outputs_are_cut_when_the_host_falls_silent(dev, board, blob, mod
     dev.stop_stream()
 
 
-def _autostart(dev, blob: bytes, autostart: int) -> dict:
+def _autostart(dev, blob: bytes, autostart: int, channel_mask: int = 0x01) -> dict:
     """Stores a model, a repeating trajectory, gains and AUTOSTART, then resets the board:
     it starts by itself (the reset's handshake is the first host command it hears). Returns
     the configuration to restore."""
@@ -127,7 +129,7 @@ def _autostart(dev, blob: bytes, autostart: int) -> dict:
     dev.write_model(blob)
     scale = dev.model_info().out_scale[0]
     dev.config_set("SAMPLE_RATE_HZ", RATE_HZ)
-    dev.config_set("CHANNEL_MASK", 0x01)
+    dev.config_set("CHANNEL_MASK", channel_mask)
     dev.config_set("WATCHDOG_MS", WATCHDOG_MS)
     dev.config_set("AUTOSTART", autostart)
     dev.config_save()
@@ -146,7 +148,9 @@ def _restore(dev, keep: dict) -> None:
     dev.config_save()
 
 
-@pytest.mark.parametrize("then", ["hello", "model write", "control start"])
+@pytest.mark.parametrize(
+    "then", ["hello", "model write", "control start", "trajectory start", "stream restart, trajectory start"]
+)
 def test_standalone_trajectory_is_guarded_once_a_host_speaks(dev, board, blob, then):
     keep = _autostart(dev, blob, 2)
     try:
@@ -166,16 +170,35 @@ def test_standalone_trajectory_is_guarded_once_a_host_speaks(dev, board, blob, t
             assert e.value.code == Result.BUSY
         elif then == "control start":
             dev.start_control(0.0)
+        elif then == "trajectory start":
+            dev.start_trajectory()
+        elif then == "stream restart, trajectory start":
+            dev.start_stream(RATE_HZ, 0x11)  # stops the controller: a restarted estimator would jump
+            assert not dev.status().has(StatusFlag.OUTPUTS_ACTIVE)
+            dev.start_trajectory()
         _check_cut(dev, board, f"AUTOSTART 2 then {then}", WATCHDOG_MS + PERIOD_MS)
     finally:
         _restore(dev, keep)
 
 
-def test_autostarted_stream_with_hosted_outputs_is_guarded(dev, board, blob):
-    keep = _autostart(dev, blob, 1)
+@pytest.mark.parametrize("then", ["outputs", "outputs, model write", "control start", "trajectory start"])
+def test_autostarted_stream_is_guarded_once_a_host_drives_the_outputs(dev, board, blob, then):
+    # The stream of AUTOSTART 1 carries the estimates here, so that a host may start control on it.
+    keep = _autostart(dev, blob, 1, channel_mask=0x11)
     try:
-        assert dev.status().has(StatusFlag.STANDALONE)
-        dev.set_outputs(-20.0, pumps=1, valves=1)
-        _check_cut(dev, board, "AUTOSTART 1 then outputs", WATCHDOG_MS + PERIOD_MS)
+        st = dev.status()
+        assert st.has(StatusFlag.STANDALONE) and not st.has(StatusFlag.OUTPUTS_ACTIVE)
+        if then.startswith("outputs"):
+            dev.set_outputs(-20.0, pumps=1, valves=1)
+        if then == "outputs, model write":
+            with pytest.raises(NakError) as e:  # refused: streaming, outputs on
+                dev.write_model(blob)
+            assert e.value.code == Result.BUSY
+        elif then == "control start":
+            dev.start_control(0.0)
+        elif then == "trajectory start":
+            dev.start_trajectory()
+        assert dev.status().has(StatusFlag.OUTPUTS_ACTIVE)
+        _check_cut(dev, board, f"AUTOSTART 1 then {then}", WATCHDOG_MS + PERIOD_MS)
     finally:
         _restore(dev, keep)

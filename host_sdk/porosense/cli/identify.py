@@ -68,7 +68,9 @@ def register(sub) -> argparse.ArgumentParser:
         metavar="N",
         help=f"largest pole count searched (default 10; above {MAX_POLES_UNFORCED} needs --force)",
     )
-    p.add_argument("--force", action="store_true", help="allow searches beyond the stated limits")
+    p.add_argument(
+        "--force", action="store_true", help="allow searches beyond the stated limits; replace an existing --out"
+    )
     p.add_argument("--breakpoints", type=int, default=10, metavar="N", help="PWL breakpoints (2..64, default 10)")
     p.add_argument("--delay", type=int, default=0, metavar="SAMPLES", help="input delay in samples (default 0)")
     p.add_argument("--starts", type=int, default=2, metavar="N", help="starts per nonlinear model (default 2)")
@@ -225,7 +227,7 @@ def run(args) -> int:
         raise InputError(f"--jobs must be >= 1, not {args.jobs}")
     if args.jobs is not None and args.scheduler:
         raise InputError("give either --jobs (local worker processes) or --scheduler (a Dask cluster), not both")
-    output_file(args.out, "--out")
+    output_file(args.out, "--out", force=args.force)
     tables = read_tables(args.data, args)
     args.ts = sample_period(tables, args)
     if args.poles is not None and not 0 <= args.poles <= 10:

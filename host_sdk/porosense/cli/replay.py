@@ -17,7 +17,7 @@ def replay(args, physics, effects=None) -> int:
     from porosense.errors import InputError
     from porosense.sim import OUTPUTS, Physics
 
-    out = output_file(args.out or f"{Path(args.replay).stem}_sim.csv", "--out")
+    out = output_file(args.out or f"{Path(args.replay).stem}_sim.csv", "--out", force=args.force)
     tables = read_tables([args.replay], args)
     ts = sample_period(tables, args)
     table = tables[0]

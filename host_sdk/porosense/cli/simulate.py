@@ -16,7 +16,9 @@ def register(sub) -> argparse.ArgumentParser:
             "Simulate an actuator (contractor: axial strain %; bending: curvature 1/m; 3dof: "
             "theta_x, theta_y in deg and dz in mm) through one of the paper's experiment "
             "schedules and write each recording as CSV with a JSON sidecar (and/or MATLAB "
-            ".mat). Pressures in kPa (gauge, vacuum < 0), dR in %, porosity in %, load in g, "
+            ".mat), each file whole as soon as its recording is simulated (a stopped or killed run "
+            "keeps every recording finished before it); recordings already in the folder are kept "
+            "unless --force. Pressures in kPa (gauge, vacuum < 0), dR in %, porosity in %, load in g, "
             "rate in Hz. --experiment paper runs the paper's set: for contractor and bending "
             "the steps at -10, -20, -40, -60 kPa in duplicate and the staircase; for the 3dof "
             "segment the sequential patterns at the four levels and the two-level pattern. "
@@ -85,6 +87,7 @@ def register(sub) -> argparse.ArgumentParser:
         help="output directory (created if needed; default recordings/); with --replay the CSV file "
         "(default REC's name with _sim)",
     )
+    p.add_argument("--force", action="store_true", help="replace recordings already at --out")
     add_json_options(p, "the files written")
     p.set_defaults(func=run)
     return p
@@ -116,6 +119,23 @@ def paper_experiments(actuator: str, repeats: int) -> list[tuple[str, int]]:
         return [(f"sequential_{lv}", 0) for lv in (10, 20, 40, 60)] + [("two_level", 0)]
     steps = [(f"step_{lv}", k) for lv in (10, 20, 40, 60) for k in range(max(repeats, 2))]
     return steps + [("staircase", 0)]
+
+
+def recording_stem(actuator: str, experiment: str, porosity: float, load_g: float, seed: int) -> str:
+    """File name (without suffix) of one simulated recording: porosity in %, load in g."""
+    return f"{actuator}_{experiment}_p{porosity:g}_l{load_g:g}_s{seed}"
+
+
+def _refuse_to_replace(out, stems, fmt: str) -> None:
+    """InputError naming a recording (CSV, its JSON sidecar or .mat) that the run would replace."""
+    from porosense.errors import InputError
+
+    suffixes = {"csv": (".csv", ".json"), "mat": (".mat",), "both": (".csv", ".json", ".mat")}[fmt]
+    there = [out / f"{stem}{sfx}" for stem in dict.fromkeys(stems) for sfx in suffixes]
+    there = [path for path in there if path.exists()]
+    if there:
+        more = f" (and {len(there) - 1} more)" if len(there) > 1 else ""
+        raise InputError(f"{there[0]} exists{more}: --force replaces it")
 
 
 MIN_RATE_HZ, MAX_RATE_HZ = 1.0, 10_000.0  # the physics steps at 1 ms or finer; beyond, records get huge
@@ -157,6 +177,18 @@ def run(args) -> int:
         else:
             jobs += [(name, k) for k in range(args.repeats)]
     out = Path(args.out)
+    porosity = args.porosity
+    if porosity is None:
+        from porosense.sim import Physics
+        from porosense.sim.plant import default_porosity
+
+        porosity = default_porosity(args.actuator, physics or Physics())
+    if not args.force:
+        _refuse_to_replace(
+            out,
+            [recording_stem(args.actuator, name, porosity, args.load_g, args.seed + k) for name, k in jobs],
+            args.format,
+        )
     listing = []
     for name, k in jobs:
         seed = args.seed + k
@@ -171,7 +203,7 @@ def run(args) -> int:
             noise=not args.no_noise,
             physics=physics,
         )
-        stem = f"{args.actuator}_{name}_p{rec.meta['porosity']:g}_l{rec.meta['load_g']:g}_s{seed}"
+        stem = recording_stem(args.actuator, name, rec.meta["porosity"], rec.meta["load_g"], seed)
         written = []
         if args.format in ("csv", "both"):
             written.append(rec.to_csv(out / f"{stem}.csv"))

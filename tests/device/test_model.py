@@ -153,6 +153,74 @@ def test_write_model_checks_the_blob_before_sending(dev, blob):
     assert dev.stats.commands == before
 
 
+def _could_hurt(blob: bytes, damage: str) -> bytes:
+    """``blob`` with one part made dangerous, CRC correct: a section with a pole outside the unit
+    circle (|z| = 2.25) or on it (+-1j), or the output table's breakpoints out of order."""
+    import dataclasses
+
+    from porosense.protocol.model_blob import ModelBlob
+
+    b = ModelBlob.from_bytes(blob)
+    out = b.outputs[0]
+    sec = out.branches[0].sections[0]
+    if damage == "table":
+        out = dataclasses.replace(out, g=dataclasses.replace(out.g, x=(out.g.x[1], out.g.x[0], *out.g.x[2:])))
+    else:
+        # c1 = m1 + k1 2^-n1, c2 = m2 + k2 2^-n2 (y = ... + c1 y1 + c2 y2)
+        m, k = {"outside": ((2, 0), (16384, 0)), "on": ((0, -1), (0, 0))}[damage]
+        bad = dataclasses.replace(sec, m=m, k=k, n=(16, 16), delta=False)
+        branch = dataclasses.replace(out.branches[0], sections=(bad, *out.branches[0].sections[1:]))
+        out = dataclasses.replace(out, branches=(branch, *out.branches[1:]))
+    return dataclasses.replace(b, outputs=(out, *b.outputs[1:])).to_bytes()
+
+
+@pytest.mark.parametrize("damage", ["outside", "on", "table"])
+def test_a_model_that_could_hurt_the_board_is_refused_by_the_board(dev, blob, blob3, damage):
+    """Sent past the host's checks (which refuse it too), the firmware refuses a blob with a pole
+    on or outside the unit circle or a table whose breakpoints do not increase; the old model
+    runs."""
+    from porosense.errors import ModelError
+    from porosense.protocol.model_blob import ModelBlob
+
+    old = dev.write_model(blob)
+    bad = _could_hurt(blob3, damage)
+    with pytest.raises(ModelError, match="unit circle" if damage != "table" else "not increasing"):
+        ModelBlob.from_bytes(bad)
+    begin(dev, bad)
+    send_chunks(dev, bad)
+    err = nak(dev.command, m.ModelCommit())
+    assert err.code == Result.BAD_MODEL and err.detail == 1
+    info = dev.model_info()
+    assert info.valid and info.crc == old.crc and not dev.status().has(StatusFlag.ESTIMATOR_OFF)
+
+
+@pytest.mark.parametrize("damage", ["outside", "on", "table"])
+def test_flash_and_control_refuse_it_before_opening_the_port(blob3, damage, tmp_path, capsys):
+    """flash (either store) and control run refuse such a blob with exit 4 and one line, before
+    they open the port (/dev/null here) or write a HEX; there is no --force: the board refuses it."""
+    import json
+
+    from porosense.cli import main
+    from porosense.control.gainsfile import FORMAT, VERSION
+
+    bad = tmp_path / "bad.bin"
+    bad.write_bytes(_could_hurt(blob3, damage))
+    gains = tmp_path / "gains.json"
+    doc = {"format": FORMAT, "version": VERSION, "gains": {"kp_kpa": 2.0, "ki_kpa_per_s": 1.0, "slew_per_s": 50.0}}
+    gains.write_text(json.dumps(doc))
+    hex_out = tmp_path / "slot.hex"
+    for argv in (
+        ["flash", "--port", "/dev/null", "--model", str(bad)],
+        ["flash", "--port", "/dev/null", "--model", str(bad), "--store", "flash", "--hex-out", str(hex_out)],
+        ["control", "run", "--port", "/dev/null", "--model", str(bad), "--gains", str(gains), "--target", "0.5"],
+    ):
+        code = main(argv)
+        err = capsys.readouterr().err.strip()
+        words = "unit circle" if damage != "table" else "breakpoints not increasing"
+        assert code == 4 and len(err.splitlines()) == 1 and words in err, (argv[:2], err)
+    assert not hex_out.exists()
+
+
 def test_writes_are_refused_while_streaming(dev, blob):
     dev.start_stream(50)
     for msg in (

@@ -337,6 +337,9 @@ def run_run(args) -> int:
         if not Path(args.model).is_file():
             raise InputError(f"model blob {args.model} not found")
         model = Path(args.model).read_bytes()
+        from porosense.protocol.model_blob import ModelBlob
+
+        ModelBlob.from_bytes(model)  # refuse a model the board would refuse before opening the port
     req = RunRequest(
         port=args.port,
         target=args.target,

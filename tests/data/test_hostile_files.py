@@ -179,6 +179,12 @@ def test_files_made_to_hurt_end_in_one_line(seeds, tmp_path):
 
     cases["external links"] = _hdf5(d / "external.mat", external)
 
+    def external_beside_data(fh):
+        fh["t"] = np.arange(60)[None, :] * 0.02
+        fh["dR_0"] = h5py.ExternalLink(str(seeds["v73"]), "/dR_0")  # a readable target, still not followed
+
+    cases["an external link beside data"] = _hdf5(d / "external_beside_data.mat", external_beside_data)
+
     def deep(fh):
         g = fh
         for k in range(200):
@@ -199,6 +205,9 @@ def test_files_made_to_hurt_end_in_one_line(seeds, tmp_path):
     (d / "long_line.csv").write_text("t,dR_0\n" + "1" * 10_000_000 + "\n")
     (d / "binary.csv").write_bytes(bytes(range(256)) * 100)
     expected = {
+        "loop.mat": "'dR_0' is a link to /dR_0, not followed (2 more links)",  # and s.a, s.b
+        "external.mat": "elsewhere.h5:/x in another file, not followed",
+        "external_beside_data.mat": "variable 'dR_0' is a link to",
         "nested.json": "nested 200,000 levels",
         "ts_string.json": 'a string ("0.02")',
         "theta_nan.json": "NaN",

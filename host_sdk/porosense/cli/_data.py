@@ -206,9 +206,7 @@ def require_columns(table, names) -> None:
     skipped = [n for n in missing if n in (getattr(table, "skipped", None) or {})]
     if skipped:
         n = skipped[0]
-        raise InputError(
-            f"{table.path}: variable '{n}' has {table.skipped[n]}: the signals of one record must have one length"
-        )
+        raise InputError(f"{table.path}: variable '{n}' {table.skipped[n]}")
     if missing:
         raise InputError(
             f"{table.path}: no column{'s' if len(missing) > 1 else ''} "

@@ -30,6 +30,7 @@ from porosense.errors import InputError
 TS_NAMES = ("Ts", "ts", "dt", "Ts_s")
 TIME_UNIT_NAMES = ("TimeUnit", "time_unit", "t_unit", "Ts_unit")  # iddata's TimeUnit, saved as text
 SKIPPED = ("units", "meta", "recording_json")
+LINKS = "#links"  # v7.3: the soft and external links left unread, name -> why
 #: Bytes all the numeric variables of one file may take once read, 512 MiB (a recording of 10^7 samples
 #: on three channels in double precision is 240 MB).
 MEMORY_BUDGET_BYTES = 1 << 29
@@ -193,6 +194,7 @@ def _read_v73(path: Path) -> dict:
     file_size = path.stat().st_size
     budget = [MEMORY_BUDGET_BYTES]  # what is left of it
     count = [0]
+    links: dict = {}  # variable or field name -> why it was not read
 
     def members(group, depth: int) -> dict:
         """A group's datasets and groups, hard links only: soft and external links (which can
@@ -206,7 +208,13 @@ def _read_v73(path: Path) -> dict:
             count[0] += 1
             if count[0] > MAX_VARIABLES:
                 raise InputError(f"{path}: more than {MAX_VARIABLES:,} variables and fields")
-            if not isinstance(group.get(k, getlink=True), h5py.HardLink):
+            link = group.get(k, getlink=True)
+            name = ".".join([*filter(None, group.name.split("/")), k])  # a struct's field as s.field
+            if isinstance(link, h5py.ExternalLink):
+                links[name] = f"is a link to {link.filename}:{link.path} in another file, not followed"
+                continue
+            if not isinstance(link, h5py.HardLink):
+                links[name] = f"is a link to {getattr(link, 'path', '?')}, not followed"
                 continue
             out[k] = convert(group[k], depth)
         return out
@@ -244,7 +252,10 @@ def _read_v73(path: Path) -> dict:
 
     try:
         with h5py.File(path, "r") as fh:
-            return members(fh, 0)
+            content = members(fh, 0)
+            if links:
+                content[LINKS] = links
+            return content
     except InputError:
         raise
     except (OSError, KeyError, ValueError, TypeError, RuntimeError, RecursionError) as exc:
@@ -257,6 +268,7 @@ def read_mat(path) -> Table:
     if not path.is_file():
         raise InputError(f"{path}: no such file")
     content = _read_v73(path) if _is_hdf5(path) else _read_v5(path)
+    links = content.pop(LINKS, {})
     flat: dict = {}
     for name, value in content.items():
         if name in SKIPPED or value is None:
@@ -275,6 +287,12 @@ def read_mat(path) -> Table:
         elif v.ndim == 2:
             vectors[name] = v
     if not vectors:
+        if links:
+            name, why = next(iter(links.items()))
+            more = f" ({len(links) - 1} more links)" if len(links) > 1 else ""
+            raise InputError(
+                f"{path}: no numeric vectors found: '{name}' {why}{more}; save the data in the file itself"
+            )
         raise InputError(
             f"{path}: no numeric vectors found (variables: {', '.join(content) or 'none'}); "
             "save the signals as vectors or a struct of vectors (MATLAB tables, timetables and "
@@ -294,7 +312,10 @@ def read_mat(path) -> Table:
     names, columns, groups, skipped = [], {}, {}, {}
     for name, v in vectors.items():
         if v.shape[0] != n:
-            skipped[short[name]] = f"{max(v.shape)} samples where the other variables have {n}"
+            skipped[short[name]] = (
+                f"has {max(v.shape)} samples where the other variables have {n}: "
+                "the signals of one record must have one length"
+            )
             continue
         label = short[name]
         if v.shape[1] == 1:
@@ -318,7 +339,7 @@ def read_mat(path) -> Table:
         units={k: v for k, v in units.items() if k in columns or k == "t"},
         units_source=f"the units struct in {path.name}" if units else "",
         time_unit=time_unit,
-        skipped=skipped,
+        skipped={**{k: f"{why}: save the data in the file itself" for k, why in links.items()}, **skipped},
         meta=_recording_meta(content),
     )
     return table

@@ -2,8 +2,8 @@
 simulate writes each recording whole (a hidden temporary file renamed onto it) as soon as it is
 simulated, so a SIGKILL in the middle of a run leaves every recording finished before it readable
 and identical to the same recording simulated again, and none half-written under its name;
-simulate (also --replay) and identify refuse to replace an existing recording or model unless
---force, before they compute anything. (record and control run --out: tests/record/
+simulate (also --replay), identify and predict refuse to replace an existing recording, model or
+prediction unless --force, before they compute anything. (record and control run --out: tests/record/
 test_record_cli.py and tests/strain_control/test_no_recording_lost.py.)"""
 
 from __future__ import annotations
@@ -96,7 +96,7 @@ def test_simulate_refuses_to_replace_a_recording_unless_forced(tmp_path, capsys,
         _one_line(capsys, f"{old.with_suffix('.json')} exists: --force")
 
 
-def test_replay_and_identify_refuse_to_replace_their_output_unless_forced(tmp_path, capsys):
+def test_replay_identify_and_predict_refuse_to_replace_their_output_unless_forced(tmp_path, capsys):
     rec = run_experiment("contractor", "step_20", rate_hz=10, seed=0)
     rec.to_csv(tmp_path / "rec.csv")
     out = tmp_path / "rec_sim.csv"
@@ -113,3 +113,10 @@ def test_replay_and_identify_refuse_to_replace_their_output_unless_forced(tmp_pa
     assert model.read_text() == "kept\n"
     assert main([*args, "--force"]) == 0
     assert '"models"' in model.read_text()
+    pred = tmp_path / "pred.csv"
+    pred.write_text("kept\n")
+    args = ["predict", "--model", str(model), "--data", str(tmp_path / "rec.csv"), "--out", str(pred)]
+    assert main(args) == 2
+    _one_line(capsys, f"{pred} exists")
+    assert pred.read_text() == "kept\n"
+    assert main([*args, "--force"]) == 0 and pred.read_text().startswith("t,")

@@ -17,14 +17,12 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import pytest
 
 from porosense.device import ControlGains, NakError
 from porosense.protocol import Result, StatusFlag
 
-ELF = Path(__file__).resolve().parents[2] / "firmware" / "build" / "porosense.elf"
 WATCHDOG_MS = 500
 RATE_HZ = 50  # the sample rate of every streamed mode: one period is 20 ms
 GAINS = ControlGains(kp_kpa=2.0, ki_kpa_per_s=1.0, slew_per_s=50.0)
@@ -49,9 +47,8 @@ def board(request):
     else:
         from porosense.simboard import SimBoard
 
-        if not ELF.is_file():
-            pytest.skip("firmware ELF not built (make -C firmware)")
-        with SimBoard(elf=str(ELF), actuator="contractor", max_speed=1.0) as sb:
+        elf = request.getfixturevalue("simboard_elf")  # builds the firmware and the harness
+        with SimBoard(elf=str(elf), actuator="contractor", max_speed=1.0) as sb:
             yield RealTimeBoard("simboard", sb.url, 3.0)
 
 

@@ -161,3 +161,18 @@ def test_makefile_budget_check_is_fatal(tmp_path: Path) -> None:
         ["make", "-s", "-C", str(FW_DIR), "size", "FLASH_BUDGET=1000"], capture_output=True, text=True, timeout=300
     )
     assert proc.returncode != 0 and "BUDGET EXCEEDED" in proc.stdout
+
+
+def test_the_end_the_firmware_checks_at_boot_is_its_image_end() -> None:
+    """main() hands __data_load_end to the model store (ModelStore::set_image_end), which ignores
+    the flash store when the image reaches it (HELLO then lacks FLASH_STORE): that symbol must
+    be the image's end in flash, .text + .data, the figure the budget checks."""
+    why = fw.toolchain_missing()
+    if why:
+        pytest.skip(why)
+    proc = fw.build()
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    nm = subprocess.run(["avr-nm", str(fw.ELF)], capture_output=True, text=True, check=True).stdout
+    (end,) = [int(line.split()[0], 16) for line in nm.splitlines() if line.endswith(" __data_load_end")]
+    assert "__data_load_end" in (FW_DIR / "src" / "main.cpp").read_text()
+    assert end == fw.measure_size().flash <= _store_base()

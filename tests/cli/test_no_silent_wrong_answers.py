@@ -223,6 +223,37 @@ def test_data_in_ohms_are_refused_by_quantize(work, capsys):
     assert not out.exists()
 
 
+def test_a_period_in_ms_given_as_seconds_is_told_and_its_blob_refused(work, capsys):
+    """Data without a time column and --ts 20 (meant as ms): identify says the rate is not a
+    recording's; quantize refuses a blob the board cannot run (10..135 Hz), exit 4, unless --force."""
+    u, y = _signals()
+    (work / "no_t.csv").write_text(
+        "dR_0,strain_0\n" + "\n".join(f"{a!r},{b!r}" for a, b in zip(u.tolist(), y.tolist())) + "\n"
+    )
+    model = work / "m_ts20.json"
+    rc, _, err = _run(capsys, _identify(work, [work / "no_t.csv"], model, "--ts", "20", "--quiet"))
+    assert rc == 0 and err.splitlines() == [
+        "porosense identify: warning: --ts 20 s is a rate of 0.05 Hz, outside the 1 Hz..2 kHz of a recording: "
+        "--ts takes seconds (20 ms is --ts 0.02)"
+    ], err
+    blob = work / "m_ts20.bin"
+    rc, _, err = _run(capsys, ["quantize", "--model", model, "--out", blob])
+    assert rc == 4 and len(err.splitlines()) == 1, err
+    assert "runs at 0.05 Hz" in err and "10..135 Hz" in err and not blob.exists(), err
+    rc, text, err = _run(capsys, ["quantize", "--model", model, "--out", blob, "--force"])
+    assert rc == 0 and "0.05 Hz" in text and "warning: forced past a refusal" in err and blob.is_file()
+
+
+def test_a_time_column_in_us_is_not_taken_for_s_or_ms(work, capsys, tmp_path):
+    u, y = _signals(600)
+    _write(tmp_path / "us.csv", np.arange(600) * 20_000.0, u, y)
+    argv = ["predict", "--model", work / "model.json", "--data", tmp_path / "us.csv"]
+    rc, _, err = _run(capsys, argv)
+    assert rc == 2 and len(err.splitlines()) == 1 and "gives no sample rate a recording has" in err, err
+    rc, text, err = _run(capsys, [*argv, "--time-unit", "us"])
+    assert rc == 0 and "in us (--time-unit), Ts 20 ms (50 Hz)" in text, err
+
+
 def test_a_model_with_its_period_as_text_is_refused(work, capsys):
     doc = json.loads((work / "model.json").read_text())
     doc["models"][0]["ts"] = "0.02"

@@ -147,7 +147,26 @@ def sample_period(tables, args) -> float:
     """The Ts (s) for ``tables``: the data's own, checked against --ts (see porosense.data.resolve_ts)."""
     from porosense.data import resolve_ts
 
-    return resolve_ts(tables, getattr(args, "ts", None), getattr(args, "ts_override", False))
+    ts = resolve_ts(tables, getattr(args, "ts", None), getattr(args, "ts_override", False))
+    given = getattr(args, "ts", None)
+    if given is not None and not any(t.ts for t in tables):
+        warn_implausible_ts(args, float(given))
+    return ts
+
+
+def warn_implausible_ts(args, ts: float) -> None:
+    """One warning line when --ts (s) gives data without a time base a rate no recording plausibly
+    has (porosense.data.sampling.PLAUSIBLE_RATE_HZ): most often a period written in ms."""
+    from porosense.cli._args import warn
+    from porosense.data.sampling import PLAUSIBLE_RATE_HZ
+
+    lo, hi = PLAUSIBLE_RATE_HZ
+    if ts > 0 and not lo <= 1.0 / ts <= hi:
+        warn(
+            f"porosense {getattr(args, 'command', None) or ''}".strip(),
+            f"--ts {ts:g} s is a rate of {1.0 / ts:.4g} Hz, outside the {lo:g} Hz..{hi / 1000:g} kHz of a "
+            f"recording: --ts takes seconds ({ts:g} ms is --ts {ts / 1000:g})",
+        )
 
 
 def model_period(tables, model, args, what: str = "the model") -> float:

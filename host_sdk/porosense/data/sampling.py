@@ -196,9 +196,11 @@ def _inferred_unit(path, name: str, step: float) -> tuple[str, str]:
         rate_other = 1.0 / (step * SECONDS_PER[other])
         return fits[0], f"inferred: steps of {step:g} {other} would be {rate_other:.4g} Hz"
     rates = ", ".join(f"{1.0 / (step * SECONDS_PER[u]):.4g} Hz in {u}" for u in ("s", "ms"))
+    what = (
+        "is ambiguous" if fits else f"gives no sample rate a recording has ({lo:g} Hz..{hi / 1000:g} kHz) in s or in ms"
+    )
     raise InputError(
-        f"{path}: the unit of time column '{name}' is ambiguous (median step {step:g}: {rates}); "
-        "pass --time-unit s, ms or us"
+        f"{path}: the unit of time column '{name}' {what} (median step {step:g}: {rates}); pass --time-unit s, ms or us"
     )
 
 

@@ -133,6 +133,7 @@ def quantize(
     _check_units(structure)
     lsb = structure.input_lsb()
     ts_us = _ts_us(structure.ts)
+    check(_check_rate, structure.ts)
     recs = [_as_recording(r, structure, i) for i, r in enumerate(recordings or [])]
     ranges = _input_ranges(structure, recs, input_range, lsb)
     notes: list[str] = []
@@ -192,6 +193,24 @@ def _ts_us(ts: float) -> int:
     if not 1 <= us <= 65_535_000 or abs(us - ts * 1e6) > 1e-6 * ts * 1e6 + 0.5:
         raise ModelError(f"the model's sample period {ts} s cannot be stored (1 us .. 65.5 s)")
     return us
+
+
+def _check_rate(ts: float) -> None:
+    """Refuse a model at a rate the board cannot sample at (SAMPLE_RATE_HZ, 10..135 Hz): a blob
+    at 0.05 Hz is a model identified on a time column in ms read as seconds, or a --ts in ms."""
+    from porosense.protocol._messages import CONFIG_SPECS, ConfigKey
+
+    spec = CONFIG_SPECS[ConfigKey.SAMPLE_RATE_HZ]
+    rate = 1.0 / ts
+    if not spec.min * (1 - 1e-6) <= rate <= spec.max * (1 + 1e-6):
+        hint = (
+            "was the data's time in ms, or --ts given in ms? (identify states the time unit it read)"
+            if rate < spec.min
+            else "identify on data decimated to the board's rate (identify --decimate N)"
+        )
+        raise ModelError(
+            f"the model runs at {rate:.4g} Hz (Ts {ts:.4g} s); the board samples at {spec.min}..{spec.max} Hz: {hint}"
+        )
 
 
 def _check_units(structure: EstimatorStructure) -> None:

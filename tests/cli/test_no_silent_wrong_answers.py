@@ -254,6 +254,16 @@ def test_a_time_column_in_us_is_not_taken_for_s_or_ms(work, capsys, tmp_path):
     assert rc == 0 and "in us (--time-unit), Ts 20 ms (50 Hz)" in text, err
 
 
+def test_control_tune_refuses_a_command_that_is_not_a_pressure(work, capsys):
+    """control tune fits vacuum (kPa) to the output: a dR column in % (negative, so it passed the
+    sign check) gave gains 'in kPa per unit' from a plant in %/kPa, exit 0."""
+    out = work / "gains.json"
+    argv = ["control", "tune", "--data", work / "run.csv", "--input", "dR_0", "--output", "strain_0", "--out", out]
+    rc, _, err = _run(capsys, argv)
+    assert rc == 2 and len(err.splitlines()) == 1 and "column dR_0 is in %, not kPa" in err, err
+    assert not out.exists()
+
+
 def test_a_model_with_its_period_as_text_is_refused(work, capsys):
     doc = json.loads((work / "model.json").read_text())
     doc["models"][0]["ts"] = "0.02"

@@ -187,6 +187,14 @@ def run_tune(args) -> int:
     cmd, output = _tune_columns(tables, args)
     for tb in tables:
         tb.require_finite([cmd, output])
+    from porosense.data.units import column_unit
+
+    unit = column_unit(cmd, *(getattr(tb, "units", None) or {} for tb in tables))
+    if unit is not None and unit.strip().strip("[]()").strip().lower() != "kpa":
+        raise InputError(
+            f"column {cmd} is in {unit}, not kPa: --input names the commanded regulator pressure "
+            "(kPa gauge, vacuum negative; p_cmd_0 in porosense's recordings)"
+        )
     vac = [-np.asarray(tb[cmd], dtype=float) for tb in tables]
     ys = [np.asarray(tb[output], dtype=float) for tb in tables]
     if any(np.any(v < -1e-9) for v in vac):

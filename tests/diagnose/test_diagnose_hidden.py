@@ -22,6 +22,7 @@ from scipy.stats import beta
 
 from porosense.bench import diagnose as bench
 from porosense.bench import hidden_effects as he
+from porosense.diagnose import dynamics
 
 TEST_SEED = 9000
 TRIALS_PER_CAUSE = 6
@@ -65,6 +66,29 @@ def test_evidence_names_statistic_value_baseline_and_why_the_top_won():
     assert [f.cause for f in d.findings[: len(found)]] == found
     rest = list(d.findings[len(found) + 1 :])
     assert all(a.gain >= b.gain for a, b in zip(rest, rest[1:]))
+
+
+def test_a_relaxation_is_a_slow_pole_and_a_missing_pole_is_not():
+    """The pole a linear model of the measured output needs beyond the nominal's: for a hidden
+    relaxation (8-40x slower than the dominant pole) beyond twice the nominal's slowest time
+    constant at one-sided 5 %, so slow_relaxation explains the linear deficit and
+    unmodelled_dynamics is not named; for hidden extra poles (1.5-6x faster) below it at
+    one-sided 5 %. Measured: seed 9000's relaxation at 27.5 s against the nominal's 1.19 s; the
+    extra poles of seeds 9000-9002 leave the slowest at 1.38, 0.82 and 0.353 s against the
+    nominal's 2.25, 1.09 and 0.448 s."""
+    d = bench.diagnose_trial(he.draw_trial("slow_relaxation", TEST_SEED))
+    assert d.top == "slow_relaxation"
+    assert (
+        "time constant" in d.finding("slow_relaxation").evidence and "(slow:" in d.finding("slow_relaxation").evidence
+    )
+    assert not d.finding("unmodelled_dynamics").found
+    for seed in range(TEST_SEED, TEST_SEED + 3):
+        trial = he.draw_trial("unmodelled_dynamics", seed)
+        est = trial.estimation
+        model, _ = bench.fit_nominal(est["u"], est["y"], trial.ts, trial.nominal_order)
+        tau_nom = bench._slowest_tau_samples(model) * trial.ts
+        pole = dynamics.slow_pole([est["u"][:, None]], [est["y"]], trial.nominal_order, tau_nom, 10 * tau_nom, trial.ts)
+        assert pole.not_slow, (seed, pole.sentence())
 
 
 @pytest.mark.parametrize("kind", he.FALSE_ALARM_KINDS)
@@ -113,14 +137,15 @@ def test_false_alarm_and_top1_floor_on_the_independent_generator():
 @pytest.mark.slow
 @pytest.mark.xdist_group("hidden_rates")
 def test_top1_meets_the_issue_bound_on_the_independent_generator():
-    """The issue's bound: top-1 >= 90 % over the 66 cause trials (at most 6 misses). Measured: 60
-    of 66 (90.9 %, one-sided 95 % Clopper-Pearson lower bound 82.8 %; 56 of 66 before a delay had
-    to be preferred to one more pole on held-out data, cross-coupling to be additive and hysteresis
-    to survive a slow trend in time). Misses: two delays the data cannot tell from one more pole
-    and a slow mode named unmodelled_dynamics, a load dependence whose extension extrapolates
+    """The issue's bound: top-1 >= 90 % over the 66 cause trials (at most 6 misses). Measured: 61
+    of 66 (92.4 %, one-sided 95 % Clopper-Pearson lower bound 84.7 %; 60 of 66 before a found
+    relaxation had to be a slow missing pole and then explained the linear deficit, 56 before a
+    delay had to be preferred to one more pole on held-out data, cross-coupling to be additive
+    and hysteresis to survive a slow trend in time). Misses: two delays the data cannot tell
+    from one more pole named unmodelled_dynamics, a load dependence whose extension extrapolates
     badly to a load the estimation record lacks named drift, and a static map and a clip whose
-    held-out gains are not confirmed named none. On the development seeds 7000-7009: 100 of 110
-    (90.9 %; 95 of 110 before); on the bench's seeds 91 of 110 (82.7 %; slow_relaxation 6 of 10,
-    docs/figures.md): 251 of 286 over the three sets (87.8 %)."""
+    held-out gains are not confirmed named none. On the development seeds 7000-7009: 102 of 110
+    (92.7 %; 100 before); on the bench's seeds 93 of 110 (84.5 %; 91 before, slow_relaxation 8
+    of 10, was 6, docs/figures.md): 256 of 286 over the three sets (89.5 %; 251 before)."""
     n, k, _, _ = _rates()
     assert k / n >= 0.9

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import optimize, signal
+from scipy.stats import t as sps_t
 
 from porosense.diagnose import signals, stats
 from porosense.dsp.metrics import fit_percent
@@ -286,3 +287,158 @@ def delay_or_pole(us_est: list, ys_est: list, us_val: list, ys_val: list, order:
         float(fit_percent(y_val, pred_pole)),
         stats.paired_gain_test(y_val, pred_pole, pred_delay),
     )
+
+
+#: a relaxation's time constant is at least this multiple of the model's slowest one: the
+#: shortest time constant the slow-mode test tries (:func:`.extensions._slow_sets`, twice the
+#: model's own), so that the test and this evidence mean the same thing by "slow"
+SLOW_RATIO = 2.0
+
+
+@dataclass
+class SlowPole:
+    """Where the pole a linear model needs beyond the nominal's lies: slow (a relaxation) or not.
+
+    A linear output-error model of the measured output with one pole more than the nominal
+    (``order`` poles) is fitted on the estimation records, started both from an ARX fit and from
+    the nominal order's fit with one extra pole at ``tau_start_s`` (the lower estimation error
+    wins). Its slowest time constant ``tau_s`` is compared with SLOW_RATIO times the nominal
+    model's slowest, ``tau_nominal_s``: t = (ln tau_s - ln(SLOW_RATIO tau_nominal_s)) / se,
+    se the standard error of ln tau_s by the delta method from a batch sandwich covariance of
+    the fit (N_BATCHES contiguous batches of the estimation samples, for a coloured error),
+    on N_BATCHES - 1 df. ``slow``: tau_s is beyond SLOW_RATIO tau_nominal_s at one-sided
+    ``alpha``; ``not_slow``: it is below at one-sided ``alpha``; neither: the data cannot tell.
+    """
+
+    tau_s: float
+    tau_nominal_s: float
+    order: int
+    t: float
+    df: int
+    alpha: float = stats.CONFIRM_ALPHA
+
+    @property
+    def p_slow(self) -> float:
+        """One-sided p of tau_s > SLOW_RATIO tau_nominal_s."""
+        return float(sps_t.sf(self.t, self.df)) if self.df > 0 else 1.0
+
+    @property
+    def slow(self) -> bool:
+        """The extra pole is slower than SLOW_RATIO times the nominal's slowest (one-sided alpha)."""
+        return bool(self.p_slow < self.alpha)
+
+    @property
+    def not_slow(self) -> bool:
+        """The extra pole is faster than SLOW_RATIO times the nominal's slowest (one-sided alpha)."""
+        return bool(self.df > 0 and sps_t.cdf(self.t, self.df) < self.alpha)
+
+    def sentence(self) -> str:
+        verdict = "slow" if self.slow else ("not slow" if self.not_slow else "undecided")
+        return (
+            f"a linear model of the measured output with {self.order} poles has its slowest time constant "
+            f"at {self.tau_s:.3g} s against the nominal model's {self.tau_nominal_s:.3g} s ({verdict}: "
+            f"beyond {SLOW_RATIO:g}x at t = {self.t:.3g} on {self.df} df, one-sided p = {self.p_slow:.2g})"
+        )
+
+
+def _numerators(us: list, ys: list, fs: list, m: int) -> np.ndarray:
+    """theta of an OE model with the denominators ``fs`` fixed: numerators and constant by least squares."""
+    corr = Correction(m, fs, {})
+    X = np.vstack([np.column_stack([corr.regressors(u), np.ones(len(u))]) for u in us])
+    coef = stats.lstsq(X, np.concatenate(ys))
+    n_in = us[0].shape[1]
+    # the regressors are each input's deviation through q^-j / F_i started at its rest level:
+    # the same parametrisation as :func:`_simulate` (b on the deviation, DC of the rest level)
+    parts = [np.concatenate([coef[i * (m + 1) : (i + 1) * (m + 1)], fs[i][1:]]) for i in range(n_in)]
+    return np.concatenate(parts + [[coef[-1]]])
+
+
+def _refine(theta0: np.ndarray, us: list, ys: list, m: int) -> np.ndarray:
+    y_all = np.concatenate(ys)
+
+    def res(theta):
+        return np.concatenate(_simulate(theta, us, m, False)[0]) - y_all
+
+    def jac(theta):
+        return np.vstack(_simulate(theta, us, m, True)[1])
+
+    with np.errstate(over="ignore", invalid="ignore"):
+        return optimize.least_squares(res, theta0, jac=jac, method="trf", x_scale="jac", max_nfev=30).x
+
+
+def _slowest(theta: np.ndarray, n_in: int, m: int):
+    """(input, root) of the slowest pole of the OE model theta."""
+    _, fs, _ = _unpack(theta, n_in, m)
+    best = (0, 0.0 + 0.0j)
+    for i, f in enumerate(fs):
+        for z in np.roots(f):
+            if abs(z) > abs(best[1]):
+                best = (i, complex(z))
+    return best
+
+
+def slow_pole(us: list, ys: list, order: int, tau_nominal_s: float, tau_start_s: float, ts: float) -> SlowPole:
+    """Is the pole that a linear model of the measured output needs beyond the nominal's slow?
+
+    Parameters
+    ----------
+    us : list of ndarray, shape (N_r, n_in)
+        Inputs of the estimation records, in the model's input units.
+    ys : list of ndarray, shape (N_r,)
+        Measured outputs of the same records.
+    order : int
+        The nominal model's number of poles (the fitted model has one more).
+    tau_nominal_s : float
+        The nominal model's slowest time constant, s.
+    tau_start_s : float
+        A time constant to start the extra pole at (the slow-mode fit's), s.
+    ts : float
+        Sample period, s.
+
+    Returns
+    -------
+    SlowPole
+        The fitted slowest time constant (s) and its one-sided tests against SLOW_RATIO times
+        the nominal's (see :class:`SlowPole`).
+    """
+    us = [np.asarray(u, float).reshape(len(u), -1) for u in us]
+    ys = [np.asarray(y, float) for y in ys]
+    n_in = us[0].shape[1]
+    order = max(1, int(order))
+    m = order + 1
+    starts = [fit_output_error(us, ys, m)[0]]
+    _, _, fs_n = fit_output_error(us, ys, order)
+    a_slow = float(np.exp(-ts / max(tau_start_s, ts)))
+    starts.append(_refine(_numerators(us, ys, [np.convolve(f, [1.0, -a_slow]) for f in fs_n], m), us, ys, m))
+    y_all = np.concatenate(ys)
+
+    def sse(theta):
+        return float(np.sum((np.concatenate(_simulate(theta, us, m, False)[0]) - y_all) ** 2))
+
+    theta = min(starts, key=sse)
+    i, z = _slowest(theta, n_in, m)
+    r = abs(z)
+    if not 0.0 < r < 1.0:
+        return SlowPole(float("inf") if r >= 1.0 else 0.0, tau_nominal_s, m, 0.0, 0)
+    tau = -ts / np.log(r)
+    # delta method: d ln tau / d a_j of the root z of F(z) = z^m + a_1 z^(m-1) + ... + a_m
+    _, fs, _ = _unpack(theta, n_in, m)
+    dF = np.polyval(np.polyder(fs[i]), z)
+    grad = np.zeros(len(theta))
+    for j in range(1, m + 1):
+        dz = -(z ** (m - j)) / dF
+        dr = float(np.real(np.conj(z) * dz)) / r
+        grad[i * (2 * m + 1) + m + j] = -dr / (r * np.log(r))
+    # batch sandwich covariance of theta (contiguous batches of the error, which is coloured)
+    J = np.vstack(_simulate(theta, us, m, True)[1])
+    e = y_all - np.concatenate(_simulate(theta, us, m, False)[0])
+    b = int(min(stats.N_BATCHES, len(e) // 10))
+    if b < 3:
+        return SlowPole(float(tau), tau_nominal_s, m, 0.0, 0)
+    H = np.linalg.pinv(J.T @ J)
+    g = np.array([Jb.T @ eb for Jb, eb in zip(np.array_split(J, b), np.array_split(e, b))])
+    g = g - g.mean(axis=0)
+    cov = H @ (g.T @ g) * b / (b - 1) @ H
+    se = float(np.sqrt(max(float(grad @ cov @ grad), 1e-300)))
+    t = (np.log(tau) - np.log(SLOW_RATIO * tau_nominal_s)) / se
+    return SlowPole(float(tau), float(tau_nominal_s), m, float(t), b - 1)

@@ -174,6 +174,17 @@ class Context:
         """Time constant (s) of the dominant pole."""
         return -self.ts / np.log(self.pole)
 
+    @property
+    def slowest_tau_s(self) -> float:
+        """Time constant (s) of the slowest pole of the model's own linear dynamics (:meth:`_base_dynamics`;
+        the dominant Laguerre pole's when they are unknown)."""
+        if self.base_ba is not None:
+            r = np.abs(np.roots(self.base_ba[1])) if len(self.base_ba[1]) > 1 else np.zeros(0)
+            r = r[(r > 0) & (r < 1)]
+            if r.size:
+                return float(-self.ts / np.log(r.max()))
+        return self.tau_s
+
     # -- fitting ----------------------------------------------------------------------------
     def corrected(self, scope: str = ADEQUATE) -> tuple[list, list]:
         """(estimation, validation) records whose prediction is the nominal + the correction of
@@ -537,14 +548,32 @@ def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
     sse = {t: float(np.sum((y_all - ctx.fit_apply(lambda r, t=t: z_full(r, t), scope=CONSTANT)[1]) ** 2)) for t in grid}
     tau = min(sse, key=sse.get)
     pred, _ = ctx.fit_apply(lambda r: z_full(r, tau), scope=CONSTANT)
+    # the name needs its own evidence: a missing pole of the nominal is also a pole; a relaxation
+    # is one much slower than the nominal's slowest (the measured output re-identified with one
+    # pole more puts it there), a missing faster or nearby pole is unmodelled dynamics
+    pole = None
+    detail = {"tau_s": tau}
+    if res.significant:
+        pole = dynamics.slow_pole(
+            [r.u for r in ctx.est], [r.y for r in ctx.est], ctx.model_order or 1, ctx.slowest_tau_s, tau, ctx.ts
+        )
+        detail.update(
+            {
+                "prefers_slow": pole.slow,
+                "evidence_ok": not pole.not_slow,
+                "evidence_note": f"the pole the data need is not a slow one: {pole.sentence()}",
+            }
+        )
     return CauseResult(
         res,
         True,
         f"the residual follows the input through a slow mode of about {tau:.3g} s "
-        f"({_explained(res)}; the model's own time constant is {ctx.tau_s:.3g} s)",
+        f"({_explained(res)}; the model's own time constant is {ctx.tau_s:.3g} s"
+        + (f"; {pole.sentence()}" if pole is not None else "")
+        + ")",
         f"an extra relaxation pole at tau = {tau:.3g} s",
         pred,
-        {"tau_s": tau},
+        detail,
         Z_est=ctx.stack(lambda r: z_full(r, tau), ctx.est),
         n_search=n_taus,
     )

@@ -120,3 +120,27 @@ def test_replay_identify_and_predict_refuse_to_replace_their_output_unless_force
     _one_line(capsys, f"{pred} exists")
     assert pred.read_text() == "kept\n"
     assert main([*args, "--force"]) == 0 and pred.read_text().startswith("t,")
+
+
+@pytest.mark.parametrize(
+    ("argv", "existing"),
+    [
+        (["calibrate", "contractor", "--data", "{d}/rec.csv", "--out", "{d}/params.json"], "params.json"),
+        (["control", "tune", "--data", "{d}/rec.csv", "--out", "{d}/gains.json"], "gains.json"),
+        (
+            ["diagnose", "--data", "{d}/rec.csv", "--input", "dR_0", "--output", "strain_0", "--model", "{d}/m.json"]
+            + ["--save-extended", "{d}/ext.json"],
+            "ext.json",
+        ),
+        (["record", "--calibrate", "{d}/a.png", "--square-mm", "20", "--out", "{d}/camera.json"], "camera.json"),
+        (["export", "--model", "{d}/m.json", "--c", "--mat"], "m.mat"),  # m.c is not written either
+    ],
+)
+def test_every_command_that_writes_a_model_or_parameters_refuses_to_replace_them(tmp_path, capsys, argv, existing):
+    """Before it reads anything: exit 2, one line naming the file, nothing written or changed."""
+    (tmp_path / existing).write_text("kept\n")
+    before = sorted(p.name for p in tmp_path.iterdir())
+    assert main([a.format(d=tmp_path) for a in argv]) == 2
+    _one_line(capsys, f"{tmp_path / existing} exists")
+    assert (tmp_path / existing).read_text() == "kept\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == before

@@ -32,6 +32,7 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("actuator", choices=(*ACTUATORS, MATERIAL), help="which actuator, or the material alone")
     p.add_argument("--data", nargs="+", required=True, metavar="FILE", help="recordings (CSV or .mat)")
     p.add_argument("--out", required=True, metavar="PARAMS.json", help="parameter file to write")
+    p.add_argument("--force", action="store_true", help="replace an existing --out")
     p.add_argument("--strain", metavar="COL", help="material: the strain column (%% unless the file states 1)")
     p.add_argument("--resistance", metavar="COL", help="material: the resistance column (ohm)")
     p.add_argument("--estimation", metavar="A:B", help="material: estimation samples of each recording (default: all)")
@@ -101,7 +102,7 @@ def run(args) -> int:
     from porosense.cli._data import read_tables, sample_period
     from porosense.errors import InputError
 
-    out = output_file(args.out, "--out")
+    out = output_file(args.out, "--out", force=args.force)
     if args.actuator == MATERIAL and not (args.strain and args.resistance):
         raise InputError("calibrate material needs --strain COL and --resistance COL")
     tables = read_tables(args.data, args)

@@ -126,6 +126,7 @@ def _register_tune(csub) -> None:
         "the board's fixed point holds for this model and rate (the integral gain is 16-bit)",
     )
     t.add_argument("--out", default="gains.json", metavar="FILE.json", help="gains file (default gains.json)")
+    t.add_argument("--force", action="store_true", help="replace an existing --out")
     t.add_argument("--plot", metavar="FILE.png", help="figure of the predicted closed-loop step")
     add_data_options(t)
     add_json_options(t, "the plant, the gains and the prediction")
@@ -177,7 +178,7 @@ def run_tune(args) -> int:
         raise InputError(f"--tau-cl {args.tau_cl} must be a positive number of seconds")
     if not (math.isfinite(args.slew) and args.slew > 0):
         raise InputError(f"--slew {args.slew} must be a positive number of output units per second")
-    out_path = output_file(args.out, "--out")
+    out_path = output_file(args.out, "--out", force=args.force)
     plot = output_file(args.plot, "--plot") if args.plot else None
     for f in args.data:
         if not Path(f).is_file():

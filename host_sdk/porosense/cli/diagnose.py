@@ -114,6 +114,7 @@ def register(sub) -> argparse.ArgumentParser:
         "estimation records (which then need the dR_<channel> columns) and its gain measured on the "
         "validation records; 'porosense simulate --params' runs it",
     )
+    p.add_argument("--force", action="store_true", help="replace an existing --save-extended file")
     p.set_defaults(func=run)
     return p
 
@@ -244,7 +245,7 @@ def run(args) -> int:
             "(porosense calibrate ACTUATOR --data ... --out PARAMS.json)"
         )
     if args.save_extended:
-        output_file(args.save_extended, "--save-extended")
+        output_file(args.save_extended, "--save-extended", force=args.force)
     if args.params:
         args.sim_params = _load_sim_params(args.sim, args.params)
     tables = read_tables(args.data, args)

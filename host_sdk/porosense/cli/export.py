@@ -41,6 +41,7 @@ def register(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--mat", action="store_true", help="write the blocks as MATLAB variables (a v5 .mat file)")
     p.add_argument("--out", metavar="FILE", help="the file to write when one format is asked for")
+    p.add_argument("--force", action="store_true", help="replace files already there")
     add_json_options(p, "what was written")
     p.set_defaults(func=run)
     return p
@@ -69,11 +70,18 @@ def run(args) -> int:
             args.c_out = args.c_out or args.out
         elif formats == ["python-control"]:
             args.control_out = args.control_out or args.out
-    model = load_model_checked(args.model)
     stem = Path(args.model).with_suffix("")
+    paths = {
+        "c": output_file(args.c_out or f"{stem}.c", "--c-out", force=args.force) if "c" in formats else None,
+        "python-control": output_file(args.control_out or f"{stem}_tf.json", "--control-out", force=args.force)
+        if "python-control" in formats
+        else None,
+        "mat": output_file(args.out or f"{stem}.mat", "--out", force=args.force) if "mat" in formats else None,
+    }
+    model = load_model_checked(args.model)
     written = {}
     if args.c or args.c_out:
-        path = output_file(args.c_out or f"{stem}.c", "--c-out")
+        path = paths["c"]
         name = args.name or "porosense_" + re.sub(r"\W", "_", stem.name)
         if not re.fullmatch(r"[A-Za-z_]\w*", name):
             raise InputError(f"--name {name!r} is not a C identifier")
@@ -81,14 +89,14 @@ def run(args) -> int:
         written["c"] = {"path": str(path), "init": f"{name}_init", "step": f"{name}_step", "state": f"{name}_state"}
         say(args, f"C source written to {path}: {name}_init(&state), then {name}_step(&state, u, y) per sample")
     if args.python_control or args.control_out:
-        path = output_file(args.control_out or f"{stem}_tf.json", "--control-out")
+        path = paths["python-control"]
         write_control(model, path)
         written["python_control"] = {"path": str(path)}
         say(args, f"transfer functions written to {path}")
     if args.mat:
         from porosense.export import write_mat
 
-        path = output_file(args.out or f"{stem}.mat", "--out")
+        path = paths["mat"]
         write_mat(model, path)
         written["mat"] = {"path": str(path), "variable": "porosense_model"}
         say(args, f"MATLAB variables written to {path}: load it and rebuild the model with docs/matlab.md")

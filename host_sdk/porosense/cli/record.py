@@ -210,6 +210,8 @@ def _calibrate(args) -> int:
 
     from porosense.record.calibration import calibrate
 
+    output_file(args.out, "--out", force=args.force)
+
     try:
         cols, rows = (int(v) for v in args.pattern.lower().split("x"))
     except ValueError:

@@ -264,6 +264,32 @@ def test_control_tune_refuses_a_command_that_is_not_a_pressure(work, capsys):
     assert not out.exists()
 
 
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["predict", "--model", "{d}/unit_model.json", "--data", "{d}/{f}", "--out", "{d}/u_out.csv"],
+        ["compare", "--model", "{d}/unit_model.json", "--data", "{d}/{f}", "--json-out", "{d}/u_out.json"],
+        ["report", "--model", "{d}/unit_model.json", "--data", "{d}/{f}", "--out", "{d}/u_out"],
+        ["quantize", "--model", "{d}/unit_model.json", "--data", "{d}/{f}", "--out", "{d}/u_out.bin"],
+    ],
+    ids=lambda a: a[0],
+)
+@pytest.mark.parametrize("units,named", [("s,ohm,%", "column dR_0 is in ohm"), ("s,%,mm", "column strain_0 is in mm")])
+def test_data_in_other_units_than_the_models_are_refused(work, capsys, argv, units, named):
+    """A model that states its units (dR_0 and strain_0 in %) meets data whose units row states
+    others: scored, reported or quantized as if they were the model's, they gave a fit with exit 0."""
+    u, y = _signals(600)
+    if not (work / "unit_model.json").exists():
+        ident.make_model("linear", n_poles=1, n_zeros=0).fit(
+            u=u[:, None], y=y, ts=1 / RATE_HZ, inputs=("dR_0",), output="strain_0", input_unit="%", output_unit="%"
+        ).save(work / "unit_model.json")
+    name = f"units_{units.replace(',', '_').replace('%', 'pct')}.csv"
+    _write(work / name, np.arange(600) / RATE_HZ, u, y, units_row=units)
+    rc, _, err = _run(capsys, [a.replace("{d}", str(work)).replace("{f}", name) for a in argv])
+    assert rc == 2 and len(err.splitlines()) == 1 and named in err and "the model's" in err, err
+    assert not list(work.glob("u_out*"))
+
+
 def test_a_model_with_its_period_as_text_is_refused(work, capsys):
     doc = json.loads((work / "model.json").read_text())
     doc["models"][0]["ts"] = "0.02"

@@ -193,12 +193,13 @@ def model_period(tables, model, args, what: str = "the model") -> float:
     return ts
 
 
-def bind_columns(tables, args, inputs, outputs=()) -> None:
+def bind_columns(tables, args, inputs, outputs=(), model=None) -> None:
     """Give the data columns named by ``--input``/``--output`` the model's names, in order (docs/cli.md).
 
     Without the options the model's own names are used as they are; with them, each table gets
     the model's input (output) names as copies of the named columns, so that everything after
-    reads the model's names."""
+    reads the model's names. With ``model``, a unit the data state for one of its signals must be
+    the unit the model states for it (:func:`check_units`)."""
     from porosense.cli._args import columns
 
     for option, names in (("input", list(inputs)), ("output", list(outputs))):
@@ -217,6 +218,52 @@ def bind_columns(tables, args, inputs, outputs=()) -> None:
                 table.columns[model_name] = table.columns[data_name]
                 if data_name in table.units:
                     table.units[model_name] = table.units[data_name]
+    if model is not None:
+        check_units(tables, model)
+
+
+# Units of dR a model may state, converted where data meet it (quantize --input-unit, fit(input_unit=)).
+_DR_UNITS = {"%", "dR/100"}
+_UNIT_ALIASES = {"percent": "%", "pct": "%"}
+
+
+def _unit(text) -> str:
+    word = str(text).strip().strip("[]()").strip()
+    return _UNIT_ALIASES.get(word.lower(), word)
+
+
+def model_units(model) -> dict:
+    """{signal name: unit} of what ``model`` states: an identified model or model set, or an
+    estimator structure (a blob states none)."""
+    units: dict = {}
+    for m in list(getattr(model, "models", None) or [model]):
+        for name, unit in zip(getattr(m, "inputs", ()) or (), getattr(m, "input_units", ()) or ()):
+            if unit:
+                units[str(name)] = str(unit)
+        output, unit = getattr(m, "output", None), getattr(m, "output_unit", None)
+        if isinstance(output, str) and unit:
+            units[output] = str(unit)
+        for out, unit in zip(getattr(m, "outputs", ()) or (), getattr(m, "output_units", ()) or ()):
+            name = out if isinstance(out, str) else getattr(out, "name", None)
+            if name and unit:
+                units[str(name)] = str(unit)
+    return units
+
+
+def check_units(tables, model) -> None:
+    """InputError when a table states a unit for one of the model's signals (a units row, the
+    sidecar, a .mat units struct) other than the unit the model states for it: a model in % strain
+    scored on strain in mm, or fed a resistance in ohms, gives a number without meaning."""
+    stated = model_units(model)
+    for table in tables:
+        for name, unit in stated.items():
+            data = (getattr(table, "units", None) or {}).get(name)
+            if not data or _unit(data) == _unit(unit) or {_unit(data), _unit(unit)} <= _DR_UNITS:
+                continue
+            raise InputError(
+                f"{table.path}: column {name} is in {data}, the model's {name} in {unit}: "
+                "convert the data to the model's unit (or name another column with --input/--output)"
+            )
 
 
 def require_columns(table, names) -> None:

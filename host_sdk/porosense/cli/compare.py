@@ -53,7 +53,7 @@ def run(args) -> int:
     model = load_model_checked(args.model)
     tables = read_tables(args.data, args)
     model_period(tables, model, args)
-    bind_columns(tables, args, model.inputs, model_outputs(model))
+    bind_columns(tables, args, model.inputs, model_outputs(model), model=model)
     for table in tables:
         require_columns(table, list(model.inputs) + model_outputs(model))
     result = compare(model, tables, name=model_label(model))

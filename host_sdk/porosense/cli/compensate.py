@@ -82,7 +82,7 @@ def run(args) -> int:
     files = list(args.data) + list(args.validation_data)
     tables = read_tables(files, args)
     ts = model_period(tables, nominal, args)
-    bind_columns(tables, args, nominal.inputs, [nominal.output] if args.output else ())
+    bind_columns(tables, args, nominal.inputs, [nominal.output] if args.output else (), model=nominal)
     cols = list(nominal.inputs) + [nominal.output]
     for table in tables:
         require_columns(table, cols)

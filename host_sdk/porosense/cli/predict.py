@@ -74,7 +74,7 @@ def run(args) -> int:
     model = load_model_checked(args.model)
     (table,) = read_tables([args.data], args)
     ts = model_period([table], model, args)
-    bind_columns([table], args, model.inputs, model_outputs(model) if args.output else ())
+    bind_columns([table], args, model.inputs, model_outputs(model) if args.output else (), model=model)
     require_columns(table, list(model.inputs))
     table.require_finite(list(model.inputs))
     u = np.column_stack([table.columns[c] for c in model.inputs])

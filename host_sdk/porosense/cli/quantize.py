@@ -114,7 +114,7 @@ def run(args) -> int:
     tables = read_tables(args.data, args)
     if tables:
         model_period(tables, structure, args)
-        bind_columns(tables, args, structure.inputs)
+        bind_columns(tables, args, structure.inputs, model=structure)
     for table in tables:
         require_columns(table, list(structure.inputs))
         table.require_finite(list(structure.inputs))

@@ -10,6 +10,7 @@ from porosense.cli._data import (
     add_data_options,
     add_json_options,
     bind_columns,
+    check_units,
     emit_json,
     load_model_checked,
     model_period,
@@ -88,6 +89,8 @@ def run(args) -> int:
         model_period(tables, model, args, what=f"model {label}")
     first = next(iter(models.values()))
     bind_columns(tables, args, first.inputs, model_outputs(first))
+    for model in models.values():
+        check_units(tables, model)
     for table in tables:
         require_columns(table, list(first.inputs))
     page = write_user_report(tables, models, args.out, units=units, pressure=args.pressure, title=args.title)

@@ -290,6 +290,23 @@ def test_data_in_other_units_than_the_models_are_refused(work, capsys, argv, uni
     assert not list(work.glob("u_out*"))
 
 
+def test_a_constant_output_has_no_fit_and_never_prints_nan(work, capsys):
+    """A recording whose output never moves has no NRMSE fit: predict and compare print 'n/a'
+    (compare printed 'nan' and 'nan±nan'); quantize and diagnose refuse it in one line."""
+    u, y = _signals()
+    _write(work / "flat_y.csv", np.arange(len(u)) / RATE_HZ, u, np.full_like(y, 1.0))
+    data = ["--model", work / "model.json", "--data", work / "flat_y.csv"]
+    for command in ("predict", "compare"):
+        rc, text, err = _run(capsys, [command, *data])
+        assert rc == 0 and "n/a" in text and "nan" not in text, text + err
+    rc, _, err = _run(capsys, ["quantize", *data, "--out", work / "flat.bin"])
+    assert rc == 4 and len(err.splitlines()) == 1 and "output is constant" in err and not (work / "flat.bin").exists()
+    argv = ["diagnose", *data, "--input", "dR_0", "--output", "strain_0", "--out", work / "flat_diag"]
+    rc, _, err = _run(capsys, argv)
+    assert rc == 2 and len(err.splitlines()) == 1 and "the output is constant at 1" in err, err
+    assert not (work / "flat_diag").exists()
+
+
 def test_a_model_with_its_period_as_text_is_refused(work, capsys):
     doc = json.loads((work / "model.json").read_text())
     doc["models"][0]["ts"] = "0.02"

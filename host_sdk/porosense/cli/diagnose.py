@@ -145,6 +145,8 @@ def _cut(item, rng, what):
         raise InputError(f"{f}: the {what} range leaves {len(y)} samples (need >= 50)")
     if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y)) and all(np.all(np.isfinite(v)) for v in cond.values())):
         raise InputError(f"{f}: empty or non-finite cells in the selected columns of the {what} range")
+    if np.ptp(y) == 0:
+        raise InputError(f"{f}: the output is constant at {y[0]:g} over the {what} range: it has no fit to diagnose")
     return u, y, cond
 
 

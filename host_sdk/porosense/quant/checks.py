@@ -106,8 +106,13 @@ def check_fits(report) -> None:
     (:data:`MIN_FIXED_VS_FLOAT_FIT`) on any recording of the report."""
     for fit in report.fits:
         d = fit.fit_float_vs_data
-        if d is not None and (not math.isfinite(d) or d < MIN_FIT_VS_DATA):
-            shown = f"{d:.4g} %" if math.isfinite(d) else "not a number"
+        if d is not None and not math.isfinite(d):
+            raise ModelError(
+                f"the model's fit on {fit.recording} (output {fit.output}) is not a number: the recording's "
+                "output is constant (nothing to score against) or the model's output is not finite"
+            )
+        if d is not None and d < MIN_FIT_VS_DATA:
+            shown = f"{d:.4g} %"
             raise ModelError(
                 f"the model's fit on {fit.recording} (output {fit.output}) is {shown}, below {MIN_FIT_VS_DATA:g} % "
                 "(the recording's mean): it is not a model of this data"

@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,11 +42,11 @@ class CompareResult:
         for o in self.outputs:
             out.append(f"{o}: {'file':<40} {'fit %':>8} {'RMS %':>8}")
             for f in self.files:
-                out.append(f"{'':{len(o) + 2}}{f[-40:]:<40} {self.fit[f][o]:>8.2f} {self.rms[f][o]:>8.2f}")
+                out.append(f"{'':{len(o) + 2}}{f[-40:]:<40} {_num(self.fit[f][o]):>8} {_num(self.rms[f][o]):>8}")
             s = self.summary(o)
             out.append(
-                f"{'':{len(o) + 2}}{'mean ± standard error':<40} {s['fit_mean']:>5.2f}±{s['fit_se']:.2f}"
-                f" {s['rms_mean']:>5.2f}±{s['rms_se']:.2f}"
+                f"{'':{len(o) + 2}}{'mean ± standard error':<40} {_mean_se(s['fit_mean'], s['fit_se']):>8}"
+                f" {_mean_se(s['rms_mean'], s['rms_se'])}"
             )
         return out
 
@@ -207,3 +208,12 @@ def format_roots(values, digits: int = 4) -> str:
         seen.append(v)
         parts.append(f"{v.real:.{digits}f}" if abs(v.imag) < 1e-9 else f"{v.real:.{digits}f}±{abs(v.imag):.{digits}f}j")
     return ", ".join(parts) or "none"
+
+
+def _num(value: float) -> str:
+    """A fit or RMS (%) with 2 decimals; 'n/a' where there is none (a constant output has no fit)."""
+    return f"{value:.2f}" if math.isfinite(value) else "n/a"
+
+
+def _mean_se(mean: float, se: float) -> str:
+    return f"{mean:.2f}±{se:.2f}" if math.isfinite(mean) and math.isfinite(se) else _num(mean)

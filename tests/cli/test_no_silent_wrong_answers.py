@@ -271,6 +271,8 @@ def test_control_tune_refuses_a_command_that_is_not_a_pressure(work, capsys):
         ["compare", "--model", "{d}/unit_model.json", "--data", "{d}/{f}", "--json-out", "{d}/u_out.json"],
         ["report", "--model", "{d}/unit_model.json", "--data", "{d}/{f}", "--out", "{d}/u_out"],
         ["quantize", "--model", "{d}/unit_model.json", "--data", "{d}/{f}", "--out", "{d}/u_out.bin"],
+        ["diagnose", "--model", "{d}/unit_model.json", "--data", "{d}/{f}", "--input", "dR_0"]
+        + ["--output", "strain_0", "--out", "{d}/u_out"],
     ],
     ids=lambda a: a[0],
 )

@@ -250,18 +250,21 @@ def model_units(model) -> dict:
     return units
 
 
-def check_units(tables, model) -> None:
+def check_units(tables, model, columns=None) -> None:
     """InputError when a table states a unit for one of the model's signals (a units row, the
     sidecar, a .mat units struct) other than the unit the model states for it: a model in % strain
-    scored on strain in mm, or fed a resistance in ohms, gives a number without meaning."""
+    scored on strain in mm, or fed a resistance in ohms, gives a number without meaning.
+    ``columns`` maps a model signal to the data column that feeds it (default: the same name)."""
     stated = model_units(model)
+    columns = columns or {}
     for table in tables:
         for name, unit in stated.items():
-            data = (getattr(table, "units", None) or {}).get(name)
+            column = columns.get(name, name)
+            data = (getattr(table, "units", None) or {}).get(column)
             if not data or _unit(data) == _unit(unit) or {_unit(data), _unit(unit)} <= _DR_UNITS:
                 continue
             raise InputError(
-                f"{table.path}: column {name} is in {data}, the model's {name} in {unit}: "
+                f"{table.path}: column {column} is in {data}, the model's {name} in {unit}: "
                 "convert the data to the model's unit (or name another column with --input/--output)"
             )
 

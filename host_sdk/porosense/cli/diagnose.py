@@ -8,6 +8,7 @@ from porosense.cli._args import add_deprecated, columns, parse_range
 from porosense.cli._data import (
     add_data_options,
     add_json_options,
+    check_units,
     emit_json,
     load_model_checked,
     model_period,
@@ -254,7 +255,13 @@ def run(args) -> int:
     vtables = read_tables(args.validation_data, args) if args.validation_data else []
     args.ts = sample_period(tables + vtables, args)
     if args.model:  # a model runs per sample: on data at another rate it simulates other dynamics
-        model_period(tables + vtables, load_model_checked(args.model), args)
+        checked = load_model_checked(args.model)
+        model_period(tables + vtables, checked, args)
+        subs = list(getattr(checked, "models", None) or [checked])
+        if len(subs) > 1:
+            subs = [m for m in subs if m.output == args.output]
+        for m in subs:  # the data's stated units against the model's, column by column
+            check_units(tables + vtables, m, {**dict(zip(m.inputs, inputs)), m.output: args.output})
     # the simulator's extension is fitted to every measured resistance column, not only the output
     measured = _sim_measured_columns(args, inputs) if args.save_extended and args.sim else []
     extra = [c for c in measured if c not in conditions and c not in inputs and c != args.output]

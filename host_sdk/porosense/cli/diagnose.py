@@ -63,7 +63,11 @@ def register(sub) -> argparse.ArgumentParser:
         "--sim",
         metavar="ACTUATOR",
         help="calibrate this simulator (contractor, bending, 3dof) "
-        "to the estimation range (inputs: commanded vacuum in kPa) and diagnose it",
+        "to the estimation range (inputs: commanded vacuum in kPa) and diagnose it; material: the "
+        "piezoresistive law of --params (porosense calibrate material) on tensile records, --input the "
+        "strain column (%% unless the file states 1), --output the resistance (ohm), each file's R0 and "
+        "its drift taken from its estimation samples (a file given for validation only: all its samples), "
+        "as 'simulate material --replay' does",
     )
     what.add_argument("--model", metavar="MODEL.json", help="diagnose a model saved by 'porosense identify'")
     what.add_argument(
@@ -242,6 +246,9 @@ def run(args) -> int:
         raise InputError("--alpha must be between 0 and 1")
     if args.params and not args.sim:
         raise InputError("--params is the simulator's parameter file: give it with --sim ACTUATOR")
+    material = args.sim == MATERIAL
+    if material:
+        _check_material_args(args, inputs)
     if args.save_extended and args.sim and not args.params:
         raise InputError(
             "--save-extended with --sim extends a parameter file: give --params PARAMS.json "
@@ -265,10 +272,24 @@ def run(args) -> int:
     # the simulator's extension is fitted to every measured resistance column, not only the output
     measured = _sim_measured_columns(args, inputs) if args.save_extended and args.sim else []
     extra = [c for c in measured if c not in conditions and c not in inputs and c != args.output]
+    if material:  # the law runs over each whole file (its relaxation remembers), then is cut like the data
+        extra.append(_material_prediction(args, inputs[0], tables, vtables))
     est, val = _split(args, inputs, conditions + extra, tables, vtables)
-    predict, nominal, what = _predictor(args, inputs, est)
+    if material:
+        predict, nominal, what = None, None, f"material law of {args.params}"
+    else:
+        predict, nominal, what = _predictor(args, inputs, est)
     records = [
-        [Record(u, y, predict(u), args.ts, {k: v for k, v in cond.items() if k not in extra}) for u, y, cond in part]
+        [
+            Record(
+                u,
+                y,
+                cond[MATERIAL_SIM] if material else predict(u),
+                args.ts,
+                {k: v for k, v in cond.items() if k not in extra},
+            )
+            for u, y, cond in part
+        ]
         for part in (est, val)
     ]
     result = diagnose(
@@ -314,6 +335,68 @@ def run(args) -> int:
             top = result.findings[0]
             say(args, f"extended model ({top.cause}) written to {args.save_extended}; on the device: {top.on_device}")
     return 0
+
+
+MATERIAL = "material"
+MATERIAL_SIM = "R_sim (material law)"  # the law's resistance, carried beside the data while it is cut
+
+
+def _check_material_args(args, inputs) -> None:
+    """One line for what ``--sim material`` cannot take."""
+    if not args.params:
+        raise InputError(
+            "diagnose --sim material compares tensile records with a calibrated law: give --params PARAMS.json "
+            "(porosense calibrate material --data REC --strain COL --resistance COL --out PARAMS.json)"
+        )
+    if len(inputs) != 1:
+        raise InputError(f"--input {' '.join(inputs)}: --sim material takes one input, the strain column")
+    if args.save_extended:
+        raise InputError(
+            "--save-extended with --sim material: the material law is extended by recalibrating it "
+            "(porosense calibrate material --ablation reports what each effect adds); give it without --save-extended"
+        )
+
+
+def _material_prediction(args, strain_col: str, tables, vtables) -> str:
+    """Add the calibrated law's resistance (ohm) to every table as column :data:`MATERIAL_SIM`.
+
+    The law runs over the whole file from rest at its first strain; the file's R0 and linear
+    drift (ln R, least squares) come from its estimation samples: the --estimation range, the
+    first 60 % of a single file split 60/40, every sample of a file used for estimation whole or
+    of a file used for validation only (--validation-data, the last of several files)."""
+    import numpy as np
+
+    from porosense.cli.calibrate import strain_fraction, time_axis
+    from porosense.sim.calibrate import simulate_material
+
+    physics, _ = args.sim_params
+    est_rng, val_rng = parse_range(args.estimation), parse_range(args.validation)
+    if est_rng is None and val_rng is not None:
+        est_rng = slice(None, val_rng.start) if val_rng.start else val_rng
+    single_split = not args.validation_data and len(tables) == 1 and est_rng is None and val_rng is None
+    for k, table in enumerate([*tables, *vtables]):
+        require_columns(table, [strain_col, args.output])
+        n = len(table)
+        strain = strain_fraction(table, strain_col)
+        r = np.asarray(table.columns[args.output], float)
+        if not (np.all(np.isfinite(strain)) and np.all(np.isfinite(r))) or np.any(r <= 0):
+            raise InputError(
+                f"{table.path}: --sim material needs finite strain and a positive resistance (ohm) "
+                f"in '{args.output}' on every sample"
+            )
+        mask = np.zeros(n, bool)
+        validation_only = k >= len(tables) or (
+            not args.validation_data and est_rng is None and len(tables) > 1 and k == len(tables) - 1
+        )
+        if single_split:
+            mask[: int(0.6 * n)] = True
+        elif validation_only or est_rng is None:
+            mask[:] = True
+        else:
+            mask[est_rng] = True
+        sim = simulate_material(physics, time_axis(table, args.ts), strain, r, mask)
+        table.columns[MATERIAL_SIM] = np.asarray(sim["R_sim"], float)
+    return MATERIAL_SIM
 
 
 def _load_sim_params(actuator: str, path):

@@ -27,15 +27,29 @@ not): 4 trials per cause, seeds 1000-1003.
 Measured on the simulator of issue 31 (physics beyond WH; every recording draws its own sensor
 sensitivity, contact-law scale, softening state and R0 drift, as real repeats differ), with the
 held-out ranking of issue 35: every cause is below the bound, each a strict xfail naming what
-is named instead. The calibration of the ``--sim`` path (porosense.diagnose.calibrate:
-porosity, scale, offset) cannot follow a recording-to-recording sensor change, and diagnosis
-names that misfit (drift, unmodelled_dynamics, slow_relaxation) before the hidden cause:
-saturation 2/4 (static_nonlinearity twice; 4/4 before), outliers 0/4 (drift, unmodelled_dynamics
-twice, none; 4/4 before), cross_coupling 2/4, time_delay 1/4, periodic_disturbance 1/4,
-load_dependence 1/4, drift 0/4, slow_relaxation 0/4, static_nonlinearity 0/4, hysteresis 0/4;
-clean contractor records named none 1/4, the clean 3-DoF segment 0/2 (outliers twice). A
-calibration of the simulator's own physics (porosense.sim.calibrate) in the ``--sim`` path is
-what these trials need next.
+is named instead: saturation 2/4 (static_nonlinearity twice), outliers 0/4, cross_coupling 2/4,
+time_delay 2/4 (1/4 before the delay's extension held the nominal's own prediction delayed),
+periodic_disturbance 1/4, load_dependence 1/4, drift 0/4, slow_relaxation 0/4,
+static_nonlinearity 0/4, hysteresis 0/4 (9 of 40); clean contractor records named none 1/4, the
+clean 3-DoF segment 0/2 (outliers twice).
+
+Where the misses come from (the same seeds, with porosense.sim.params.Physics.without switching
+the recordings' variation and R0 drift, ``repeat_variation`` and ``baseline_drift``, off):
+
+- off in the records and in the calibrated simulator: clean records named none 4/4, the causes
+  14/40 (time_delay 4/4, saturation 3/4, periodic_disturbance 3/4, cross_coupling 2/4; drift
+  named outliers 4/4, outliers none 3/4, static_nonlinearity none or outliers, hysteresis and
+  slow_relaxation unmodelled_dynamics): what clean records are named for is the recordings'
+  own variation (an R0 drift of 0.3 %/min rms is a drift the calibrated simulation lacks), and
+  the causes miss for reasons of their own as well;
+- off in the calibrated simulator only (the mean recording instead of recording seed 0's
+  realisation, which ``porosense.diagnose.calibrate`` simulates: its drift rate, softening state
+  and sensitivity): 6 of 44, clean 1/4; the mean recording is no better a nominal.
+
+The calibration of the ``--sim`` path (porosity, scale, offset) cannot follow a
+recording-to-recording sensor change; a calibration of the simulator's own physics
+(porosense.sim.calibrate) in the ``--sim`` path, and a null that holds the recordings'
+variation, are what these trials need next.
 """
 
 from __future__ import annotations
@@ -50,14 +64,14 @@ SEED = 1000
 #: measured top-1 of the causes below the bound at seeds 1000-1003 (see the module docstring)
 BELOW_BOUND = {
     "drift": "0/4: named static_nonlinearity twice, slow_relaxation, unmodelled_dynamics",
-    "time_delay": "1/4: named slow_relaxation twice, unmodelled_dynamics",
+    "time_delay": "2/4: named unmodelled_dynamics, slow_relaxation",
     "periodic_disturbance": "1/4: named unmodelled_dynamics twice, hysteresis",
     "saturation": "2/4: named static_nonlinearity twice",
     "load_dependence": "1/4: named cross_coupling twice, slow_relaxation",
     "slow_relaxation": "0/4: named drift twice, unmodelled_dynamics, none",
     "outliers": "0/4: named unmodelled_dynamics twice, drift, none",
-    "static_nonlinearity": "0/4: named drift, time_delay, slow_relaxation, none",
-    "hysteresis": "0/4: named drift, time_delay, slow_relaxation, unmodelled_dynamics",
+    "static_nonlinearity": "0/4: named drift, unmodelled_dynamics, slow_relaxation, none",
+    "hysteresis": "0/4: named drift, unmodelled_dynamics twice, slow_relaxation",
     "cross_coupling": "2/4: named none, load_dependence",
     NONE: "1/4: clean records named drift, unmodelled_dynamics twice",
 }

@@ -439,6 +439,8 @@ def slow_pole(us: list, ys: list, order: int, tau_nominal_s: float, tau_start_s:
     g = np.array([Jb.T @ eb for Jb, eb in zip(np.array_split(J, b), np.array_split(e, b))])
     g = g - g.mean(axis=0)
     cov = H @ (g.T @ g) * b / (b - 1) @ H
-    se = float(np.sqrt(max(float(grad @ cov @ grad), 1e-300)))
-    t = (np.log(tau) - np.log(SLOW_RATIO * tau_nominal_s)) / se
+    var = float(grad @ cov @ grad)
+    if not np.isfinite(var) or var <= 0.0:  # a fit too ill-conditioned to say: undecided
+        return SlowPole(float(tau), tau_nominal_s, m, 0.0, 0)
+    t = (np.log(tau) - np.log(SLOW_RATIO * tau_nominal_s)) / np.sqrt(var)
     return SlowPole(float(tau), float(tau_nominal_s), m, float(t), b - 1)

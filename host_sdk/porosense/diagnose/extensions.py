@@ -544,7 +544,10 @@ def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
     # the extension alone on the nominal (no generic correction): its gain is the slow mode's own;
     # its time constant the one that fits the estimation records best (the test's is a first guess)
     y_all = np.concatenate([r.y for r in ctx.est])
-    grid = [tau * f for f in (0.25, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8, 4.0)]
+    # a relaxation is slow: no faster than the test's shortest time constant (SLOW_RATIO times
+    # the model's own), or the extension would be a fast mode under a slow mode's name
+    floor = dynamics.SLOW_RATIO * ctx.tau_s
+    grid = [t for t in (tau * f for f in (0.25, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8, 4.0)) if t >= floor] or [tau]
     sse = {t: float(np.sum((y_all - ctx.fit_apply(lambda r, t=t: z_full(r, t), scope=CONSTANT)[1]) ** 2)) for t in grid}
     tau = min(sse, key=sse.get)
     pred, _ = ctx.fit_apply(lambda r: z_full(r, tau), scope=CONSTANT)
@@ -601,8 +604,11 @@ def time_delay(ctx: Context, alpha: float) -> CauseResult:
     # delay's own
 
     def z_ext(r, lag):
+        # a dead time in front of the model is the model's own prediction delayed (exact for any
+        # time-invariant model started at rest, a simulator too); the bank of the delayed inputs
+        # re-identifies the dynamics the nominal bent to fit the delay
         banks = [ctx.lag_bank(signals.shift(r.u[:, i], lag)) for i in range(ctx.n_in)]
-        return np.column_stack([r.yhat] + banks)
+        return np.column_stack([r.yhat, signals.shift(r.yhat, lag)] + banks)
 
     # the delay of the extension: the one whose re-identification fits the estimation records best
     y_all = np.concatenate([r.y for r in ctx.est])
@@ -646,7 +652,7 @@ def time_delay(ctx: Context, alpha: float) -> CauseResult:
         pred,
         {
             "delay": d,
-            "n_params": 1 + LAGUERRE_ORDER * ctx.n_in + 1,
+            "n_params": 2 + LAGUERRE_ORDER * ctx.n_in + 1,
             "rise_measured": shown.measured,
             "rise_model": shown.model,
             "evidence_ok": evidence_ok,

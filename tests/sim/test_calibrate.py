@@ -260,3 +260,21 @@ def test_the_loop_extends_a_calibrated_simulator_by_the_hidden_cause(tmp_path, c
         assert main(argv + ["--out", str(tmp_path / f"{name}_sim.csv"), "--json"]) == 0
         fits[name] = json.loads(capsys.readouterr().out)["fits"]["dR_sim_0"]
     assert fits["ext"] > fits["cal"], fits
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["emulator", "--params", "{ext}", "--listen", "tcp://127.0.0.1:0"],
+        ["demo", "--params", "{ext}", "--out", "{tmp}/demo"],
+    ],
+)
+def test_the_boards_refuse_an_extended_parameter_file_in_one_line(tmp_path, capsys, argv):
+    """The emulator, the simboard, the demo and control run a plant's physics, not an extension's
+    effects: an extended file (diagnose --sim --save-extended) is refused before anything runs,
+    not run as the calibrated simulator it is not."""
+    ext = Physics().save(tmp_path / "ext.json", effects={"saturation": {"low_V": 1.0, "high_V": 4.096}})
+    assert main([a.format(ext=ext, tmp=tmp_path) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert "extended by saturation" in err and "Traceback" not in err and err.count("\n") == 1, err
+    assert not (tmp_path / "demo").exists()

@@ -21,12 +21,32 @@ def add_params_option(p) -> None:
 
 
 def load_params(args):
-    """The porosense.sim.Physics of --params, or None without it."""
+    """The porosense.sim.Physics of --params, or None without it.
+
+    A parameter file extended by a cause (``diagnose --sim ... --save-extended``) is refused in
+    one line: the simulated boards run a plant's physics, not the extension's effects, and
+    running the file without them would be another simulator than the one it names.
+    """
     if not getattr(args, "params", None):
         return None
+    import json
+    from pathlib import Path
+
+    from porosense.errors import InputError
     from porosense.sim import Physics
 
-    return Physics.load(args.params)
+    physics = Physics.load(args.params)
+    try:
+        effects = json.loads(Path(args.params).read_text()).get("effects") or {}
+    except (ValueError, AttributeError):
+        effects = {}
+    if effects:
+        raise InputError(
+            f"--params {args.params} is extended by {', '.join(sorted(effects))} (diagnose --save-extended): "
+            "the simulated boards run calibrated physics only; 'porosense simulate --params' runs the extension, "
+            "or give the calibrated file"
+        )
+    return physics
 
 
 def parse_range(text: str | None) -> slice | None:

@@ -309,6 +309,25 @@ def test_a_constant_output_has_no_fit_and_never_prints_nan(work, capsys):
     assert not (work / "flat_diag").exists()
 
 
+def test_a_file_stating_two_periods_is_refused(work, capsys, tmp_path):
+    """A time column at 50 Hz with a .mat Ts of 50 ms, or a sidecar rate of 100 Hz: the column
+    used to win without a word."""
+    u, y = _signals(600)
+    t = np.arange(600) / RATE_HZ
+    write_mat_v5(tmp_path / "two.mat", {"t": t, "dR_0": u, "strain_0": y, "Ts": np.array([[0.05]])})
+    _write(tmp_path / "side.csv", t, u, y)
+    (tmp_path / "side.json").write_text(json.dumps({"meta": {"rate_hz": 100}, "units": {}}))
+    for name, stated in (
+        ("two.mat", "variable Ts in two.mat states 50 ms (20 Hz)"),
+        ("side.csv", "side.json states 10 ms (100 Hz)"),
+    ):
+        out = tmp_path / f"{name}.pred.csv"
+        argv = ["predict", "--model", work / "model.json", "--data", tmp_path / name, "--out", out]
+        rc, _, err = _run(capsys, argv)
+        assert rc == 2 and len(err.splitlines()) == 1, err
+        assert "time column 't' steps 20 ms (50 Hz)" in err and stated in err and not out.exists(), err
+
+
 def test_a_model_with_its_period_as_text_is_refused(work, capsys):
     doc = json.loads((work / "model.json").read_text())
     doc["models"][0]["ts"] = "0.02"

@@ -58,6 +58,7 @@ PLAUSIBLE_RATE_HZ = (1.0, 2000.0)
 # A step more than 1.5 periods is a dropped sample (a drop makes a step of 2); one below half a
 # period an extra sample. Host-clock jitter within these bounds is accepted and reported.
 GAP_FACTOR = 1.5
+STATED_TS_TOLERANCE = 0.01  # a stated period (Ts, the sidecar's rate) this far from the time column's is refused
 JITTER_REPORTED = 0.01  # relative standard deviation of the steps above which it is stated
 
 
@@ -269,11 +270,30 @@ def check_sampling(table, *, time_unit: str | None = None, resample: bool = Fals
         raw = np.asarray(table.columns[name], dtype=float)
         steps = np.diff(raw)
     sampling.jitter = float(np.std(steps) / median) if steps.size > 1 else 0.0
+    _agrees_with_stated(table, sampling, name, ts, time_unit)
     sampling.ts, sampling.ts_source = ts, f"the '{name}' column of {table.path.name}"
     table.ts, table.ts_source = ts, sampling.ts_source
     table.time = raw * scale
     table.sampling = sampling
     return sampling
+
+
+def _agrees_with_stated(table, sampling: Sampling, name: str, ts: float, time_unit: str | None) -> None:
+    """InputError when the file states a period (a .mat Ts, the sidecar's rate) more than
+    STATED_TS_TOLERANCE away from its time column's: one of the two is wrong, and taking either
+    without a word would be a guess."""
+    stated = sampling.ts
+    if not stated or not np.isfinite(stated) or stated <= 0:
+        return
+    unit = unit_of(time_unit) if time_unit is not None else unit_of(getattr(table, "time_unit", None))
+    stated_s = stated * SECONDS_PER[unit] if unit else stated
+    if abs(stated_s - ts) <= STATED_TS_TOLERANCE * ts:
+        return
+    raise InputError(
+        f"{table.path}: time column '{name}' steps {ts * 1000:.4g} ms ({1 / ts:.4g} Hz) but "
+        f"{sampling.ts_source or 'the file'} states {stated_s * 1000:.4g} ms ({1 / stated_s:.4g} Hz): "
+        "correct the one that is wrong (or give the column's unit with --time-unit)"
+    )
 
 
 def _scale_stated_ts(table, sampling: Sampling, time_unit: str | None) -> None:

@@ -328,6 +328,22 @@ def test_a_file_stating_two_periods_is_refused(work, capsys, tmp_path):
         assert "time column 't' steps 20 ms (50 Hz)" in err and stated in err and not out.exists(), err
 
 
+def test_a_model_file_where_a_blob_or_a_recording_goes_is_named(work, capsys):
+    """The model JSON given to verify or flash (which take a blob) or as --data: one line saying
+    what it is (was 'not a porosense model blob (bad magic)' without a file, or 'line 3 ... is not
+    a number')."""
+    model = work / "model.json"
+    for argv in (
+        ["verify", "--port", "socket://127.0.0.1:1", "--model", model, "--data", work / "run.csv"],
+        ["flash", "--port", "socket://127.0.0.1:1", "--model", model],
+    ):
+        rc, _, err = _run(capsys, argv)
+        assert rc == 4 and len(err.splitlines()) == 1, err
+        assert f"{model} is a model file (JSON), not a blob: quantize it first" in err, err
+    rc, _, err = _run(capsys, ["predict", "--model", model, "--data", model])
+    assert rc == 2 and len(err.splitlines()) == 1 and "a JSON file, not a recording" in err, err
+
+
 def test_a_model_with_its_period_as_text_is_refused(work, capsys):
     doc = json.loads((work / "model.json").read_text())
     doc["models"][0]["ts"] = "0.02"

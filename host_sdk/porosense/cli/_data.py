@@ -290,6 +290,21 @@ def _names(names, shown: int = 20) -> str:
     return ", ".join(names) if len(names) <= shown else ", ".join(names[:shown]) + f", ... ({len(names):,} columns)"
 
 
+def blob_checked(path, data: bytes, **limits):
+    """``data`` (read from ``path``) parsed as a model blob as the board parses it; ModelError naming
+    the file otherwise, and saying so when it is a model file (JSON) that was not quantized."""
+    from porosense.protocol.model_blob import ModelBlob
+
+    if data.lstrip()[:1] in (b"{", b"["):
+        raise ModelError(
+            f"{path} is a model file (JSON), not a blob: quantize it first (porosense quantize --model {path})"
+        )
+    try:
+        return ModelBlob.from_bytes(data, **limits)
+    except ModelError as exc:
+        raise ModelError(f"{path}: {exc}") from None
+
+
 def load_model_checked(path):
     """A saved model, refused (ModelError) when any coefficient is not finite.
 

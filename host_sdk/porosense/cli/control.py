@@ -15,7 +15,7 @@ from porosense.cli._args import (
     load_params,
     take_positional,
 )
-from porosense.cli._data import add_data_options, add_json_options, emit_json, output_file, say
+from porosense.cli._data import add_data_options, add_json_options, blob_checked, emit_json, output_file, say
 from porosense.errors import InputError
 
 #: porosense.control.tuning.DEFAULT_TAU_CL_S (s), written out so that --help loads no solver;
@@ -204,11 +204,10 @@ def run_tune(args) -> int:
     tau_cl = float(args.tau_cl)
     if args.model:
         from porosense.control.tuning import board_tau_cl
-        from porosense.protocol.model_blob import ModelBlob
 
         if not Path(args.model).is_file():
             raise InputError(f"model blob {args.model} not found")
-        blob = ModelBlob.from_bytes(Path(args.model).read_bytes())
+        blob = blob_checked(args.model, Path(args.model).read_bytes())
         fitted = board_tau_cl(plant, tau_cl, args.slew, float(blob.out_scale[0]), blob.rate_hz)
         if fitted > tau_cl:
             say(
@@ -346,9 +345,8 @@ def run_run(args) -> int:
         if not Path(args.model).is_file():
             raise InputError(f"model blob {args.model} not found")
         model = Path(args.model).read_bytes()
-        from porosense.protocol.model_blob import ModelBlob
 
-        ModelBlob.from_bytes(model)  # refuse a model the board would refuse before opening the port
+        blob_checked(args.model, model)  # refuse a model the board would refuse before opening the port
     req = RunRequest(
         port=args.port,
         target=args.target,

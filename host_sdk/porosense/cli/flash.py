@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from porosense.cli._args import add_legacy_positional, take_positional
-from porosense.cli._data import add_json_options, emit_json, normalise_json_args
+from porosense.cli._data import add_json_options, blob_checked, emit_json, normalise_json_args
 from porosense.errors import InputError
 from porosense.files import write_text
 
@@ -59,7 +59,6 @@ def register(sub) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     from porosense.device import Device
-    from porosense.protocol.model_blob import ModelBlob
 
     take_positional(args, "model", "--model")
     normalise_json_args(args)
@@ -71,7 +70,7 @@ def run(args) -> int:
         return _run_flash_store(args, data)
     if args.hex_out:
         raise InputError("--hex-out needs --store flash")
-    blob = ModelBlob.from_bytes(data)  # refuse a bad file before touching the device
+    blob = blob_checked(path, data)  # refuse a bad file before touching the device
     with Device.open(args.port) as dev:
         rate = dev.check_model_rate(data, set_rate=args.set_rate)
         info = dev.write_model(data, replace=None if args.replace else False)
@@ -94,10 +93,9 @@ def _run_flash_store(args, data: bytes) -> int:
     from porosense.errors import DeviceError
     from porosense.firmware import upload as avr_upload
     from porosense.firmware.flash_store import plan_upload, require_flash_store
-    from porosense.protocol.model_blob import ModelBlob
     from porosense.protocol.model_layout import FLASH_BLOB_MAX
 
-    blob = ModelBlob.from_bytes(data, max_length=FLASH_BLOB_MAX)  # refuse a bad file first
+    blob = blob_checked(args.model, data, max_length=FLASH_BLOB_MAX)  # refuse a bad file first
     with Device.open(args.port) as dev:
         require_flash_store(dev.info)
         rate = dev.check_model_rate(data, set_rate=args.set_rate)

@@ -9,6 +9,7 @@ from porosense.cli._args import add_deprecated, add_legacy_positional, columns, 
 from porosense.cli._data import (
     add_data_options,
     add_json_options,
+    blob_checked,
     emit_json,
     model_period,
     normalise_json_args,
@@ -58,7 +59,7 @@ def run(args) -> int:
 
     from porosense.device import Device
     from porosense.protocol.model_layout import FLASH_BLOB_MAX
-    from porosense.quant import FixedPointEstimator, ModelBlob
+    from porosense.quant import FixedPointEstimator
 
     take_positional(args, "model", "--model")
     normalise_json_args(args)
@@ -69,7 +70,7 @@ def run(args) -> int:
     if not path.is_file():
         raise InputError(f"model blob {path} not found")
     data = path.read_bytes()
-    blob = ModelBlob.from_bytes(data, max_length=FLASH_BLOB_MAX)  # a model of either store
+    blob = blob_checked(path, data, max_length=FLASH_BLOB_MAX)  # a model of either store
     (table,) = read_tables([args.data], args)
     cols = columns(args.input, "input", args) if args.input else [f"dR_{i}" for i in range(blob.n_inputs)]
     if len(cols) != blob.n_inputs:

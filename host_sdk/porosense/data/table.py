@@ -382,6 +382,11 @@ def read_table(
         raise InputError(
             f"{path}: byte {exc.start} is not UTF-8 text: not a CSV (save it as UTF-8 text, or as a .mat file)"
         ) from None
+    if text.lstrip()[:1] == "{":
+        raise InputError(
+            f"{path}: a JSON file, not a recording (--data takes CSV or MATLAB .mat files; "
+            "a model file goes to --model)"
+        )
     if skip_rows < 0:
         raise InputError(f"--skip-rows {skip_rows}: give a count of lines >= 0")
     text = _blank_skipped(text, skip_rows, comment)

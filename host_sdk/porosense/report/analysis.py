@@ -48,6 +48,7 @@ class CompareResult:
                 f"{'':{len(o) + 2}}{'mean ± standard error':<40} {_mean_se(s['fit_mean'], s['fit_se']):>8}"
                 f" {_mean_se(s['rms_mean'], s['rms_se'])}"
             )
+        out.append("each file simulated from rest (zero initial state); fit: NRMSE, RMS: % of max |output|")
         return out
 
     def __str__(self) -> str:

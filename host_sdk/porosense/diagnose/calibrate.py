@@ -17,7 +17,7 @@ and what it misses is what diagnosis is asked to find.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 from scipy import optimize
@@ -38,23 +38,27 @@ class Calibration:
     scale: float
     offset: float
     fit_estimation: float
+    #: the simulator's stage parameters (porosense.sim.Physics; None: the defaults), not saved
+    physics: object = field(default=None, repr=False, compare=False)
 
     def predict(self, p_cmd: np.ndarray, ts: float) -> np.ndarray:
         """Simulated output for commanded vacuum p_cmd (N, n_channels) kPa, sampled every ts s."""
-        return self.scale * _simulate(self.actuator, self.output, self.porosity, p_cmd, ts) + self.offset
+        return self.scale * _simulate(self.actuator, self.output, self.porosity, p_cmd, ts, self.physics) + self.offset
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        d = asdict(self)
+        d.pop("physics")
+        return d
 
 
-def _simulate(actuator: str, output: str, porosity: float, p_cmd: np.ndarray, ts: float) -> np.ndarray:
+def _simulate(actuator: str, output: str, porosity: float, p_cmd: np.ndarray, ts: float, physics=None) -> np.ndarray:
     from porosense import sim
 
     p = np.asarray(p_cmd, float).reshape(len(p_cmd), -1)
     sp = np.zeros((len(p), 3))
     sp[:, : p.shape[1]] = np.minimum(p, 0.0)
     on = sp < 0.0
-    plant = sim.make_plant(actuator, porosity=porosity, noise=False)
+    plant = sim.make_plant(actuator, porosity=porosity, noise=False, physics=physics)
     out = plant.run(ts, sp, on, on.copy())
     if output not in out:
         raise InputError(
@@ -75,8 +79,10 @@ def _at_limit(y: np.ndarray, min_count: int = 10) -> np.ndarray:
     return out
 
 
-def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float) -> Calibration:
-    """Fit porosity, scale and offset of ``actuator``'s ``output`` to the estimation records."""
+def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float, physics=None) -> Calibration:
+    """Fit porosity, scale and offset of ``actuator``'s ``output`` to the estimation records.
+
+    ``physics`` (porosense.sim.Physics or None for the defaults) is the simulator calibrated."""
     from porosense.dsp.metrics import fit_percent
 
     ys = np.concatenate([np.asarray(y, float) for y in y_list])
@@ -87,7 +93,7 @@ def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float)
         keep[:] = True
 
     def affine(por):
-        sims = np.concatenate([_simulate(actuator, output, por, u, ts) for u in u_list])
+        sims = np.concatenate([_simulate(actuator, output, por, u, ts, physics) for u in u_list])
         X = np.column_stack([sims, np.ones_like(sims)])
         coef, *_ = np.linalg.lstsq(X[keep], ys[keep], rcond=None)
         return coef, X @ coef
@@ -102,4 +108,4 @@ def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float)
     sol = optimize.minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 0.05})
     por = float(sol.x) if sol.fun <= costs[k] else float(grid[k])
     (scale, offset), pred = affine(por)
-    return Calibration(actuator, output, por, float(scale), float(offset), fit_percent(ys[keep], pred[keep]))
+    return Calibration(actuator, output, por, float(scale), float(offset), fit_percent(ys[keep], pred[keep]), physics)

@@ -261,8 +261,11 @@ def _post(y: np.ndarray, cause: str, pr: dict) -> np.ndarray:
 SIM_3DOF_EXPERIMENTS = (("sequential_60", "two_level"), ("sequential_40",))
 
 
-def run_sim_3dof_trial(cause: str, seed: int) -> Trial:
-    """Hide ``cause`` (cross_coupling or none) in the simulated 3-DoF segment, calibrate, diagnose."""
+def run_sim_3dof_trial(cause: str, seed: int, physics=None, nominal_physics=None) -> Trial:
+    """Hide ``cause`` (cross_coupling or none) in the simulated 3-DoF segment, calibrate, diagnose.
+
+    ``physics``: the simulator's stage parameters for the records, ``nominal_physics``: for the
+    simulator calibrated on them (porosense.sim.Physics; None: the defaults)."""
     from porosense import sim
     from porosense.diagnose.calibrate import calibrate
 
@@ -273,7 +276,13 @@ def run_sim_3dof_trial(cause: str, seed: int) -> Trial:
     parts = []
     for k, exp in enumerate(SIM_3DOF_EXPERIMENTS[0] + SIM_3DOF_EXPERIMENTS[1]):
         rec = sim.run_experiment(
-            "3dof", exp, porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10 + k, effects=effects
+            "3dof",
+            exp,
+            porosity=porosity,
+            rate_hz=SIM_RATE_HZ,
+            seed=seed * 10 + k,
+            effects=effects,
+            physics=physics,
         )
         parts.append(
             (
@@ -285,21 +294,24 @@ def run_sim_3dof_trial(cause: str, seed: int) -> Trial:
     n_est = len(SIM_3DOF_EXPERIMENTS[0])
     est, val = parts[:n_est], parts[n_est:]
     ts = 1.0 / SIM_RATE_HZ
-    cal = calibrate("3dof", "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts)
+    cal = calibrate("3dof", "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts, nominal_physics)
     recs = [[engine.Record(u, y, cal.predict(u, ts), ts, c) for u, y, c in part] for part in (est, val)]
     d = engine.diagnose(recs[0], recs[1])
     gain = d.finding(cause).gain if cause != NONE else 0.0
     return Trial(cause, d.top, float(gain), time.perf_counter() - t0, d)
 
 
-def run_sim_trial(cause: str, seed: int) -> Trial:
+def run_sim_trial(cause: str, seed: int, physics=None, nominal_physics=None) -> Trial:
     """Hide ``cause`` in simulated contractor experiments (cross_coupling: in the 3-DoF segment,
-    see :func:`run_sim_3dof_trial`), calibrate the simulator, diagnose."""
+    see :func:`run_sim_3dof_trial`), calibrate the simulator, diagnose.
+
+    ``physics``: the simulator's stage parameters for the records, ``nominal_physics``: for the
+    simulator calibrated on them (porosense.sim.Physics; None: the defaults)."""
     from porosense import sim
     from porosense.diagnose.calibrate import calibrate
 
     if cause == "cross_coupling":
-        return run_sim_3dof_trial(cause, seed)
+        return run_sim_3dof_trial(cause, seed, physics, nominal_physics)
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
     effects = _sim_effect(rng, cause)
@@ -311,7 +323,9 @@ def run_sim_trial(cause: str, seed: int) -> Trial:
     porosity = rng.uniform(72.0, 86.0)
     if cause == "saturation":  # clip at the voltage a drawn share of the clean record lies below
         # on the validation experiment (the shallowest stroke): the clip must show in every record
-        clean = sim.run_experiment("contractor", "step_40", porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10)
+        clean = sim.run_experiment(
+            "contractor", "step_40", porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10, physics=physics
+        )
         volts = 5.0 * clean["R_0"] / (clean["R_0"] + 1000.0)
         effects = {"saturation": {"low_V": float(np.quantile(volts, effects["saturation"]["quantile"]))}}
     parts = []
@@ -320,12 +334,18 @@ def run_sim_trial(cause: str, seed: int) -> Trial:
     # pulse unloaded, and that pulse must have been seen at the validation's level or above)
     for k, exp in enumerate(("staircase", "step_60", "step_40")):
         rec = sim.run_experiment(
-            "contractor", exp, porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10 + k, effects=effects
+            "contractor",
+            exp,
+            porosity=porosity,
+            rate_hz=SIM_RATE_HZ,
+            seed=seed * 10 + k,
+            effects=effects,
+            physics=physics,
         )
         parts.append((rec["p_cmd_0"][:, None], _post(rec["dR_0"], cause, post), {"load_g": rec["load_g"]}))
     est, val = parts[:2], parts[2:]
     ts = 1.0 / SIM_RATE_HZ
-    cal = calibrate("contractor", "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts)
+    cal = calibrate("contractor", "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts, nominal_physics)
     recs = [[engine.Record(u, y, cal.predict(u, ts), ts, c) for u, y, c in part] for part in (est, val)]
     d = engine.diagnose(recs[0], recs[1])
     gain = d.finding(cause).gain if cause != NONE else 0.0

@@ -77,7 +77,9 @@ def test_unstable_section_in_a_blob_is_refused_by_the_reader():
     data = bytearray(quantize(_structure()).to_bytes())
     blob = ModelBlob.from_bytes(bytes(data))
     sec = blob.outputs[0].branches[0].sections[0]
-    bad = dataclasses.replace(sec, m=(2, 0), k=(16384, 0), delta=False)  # c1 = 2.25: a pole at 2.25, outside the unit circle
+    bad = dataclasses.replace(
+        sec, m=(2, 0), k=(16384, 0), delta=False
+    )  # c1 = 2.25: a pole at 2.25, outside the unit circle
     out = dataclasses.replace(
         blob.outputs[0], branches=(dataclasses.replace(blob.outputs[0].branches[0], sections=(bad,)),)
     )

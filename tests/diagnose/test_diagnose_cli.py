@@ -156,3 +156,46 @@ def test_cli_errors_are_one_line(tmp_path, capsys):
     )
     err = capsys.readouterr().err
     assert rc == 2 and "no column 'nope'" in err and "Traceback" not in err
+
+
+def _clean_lag(rng, n=1500):
+    """An independent clean plant: a random staircase through one or two real poles (scipy), white
+    noise of 0.2-2 % of the output's range; the record starts with its first level as a step."""
+    from scipy import signal
+
+    order = int(rng.integers(1, 3))
+    poles = rng.uniform(0.75, 0.95, order)
+    den = np.poly(poles)
+    gain = rng.uniform(0.2, 2.0)
+    u = np.repeat(rng.uniform(-80, 0, n // 50), 50)
+    y = signal.lfilter([gain * np.sum(den)], den, -u)
+    return order, u, y + rng.normal(0, rng.uniform(0.002, 0.02) * np.ptp(y), n)
+
+
+def test_a_true_order_model_on_clean_records_is_diagnosed_none(tmp_path, capsys):
+    """The model of the right order on clean records, one file split 60/40: nothing is wrong, and
+    the diagnosis must say so. The model starts each record as its first samples show (here the
+    estimation part at rest, its first level a step): started settled at that level instead, the
+    transient it left in the residual was named outliers in 3 of 10 second-order records. Bound: at least 19 of 20 named none (the issue's 95 %; with
+    the tests at 1 % family-wise a false finding has about 1 % a trial, P(2 or more in 20) = 1.7 %)."""
+    from porosense import ident
+
+    rng = np.random.default_rng(20261128)
+    named = []
+    for k in range(20):
+        order, u, y = _clean_lag(rng)
+        t = np.arange(len(u)) / 50.0
+        data = tmp_path / f"clean_{k}.csv"
+        np.savetxt(data, np.column_stack([t, u, y]), delimiter=",", header="t,dR_0,strain_0", comments="")
+        model = tmp_path / f"model_{k}.json"
+        ident.make_model("linear", n_poles=order, n_zeros=0).fit(
+            u=u[:, None], y=y, ts=0.02, inputs=("dR_0",), output="strain_0"
+        ).save(model)
+        out = tmp_path / f"diag_{k}.json"
+        argv = ["diagnose", "--model", model, "--data", data, "--input", "dR_0", "--output", "strain_0"]
+        assert main([str(a) for a in [*argv, "--json-out", out]]) == 0
+        capsys.readouterr()
+        named.append(json.loads(out.read_text())["top"])
+    wrong = [(k, c) for k, c in enumerate(named) if c != NONE]
+    print(f"\nclean records named none: {20 - len(wrong)} of 20; named: {wrong}")
+    assert len(wrong) <= 1, wrong

@@ -116,3 +116,20 @@ def test_isolated_spikes_found_and_false_alarm_controlled():
     e[rng.choice(2000, 8, replace=False)] += 25.0
     res = stats.isolated_spikes(e, ALPHA)
     assert res.significant and res.value >= 6
+
+
+def test_ranking_never_places_a_simpler_cause_above_one_that_gains_significantly_more():
+    """A (10 points, 60 parameters, a noisy improvement), B (8 points, 37 parameters) and C (2 points,
+    1 parameter, B's improvement less 6 per sample: significantly below B, not below A's noisy one).
+    The simplest-extension rule among gains that overlap the largest would put C first; C's gain is
+    significantly below B's, so B, which overlaps A, is placed first and C after both."""
+    from porosense.diagnose import ranking
+
+    rng = np.random.default_rng(5)
+    b = 8.0 + rng.normal(0.0, 1.0, 2000)
+    a = b + 2.0 + rng.normal(0.0, 1000.0, 2000)
+    c = b - 6.0 + rng.normal(0.0, 0.1, 2000)
+    cands = [ranking.Candidate("A", 10.0, a, 60), ranking.Candidate("B", 8.0, b, 37), ranking.Candidate("C", 2.0, c, 1)]
+    order, steps = ranking.rank(cands)
+    assert order == ["B", "A", "C"], (order, steps[0])
+    assert steps[0].overlapping == ["A", "B"] and steps[0].below_largest["C"][1] > 0.025

@@ -10,14 +10,15 @@ through a range that clips the resistance at a level drawn uniformly between 55 
 the record's span (a divider or ADC range; the law has no clip). Diagnosed: the law on two of
 them (estimation), the third held out.
 
-Bounds: saturation is the top cause and its held-out gain is positive (seeds 0 and 1; seed 2 a
-strict xfail, see REJECTED_AS_A_REST); on the same records read in full, saturation is not
-named (the rests at low strain between cycles, where the resistance sits at its lowest, are
-not clipping). Measured over seeds 0-9 (4-5 s CPU per seed): saturation top in 4 of 10 clipped
-trials (held-out gains +15.5 to +48.5 points); in the other 6 it is not found (held-out gains
-+3.0 to +29.3 points; in 5 of them diagnosis rejects it as a rest) and outliers, hysteresis,
-drift, slow_relaxation or static_nonlinearity come first; read in full, saturation is named in
-0 of 10. The module takes 16 s CPU.
+Bounds: saturation is the top cause and its held-out gain is positive (seeds 0-2); on the same
+records read in full, saturation is not named (the rests at low strain between cycles, where the
+resistance sits at its lowest, are not clipping: there the strain rests at its own rest level,
+while at the clip it goes beyond where it is elsewhere). Found input-output causes are never
+ranked below one whose held-out gain is significantly smaller. Measured over seeds 0-9 (4-5 s CPU
+per seed): saturation top in 9 of 10 clipped trials (held-out gains +14.2 to +48.5 points; in
+seed 9 its gain, +3.0, is not confirmed, t = 1.62, and slow_relaxation comes first); before the
+input's side of the rest rule it was top in 4 of 10 and rejected as a rest in 6 (gains +3.0 to
++29.3). Read in full, saturation is named in 0 of 10 (before: 0 of 10). The module takes 16 s CPU.
 """
 
 from __future__ import annotations
@@ -93,16 +94,7 @@ def _found(doc) -> list:
     return [(f["cause"], round(f["gain"], 2)) for f in doc["findings"] if f["found"]]
 
 
-REJECTED_AS_A_REST = (
-    "saturation's held-out gain is +27.0 points (confirmed), but porosense.diagnose rejects it as a rest "
-    "of the experiment (the law, fitted without the clipped samples, predicts beyond the limit there "
-    "with t = 0.92 over 15 runs, p = 0.19) and names hysteresis (+4.1) first"
-)
-
-
-@pytest.mark.parametrize(
-    "seed", (0, 1, pytest.param(2, marks=pytest.mark.xfail(strict=True, reason=REJECTED_AS_A_REST)))
-)
+@pytest.mark.parametrize("seed", (0, 1, 2))
 def test_a_clipped_read_out_is_named_saturation_with_a_held_out_gain(material, capsys, seed):
     params, _, clipped = material(seed)
     doc = _diagnose(capsys, params, clipped)
@@ -111,6 +103,17 @@ def test_a_clipped_read_out_is_named_saturation_with_a_held_out_gain(material, c
     assert doc["top"] == "saturation", _found(doc)
     top = doc["findings"][0]
     assert top["cause"] == "saturation" and top["gain"] > 0.0, top
+    _assert_no_cause_below_a_significantly_smaller_gain(doc)
+
+
+def _assert_no_cause_below_a_significantly_smaller_gain(doc) -> None:
+    """Among found input-output causes, none is ranked below one whose gain is smaller by more than
+    the two gains' combined uncertainty (gain / t is the batch-means standard error, points)."""
+    found = [f for f in doc["findings"] if f["found"] and f["cause"] not in ("drift", "periodic_disturbance")]
+    for i, above in enumerate(found):
+        for below in found[i + 1 :]:
+            se = np.hypot(above["gain"] / above["gain_t"], below["gain"] / below["gain_t"])
+            assert below["gain"] - above["gain"] < 1.645 * se, (above["cause"], below["cause"], _found(doc))
 
 
 @pytest.mark.parametrize("seed", (0, 1))
@@ -158,7 +161,7 @@ def _seeds() -> list:
 
 def test_the_rates_over_seeds(material, capsys):
     """Over the seeds: saturation named on records read in full in none; the top cause on clipped
-    records in at least 40 % (measured 4 of 10 over seeds 0-9, 2 of 3 over 0-2)."""
+    records in at least 80 % (measured 9 of 10 over seeds 0-9, 3 of 3 over 0-2)."""
     seeds = _seeds()
     top, named_in_full = 0, 0
     for seed in seeds:
@@ -170,4 +173,4 @@ def test_the_rates_over_seeds(material, capsys):
             f"\nseeds {seeds[0]}-{seeds[-1]}: saturation top in {top} of {len(seeds)} clipped, named in {named_in_full} read in full"
         )
     assert named_in_full == 0
-    assert top >= 0.4 * len(seeds)
+    assert top >= 0.8 * len(seeds)

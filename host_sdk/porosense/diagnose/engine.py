@@ -28,7 +28,9 @@ Procedure:
    beyond it at one-sided 5 %, slow_relaxation explains the linear deficit); hysteresis
    a direction effect beyond static maps, a slow mode and the adequate-order linear model (its
    test is conditional on them); saturation samples at a limit where the model, fitted without
-   them, predicts beyond the limit (a rest of the experiment at that level is not clipping).
+   them, predicts beyond the limit, or where the input is further from its own rest level than
+   elsewhere (a rest of the experiment at that level, where the input rests at its rest level, is
+   not clipping).
 4. **Held-out gain.** Each extension is fitted on the estimation records only; its gain is the
    simulation-fit difference on the validation records against its baseline, on the same
    samples (samples an extension rejects leave both sides). It is confirmed when the paired
@@ -492,6 +494,17 @@ def _why(top: Finding, runner: Finding | None, step, findings: dict, improvement
             else ""
         )
         return f"the only cause found{other}"
+    if runner.cause in DISTURBANCES and top.cause not in DISTURBANCES and runner.gain <= top.gain:
+        return (
+            f"the only input-output cause found; the disturbance {runner.cause} ({runner.gain:+.2f} points as a "
+            "one-step predictor) is ranked after the input-output causes"
+        )
+    if runner.cause in DISTURBANCES and top.cause not in DISTURBANCES:
+        return (
+            f"input-output causes are ranked before disturbances: {runner.cause}'s gain ({runner.gain:+.2f} points, "
+            f"against {top.gain:+.2f}) is a one-step predictor's, which reads the measured output and tracks any "
+            "slow misfit the corrected model leaves, so it is not compared with a simulation's gain"
+        )
     if step is not None and runner.cause in step.overlapping and top.n_params < runner.n_params:
         largest = findings[step.largest]
         return (
@@ -632,7 +645,7 @@ def _diagnose(estimation, validation, alpha, nominal, refit) -> Diagnosis:
             findings[cause].confidence = float(np.clip((1.0 - res.test.p) * (1.0 - confirm.p), 0.0, 1.0))
     _one_dynamics_explanation(findings, improvements, extended, y_val, results)
     # input-output causes first; disturbances (tracked from the measured output, a predictor's
-    # gain that a simulation gain cannot be compared with) after them
+    # gain that a simulation gain cannot be compared with: see :mod:`.ranking`) after them
     groups = [[c for c in CAUSES if c not in DISTURBANCES], list(DISTURBANCES)]
     order, steps = [], []
     for group in groups:
@@ -668,6 +681,13 @@ def _diagnose(estimation, validation, alpha, nominal, refit) -> Diagnosis:
     top = ranked[0]
     runner = ranked[1] if top.cause != NONE else next((f for f in ranked[1:] if f.significant), None)
     why = _why(top, runner, steps[0] if steps else None, findings, improvements)
+    larger = [c for c in DISTURBANCES if findings[c].found and findings[c].gain > top.gain and top.cause != NONE]
+    if larger and top.cause not in DISTURBANCES and runner is not None and runner.cause not in DISTURBANCES:
+        why += (
+            f"; {', '.join(larger)} gains more ({', '.join(f'{findings[c].gain:+.2f}' for c in larger)} points) "
+            "as a one-step predictor, which reads the measured output and tracks any slow misfit, so it is "
+            "ranked after the input-output causes"
+        )
     ties = []
     if steps:
         for other in steps[0].overlapping:

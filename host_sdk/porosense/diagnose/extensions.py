@@ -937,6 +937,34 @@ def _record_limit(y: np.ndarray, side: str, default: float) -> float:
     return ext if at.sum() >= 10 else default
 
 
+#: the first samples of a record whose range is within this share of the record's span are a hold
+#: at the record's rest level (measurement noise of a few % of the span is allowed)
+START_HOLD_SHARE = 0.1
+START_HOLD_SAMPLES = 10
+
+
+def _start_level(x: np.ndarray) -> float:
+    """An input's own rest level (its units): the median of a record's first samples when they hold
+    (within START_HOLD_SHARE of the span, noise allowed), else :func:`.signals.rest_level`."""
+    head = x[:START_HOLD_SAMPLES]
+    span = float(np.ptp(x)) or 1.0
+    return float(np.median(head)) if float(np.ptp(head)) <= START_HOLD_SHARE * span else signals.rest_level(x)
+
+
+def _inputs_away_from_rest(ctx: Context, censored: np.ndarray) -> stats.ExcessTest:
+    """Are the inputs further from their own rest level at the ``censored`` estimation samples than
+    at the others? (distance |u - rest level| in shares of its span, run means, one-sided at 5 % /
+    inputs; the input that goes furthest). At a clip the inputs go beyond where the output leaves
+    the limit (a cycle's peak); at a rest they sit at their rest level (zero strain between cycles)."""
+    tests = []
+    for i in range(ctx.n_in):
+        d = np.concatenate([np.abs(r.u[:, i] - _start_level(r.u[:, i])) for r in ctx.est])
+        d = d / (float(np.ptp(ctx.u_est[:, i])) or 1.0)
+        ref = float(np.mean(d[~censored])) if (~censored).any() else 0.0
+        tests.append(stats.mean_excess_test(d - ref, censored, alpha=stats.CONFIRM_ALPHA / ctx.n_in))
+    return max(tests, key=lambda t: (t.t, t.mean))
+
+
 def saturation(ctx: Context, alpha: float) -> CauseResult:
     y_est = np.concatenate([r.y for r in ctx.est])
     # tested per record: a limit in dR moves with each record's R0 calibration
@@ -990,9 +1018,10 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
         # it there too); clipping cuts off what the model predicts beyond the limit
         beyond = (lim_est - unclipped_est) if side == "low" else (unclipped_est - lim_est)
         excess = stats.mean_excess_test(beyond, censored)
+        away = _inputs_away_from_rest(ctx, censored)
     else:
         pred, _ = ctx.fit_apply(z)
-        excess = None
+        excess = away = None
     # the pile-up is evidence of its own (independent of the residual regression): its binomial
     # log-likelihood ratio against the null share of 1/2 enters the ranking. The ranked model is
     # a clip at the measured limit on top of a static output-side map (noise smooths the
@@ -1006,9 +1035,13 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
     if excess is not None:
         rest_note = (
             f"; fitted without them, the model predicts {excess.mean:.3g} beyond the limit there on average "
-            f"(t = {excess.t:.3g} over {excess.groups} runs at the limit, one-sided p = {excess.p:.2g})"
+            f"(t = {excess.t:.3g} over {excess.groups} runs at the limit, one-sided p = {excess.p:.2g}); "
+            f"there the input is {away.mean:+.3g} of its span further from its rest level than elsewhere "
+            f"(t = {away.t:.3g} over {away.groups} runs, one-sided p = {away.p:.2g})"
         )
-    evidence_ok = excess is None or excess.confirmed
+    # clipping: the output sits at the limit while the model's prediction, or the input, goes
+    # beyond it; a rest: neither (the output rests there because the input rests at its own rest level)
+    evidence_ok = excess is None or excess.confirmed or away.confirmed
     return CauseResult(
         res,
         p < alpha,
@@ -1023,7 +1056,8 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
             "evidence_note": ""
             if evidence_ok
             else "the output rests at the limit (the model, fitted without those samples, does not predict "
-            "beyond it there): a rest of the experiment, not clipping",
+            "beyond it there, and the input is not further from its rest level there than elsewhere): a rest of "
+            "the experiment, not clipping",
         },
         Z_est=np.column_stack([ctx.stack(_static_sets(ctx)["output"], ctx.est), ctx.stack(z, ctx.est)]),
         n_search=n_sig,

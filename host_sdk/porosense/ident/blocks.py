@@ -8,7 +8,8 @@ sections are filtered one after the other (numerically robust for clustered pole
 z = 1, and exactly the SOS form the firmware runs).
 
 Piecewise-linear maps have free breakpoints: x_0 = p_0, x_k = x_{k-1} + exp(p_k), so the
-breakpoints stay strictly increasing for any parameter vector.
+breakpoints stay strictly increasing for any parameter vector. One function evaluates them with
+their derivatives (:func:`pwl_rows`), for the Jacobian and for every basis built from them.
 """
 
 from __future__ import annotations
@@ -156,19 +157,22 @@ def stabilise(a) -> np.ndarray:
 
 
 def pwl_positions(p) -> tuple[np.ndarray, np.ndarray]:
-    """Breakpoint positions x and dx/dp (lower triangular) from unconstrained ``p``."""
+    """Breakpoint positions x from unconstrained ``p`` and their derivative factors d (n,):
+    dx_k/dp_j = d_j for j <= k and 0 beyond (d_0 = 1; :func:`positions_jacobian`)."""
     p = np.asarray(p, dtype=float)
     # The floor keeps breakpoints distinct (normalised units, so 2e-9 is negligible).
     raw = p[1:]
     steps = np.exp(np.clip(raw, -20.0, 50.0))
-    dsteps = np.where((raw > -20.0) & (raw < 50.0), steps, 0.0)  # flat where clipped
     x = p[0] + np.concatenate([[0.0], np.cumsum(steps)])
-    n = len(p)
-    jac = np.zeros((n, n))
-    jac[:, 0] = 1.0
-    for j in range(1, n):
-        jac[j:, j] = dsteps[j - 1]
-    return x, jac
+    d = np.empty(len(p))
+    d[0] = 1.0
+    d[1:] = np.where((raw > -20.0) & (raw < 50.0), steps, 0.0)  # flat where clipped
+    return x, d
+
+
+def positions_jacobian(d) -> np.ndarray:
+    """dx/dp (n, n), lower triangular, from the factors ``d`` of :func:`pwl_positions`."""
+    return np.tril(np.ones((len(d), len(d)))) * d
 
 
 def positions_to_p(x) -> np.ndarray:
@@ -180,26 +184,66 @@ def positions_to_p(x) -> np.ndarray:
 def pwl_eval(x, y, u, derivatives: bool = False):
     """Evaluate the map through (x, y) at u, linear beyond the ends.
 
-    With ``derivatives``, also returns dz/du (N,), dz/dx (N, n) and dz/dy (N, n).
+    With ``derivatives``, also returns the slope dz/du (N,), dz/dx (N, n) and dz/dy (N, n)
+    (the rows of :func:`pwl_rows`, transposed into C order: least squares on them then runs the
+    same products as ever).
+    """
+    if not derivatives:
+        u = np.asarray(u, dtype=float)
+        k = np.clip(np.searchsorted(x, u, side="right") - 1, 0, len(x) - 2)
+        xk, yk = x[k], y[k]
+        return yk + (y[k + 1] - yk) * ((u - xk) / (x[k + 1] - xk))
+    z, slope, dz_dx, dz_dy = pwl_rows(x, y, u)
+    return z, slope, np.ascontiguousarray(dz_dx.T), np.ascontiguousarray(dz_dy.T)
+
+
+def pwl_rows(x, y, u, d=None, out=None):
+    """The map through (x, y) at u (linear beyond the ends) with its derivatives as rows.
+
+    Parameters
+    ----------
+    x, y : ndarray (n,)
+        Breakpoints (strictly increasing) and values.
+    u : ndarray (N,)
+        Where the map is evaluated, in the units of x.
+    d : ndarray (n,) or None
+        The factors of :func:`pwl_positions`: the rows are then with respect to the position
+        parameters p instead of x.
+    out : (ndarray, ndarray) or None
+        Two (n, N) float arrays the derivative rows are written into (None: new arrays).
+
+    Returns
+    -------
+    (z, slope, dz/dx or dz/dp, dz/dy)
+        z and the slope dz/du of shape (N,); the derivatives as rows, shape (n, N).
     """
     u = np.asarray(u, dtype=float)
-    n = len(x)
+    n, m = len(x), len(u)
     k = np.clip(np.searchsorted(x, u, side="right") - 1, 0, n - 2)
-    h = x[k + 1] - x[k]
-    t = (u - x[k]) / h
-    dy = y[k + 1] - y[k]
-    z = y[k] + dy * t
-    if not derivatives:
-        return z
+    xk, yk = x[k], y[k]
+    h = x[k + 1] - xk
+    t = (u - xk) / h
+    dy = y[k + 1] - yk
+    z = yk + dy * t
     slope = dy / h
-    rows = np.arange(len(u))
-    dz_dy = np.zeros((len(u), n))
-    dz_dy[rows, k] = 1.0 - t
-    dz_dy[rows, k + 1] = t
-    dz_dx = np.zeros((len(u), n))
-    dz_dx[rows, k] = slope * (t - 1.0)
-    dz_dx[rows, k + 1] = -slope * t
-    return z, slope, dz_dx, dz_dy
+    cols = np.arange(m)
+
+    def zeros(i):  # row block i of ``out`` cleared, or a new one
+        if out is None:
+            return np.zeros((n, m))
+        out[i].fill(0.0)
+        return out[i]
+
+    dz_dy = zeros(1)
+    dz_dy[k, cols] = 1.0 - t
+    dz_dy[k + 1, cols] = t
+    dz_dx = zeros(0) if d is None else np.zeros((n, m))
+    dz_dx[k, cols] = slope * (t - 1.0)
+    dz_dx[k + 1, cols] = -slope * t
+    if d is None:
+        return z, slope, dz_dx, dz_dy
+    dz_dp = np.matmul(positions_jacobian(d).T, dz_dx, out=None if out is None else out[0])
+    return z, slope, dz_dp, dz_dy
 
 
 def initial_breakpoints(values, n: int) -> np.ndarray:

@@ -100,6 +100,17 @@ def _fir(b, x):
     return out
 
 
+def _fir_into(b, x, out):
+    """``out`` = B(q) x along the last axis, from rest (the arithmetic of :func:`_fir`, written into
+    ``out``, an array of x's shape that is not x)."""
+    n = x.shape[-1]
+    np.multiply(x, b[0], out=out)
+    for k in range(1, min(len(b), n)):
+        if b[k] != 0.0:
+            out[..., k:] += b[k] * x[..., : n - k]
+    return out
+
+
 def _sos(den) -> np.ndarray:
     """scipy sos rows [1 0 0 1 a1 a2] of the denominator sections ``den`` (rows [1 a1 a2])."""
     sos = np.zeros((len(den), 6))
@@ -122,6 +133,17 @@ def cascade_rows(den, x):
     out = np.array(x.reshape(-1, x.shape[-1]), dtype=float, order="C")
     _sosfilt_loop(_sos(den), out, np.zeros((out.shape[0], len(den), 2)))
     return out.reshape(x.shape)
+
+
+def _cascade_in_place(den, x) -> None:
+    """1 / prod(sections) applied along the last axis of the C-contiguous 2-D float array ``x``,
+    from rest, in place (:func:`cascade_rows` without its copy)."""
+    if len(den) == 0:
+        return
+    if _sosfilt_loop is None:  # pragma: no cover
+        x[...] = sosfilt(_sos(den), x, axis=-1)
+        return
+    _sosfilt_loop(_sos(den), x, np.zeros((x.shape[0], len(den), 2)))
 
 
 def block_filter(b, den, x):
@@ -152,25 +174,6 @@ def _lagged(x, n: int):
     return out
 
 
-def _pwl_rows(x, y, u, dxdp):
-    """(z, slope, dz/dp rows (n, N), dz/dy rows (n, N)) of the map through (x, y) at ``u``."""
-    n = len(x)
-    k = np.clip(np.searchsorted(x, u, side="right") - 1, 0, n - 2)
-    h = x[k + 1] - x[k]
-    t = (u - x[k]) / h
-    dy = y[k + 1] - y[k]
-    z = y[k] + dy * t
-    slope = dy / h
-    cols = np.arange(len(u))
-    dz_dy = np.zeros((n, len(u)))
-    dz_dy[k, cols] = 1.0 - t
-    dz_dy[k + 1, cols] = t
-    dz_dx = np.zeros((n, len(u)))
-    dz_dx[k, cols] = slope * (t - 1.0)
-    dz_dx[k + 1, cols] = -slope * t
-    return z, slope, dxdp.T @ dz_dx, dz_dy
-
-
 class Chain:
     """Decoded parameters of a :class:`ChainSpec`; ``simulate`` and ``jacobian`` on inputs."""
 
@@ -180,7 +183,8 @@ class Chain:
         sl = spec.slices()
         self.sl = sl
         t = self.theta
-        self.f: list[tuple[np.ndarray, np.ndarray, np.ndarray] | None] = []  # None: no static part
+        # (breakpoints, values, position factors of blocks.pwl_positions) per input; None: no f.
+        self.f: list[tuple[np.ndarray, np.ndarray, np.ndarray] | None] = []
         self.h1 = []
         for i in range(spec.n_inputs):
             if spec.f_bp:
@@ -254,17 +258,24 @@ class Chain:
         # Rows that pass through g and H2 are collected first (sensitivities of s).
         for i, x in enumerate(xs):
             b, den, dden = self.h1[i]
-            # One cascade call filters every row of the branch: [f's rows through B; B v; v].
+            # One cascade call filters every row of the branch in place: [f's rows through B; B v; v].
             f = self.f[i]
             if f is not None:
-                fx, fy, dxdp = f
-                v, _, dz_dp, dz_dy = _pwl_rows(fx, fy, x, dxdp)
-                rows = cascade_rows(den, np.vstack([_fir(b, np.vstack([dz_dp, dz_dy, v[None, :]])), v[None, :]]))
                 nf = spec.f_bp
-                jt[sl[f"f{i}.p"]], jt[sl[f"f{i}.y"]] = rows[:nf], rows[nf : 2 * nf]
-                w, vf = rows[-2], rows[-1]
+                raw = np.empty((2 * nf + 1, n))
+                raw[2 * nf], _, _, _ = blocks.pwl_rows(f[0], f[1], x, f[2], out=(raw[:nf], raw[nf : 2 * nf]))
+                work = np.empty((2 * nf + 2, n))
+                _fir_into(b, raw, work[:-1])
+                work[-1] = raw[2 * nf]
+                _cascade_in_place(den, work)
+                jt[sl[f"f{i}.p"]], jt[sl[f"f{i}.y"]] = work[:nf], work[nf : 2 * nf]
+                w, vf = work[-2], work[-1]
             else:
-                w, vf = cascade_rows(den, np.vstack([_fir(b, x), x]))
+                work = np.empty((2, n))
+                _fir_into(b, x, work[0])
+                work[1] = x
+                _cascade_in_place(den, work)
+                w, vf = work
             s += w
             jt[sl[f"h1{i}.b"]] = _lagged(vf, len(b))
             if spec.np1:
@@ -272,22 +283,30 @@ class Chain:
         upstream = slice(0, sl["g.p"].start if self.g else (sl["h2.a"].start if self.h2 else sl["offset"].start))
         z = s
         if self.g:
-            gx, gy, dxdp = self.g
+            gx, gy, gd = self.g
             if self.g_sigma > 0:
                 z, slope, dz_dx, dz_dy, dz_ds = blocks.pwl_expected(gx, gy, s, self.g_sigma, derivatives=True)
                 jt[sl["g.s"]] = dz_ds * self.g_sigma  # d/d log(sigma)
-                jt[sl["g.p"]] = dxdp.T @ dz_dx.T
+                jt[sl["g.p"]] = blocks.positions_jacobian(gd).T @ dz_dx.T
                 jt[sl["g.y"]] = dz_dy.T
             else:
-                z, slope, jt[sl["g.p"]], jt[sl["g.y"]] = _pwl_rows(gx, gy, s, dxdp)
+                z, slope, _, _ = blocks.pwl_rows(gx, gy, s, gd, out=(jt[sl["g.p"]], jt[sl["g.y"]]))
             jt[upstream] *= slope[None, :]
         if self.h2:
             b, den, dden = self.h2
-            through = slice(0, sl["h2.a"].start)
-            k = through.stop
-            rows = cascade_rows(den, np.vstack([_fir(b, np.vstack([jt[through], z[None, :]])), z[None, :]]))
-            jt[through] = rows[:k]
-            y, zf = rows[k], rows[k + 1]
+            # Every row before H2's own goes through H2, in place (the leading rows of jt are one
+            # C-contiguous block); z and B z beside them.
+            head = jt[: sl["h2.a"].start]
+            if len(b) > 1 and np.any(b[1:] != 0.0):
+                _fir_into(b, head.copy(), head)
+            else:
+                head *= b[0]
+            _cascade_in_place(den, head)
+            zz = np.empty((2, n))
+            _fir_into(b, z, zz[0])
+            zz[1] = z
+            _cascade_in_place(den, zz)
+            y, zf = zz
             jt[sl["h2.b"]] = _lagged(zf, len(b))
             if spec.np2:
                 jt[sl["h2.a"]] = _den_sensitivity(den, dden, y, spec.np2)

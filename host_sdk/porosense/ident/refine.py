@@ -147,9 +147,11 @@ def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
         pos = 0
         for u in us:
             jt = chain.jacobian_rows(u)[1][:, skip:]
-            if not np.isfinite(jt).all():
-                np.nan_to_num(jt, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
-            da, dg = normal_equations_rows(jt, r[pos : pos + jt.shape[1]])
+            rr = r[pos : pos + jt.shape[1]]
+            da, dg = normal_equations_rows(jt, rr)
+            # A non-finite sensitivity shows in the products (checked there: p x p, not p x N).
+            if not (np.isfinite(da).all() and np.isfinite(dg).all()):
+                da, dg = normal_equations_rows(np.nan_to_num(jt, nan=0.0, posinf=0.0, neginf=0.0), rr)
             a += da
             g += dg
             pos += jt.shape[1]

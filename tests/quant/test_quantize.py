@@ -107,17 +107,7 @@ def paper_recordings():
     "kind",
     [
         "Linear",
-        pytest.param(
-            "WienerHammerstein",
-            marks=pytest.mark.xfail(
-                strict=True,
-                raises=ModelError,
-                reason="known gap: fitted on one BLAS thread, the 3p1z WH with 10 breakpoints converges to a "
-                "nonlinearity with a spike (breakpoints 3.05, 3.10, 3.21, values 1.78, 2.65, 1.96; float fit on "
-                "step_10 74.2 %); its fixed-point estimate meets the float model at 90.7 % on step_10 and loses "
-                "1.23 points on step_20, and quantize refuses it",
-            ),
-        ),
+        "WienerHammerstein",
         "Hammerstein",
         "Wiener",
     ],

@@ -138,6 +138,9 @@ class Model:
         Keep every piecewise-linear map monotone.
     process_noise : bool
         Also estimate a Gaussian process noise at g's input (Wiener and WH models only).
+    bend_prior : bool
+        Refine the piecewise-linear maps under the prior on their slope changes
+        (:mod:`porosense.ident.pwl_prior`: its weight is measured on the data, none to choose).
 
     Raises
     ------
@@ -161,6 +164,7 @@ class Model:
         smoothness: float = 0.0,
         monotone: bool = False,
         process_noise: bool = False,
+        bend_prior: bool = True,
     ):
         if n_poles < 0 or n_zeros < 0:
             raise InputError("n_poles and n_zeros must be >= 0")
@@ -174,6 +178,8 @@ class Model:
             raise InputError("smoothness must be >= 0")
         # Regularisation of the piecewise-linear values (refine._penalty_rows).
         self.smoothness, self.monotone = float(smoothness), bool(monotone)
+        # The prior on the maps' slope changes (pwl_prior), weighted by the data's own error level.
+        self.bend_prior = bool(bend_prior)
         # Estimate a Gaussian noise at g's input with g (process_noise.with_process_noise).
         self.process_noise = bool(process_noise)
         if self.process_noise and self.kind not in NOISE_KINDS:
@@ -372,6 +378,7 @@ class Model:
             starts=self.starts,
             smoothness=self.smoothness,
             monotone=self.monotone,
+            bend_prior=self.bend_prior,
         )
 
     def _set_result(self, result: Fit, n: int) -> None:
@@ -636,6 +643,7 @@ class Model:
                 **({"smoothness": self.smoothness} if self.smoothness else {}),
                 **({"monotone": True} if self.monotone else {}),
                 **({"process_noise": True} if self.process_noise else {}),
+                **({} if self.bend_prior else {"bend_prior": False}),
             },
             "spec": asdict(spec),
             "theta": [float(v) for v in theta],

@@ -1,5 +1,5 @@
 """Simulation-error refinement shared by every structure: the fit record, the optimiser options,
-the penalties on piecewise-linear maps and Levenberg-Marquardt over all recordings.
+the prior and penalties on piecewise-linear maps and Levenberg-Marquardt over all recordings.
 
 All functions work on normalised data: ``us`` a list of (N_r, n_inputs) arrays, ``ys`` a list
 of (N_r,) arrays, one pair per recording (each simulated from rest). They return a
@@ -18,6 +18,7 @@ from porosense.dsp.blas import single_threaded
 from porosense.ident.chain import Chain, ChainSpec
 from porosense.ident.heap import reuses_freed_memory
 from porosense.ident.lm import levenberg_marquardt, normal_equations_rows
+from porosense.ident.pwl_prior import BendPrior, map_names
 
 
 def lstsq(phi, rhs):
@@ -65,6 +66,7 @@ class Options:
     smoothness: float = 0.0
     monotone: bool = False
     frozen: tuple = ()  # indices of parameters held at their starting values
+    bend_prior: bool = True  # the prior on the maps' slope changes (pwl_prior)
     constraint: ExtraResiduals | None = None  # extra residuals and their rows, or None
 
 
@@ -114,28 +116,59 @@ def _penalty_rows(spec: ChainSpec, theta, n_res: int, opts: Options):
 @single_threaded
 def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
     """Minimise the simulation error over all recordings (LM with the exact J, :mod:`lm`),
-    plus the optional smoothness / monotone penalties of :func:`_penalty_rows`."""
+    plus the prior on the maps' slope changes (:mod:`pwl_prior`, weighted by the start's own
+    residuals; ``opts.bend_prior``), the optional smoothness / monotone penalties of
+    :func:`_penalty_rows` and ``opts.constraint``. The returned ``sse`` is the simulation error
+    alone (normalised units squared)."""
     skip = opts.skip
     n_sim = sum(len(y) - skip for y in ys)
     regular = (opts.smoothness > 0 or opts.monotone) and (spec.f_bp or spec.g_bp)
+    theta0 = np.asarray(theta0, dtype=float)
+    bend = None
+    if opts.bend_prior and map_names(spec):
+        start = Chain(spec, theta0)
+        bend = BendPrior(spec, [start.simulate(u)[skip:] - y[skip:] for u, y in zip(us, ys)])
+        if not bend.weight > 0:  # a start that fits exactly: nothing to weigh the prior by
+            bend = None
+
+    def extra_residuals(theta):
+        """The residuals of the penalties, the prior and the constraint (empty without them)."""
+        parts = []
+        if regular:
+            parts.append(_penalty_rows(spec, theta, n_sim, opts)[0])
+        if bend is not None:
+            parts.append(bend.residual(theta))
+        if opts.constraint is not None:
+            parts.append(opts.constraint.residual(theta))
+        parts = [q for q in parts if q is not None]
+        return np.concatenate(parts) if parts else None
+
+    def extra_rows(theta):
+        """Their Jacobian rows (m, n_params), or None."""
+        parts = []
+        if regular:
+            parts.append(_penalty_rows(spec, theta, n_sim, opts)[1])
+        if bend is not None:
+            parts.append(bend.jacobian(theta))
+        if opts.constraint is not None:
+            parts.append(opts.constraint.jacobian(theta))
+        parts = [q for q in parts if q is not None]
+        return np.vstack(parts) if parts else None
 
     def residuals(theta):
         chain = Chain(spec, theta)
         r = np.concatenate([chain.simulate(u)[skip:] - y[skip:] for u, y in zip(us, ys)])
-        if regular:
-            extra, _ = _penalty_rows(spec, theta, n_sim, opts)
+        extra = extra_residuals(theta)
+        if extra is not None:
             r = np.concatenate([r, extra])
-        if opts.constraint is not None:
-            r = np.concatenate([r, opts.constraint.residual(theta)])
         return np.where(np.isfinite(r), r, 1e6)
 
     def jacobian(theta):
         chain = Chain(spec, theta)
         j = np.vstack([chain.jacobian(u)[1][skip:] for u in us])
-        if regular:
-            j = np.vstack([j, _penalty_rows(spec, theta, n_sim, opts)[1]])
-        if opts.constraint is not None:
-            j = np.vstack([j, opts.constraint.jacobian(theta)])
+        extra = extra_rows(theta)
+        if extra is not None:
+            j = np.vstack([j, extra])
         if opts.frozen:  # a zero column: no step ever moves it
             j[:, list(opts.frozen)] = 0.0
         return np.where(np.isfinite(j), j, 0.0)
@@ -155,13 +188,9 @@ def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
             a += da
             g += dg
             pos += jt.shape[1]
-        extra = []
-        if regular:
-            extra.append(_penalty_rows(spec, theta, n_sim, opts)[1])
-        if opts.constraint is not None:
-            extra.append(opts.constraint.jacobian(theta))
-        if extra:
-            j = np.nan_to_num(np.vstack(extra), nan=0.0, posinf=0.0, neginf=0.0)
+        extra = extra_rows(theta)
+        if extra is not None:
+            j = np.nan_to_num(extra, nan=0.0, posinf=0.0, neginf=0.0)
             a += j.T @ j
             g += j.T @ r[pos:]
         if opts.frozen:  # as a zero column: no step ever moves it
@@ -171,7 +200,6 @@ def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
             g[frozen] = 0.0
         return a, g
 
-    theta0 = np.asarray(theta0, dtype=float)
     start_sse = float(np.sum(residuals(theta0) ** 2))
     n_res = sum(len(y) - skip for y in ys)
     method = "lm" if n_res >= spec.n_params else "trf"
@@ -205,7 +233,7 @@ def refine(spec: ChainSpec, theta0, us, ys, opts: Options) -> Fit:
         theta, cost, nfev, converged = theta0, start_sse, 0, True
     if not cost <= start_sse:
         theta, cost = theta0, start_sse
-    if regular or opts.constraint is not None:  # report the simulation error alone
+    if regular or bend is not None or opts.constraint is not None:  # report the simulation error alone
         cost = sse(spec, theta, us, ys, skip)
     return Fit(spec, theta, float(cost), int(nfev), converged=converged)
 

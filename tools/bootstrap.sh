@@ -33,7 +33,7 @@ fi
 PY="${PYTHON:-python3}"
 venv="$top/.venv"
 stamp="$venv/.porosense-stamp"
-want="$(cat host_sdk/requirements.lock host_sdk/pyproject.toml | sha256sum | cut -c1-16)"
+want="$(cat host_sdk/requirements.lock host_sdk/pyproject.toml tools/peers/requirements.txt | sha256sum | cut -c1-16)"
 if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ]; then
   exit 0
 fi
@@ -49,6 +49,14 @@ quiet_pip install -q --disable-pip-version-check --no-deps -e host_sdk
 # The benchmark peer (SIPPY) is optional: benchmarks report it as absent when it cannot install.
 quiet_pip install -q --disable-pip-version-check "sippy-unipi==1.0.1" \
   || echo "bootstrap: sippy-unipi not installed; the identification benchmark will skip its peer"
+# SysIdentPy (the NARX peer) pins an older numpy: its own environment, optional as well.
+peers="$top/.venv-peers"
+if [ ! -x "$peers/bin/python" ]; then
+  "$PY" -m venv "$peers" || true
+fi
+"$peers/bin/python" -m pip install -q --disable-pip-version-check -r tools/peers/requirements.txt \
+    2> >(grep -v "is ignored: it is neither a file nor a directory" >&2) \
+  || echo "bootstrap: SysIdentPy not installed in $peers; the identification benchmark will skip its NARX peer"
 # The emulator runs the firmware core as a host library: build it now (cached by a digest of
 # the core's sources; rebuilt on first use after a change), so that a missing C++ compiler
 # shows here, in one line.

@@ -294,29 +294,76 @@ def three_dof_benchmark() -> dict:
 
 def narx_fit(u_est, y_est, u_test, y_test, lags: int = 2, degree: int = 2) -> dict | None:
     """SysIdentPy's polynomial NARX (FROLS, AIC term selection, least squares) fitted on one
-    record and simulated free-run on another (its first ``lags`` outputs as initial state);
-    None when SysIdentPy is not installed."""
+    record and simulated free-run on another (its first ``lags`` outputs as initial state).
+
+    SysIdentPy pins an older numpy than porosense: it runs in its own environment
+    (``.venv-peers``, made by tools/bootstrap.sh, or the interpreter named by
+    ``POROSENSE_PEER_PYTHON``) through tools/peers/narx_peer.py, or in this process when it is
+    importable here. Returns {"yhat" (output units), "wall_s", "cpu_s" (s, of the fit and
+    simulation alone), "terms"}, or None when SysIdentPy is in neither place."""
     try:
-        from sysidentpy.basis_function import Polynomial
-        from sysidentpy.model_structure_selection import FROLS
-        from sysidentpy.parameter_estimation import LeastSquares
+        from sysidentpy.model_structure_selection import FROLS  # noqa: F401
     except ImportError:
+        return _narx_in_peer_env(u_est, y_est, u_test, y_test, lags, degree)
+    import importlib.util
+    import tempfile
+
+    if not _peer_script().exists():
         return None
-    t0, c0 = time.perf_counter(), _cpu()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        model = FROLS(
-            order_selection=True,
-            n_info_values=15,
-            ylag=lags,
-            xlag=lags,
-            info_criteria="aic",
-            estimator=LeastSquares(),
-            basis_function=Polynomial(degree=degree),
-        )
-        model.fit(X=np.asarray(u_est, float)[:, None], y=np.asarray(y_est, float)[:, None])
-        yhat = model.predict(X=np.asarray(u_test, float)[:, None], y=np.asarray(y_test, float)[:lags, None]).ravel()
-    return {"yhat": yhat, "wall_s": time.perf_counter() - t0, "cpu_s": _cpu() - c0, "terms": len(model.final_model)}
+    with tempfile.TemporaryDirectory() as tmp:
+        src, dst = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
+        _write_peer_input(src, u_est, y_est, u_test, y_test, lags, degree)
+        spec = importlib.util.spec_from_file_location("narx_peer", _peer_script())
+        peer = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(peer)
+        peer.main(str(src), str(dst))
+        return _read_peer_output(dst)
+
+
+def _peer_script() -> Path:
+    return Path(__file__).resolve().parents[3] / "tools" / "peers" / "narx_peer.py"
+
+
+def _peer_python() -> Path:
+    named = os.environ.get("POROSENSE_PEER_PYTHON")
+    if named:
+        return Path(named)
+    return Path(__file__).resolve().parents[3] / ".venv-peers" / "bin" / "python"
+
+
+def _write_peer_input(path, u_est, y_est, u_test, y_test, lags, degree) -> None:
+    np.savez(
+        path,
+        u_est=np.asarray(u_est, float).ravel(),
+        y_est=np.asarray(y_est, float).ravel(),
+        u_test=np.asarray(u_test, float).ravel(),
+        y_test=np.asarray(y_test, float).ravel(),
+        lags=lags,
+        degree=degree,
+    )
+
+
+def _read_peer_output(path) -> dict:
+    with np.load(path) as d:
+        return {"yhat": d["yhat"], "wall_s": float(d["wall_s"]), "cpu_s": float(d["cpu_s"]), "terms": int(d["terms"])}
+
+
+def _narx_in_peer_env(u_est, y_est, u_test, y_test, lags, degree) -> dict | None:
+    import subprocess
+    import tempfile
+
+    python, script = _peer_python(), _peer_script()
+    if not (python.exists() and script.exists()):
+        return None
+    with tempfile.TemporaryDirectory() as tmp:
+        src, dst = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
+        _write_peer_input(src, u_est, y_est, u_test, y_test, lags, degree)
+        done = subprocess.run([str(python), str(script), str(src), str(dst)], capture_output=True, text=True)
+        if done.returncode != 0 or not dst.exists():
+            last = (done.stderr.strip().splitlines() or ["no message"])[-1]
+            warnings.warn(f"SysIdentPy's NARX failed in {python}: {last}", stacklevel=2)
+            return None
+        return _read_peer_output(dst)
 
 
 def _test_rmse(model, u, y, skip=0, periodic=False):

@@ -224,12 +224,6 @@ def bind_columns(tables, args, inputs, outputs=(), model=None) -> None:
 
 # Units of dR a model may state, converted where data meet it (quantize --input-unit, fit(input_unit=)).
 _DR_UNITS = {"%", "dR/100"}
-_UNIT_ALIASES = {"percent": "%", "pct": "%"}
-
-
-def _unit(text) -> str:
-    word = str(text).strip().strip("[]()").strip()
-    return _UNIT_ALIASES.get(word.lower(), word)
 
 
 def model_units(model) -> dict:
@@ -255,13 +249,19 @@ def check_units(tables, model, columns=None) -> None:
     sidecar, a .mat units struct) other than the unit the model states for it: a model in % strain
     scored on strain in mm, or fed a resistance in ohms, gives a number without meaning.
     ``columns`` maps a model signal to the data column that feeds it (default: the same name)."""
+    from porosense.data.units import normal_unit
+
     stated = model_units(model)
     columns = columns or {}
     for table in tables:
         for name, unit in stated.items():
             column = columns.get(name, name)
             data = (getattr(table, "units", None) or {}).get(column)
-            if not data or _unit(data) == _unit(unit) or {_unit(data), _unit(unit)} <= _DR_UNITS:
+            if (
+                not data
+                or normal_unit(data) == normal_unit(unit)
+                or {normal_unit(data), normal_unit(unit)} <= _DR_UNITS
+            ):
                 continue
             raise InputError(
                 f"{table.path}: column {column} is in {data}, the model's {name} in {unit}: "

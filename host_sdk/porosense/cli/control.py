@@ -188,10 +188,10 @@ def run_tune(args) -> int:
     cmd, output = _tune_columns(tables, args)
     for tb in tables:
         tb.require_finite([cmd, output])
-    from porosense.data.units import column_unit
+    from porosense.data.units import column_unit, normal_unit
 
     unit = column_unit(cmd, *(getattr(tb, "units", None) or {} for tb in tables))
-    if unit is not None and unit.strip().strip("[]()").strip().lower() != "kpa":
+    if unit is not None and normal_unit(unit) != "kPa":
         raise InputError(
             f"column {cmd} is in {unit}, not kPa: --input names the commanded regulator pressure "
             "(kPa gauge, vacuum negative; p_cmd_0 in porosense's recordings)"

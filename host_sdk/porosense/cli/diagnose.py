@@ -155,23 +155,36 @@ def _cut(item, rng, what):
     return u, y, cond
 
 
-def _split(args, inputs, conditions, tables, vtables):
-    """Estimation and validation lists of (u, y, conditions)."""
-    data = _load(tables, inputs, args.output, conditions)
+def _parts(args, tables, vtables) -> list:
+    """[(table, estimation slice or None, validation slice or None)] for every file, tables then
+    vtables; None: the file has no such part. The one statement of the split: with
+    --validation-data the --estimation range of every --data file and the --validation range of
+    every --validation-data file; without ranges, several files: all but the last whole for
+    estimation and the last whole for validation, one file: 60/40; with one range, the other is
+    the rest of each file."""
     est_rng, val_rng = parse_range(args.estimation), parse_range(args.validation)
+    whole = slice(None)
     if args.validation_data:
-        vdata = _load(vtables, inputs, args.output, conditions)
-        return [_cut(d, est_rng, "estimation") for d in data], [_cut(d, val_rng, "validation") for d in vdata]
+        return [(t, est_rng or whole, None) for t in tables] + [(t, None, val_rng or whole) for t in vtables]
     if est_rng is None and val_rng is None:
-        if len(data) > 1:
-            return [_cut(d, None, "estimation") for d in data[:-1]], [_cut(data[-1], None, "validation")]
-        n = len(data[0][2])
-        est_rng, val_rng = slice(0, int(0.6 * n)), slice(int(0.6 * n), None)
-    elif val_rng is None:
+        if len(tables) > 1:
+            return [(t, whole, None) for t in tables[:-1]] + [(tables[-1], None, whole)]
+        cut = int(0.6 * len(tables[0]))
+        return [(tables[0], slice(0, cut), slice(cut, None))]
+    if val_rng is None:
         val_rng = slice(est_rng.stop, None) if est_rng.stop is not None else est_rng
     elif est_rng is None:
         est_rng = slice(None, val_rng.start) if val_rng.start else val_rng
-    return [_cut(d, est_rng, "estimation") for d in data], [_cut(d, val_rng, "validation") for d in data]
+    return [(t, est_rng, val_rng) for t in tables]
+
+
+def _split(args, inputs, conditions, tables, vtables):
+    """Estimation and validation lists of (u, y, conditions), cut as :func:`_parts` states."""
+    parts = _parts(args, tables, vtables)
+    data = _load([t for t, _, _ in parts], inputs, args.output, conditions)
+    est = [_cut(d, e, "estimation") for d, (_, e, _) in zip(data, parts) if e is not None]
+    val = [_cut(d, v, "validation") for d, (_, _, v) in zip(data, parts) if v is not None]
+    return est, val
 
 
 def _predictor(args, inputs, est):
@@ -179,10 +192,12 @@ def _predictor(args, inputs, est):
 
     The callable takes a record's inputs and measured output. A model's prediction starts
     settled at the record's rest level or from rest, whichever its first samples show
-    (:func:`_model_prediction`), so that no start-up transient enters the diagnosis that is not in
-    the data; the fit printed first is the model simulated from rest, as ``predict`` scores it
+    (porosense.diagnose.predict_as_started), so that no start-up transient enters the diagnosis
+    that is not in the data; the fit printed first is the model simulated from rest, as ``predict`` scores it
     (see :func:`_from_rest_fits`).
     """
+    from porosense.diagnose import predict_as_started
+
     us = [u for u, _, _ in est]
     ys = [y for _, y, _ in est]
     if args.sim and args.params:
@@ -215,7 +230,7 @@ def _predictor(args, inputs, est):
             model = match[0]
         if len(model.inputs) != len(inputs):
             raise ModelError(f"{args.model} takes {len(model.inputs)} inputs, --input gives {len(inputs)}")
-        return (lambda u, y: _model_prediction(model, u, y), model, f"model {args.model} ({model.kind})")
+        return (lambda u, y: predict_as_started(model, u, y), model, f"model {args.model} ({model.kind})")
     if not 0 <= args.zeros < max(args.poles, 1) or args.poles > 10:
         raise InputError("--poles must be 1..10 and --zeros smaller than --poles")
     from porosense import ident
@@ -223,33 +238,10 @@ def _predictor(args, inputs, est):
     model = ident.make_model(args.baseline, n_poles=args.poles, n_zeros=args.zeros)
     model.fit(u=us, y=ys, ts=args.ts, inputs=inputs, output=args.output)
     return (
-        lambda u, y: _model_prediction(model, u, y),
+        lambda u, y: predict_as_started(model, u, y),
         model,
         f"{args.baseline} baseline with {args.poles} poles and {args.zeros} zeros identified on estimation",
     )
-
-
-def _model_prediction(model, u, y):
-    """``model`` on a record (inputs ``u``, measured output ``y``), started in the state its first
-    samples show.
-
-    A record starts either settled at its first input level (a rest before it) or at rest with the
-    first level applied as a step at its first sample (a record that starts with the experiment);
-    the model is simulated both ways and the start whose prediction is closer to the measured
-    output over the model's settling time (10 time constants of its slowest pole) is kept, as an
-    estimated initial condition would be. A start assumed wrongly leaves a transient in the
-    residual that the data do not have (on clean records of a second-order lag that starts with
-    a step it was named outliers). Output units."""
-    import numpy as np
-
-    from porosense.diagnose import predict_at_rest_level
-    from porosense.ident.extended import settle_samples
-
-    settled = predict_at_rest_level(model, u)
-    from_rest = np.asarray(model.predict(u=u), float)
-    n = min(settle_samples(model), len(y))
-    sse = [float(np.sum((y[:n] - p[:n]) ** 2)) for p in (settled, from_rest)]
-    return settled if sse[0] <= sse[1] else from_rest
 
 
 def run(args) -> int:
@@ -390,11 +382,7 @@ def _material_prediction(args, strain_col: str, tables, vtables) -> str:
     from porosense.sim.calibrate import simulate_material
 
     physics, _ = args.sim_params
-    est_rng, val_rng = parse_range(args.estimation), parse_range(args.validation)
-    if est_rng is None and val_rng is not None:
-        est_rng = slice(None, val_rng.start) if val_rng.start else val_rng
-    single_split = not args.validation_data and len(tables) == 1 and est_rng is None and val_rng is None
-    for k, table in enumerate([*tables, *vtables]):
+    for table, est_rng, _ in _parts(args, tables, vtables):
         require_columns(table, [strain_col, args.output])
         n = len(table)
         strain = strain_fraction(table, strain_col)
@@ -405,15 +393,7 @@ def _material_prediction(args, strain_col: str, tables, vtables) -> str:
                 f"in '{args.output}' on every sample"
             )
         mask = np.zeros(n, bool)
-        validation_only = k >= len(tables) or (
-            not args.validation_data and est_rng is None and len(tables) > 1 and k == len(tables) - 1
-        )
-        if single_split:
-            mask[: int(0.6 * n)] = True
-        elif validation_only or est_rng is None:
-            mask[:] = True
-        else:
-            mask[est_rng] = True
+        mask[est_rng if est_rng is not None else slice(None)] = True  # a validation-only file: all of it
         sim = simulate_material(physics, time_axis(table, args.ts), strain, r, mask)
         table.columns[MATERIAL_SIM] = np.asarray(sim["R_sim"], float)
     return MATERIAL_SIM
@@ -526,13 +506,8 @@ def _validation_names(args, tables, vtables, n: int) -> list:
 
 
 def _validation_files(args, tables, vtables) -> list:
-    """The files that hold the validation records, whole: the --validation-data files, else the
-    last of several files, else every file (a range or the 60/40 split cuts each of them)."""
-    if args.validation_data:
-        return list(vtables)
-    if args.estimation is None and args.validation is None and len(tables) > 1:
-        return [tables[-1]]
-    return list(tables)
+    """The files that hold the validation records (:func:`_parts`), to be scored whole."""
+    return [t for t, _, v in _parts(args, tables, vtables) if v is not None]
 
 
 def _from_rest_fits(model, files, inputs, output) -> list:

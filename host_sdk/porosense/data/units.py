@@ -23,6 +23,14 @@ CONVENTION = (
     (r"load_g", "g"),
 )
 NOT_STATED = "unit not stated"
+UNIT_ALIASES = {"percent": "%", "pct": "%", "kpa": "kPa"}
+
+
+def normal_unit(text) -> str:
+    """A stated unit as one spelling: brackets and spaces dropped, aliases (percent, pct, kpa)
+    mapped, so that "[kPa]", "kpa" and "kPa" compare equal."""
+    word = str(text).strip().strip("[]()").strip()
+    return UNIT_ALIASES.get(word.lower(), word)
 
 
 def column_unit(name: str, *stated: dict) -> str | None:

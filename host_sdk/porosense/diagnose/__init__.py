@@ -9,6 +9,16 @@ false-alarm levels, :mod:`.extensions` for the extension of each cause.
 """
 
 from porosense.diagnose.catalogue import CAUSES, DESCRIPTION, NONE
-from porosense.diagnose.engine import Diagnosis, Finding, Record, diagnose, predict_at_rest_level
+from porosense.diagnose.engine import Diagnosis, Finding, Record, diagnose, predict_as_started, predict_at_rest_level
 
-__all__ = ["CAUSES", "DESCRIPTION", "NONE", "Diagnosis", "Finding", "Record", "diagnose", "predict_at_rest_level"]
+__all__ = [
+    "CAUSES",
+    "DESCRIPTION",
+    "NONE",
+    "Diagnosis",
+    "Finding",
+    "Record",
+    "diagnose",
+    "predict_as_started",
+    "predict_at_rest_level",
+]

@@ -944,11 +944,9 @@ START_HOLD_SAMPLES = 10
 
 
 def _start_level(x: np.ndarray) -> float:
-    """An input's own rest level (its units): the median of a record's first samples when they hold
-    (within START_HOLD_SHARE of the span, noise allowed), else :func:`.signals.rest_level`."""
-    head = x[:START_HOLD_SAMPLES]
-    span = float(np.ptp(x)) or 1.0
-    return float(np.median(head)) if float(np.ptp(head)) <= START_HOLD_SHARE * span else signals.rest_level(x)
+    """An input's own rest level (its units): :func:`.signals.rest_level` with a hold that allows
+    measurement noise (START_HOLD_SAMPLES within START_HOLD_SHARE of the span)."""
+    return signals.rest_level(x, hold=START_HOLD_SAMPLES, tol=START_HOLD_SHARE)
 
 
 def _inputs_away_from_rest(ctx: Context, censored: np.ndarray) -> stats.ExcessTest:

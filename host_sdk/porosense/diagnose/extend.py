@@ -158,7 +158,8 @@ def _wrapped(cause: str, res, ctx, nominal):
     X = np.vstack([design(terms, full(r), y, ctx.ts) for r, y in zip(ctx.est, yh)])
     e = np.concatenate([r.y - y for r, y in zip(ctx.est, yh)])
     if cause == "outliers":
-        mask, _, _ = stats.spike_mask(e, res.test.alpha, max(stats.resolution(r.y) for r in ctx.est))
+        step = max(stats.resolution(r.y) for r in ctx.est)
+        mask, _, _ = stats.spike_mask(e, res.test.alpha, step, [len(r.y) for r in ctx.est])
         from porosense.diagnose.extensions import _huber_lstsq
 
         scale = np.linalg.norm(X[~mask], axis=0)

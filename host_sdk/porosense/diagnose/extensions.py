@@ -1065,12 +1065,12 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
 
 def outliers(ctx: Context, alpha: float) -> CauseResult:
     step = max(stats.resolution(r.y) for r in ctx.est)
-    spikes = stats.isolated_spikes(ctx.e_est, alpha, step)
-    mask, _, _ = stats.spike_mask(ctx.e_est, alpha, step)
+    spikes = stats.isolated_spikes(ctx.e_est, alpha, step, ctx.seg_est)
+    mask, _, _ = stats.spike_mask(ctx.e_est, alpha, step, ctx.seg_est)
     pred, _ = ctx.fit_apply(None, robust=True, mask_est=mask)
     # validation samples flagged in the residual of nominal + G0 are glitches of the measurement,
     # not behaviour to predict: they are left out of the score of both sides of the gain
-    reject, _, _ = stats.spike_mask(ctx.y_val - ctx.baseline_validation(), alpha, step)
+    reject, _, _ = stats.spike_mask(ctx.y_val - ctx.baseline_validation(), alpha, step, [len(r.y) for r in ctx.val])
     idx = np.flatnonzero(mask)
     Z = np.zeros((len(ctx.e_est), len(idx)))
     Z[idx, np.arange(len(idx))] = 1.0

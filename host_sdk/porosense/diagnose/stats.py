@@ -449,7 +449,7 @@ def resolution(x: np.ndarray) -> float:
     return float(np.median(np.diff(levels)))
 
 
-def spike_mask(e: np.ndarray, alpha: float = DEFAULT_ALPHA, step: float = 0.0):
+def spike_mask(e: np.ndarray, alpha: float = DEFAULT_ALPHA, step: float = 0.0, segments: list[int] | None = None):
     """(mask, threshold, sigma): samples of e whose innovation lies beyond the family-wise band.
 
     The residual is whitened by its own AR model (Yule-Walker, BIC order): an isolated spike in
@@ -460,39 +460,53 @@ def spike_mask(e: np.ndarray, alpha: float = DEFAULT_ALPHA, step: float = 0.0):
     ``step`` is the measurement's resolution: rounding moves each sample by at most step / 2,
     which the AR filter turns into at most step_w = step / 2 sum |a_j| in the innovation, so
     coarse ADC levels are not spikes.
+    ``segments``: lengths of the records concatenated in e (None: one record). Each record is
+    centred on its own mean and whitened on its own (its first p samples are not tested): the
+    step between the end of one record and the start of the next is not a sample of either.
     """
     e = np.asarray(e, float)
     n = len(e)
+    segments = list(segments or [n])
     if n < 20:
         return np.zeros(n, bool), np.inf, 0.0
-    ar = signals.fit_ar(e, 10)
+    cuts = np.cumsum(segments)[:-1]
+    parts = [x - np.mean(x) if len(x) else x for x in np.split(e, cuts)]
+    ar = signals.fit_ar(np.concatenate(parts), 10)
     p = len(ar) - 1
-    w = signals.whiten(e - np.mean(e), ar)
-    d = w - np.median(w)
+    w = np.full(n, np.nan)
+    start = 0
+    for x in parts:
+        if len(x) > p:
+            w[start + p : start + len(x)] = signals.whiten(x, ar)
+        start += len(x)
+    tested = np.isfinite(w)
+    d = w[tested] - np.median(w[tested])
     sigma = 1.4826 * float(np.median(np.abs(d)))
     if sigma <= 0:
         sigma = float(np.std(d)) or 1e-12
     thr = _zcrit(alpha, n) * sigma + 0.5 * step * float(np.sum(np.abs(ar)))
     mask = np.zeros(n, bool)
-    mask[p:] = np.abs(d) > thr
+    mask[tested] = np.abs(d) > thr
     return mask, thr, sigma
 
 
-def isolated_spikes(e: np.ndarray, alpha: float = DEFAULT_ALPHA, step: float = 0.0) -> StatResult:
+def isolated_spikes(
+    e: np.ndarray, alpha: float = DEFAULT_ALPHA, step: float = 0.0, segments: list[int] | None = None
+) -> StatResult:
     """Count of isolated spikes in e beyond the family-wise band of :func:`spike_mask`.
 
     Under Gaussian noise each sample exceeds the band with probability q = alpha / N, so the
-    count k has p = P(Binomial(N, q) >= k). The excess kurtosis of the differenced residual is
-    reported too.
+    count k has p = P(Binomial(N, q) >= k). The excess kurtosis of the differenced residual
+    (within each record of ``segments``) is reported too.
     """
     e = np.asarray(e, float)
     n = len(e)
-    mask, thr, sigma = spike_mask(e, alpha, step)
+    mask, thr, sigma = spike_mask(e, alpha, step, segments)
     k = int(mask.sum())
     q = alpha / max(n, 1)
     p = float(sps.binom.sf(k - 1, n, q)) if k > 0 else 1.0
     logp = float(sps.binom.logsf(k - 1, n, q) / np.log(10.0)) if k > 0 else 0.0
-    d = np.diff(e)
+    d = np.concatenate([np.diff(x) for x in np.split(e, np.cumsum(list(segments or [n]))[:-1])])
     kurt = float(sps.kurtosis(d)) if len(d) > 3 else 0.0
     return StatResult(
         "isolated spikes beyond the alpha/N band",

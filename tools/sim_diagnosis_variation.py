@@ -4,8 +4,8 @@ The trials of tests/diagnose/test_diagnose_sim.py (porosense.diagnose.trials.run
 per cause and 4 clean contractor trials, seeds 1000-1003) on the simulator as it is and with the
 recordings' variation and R0 drift (porosense.sim.params.PHYSICS_EFFECTS ``repeat_variation``
 and ``baseline_drift``) switched off in the records, in the simulator calibrated on them
-(porosense.diagnose.calibrate: by default recording seed 0's realisation of the variation), or
-in both.
+(porosense.diagnose.calibrate: the mean recording, each record with its own recording state
+fitted within the simulator's stated spread), or in both.
 
 Usage: python tools/sim_diagnosis_variation.py [VARIANT ...]
 (prints one line per cause and a total per variant, CPU seconds beside; variants: as_it_is,

@@ -81,7 +81,9 @@ def register(sub) -> argparse.ArgumentParser:
         metavar="PARAMS.json",
         help="with --sim: the simulator's parameter file (porosense calibrate ACTUATOR, or one extended by "
         "--save-extended) run as it is; without it, porosity, output scale and offset are calibrated to the "
-        "estimation range",
+        "estimation range and, for a dR_ output, every record (estimation and validation) gets its own "
+        "recording state (sensitivity, contact-law scale, kinetics, softening, offset, R0 drift) fitted "
+        "within the 99 %% interval of the simulator's stated recording-to-recording spread, reported per record",
     )
     p.add_argument(
         "--condition",
@@ -213,11 +215,19 @@ def _predictor(args, inputs, est):
         from porosense.diagnose.calibrate import calibrate
 
         cal = calibrate(args.sim, args.output, us, ys, args.ts)
+        args.record_states = []
+
+        def predict(u, y):
+            yhat, state = cal.predict_record(u, y, args.ts)
+            args.record_states.append(state)
+            return yhat
+
         return (
-            lambda u, y: cal.predict(u, args.ts),
+            predict,
             None,
             f"{args.sim} simulator calibrated on estimation: porosity {cal.porosity:.1f} %, scale "
-            f"{cal.scale:.4g}, offset {cal.offset:.4g} (fit {cal.fit_estimation:.1f} %)",
+            f"{cal.scale:.4g}, offset {cal.offset:.4g} (fit {cal.fit_estimation:.1f} %), each record with its "
+            "own recording state",
         )
     if args.model:
         from porosense import ident
@@ -314,6 +324,9 @@ def run(args) -> int:
         extension, tried = _extend_simulator(args, result, measured, est, val, names)
         doc["extension"] = extension.to_dict() if extension is not None else None
         doc["extensions_tried"] = [e.to_dict() for e in tried]
+    states = _record_states(args, tables, vtables)
+    if states:
+        doc["record_states"] = states
     rest = _from_rest_fits(nominal, _validation_files(args, tables, vtables), inputs, args.output)
     if rest:
         doc["nominal_from_rest"] = rest
@@ -329,6 +342,8 @@ def run(args) -> int:
         page = _write_page(result, args.out, f"Diagnosis of {what}")
         say(args, f"report written to {page}")
     say(args, f"diagnosed: {what}")
+    for st in states:
+        say(args, f"recording state of {st['data']} ({st['part']}): {st['text']} (fit {st['fit']:.2f} %)")
     for r in rest:
         say(
             args,
@@ -493,6 +508,23 @@ def _write_page(result, folder, title: str):
     ]
     _, page = write_report(folder, title, sections, intro=f"Most likely cause: {result.top}.", name="diagnosis")
     return page
+
+
+def _record_states(args, tables, vtables) -> list:
+    """Each record's recording state fitted by ``--sim`` without ``--params``
+    (porosense.diagnose.calibrate.Calibration.predict_record), named by its file and range:
+    [{data, part, gain, scale, kinetics, conditioning, offset, drift, at_bound, fit, text}]."""
+    fitted = getattr(args, "record_states", None)
+    if not fitted or not args.output.startswith("dR_"):
+        return []
+
+    def name(t, rng):
+        return str(t.path) if rng == slice(None) else f"{t.path} [{rng.start or ''}:{rng.stop or ''}]"
+
+    parts = _parts(args, tables, vtables)
+    names = [(name(t, e), "estimation") for t, e, _ in parts if e is not None]
+    names += [(name(t, v), "validation") for t, _, v in parts if v is not None]
+    return [{"data": n, "part": p, **s.to_dict(), "text": str(s)} for (n, p), s in zip(names, fitted)]
 
 
 def _validation_names(args, tables, vtables, n: int) -> list:

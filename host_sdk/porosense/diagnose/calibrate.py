@@ -8,11 +8,42 @@ Commanded vacuum goes in (columns ``p_cmd_0..2``, kPa), a measured column comes 
 * ``scale`` and ``offset`` of the output (sensor sensitivity and zero, in the output's unit):
   linear least squares inside every evaluation.
 
-Samples piled up exactly at a record's extreme (at least 10, a clipped ADC or divider) are
-left out of the calibration cost: they only say that the output is beyond the limit.
+The simulation is the **mean recording** of the print: the simulator's recording-to-recording
+draws (porosense.sim.variation: sensitivity, contact-law scale, kinetics, softening state, R0
+drift) are held at their mean (factors 1, the middle of the softening range, no drift), without
+noise and without any named effect. It is the nominal physics, and what it misses is what
+diagnosis is asked to find.
 
-The simulation runs without noise and without any named effect: it is the nominal physics,
-and what it misses is what diagnosis is asked to find.
+**Each record's own state.** Real repeats differ, and the simulator says by how much
+(:class:`porosense.sim.params.Variation`). For a resistance output (``dR_*``, %), every record
+(estimation and validation alike) gets its own recording state, fitted on that record within the
+simulator's stated prior (:data:`STATES`):
+
+* ``gain``: the network's full drop ``floor_pct`` x exp(record_gain_sd z);
+* ``scale``: the contact-law scale ``contact_strain`` x exp(record_scale_sd z);
+* ``kinetics``: the contact time constants ``form_s``, ``break_s`` x exp(record_kinetics_sd z);
+* ``conditioning``: the softening state at the start, in ``conditioning_range``;
+* ``offset`` (% dR): the error of the record's R0 reference (the median of its first
+  R0_CALIBRATION_S seconds; the R0 change between recordings cancels in dR), standard deviation
+  the slow sensor noise there: sqrt(flicker_pct^2 + drift_walk_pct^2 R0_CALIBRATION_S / 60 s);
+* ``drift`` (% of R0 per minute): an R0 drift rate, standard deviation drift_pct_per_min_sd; it
+  enters the measured dR as rate t / 60 (1 + dR / 100).
+
+**The rule.** Each state is fitted by least squares, bounded to its prior's central 99 % interval
+(|z| <= 2.576 standard deviations for the Gaussian ones, the whole range for the uniform
+softening state; scipy.optimize.lsq_linear on the simulated output linearised in the states,
+finite differences of one standard deviation, relinearised once at the fit). Significance: a
+clean recording's state lies inside each interval with probability 0.99, so a clean record is
+followed; a cause beyond the prior is not swallowed, only its part inside the interval is: a
+drift of 1-3 %/min keeps at least 1 - 0.77 %/min, a gain change that is a cause (slow
+relaxation, a load) keeps what exceeds 2.6 sd of the stated 3-4 % changes. The porosity, scale
+and offset are calibrated with the estimation records' states fitted jointly (the print and the
+sensor are common to all records, the state is each record's own). The prior of a simulator
+without recording variation (``Physics().without('repeat_variation', 'baseline_drift')``) has
+zero width: every record is then the mean recording (offset aside).
+
+Samples piled up exactly at a record's extreme (at least 10, a clipped ADC or divider) are
+left out of the calibration and state fits: they only say that the output is beyond the limit.
 """
 
 from __future__ import annotations
@@ -21,16 +52,187 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 from scipy import optimize
+from scipy.stats import norm
 
+from porosense.dsp.blas import single_threaded
 from porosense.errors import InputError
 
 POROSITY_BOUNDS = (60.0, 90.0)
+#: central prior interval a record's state is bounded to
+PRIOR_LEVEL = 0.99
+Z_PRIOR = float(norm.ppf(0.5 + PRIOR_LEVEL / 2.0))  # 2.576
+#: the recording states fitted on each record, in the order of RecordState
+STATES = ("gain", "scale", "kinetics", "conditioning", "offset", "drift")
+RELINEARISE = 1  # Gauss-Newton steps after the first linearisation
+
+
+def mean_recording(physics=None):
+    """``physics`` (porosense.sim.Physics or None: the defaults) with the recording's draws at
+    their mean: sensitivity, contact-law scale, kinetics and R0 factors 1, the softening state
+    in the middle of its range, no R0 drift nor walk. The print (specimen) draws stay."""
+    from porosense.sim import Physics
+
+    ph = physics or Physics()
+    v = ph.variation
+    mid = 0.5 * (v.conditioning_range[0] + v.conditioning_range[1])
+    return ph.with_(
+        variation={
+            "record_gain_sd": 0.0,
+            "record_r0_sd": 0.0,
+            "record_scale_sd": 0.0,
+            "record_kinetics_sd": 0.0,
+            "conditioning_range": (mid, mid),
+            "drift_pct_per_min_sd": 0.0,
+            "drift_walk_pct": 0.0,
+        }
+    )
+
+
+@dataclass
+class RecordState:
+    """One record's recording state, fitted within the simulator's prior.
+
+    Attributes: ``gain``, ``scale``, ``kinetics`` (factors on the mean recording's network drop,
+    contact-law scale and contact time constants), ``conditioning`` (softening state, 0..1),
+    ``offset`` (output unit), ``drift`` (% of R0 per minute), ``at_bound`` (states at their
+    prior interval's edge: the record asks for more than the simulator's repeats differ by),
+    ``fit`` (%, the record's fit with this state, clipped samples left out)."""
+
+    gain: float = 1.0
+    scale: float = 1.0
+    kinetics: float = 1.0
+    conditioning: float = float("nan")
+    offset: float = 0.0
+    drift: float = 0.0
+    at_bound: tuple = ()
+    fit: float = float("nan")
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["at_bound"] = list(self.at_bound)
+        return d
+
+    def __str__(self) -> str:
+        s = (
+            f"gain x{self.gain:.3f}, scale x{self.scale:.3f}, kinetics x{self.kinetics:.3f}, "
+            f"softening {self.conditioning:.2f}, offset {self.offset:+.3f}, drift {self.drift:+.2f} %/min"
+        )
+        return s + (f" (at the prior bound: {', '.join(self.at_bound)})" if self.at_bound else "")
+
+
+@dataclass(frozen=True)
+class _Prior:
+    """Standard deviations (z units per factor: log sd) and the softening range of the states."""
+
+    gain_sd: float
+    scale_sd: float
+    kinetics_sd: float
+    conditioning: tuple
+    offset_sd: float
+    drift_sd: float
+
+    @classmethod
+    def of(cls, physics) -> _Prior:
+        from porosense.sim.experiment import R0_CALIBRATION_S
+
+        v, pz = physics.variation, physics.piezo
+        return cls(
+            v.record_gain_sd,
+            v.record_scale_sd,
+            v.record_kinetics_sd,
+            tuple(float(c) for c in v.conditioning_range),
+            float(np.hypot(pz.flicker_pct, v.drift_walk_pct * np.sqrt(R0_CALIBRATION_S / 60.0))),
+            v.drift_pct_per_min_sd,
+        )
+
+
+def _with_state(physics, z: np.ndarray, prior: _Prior):
+    """The simulator at state z = (z_gain, z_scale, z_kinetics, conditioning)."""
+    pz = physics.piezo
+    kin = float(np.exp(prior.kinetics_sd * z[2]))
+    return physics.with_(
+        piezo={
+            "floor_pct": min(pz.floor_pct * float(np.exp(prior.gain_sd * z[0])), 99.0),
+            "contact_strain": pz.contact_strain * float(np.exp(prior.scale_sd * z[1])),
+            "form_s": pz.form_s * kin,
+            "break_s": pz.break_s * kin,
+        },
+        variation={"conditioning_range": (float(z[3]), float(z[3]))},
+    )
+
+
+class _Model:
+    """The simulated output of one record and its sensitivities to the recording state."""
+
+    def __init__(self, actuator, output, porosity, u, ts, physics, prior: _Prior | None):
+        self.args = (actuator, output, porosity, u, ts)
+        self.physics, self.prior = physics, prior
+        n = len(u)
+        self.t_min = np.arange(n) * ts / 60.0  # min since the record's start (its R0 reference)
+        self.set(np.array([0.0, 0.0, 0.0, float(np.mean(prior.conditioning))]) if prior else None)
+
+    def set(self, z):
+        """Simulate at state z and the finite-difference sensitivities (one sd, half the range)."""
+        self.z = z
+        if z is None:
+            self.m = _simulate(*self.args, self.physics)
+            self.S = np.zeros((len(self.m), 0))
+            return
+        p = self.prior
+        self.m = _simulate(*self.args, _with_state(self.physics, z, p))
+        cols = []
+        for j, sd in enumerate((p.gain_sd, p.scale_sd, p.kinetics_sd)):
+            if sd <= 0:
+                cols.append(np.zeros_like(self.m))
+                continue
+            zj = z.copy()
+            zj[j] += 1.0 if z[j] <= 0 else -1.0
+            cols.append((_simulate(*self.args, _with_state(self.physics, zj, p)) - self.m) / (zj[j] - z[j]))
+        lo, hi = p.conditioning
+        if hi > lo:
+            zj = z.copy()
+            h = 0.5 * (hi - lo)
+            zj[3] = z[3] + h if z[3] + h <= hi else z[3] - h
+            cols.append((_simulate(*self.args, _with_state(self.physics, zj, p)) - self.m) / (zj[3] - z[3]))
+        else:
+            cols.append(np.zeros_like(self.m))
+        self.S = np.column_stack(cols)
+
+    def columns(self, scale: float, offset: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Regressors of the state (dz, offset, drift) for output = scale m + offset, and bounds."""
+        if self.z is None:
+            return np.zeros((len(self.m), 0)), np.zeros(0), np.zeros(0)
+        p, z = self.prior, self.z
+        level = 1.0 + (scale * self.m + offset) / 100.0
+        A = np.column_stack([scale * self.S, np.ones_like(self.m), self.t_min * level])
+        lo = np.array([-Z_PRIOR - z[0], -Z_PRIOR - z[1], -Z_PRIOR - z[2], p.conditioning[0] - z[3], 0, 0])
+        hi = np.array([Z_PRIOR - z[0], Z_PRIOR - z[1], Z_PRIOR - z[2], p.conditioning[1] - z[3], 0, 0])
+        lo[4], hi[4] = -Z_PRIOR * p.offset_sd, Z_PRIOR * p.offset_sd
+        lo[5], hi[5] = -Z_PRIOR * p.drift_sd, Z_PRIOR * p.drift_sd
+        sd = np.array([p.gain_sd, p.scale_sd, p.kinetics_sd, p.conditioning[1] - p.conditioning[0], p.offset_sd, p.drift_sd])
+        A[:, sd <= 0] = 0.0
+        lo[sd <= 0] = hi[sd <= 0] = 0.0
+        return A, lo, hi
+
+
+def _lsq(A, b, lo, hi):
+    """Bounded least squares; a zero-width bound fixes its coefficient at the bound."""
+    fixed = hi - lo <= 0
+    x = np.where(fixed, lo, 0.0)
+    free = ~fixed
+    if free.any():
+        r = b - A[:, fixed] @ x[fixed]
+        # the same least squares on the triangular factor (a few columns, thousands of samples)
+        q, R = np.linalg.qr(A[:, free])
+        x[free] = optimize.lsq_linear(R, q.T @ r, bounds=(lo[free], hi[free]), method="bvls").x
+    return x
 
 
 @dataclass
 class Calibration:
     """Calibrated simulator: actuator, porosity (%), output scale and offset, fit (%) on the
-    estimation samples it was calibrated on (clipped samples left out)."""
+    estimation samples it was calibrated on (clipped samples left out, each record with its
+    fitted state)."""
 
     actuator: str
     output: str
@@ -40,15 +242,83 @@ class Calibration:
     fit_estimation: float
     #: the simulator's stage parameters (porosense.sim.Physics; None: the defaults), not saved
     physics: object = field(default=None, repr=False, compare=False)
+    #: the states fitted to the estimation records during the calibration
+    states: list = field(default_factory=list, repr=False)
+
+    def _nominal(self):
+        return mean_recording(self.physics)
+
+    def _prior(self):
+        return _Prior.of(self.physics or __import__("porosense.sim", fromlist=["Physics"]).Physics()) if self.output.startswith("dR_") else None
 
     def predict(self, p_cmd: np.ndarray, ts: float) -> np.ndarray:
-        """Simulated output for commanded vacuum p_cmd (N, n_channels) kPa, sampled every ts s."""
-        return self.scale * _simulate(self.actuator, self.output, self.porosity, p_cmd, ts, self.physics) + self.offset
+        """Simulated output of the mean recording for commanded vacuum p_cmd (N, n_channels) kPa,
+        sampled every ts s (output unit)."""
+        return self.scale * _simulate(self.actuator, self.output, self.porosity, p_cmd, ts, self._nominal()) + self.offset
+
+    @single_threaded
+    def predict_record(self, p_cmd: np.ndarray, y: np.ndarray, ts: float) -> tuple[np.ndarray, RecordState]:
+        """Simulated output for one measured record with its own recording state fitted on it
+        (the rule of the module docstring): p_cmd (N, n_channels) kPa, y (N,) the measured output
+        (output unit), ts s. Returns the prediction (output unit) and the state."""
+        from porosense.dsp.metrics import fit_percent
+
+        y = np.asarray(y, float)
+        keep = ~_at_limit(y) if len(y) >= 10 else np.ones(len(y), bool)
+        if keep.sum() < 10:
+            keep[:] = True
+        model = _Model(self.actuator, self.output, self.porosity, p_cmd, ts, self._nominal(), self._prior())
+        pred, x = _fit_state(model, y, keep, self.scale, self.offset)
+        state = _state(model, x, self.scale)
+        state.fit = float(fit_percent(y[keep], pred[keep]))
+        return pred, state
 
     def to_dict(self) -> dict:
         d = asdict(self)
         d.pop("physics")
+        d["states"] = [s.to_dict() for s in self.states]
         return d
+
+
+def _fit_state(model: _Model, y, keep, scale, offset):
+    """Fit one record's state at the given output scale and offset: (prediction, coefficients)."""
+    x = np.zeros(6)
+    for step in range(RELINEARISE + 1):
+        A, lo, hi = model.columns(scale, offset)
+        base = scale * model.m + offset
+        if A.shape[1] == 0:
+            return base, x
+        x = _lsq(A[keep], (y - base)[keep], lo, hi)
+        if step < RELINEARISE and np.any(x[:4] != 0):
+            model.set(model.z + x[:4])
+    A, _, _ = model.columns(scale, offset)
+    return scale * model.m + offset + A @ x, x
+
+
+def _state(model: _Model, x, scale) -> RecordState:
+    if model.z is None:
+        return RecordState()
+    p = model.prior
+    z = model.z + x[:4]
+    at = []
+    for name, zi, lim in zip(("gain", "scale", "kinetics"), z[:3], (p.gain_sd, p.scale_sd, p.kinetics_sd)):
+        if lim > 0 and abs(zi) >= Z_PRIOR * (1 - 1e-6):
+            at.append(name)
+    lo, hi = p.conditioning
+    if hi > lo and (z[3] <= lo + 1e-9 or z[3] >= hi - 1e-9):
+        at.append("conditioning")
+    for name, xi, sd in (("offset", x[4], p.offset_sd), ("drift", x[5], p.drift_sd)):
+        if sd > 0 and abs(xi) >= Z_PRIOR * sd * (1 - 1e-6):
+            at.append(name)
+    return RecordState(
+        float(np.exp(p.gain_sd * z[0])),
+        float(np.exp(p.scale_sd * z[1])),
+        float(np.exp(p.kinetics_sd * z[2])),
+        float(z[3]),
+        float(x[4]),
+        float(x[5]),
+        tuple(at),
+    )
 
 
 def _simulate(actuator: str, output: str, porosity: float, p_cmd: np.ndarray, ts: float, physics=None) -> np.ndarray:
@@ -79,27 +349,63 @@ def _at_limit(y: np.ndarray, min_count: int = 10) -> np.ndarray:
     return out
 
 
+def _joint(models: list, ys: list, keeps: list):
+    """Output scale and offset with every record's state, fitted jointly (bounded least squares
+    on the linearised states): (scale, offset, [state coefficients per record], cost)."""
+    ms = np.concatenate([m.m for m in models])
+    yy = np.concatenate(ys)
+    kk = np.concatenate(keeps)
+    X = np.column_stack([ms, np.ones_like(ms)])
+    (a0, b0), *_ = np.linalg.lstsq(X[kk], yy[kk], rcond=None)
+    blocks = [m.columns(a0, b0) for m in models]
+    width = sum(A.shape[1] for A, _, _ in blocks)
+    if width == 0:
+        r = (yy - X @ (a0, b0))[kk]
+        return float(a0), float(b0), [np.zeros(6) for _ in models], float(r @ r)
+    A = np.zeros((len(yy), 2 + width))
+    A[:, :2] = X
+    lo, hi = [-np.inf, -np.inf], [np.inf, np.inf]
+    row = col = 0
+    for Ai, li, hi_i in blocks:
+        n, w = Ai.shape
+        A[row : row + n, 2 + col : 2 + col + w] = Ai
+        lo.extend(li)
+        hi.extend(hi_i)
+        row += n
+        col += w
+    x = _lsq(A[kk], yy[kk], np.array(lo), np.array(hi))
+    r = (yy - A @ x)[kk]
+    xs = [x[2 + 6 * i : 8 + 6 * i] for i in range(len(models))]
+    return float(x[0]), float(x[1]), xs, float(r @ r)
+
+
+@single_threaded
 def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float, physics=None) -> Calibration:
-    """Fit porosity, scale and offset of ``actuator``'s ``output`` to the estimation records.
+    """Fit porosity, scale and offset of ``actuator``'s ``output`` to the estimation records, each
+    record with its own recording state (the rule of the module docstring).
 
-    ``physics`` (porosense.sim.Physics or None for the defaults) is the simulator calibrated."""
+    ``u_list``: commanded vacuum per record, (N, n_channels) kPa; ``y_list``: the measured output
+    (N,) per record, output unit; ``ts``: sample period, s. ``physics`` (porosense.sim.Physics or
+    None for the defaults) is the simulator calibrated: its mean recording is the nominal and
+    its Variation the prior of each record's state."""
     from porosense.dsp.metrics import fit_percent
+    from porosense.sim import Physics
 
-    ys = np.concatenate([np.asarray(y, float) for y in y_list])
+    ph = physics or Physics()
+    nominal = mean_recording(ph)
+    prior = _Prior.of(ph) if output.startswith("dR_") else None
+    ys = [np.asarray(y, float) for y in y_list]
     # samples piled up exactly at a record's extreme are clipped (ADC or divider limit): they
     # say only that the output is beyond the limit, so they do not pull the calibration
-    keep = np.concatenate([~_at_limit(np.asarray(y, float)) for y in y_list])
-    if keep.sum() < 10:
-        keep[:] = True
+    keeps = [~_at_limit(y) for y in ys]
+    if sum(k.sum() for k in keeps) < 10:
+        keeps = [np.ones(len(y), bool) for y in ys]
 
-    def affine(por):
-        sims = np.concatenate([_simulate(actuator, output, por, u, ts, physics) for u in u_list])
-        X = np.column_stack([sims, np.ones_like(sims)])
-        coef, *_ = np.linalg.lstsq(X[keep], ys[keep], rcond=None)
-        return coef, X @ coef
+    def models(por):
+        return [_Model(actuator, output, por, u, ts, nominal, prior) for u in u_list]
 
     def cost(por):
-        return float(np.sum((ys - affine(por)[1])[keep] ** 2))
+        return _joint(models(por), ys, keeps)[3]
 
     grid = np.linspace(*POROSITY_BOUNDS, 7)
     costs = [cost(p) for p in grid]
@@ -107,5 +413,20 @@ def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float,
     lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
     sol = optimize.minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 0.05})
     por = float(sol.x) if sol.fun <= costs[k] else float(grid[k])
-    (scale, offset), pred = affine(por)
-    return Calibration(actuator, output, por, float(scale), float(offset), fit_percent(ys[keep], pred[keep]), physics)
+    ms = models(por)
+    scale, offset, xs, _ = _joint(ms, ys, keeps)
+    if prior is not None:  # relinearise every record's state at the fit, then the scale and offset once more
+        for m, x in zip(ms, xs):
+            if np.any(x[:4] != 0):
+                m.set(m.z + x[:4])
+        scale, offset, xs, _ = _joint(ms, ys, keeps)
+    preds, states = [], []
+    for m, x in zip(ms, xs):
+        A, _, _ = m.columns(scale, offset)
+        preds.append(scale * m.m + offset + A @ x)
+        states.append(_state(m, x, scale))
+    kk = np.concatenate(keeps)
+    fit = fit_percent(np.concatenate(ys)[kk], np.concatenate(preds)[kk])
+    for s, y, p, kp in zip(states, ys, preds, keeps):
+        s.fit = float(fit_percent(y[kp], p[kp]))
+    return Calibration(actuator, output, por, scale, offset, float(fit), physics, states)

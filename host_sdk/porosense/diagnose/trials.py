@@ -295,7 +295,7 @@ def run_sim_3dof_trial(cause: str, seed: int, physics=None, nominal_physics=None
     est, val = parts[:n_est], parts[n_est:]
     ts = 1.0 / SIM_RATE_HZ
     cal = calibrate("3dof", "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts, nominal_physics)
-    recs = [[engine.Record(u, y, cal.predict(u, ts), ts, c) for u, y, c in part] for part in (est, val)]
+    recs = [[engine.Record(u, y, cal.predict_record(u, y, ts)[0], ts, c) for u, y, c in part] for part in (est, val)]
     d = engine.diagnose(recs[0], recs[1])
     gain = d.finding(cause).gain if cause != NONE else 0.0
     return Trial(cause, d.top, float(gain), time.perf_counter() - t0, d)
@@ -346,7 +346,7 @@ def run_sim_trial(cause: str, seed: int, physics=None, nominal_physics=None) -> 
     est, val = parts[:2], parts[2:]
     ts = 1.0 / SIM_RATE_HZ
     cal = calibrate("contractor", "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts, nominal_physics)
-    recs = [[engine.Record(u, y, cal.predict(u, ts), ts, c) for u, y, c in part] for part in (est, val)]
+    recs = [[engine.Record(u, y, cal.predict_record(u, y, ts)[0], ts, c) for u, y, c in part] for part in (est, val)]
     d = engine.diagnose(recs[0], recs[1])
     gain = d.finding(cause).gain if cause != NONE else 0.0
     return Trial(cause, d.top, float(gain), time.perf_counter() - t0, d)

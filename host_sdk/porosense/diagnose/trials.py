@@ -238,7 +238,9 @@ def _sim_effect(rng, cause: str) -> dict | None:
 
 
 def _post(y: np.ndarray, cause: str, pr: dict) -> np.ndarray:
-    """Static nonlinearity or hysteresis applied to a measured dR record (not simulator effects)."""
+    """Static nonlinearity or hysteresis applied to a noise-free dR record (%; not simulator effects).
+
+    The measurement noise of the recording is added after it (see :func:`run_sim_trial`)."""
     full = 100.0
     if cause == "static_nonlinearity":
         v = y / full
@@ -342,7 +344,25 @@ def run_sim_trial(cause: str, seed: int, physics=None, nominal_physics=None) -> 
             effects=effects,
             physics=physics,
         )
-        parts.append((rec["p_cmd_0"][:, None], _post(rec["dR_0"], cause, post), {"load_g": rec["load_g"]}))
+        y = rec["dR_0"]
+        if cause == "hysteresis":
+            # the memory is the contact law's, before the electronics: applied to the noise-free
+            # record of the same realisation, with the recording's noise (sensor, ADC, regulator,
+            # R0 wander) added after it. Applied to the noisy record, every sample's noise would
+            # move a rate-independent memory and relax it during holds (a creep of about
+            # memory / mean |noise step| samples, 5-15 s), which no sensor's hysteresis does
+            clean = sim.run_experiment(
+                "contractor",
+                exp,
+                porosity=porosity,
+                rate_hz=SIM_RATE_HZ,
+                seed=seed * 10 + k,
+                effects=effects,
+                physics=physics,
+                noise=False,
+            )["dR_0"]
+            y = _post(clean, cause, post) + (y - clean)
+        parts.append((rec["p_cmd_0"][:, None], y, {"load_g": rec["load_g"]}))
     est, val = parts[:2], parts[2:]
     ts = 1.0 / SIM_RATE_HZ
     cal = calibrate("contractor", "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts, nominal_physics)

@@ -591,7 +591,33 @@ def diagnose(
         return _diagnose(estimation, validation, alpha, nominal, refit)
 
 
-def _diagnose(estimation, validation, alpha, nominal, refit) -> Diagnosis:
+#: input-output causes whose extension, fitted beyond nominal + G0 alone, can render what the
+#: adequate-order linear correction renders (a level map, a memory, a condition column, a clip);
+#: see :func:`_explains_linear_deficit`
+DEFICIT_EXPLAINERS = ("static_nonlinearity", "hysteresis", "load_dependence", "cross_coupling", "saturation")
+
+
+def _explains_linear_deficit(estimation, validation, results, findings, alpha: float):
+    """The first found cause of DEFICIT_EXPLAINERS whose extension fitted beyond nominal + G0 alone
+    predicts the held-out data as well as the same extension beyond the corrected model: the
+    adequate-order correction adds nothing to it (its improvement is not positive at one-sided 5 %,
+    batch means on the samples both score). Returns (cause, test) or None."""
+    plain = extensions.Context(estimation, validation, correct=False)
+    y_val = plain.y_val
+    for c in DEFICIT_EXPLAINERS:
+        if not findings[c].found:
+            continue
+        res = extensions.HANDLERS[c](plain, alpha)
+        if res.yhat_val is None or results[c].yhat_val is None:
+            continue
+        keep = results[c].detail.get("score_mask", np.ones(len(y_val), bool))
+        t = stats.paired_gain_test(y_val[keep], res.yhat_val[keep], results[c].yhat_val[keep])
+        if not t.confirmed:
+            return c, t
+    return None
+
+
+def _diagnose(estimation, validation, alpha, nominal, refit, explained=None) -> Diagnosis:
     ctx = extensions.Context(estimation, validation)
     per_cause_alpha = alpha / len(CAUSES)
     y_val = ctx.y_val
@@ -605,6 +631,7 @@ def _diagnose(estimation, validation, alpha, nominal, refit) -> Diagnosis:
         ud.test.significant
         and stats.paired_gain_test(y_val, ctx.yhat_val, ud.yhat_val).confirmed
         and ud.detail.get("evidence_ok", True)
+        and explained is None
     )
     # every other cause is judged against the corrected model: the nominal + the adequate-order
     # linear correction when unmodelled_dynamics holds (test significant, held-out gain against
@@ -687,6 +714,21 @@ def _diagnose(estimation, validation, alpha, nominal, refit) -> Diagnosis:
         )
         if found:
             findings[cause].confidence = float(np.clip((1.0 - res.test.p) * (1.0 - confirm.p), 0.0, 1.0))
+    if explained is not None:  # a nonlinear cause explains the linear deficit (second pass)
+        f = findings["unmodelled_dynamics"]
+        if f.found:
+            c, t = explained
+            f.found, f.confidence = False, 0.0
+            f.rejected = (
+                f"{c} explains the same linear residual: its extension beyond nominal + G0 alone predicts the "
+                f"held-out data as well as beyond the corrected model (the correction's improvement t = {t.t:.3g}, "
+                f"one-sided p = {t.p:.2g})"
+            )
+            f.evidence += f" Not found: {f.rejected}."
+    elif corrected and findings["unmodelled_dynamics"].found:
+        why = _explains_linear_deficit(estimation, validation, results, findings, per_cause_alpha)
+        if why is not None:
+            return _diagnose(estimation, validation, alpha, nominal, refit, explained=why)
     _one_dynamics_explanation(findings, improvements, extended, y_val, results)
     # input-output causes first; disturbances (tracked from the measured output, a predictor's
     # gain that a simulation gain cannot be compared with: see :mod:`.ranking`) after them

@@ -209,7 +209,9 @@ class _Model:
         hi = np.array([Z_PRIOR - z[0], Z_PRIOR - z[1], Z_PRIOR - z[2], p.conditioning[1] - z[3], 0, 0])
         lo[4], hi[4] = -Z_PRIOR * p.offset_sd, Z_PRIOR * p.offset_sd
         lo[5], hi[5] = -Z_PRIOR * p.drift_sd, Z_PRIOR * p.drift_sd
-        sd = np.array([p.gain_sd, p.scale_sd, p.kinetics_sd, p.conditioning[1] - p.conditioning[0], p.offset_sd, p.drift_sd])
+        sd = np.array(
+            [p.gain_sd, p.scale_sd, p.kinetics_sd, p.conditioning[1] - p.conditioning[0], p.offset_sd, p.drift_sd]
+        )
         A[:, sd <= 0] = 0.0
         lo[sd <= 0] = hi[sd <= 0] = 0.0
         return A, lo, hi
@@ -249,12 +251,16 @@ class Calibration:
         return mean_recording(self.physics)
 
     def _prior(self):
-        return _Prior.of(self.physics or __import__("porosense.sim", fromlist=["Physics"]).Physics()) if self.output.startswith("dR_") else None
+        from porosense.sim import Physics
+
+        return _Prior.of(self.physics or Physics()) if self.output.startswith("dR_") else None
 
     def predict(self, p_cmd: np.ndarray, ts: float) -> np.ndarray:
         """Simulated output of the mean recording for commanded vacuum p_cmd (N, n_channels) kPa,
         sampled every ts s (output unit)."""
-        return self.scale * _simulate(self.actuator, self.output, self.porosity, p_cmd, ts, self._nominal()) + self.offset
+        return (
+            self.scale * _simulate(self.actuator, self.output, self.porosity, p_cmd, ts, self._nominal()) + self.offset
+        )
 
     @single_threaded
     def predict_record(self, p_cmd: np.ndarray, y: np.ndarray, ts: float) -> tuple[np.ndarray, RecordState]:

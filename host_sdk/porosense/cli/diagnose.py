@@ -226,8 +226,8 @@ def _predictor(args, inputs, est):
             predict,
             None,
             f"{args.sim} simulator calibrated on estimation: porosity {cal.porosity:.1f} %, scale "
-            f"{cal.scale:.4g}, offset {cal.offset:.4g} (fit {cal.fit_estimation:.1f} %), each record with its "
-            "own recording state",
+            f"{cal.scale:.4g}, offset {cal.offset:.4g} (fit {cal.fit_estimation:.1f} %)"
+            + (", each record with its own recording state" if args.output.startswith("dR_") else ""),
         )
     if args.model:
         from porosense import ident

@@ -429,7 +429,7 @@ def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float,
     preds, states = [], []
     for m, x in zip(ms, xs):
         A, _, _ = m.columns(scale, offset)
-        preds.append(scale * m.m + offset + A @ x)
+        preds.append(scale * m.m + offset + (A @ x if A.shape[1] else 0.0))
         states.append(_state(m, x, scale))
     kk = np.concatenate(keeps)
     fit = fit_percent(np.concatenate(ys)[kk], np.concatenate(preds)[kk])

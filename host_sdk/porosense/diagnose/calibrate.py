@@ -164,15 +164,16 @@ def _with_state(physics, z: np.ndarray, prior: _Prior):
 class _Model:
     """The simulated output of one record and its sensitivities to the recording state."""
 
-    def __init__(self, actuator, output, porosity, u, ts, physics, prior: _Prior | None):
+    def __init__(self, actuator, output, porosity, u, ts, physics, prior: _Prior | None, S=None):
         self.args = (actuator, output, porosity, u, ts)
         self.physics, self.prior = physics, prior
         n = len(u)
         self.t_min = np.arange(n) * ts / 60.0  # min since the record's start (its R0 reference)
-        self.set(np.array([0.0, 0.0, 0.0, float(np.mean(prior.conditioning))]) if prior else None)
+        self.set(np.array([0.0, 0.0, 0.0, float(np.mean(prior.conditioning))]) if prior else None, S)
 
-    def set(self, z):
-        """Simulate at state z and the finite-difference sensitivities (one sd, half the range)."""
+    def set(self, z, S=None):
+        """Simulate at state z and the finite-difference sensitivities (one sd, half the range);
+        ``S`` (N, 4): sensitivities taken from elsewhere (zero columns: that state held)."""
         self.z = z
         if z is None:
             self.m = _simulate(*self.args, self.physics)
@@ -180,6 +181,9 @@ class _Model:
             return
         p = self.prior
         self.m = _simulate(*self.args, _with_state(self.physics, z, p))
+        if S is not None:
+            self.S = S
+            return
         cols = []
         for j, sd in enumerate((p.gain_sd, p.scale_sd, p.kinetics_sd)):
             if sd <= 0:
@@ -212,8 +216,10 @@ class _Model:
         sd = np.array(
             [p.gain_sd, p.scale_sd, p.kinetics_sd, p.conditioning[1] - p.conditioning[0], p.offset_sd, p.drift_sd]
         )
-        A[:, sd <= 0] = 0.0
-        lo[sd <= 0] = hi[sd <= 0] = 0.0
+        held = sd <= 0
+        held[:4] |= ~self.S.any(axis=0)
+        A[:, held] = 0.0
+        lo[held] = hi[held] = 0.0
         return A, lo, hi
 
 
@@ -407,18 +413,25 @@ def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float,
     if sum(k.sum() for k in keeps) < 10:
         keeps = [np.ones(len(y), bool) for y in ys]
 
-    def models(por):
-        return [_Model(actuator, output, por, u, ts, nominal, prior) for u in u_list]
+    def models(por, sens=None):
+        sens = sens or [None] * len(u_list)
+        return [_Model(actuator, output, por, u, ts, nominal, prior, S) for u, S in zip(u_list, sens)]
+
+    # the porosity grid brackets the fit with the mean recording (offset and drift states only),
+    # the bounded search refines it with every state, its sensitivities taken at the bracket's
+    # best porosity (they change slowly with porosity), and the states are relinearised at the end
+    held = [np.zeros((len(u), 4)) for u in u_list] if prior is not None else None
+    grid = np.linspace(*POROSITY_BOUNDS, 7)
+    costs = [_joint(models(p, held), ys, keeps)[3] for p in grid]
+    k = int(np.argmin(costs))
+    sens = [m.S for m in models(grid[k])] if prior is not None else None
 
     def cost(por):
-        return _joint(models(por), ys, keeps)[3]
+        return _joint(models(por, sens), ys, keeps)[3]
 
-    grid = np.linspace(*POROSITY_BOUNDS, 7)
-    costs = [cost(p) for p in grid]
-    k = int(np.argmin(costs))
     lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
     sol = optimize.minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 0.05})
-    por = float(sol.x) if sol.fun <= costs[k] else float(grid[k])
+    por = float(sol.x) if sol.fun <= cost(grid[k]) else float(grid[k])
     ms = models(por)
     scale, offset, xs, _ = _joint(ms, ys, keeps)
     if prior is not None:  # relinearise every record's state at the fit, then the scale and offset once more

@@ -17,7 +17,9 @@ a clipped held-out record better. On the same generator without the clip, satura
 named. Measured (10 s CPU per trial): seed 0, clip at 45 % of the drop: found time_delay,
 saturation, drift; saturation's extension gains +38.2 fit points on the estimation records and
 +20.5 held out, the replay of step_40 fits 61.3 -> 88.5 %; seed 1, clip at 56 %: +51.7 / +31.4,
-48.6 -> 95.4 %; seed 0 without the clip: time_delay and drift found, not saturation.
+48.6 -> 95.4 %; seed 0 without the clip: time_delay, static_nonlinearity (held-out gain +0.00)
+and drift found, not saturation. The calibrated file runs as its mean recording, each record
+with its own recording state (porosense.diagnose.calibrate.as_calibrated).
 """
 
 from __future__ import annotations
@@ -69,6 +71,7 @@ def _loop(tmp_path, capsys, seed: int, clip: bool):
     argv += ["--input", "p_cmd_0", "--output", "dR_0", "--save-extended", str(ext), "--json"]
     assert main(argv) == 0
     doc = json.loads(capsys.readouterr().out)
+    assert [s["part"] for s in doc["record_states"]] == ["estimation"] * len(est) + ["validation"] * len(val)
     found = [f["cause"] for f in doc["findings"] if f["found"]]
     with capsys.disabled():
         print(

@@ -80,10 +80,11 @@ def register(sub) -> argparse.ArgumentParser:
         "--params",
         metavar="PARAMS.json",
         help="with --sim: the simulator's parameter file (porosense calibrate ACTUATOR, or one extended by "
-        "--save-extended) run as it is; without it, porosity, output scale and offset are calibrated to the "
-        "estimation range and, for a dR_ output, every record (estimation and validation) gets its own "
-        "recording state (sensitivity, contact-law scale, kinetics, softening, offset, R0 drift) fitted "
-        "within the 99 %% interval of the simulator's stated recording-to-recording spread, reported per record",
+        "--save-extended), its mean recording run as it is; without it, porosity, output scale and offset are "
+        "calibrated to the estimation range. Either way, for a dR_ output every record (estimation and "
+        "validation) gets its own recording state (sensitivity, contact-law scale, kinetics, softening, "
+        "offset, R0 drift) fitted within the 99 %% interval of the simulator's stated recording-to-recording "
+        "spread, reported per record",
     )
     p.add_argument(
         "--condition",
@@ -202,28 +203,33 @@ def _predictor(args, inputs, est):
 
     us = [u for u, _, _ in est]
     ys = [y for _, y, _ in est]
-    if args.sim and args.params:
-        from porosense.sim.calibrate import simulated_output
+    args.record_states = []
 
-        physics, effects = args.sim_params
-        return (
-            lambda u, y: simulated_output(args.sim, physics, u, args.ts, args.output, effects=effects),
-            None,
-            f"{args.sim} simulator of {args.params}" + (f" (effects: {', '.join(effects)})" if effects else ""),
-        )
-    if args.sim:
-        from porosense.diagnose.calibrate import calibrate
-
-        cal = calibrate(args.sim, args.output, us, ys, args.ts)
-        args.record_states = []
-
+    def with_state(cal):
         def predict(u, y):
             yhat, state = cal.predict_record(u, y, args.ts)
             args.record_states.append(state)
             return yhat
 
+        return predict
+
+    if args.sim and args.params:
+        from porosense.diagnose.calibrate import as_calibrated
+
+        physics, effects = args.sim_params
         return (
-            predict,
+            with_state(as_calibrated(args.sim, args.output, physics, effects)),
+            None,
+            f"{args.sim} simulator of {args.params}"
+            + (f" (effects: {', '.join(effects)})" if effects else "")
+            + (", each record with its own recording state" if args.output.startswith("dR_") else ""),
+        )
+    if args.sim:
+        from porosense.diagnose.calibrate import calibrate
+
+        cal = calibrate(args.sim, args.output, us, ys, args.ts)
+        return (
+            with_state(cal),
             None,
             f"{args.sim} simulator calibrated on estimation: porosity {cal.porosity:.1f} %, scale "
             f"{cal.scale:.4g}, offset {cal.offset:.4g} (fit {cal.fit_estimation:.1f} %)"
@@ -511,10 +517,10 @@ def _write_page(result, folder, title: str):
 
 
 def _record_states(args, tables, vtables) -> list:
-    """Each record's recording state fitted by ``--sim`` without ``--params``
+    """Each record's recording state fitted by ``--sim``
     (porosense.diagnose.calibrate.Calibration.predict_record), named by its file and range:
     [{data, part, gain, scale, kinetics, conditioning, offset, drift, at_bound, fit, text}]."""
-    fitted = getattr(args, "record_states", None)
+    fitted = getattr(args, "record_states", None)  # --sim (with or without --params)
     if not fitted or not args.output.startswith("dR_"):
         return []
 

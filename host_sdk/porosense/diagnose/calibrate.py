@@ -164,9 +164,9 @@ def _with_state(physics, z: np.ndarray, prior: _Prior):
 class _Model:
     """The simulated output of one record and its sensitivities to the recording state."""
 
-    def __init__(self, actuator, output, porosity, u, ts, physics, prior: _Prior | None, S=None):
+    def __init__(self, actuator, output, porosity, u, ts, physics, prior: _Prior | None, S=None, effects=None):
         self.args = (actuator, output, porosity, u, ts)
-        self.physics, self.prior = physics, prior
+        self.physics, self.prior, self.effects = physics, prior, effects
         n = len(u)
         self.t_min = np.arange(n) * ts / 60.0  # min since the record's start (its R0 reference)
         self.set(np.array([0.0, 0.0, 0.0, float(np.mean(prior.conditioning))]) if prior else None, S)
@@ -176,11 +176,11 @@ class _Model:
         ``S`` (N, 4): sensitivities taken from elsewhere (zero columns: that state held)."""
         self.z = z
         if z is None:
-            self.m = _simulate(*self.args, self.physics)
+            self.m = _simulate(*self.args, self.physics, self.effects)
             self.S = np.zeros((len(self.m), 0))
             return
         p = self.prior
-        self.m = _simulate(*self.args, _with_state(self.physics, z, p))
+        self.m = _simulate(*self.args, _with_state(self.physics, z, p), self.effects)
         if S is not None:
             self.S = S
             return
@@ -191,13 +191,17 @@ class _Model:
                 continue
             zj = z.copy()
             zj[j] += 1.0 if z[j] <= 0 else -1.0
-            cols.append((_simulate(*self.args, _with_state(self.physics, zj, p)) - self.m) / (zj[j] - z[j]))
+            cols.append(
+                (_simulate(*self.args, _with_state(self.physics, zj, p), self.effects) - self.m) / (zj[j] - z[j])
+            )
         lo, hi = p.conditioning
         if hi > lo:
             zj = z.copy()
             h = 0.5 * (hi - lo)
             zj[3] = z[3] + h if z[3] + h <= hi else z[3] - h
-            cols.append((_simulate(*self.args, _with_state(self.physics, zj, p)) - self.m) / (zj[3] - z[3]))
+            cols.append(
+                (_simulate(*self.args, _with_state(self.physics, zj, p), self.effects) - self.m) / (zj[3] - z[3])
+            )
         else:
             cols.append(np.zeros_like(self.m))
         self.S = np.column_stack(cols)
@@ -252,6 +256,8 @@ class Calibration:
     physics: object = field(default=None, repr=False, compare=False)
     #: the states fitted to the estimation records during the calibration
     states: list = field(default_factory=list, repr=False)
+    #: named effects the simulator runs with (a parameter file's, porosense.sim.effects), not saved
+    effects: object = field(default=None, repr=False, compare=False)
 
     def _nominal(self):
         return mean_recording(self.physics)
@@ -265,7 +271,8 @@ class Calibration:
         """Simulated output of the mean recording for commanded vacuum p_cmd (N, n_channels) kPa,
         sampled every ts s (output unit)."""
         return (
-            self.scale * _simulate(self.actuator, self.output, self.porosity, p_cmd, ts, self._nominal()) + self.offset
+            self.scale * _simulate(self.actuator, self.output, self.porosity, p_cmd, ts, self._nominal(), self.effects)
+            + self.offset
         )
 
     @single_threaded
@@ -279,7 +286,9 @@ class Calibration:
         keep = ~_at_limit(y) if len(y) >= 10 else np.ones(len(y), bool)
         if keep.sum() < 10:
             keep[:] = True
-        model = _Model(self.actuator, self.output, self.porosity, p_cmd, ts, self._nominal(), self._prior())
+        model = _Model(
+            self.actuator, self.output, self.porosity, p_cmd, ts, self._nominal(), self._prior(), effects=self.effects
+        )
         pred, x = _fit_state(model, y, keep, self.scale, self.offset)
         state = _state(model, x, self.scale)
         state.fit = float(fit_percent(y[keep], pred[keep]))
@@ -288,6 +297,7 @@ class Calibration:
     def to_dict(self) -> dict:
         d = asdict(self)
         d.pop("physics")
+        d.pop("effects")
         d["states"] = [s.to_dict() for s in self.states]
         return d
 
@@ -333,10 +343,25 @@ def _state(model: _Model, x, scale) -> RecordState:
     )
 
 
-def _simulate(actuator: str, output: str, porosity: float, p_cmd: np.ndarray, ts: float, physics=None) -> np.ndarray:
+def _simulate(
+    actuator: str, output: str, porosity, p_cmd: np.ndarray, ts: float, physics=None, effects=None
+) -> np.ndarray:
     from porosense import sim
 
     p = np.asarray(p_cmd, float).reshape(len(p_cmd), -1)
+    if effects:  # a parameter file's named effects: dR as the electronics read it (porosense.sim.calibrate)
+        from porosense.sim.calibrate import ActuatorRecord, simulate_record
+
+        out = simulate_record(
+            actuator,
+            physics or sim.Physics(),
+            ActuatorRecord(p, ts, np.zeros_like(p)),
+            porosity=porosity,
+            effects=effects,
+        )
+        if output not in out:
+            raise InputError(f"the {actuator} simulator has no output '{output}'")
+        return np.asarray(out[output], float)
     sp = np.zeros((len(p), 3))
     sp[:, : p.shape[1]] = np.minimum(p, 0.0)
     on = sp < 0.0
@@ -449,3 +474,11 @@ def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float,
     for s, y, p, kp in zip(states, ys, preds, keeps):
         s.fit = float(fit_percent(y[kp], p[kp]))
     return Calibration(actuator, output, por, scale, offset, float(fit), physics, states)
+
+
+def as_calibrated(actuator: str, output: str, physics, effects=None) -> Calibration:
+    """A calibrated parameter file (porosense calibrate, or one extended by diagnose
+    --save-extended) as a :class:`Calibration`: its physics' mean recording at its own porosity,
+    output scale 1 and offset 0, ``effects`` its named effects; each record's state is fitted
+    by :meth:`Calibration.predict_record` as for a calibration."""
+    return Calibration(actuator, output, None, 1.0, 0.0, float("nan"), physics, [], effects or None)

@@ -345,12 +345,13 @@ def run_sim_trial(cause: str, seed: int, physics=None, nominal_physics=None) -> 
             physics=physics,
         )
         y = rec["dR_0"]
-        if cause == "hysteresis":
-            # the memory is the contact law's, before the electronics: applied to the noise-free
-            # record of the same realisation, with the recording's noise (sensor, ADC, regulator,
-            # R0 wander) added after it. Applied to the noisy record, every sample's noise would
-            # move a rate-independent memory and relax it during holds (a creep of about
-            # memory / mean |noise step| samples, 5-15 s), which no sensor's hysteresis does
+        if cause in ("static_nonlinearity", "hysteresis"):
+            # the bend and the memory are the contact law's, before the electronics: applied to
+            # the noise-free record of the same realisation, with the recording's noise (sensor,
+            # ADC, regulator, R0 wander) added after it. Applied to the noisy record, every
+            # sample's noise would move a rate-independent memory and relax it during holds (a
+            # creep of about memory / mean |noise step| samples, 5-15 s), which no sensor's
+            # hysteresis does
             clean = sim.run_experiment(
                 "contractor",
                 exp,

@@ -11,8 +11,8 @@ Commanded vacuum goes in (columns ``p_cmd_0..2``, kPa), a measured column comes 
 The simulation is the **mean recording** of the print: the simulator's recording-to-recording
 draws (porosense.sim.variation: sensitivity, contact-law scale, kinetics, softening state, R0
 drift) are held at their mean (factors 1, the middle of the softening range, no drift), without
-noise and without any named effect. It is the nominal physics, and what it misses is what
-diagnosis is asked to find.
+noise and without any named effect (a parameter file's own effects aside, :func:`as_calibrated`).
+It is the nominal physics, and what it misses is what diagnosis is asked to find.
 
 **Each record's own state.** Real repeats differ, and the simulator says by how much
 (:class:`porosense.sim.params.Variation`). For a resistance output (``dR_*``, %), every record
@@ -35,10 +35,13 @@ softening state; scipy.optimize.lsq_linear on the simulated output linearised in
 finite differences of one standard deviation, relinearised once at the fit). Significance: a
 clean recording's state lies inside each interval with probability 0.99, so a clean record is
 followed; a cause beyond the prior is not swallowed, only its part inside the interval is: a
-drift of 1-3 %/min keeps at least 1 - 0.77 %/min, a gain change that is a cause (slow
-relaxation, a load) keeps what exceeds 2.6 sd of the stated 3-4 % changes. The porosity, scale
-and offset are calibrated with the estimation records' states fitted jointly (the print and the
-sensor are common to all records, the state is each record's own). The prior of a simulator
+drift of 1-3 %/min leaves at least 1 - 0.77 = 0.23 %/min in the residual, a gain change that is
+a cause (slow relaxation, a load) what exceeds 2.6 sd of the stated 3-4 % changes. The porosity,
+scale and offset are calibrated with the estimation records' states fitted jointly (the print
+and the sensor are common to all records, the state is each record's own): a 7-point porosity
+grid brackets the fit with offset and drift states only, a bounded search refines it with every
+state (sensitivities taken at the bracket's best porosity), and the states are relinearised at
+the result. The prior of a simulator
 without recording variation (``Physics().without('repeat_variation', 'baseline_drift')``) has
 zero width: every record is then the mean recording (offset aside).
 

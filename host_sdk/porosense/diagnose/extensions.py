@@ -439,7 +439,11 @@ def _rate_set(ctx: Context):
     return z
 
 
-def hysteresis(ctx: Context, alpha: float) -> CauseResult:
+def _hysteresis_test(ctx: Context) -> stats.FTest:
+    """F test of the play operators beyond static maps, the slow mode, rate-dependent level
+    effects and a slow trend in time (see :func:`hysteresis`)."""
+    if "hysteresis_test" in ctx._cache:
+        return ctx._cache["hysteresis_test"]
     sets = _static_sets(ctx)
     z_h = _play_set(ctx)
 
@@ -461,7 +465,14 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
             _trend_blocks(ctx, DRIFT_TERMS),
         ]
     )
-    test = ctx.f_test(ctx.stack(z_h, ctx.est), extra_base=base)
+    ctx._cache["hysteresis_test"] = ctx.f_test(ctx.stack(z_h, ctx.est), extra_base=base)
+    return ctx._cache["hysteresis_test"]
+
+
+def hysteresis(ctx: Context, alpha: float) -> CauseResult:
+    sets = _static_sets(ctx)
+    z_h = _play_set(ctx)
+    test = _hysteresis_test(ctx)
     res = stats.f_result("F(residual ~ direction of motion at equal level | level)", test, alpha)
     # direction dependence beyond the level: on top of the static map of the side that explains
     # the level best (so that hysteresis is ranked on what the static map cannot explain)
@@ -482,7 +493,11 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
     )
 
 
-def _slow_sets(ctx: Context):
+#: the rivals a slow mode is told apart from by conditioning (their regressors enter its test's base)
+SLOW_RIVALS = ("hysteresis", "drift", "load_dependence")
+
+
+def _slow_sets(ctx: Context, rivals: tuple = ("hysteresis", "drift")):
     """(test, builder, tau) of the best slow-mode regressors, and the number of taus tried.
 
     A slow viscoelastic mode leaves a long exponential tail after every step: the residual
@@ -490,11 +505,14 @@ def _slow_sets(ctx: Context):
     both through a first-order lag of time constant tau, also scaled by the output level (the
     mode's share changes with the level). tau on a geometric grid (ratio 2) from twice the model's own
     time constant up to half a record. The test is conditional on static PWL maps
-    of the level on every side, a linear drift in time and play operators: what remains is memory that fades
-    with tau and follows the input, which neither drift nor hysteresis has.
+    of the level on every side and on the regressors of the ``rivals``: a drift in time (linear,
+    and slow cosines per record) for ``drift``, play operators for ``hysteresis``, the condition
+    column's dynamics and its scheduled gain for ``load_dependence``. What remains is
+    memory that fades with tau and follows the input, which neither drift nor hysteresis has.
     """
-    if "slow" in ctx._cache:
-        return ctx._cache["slow"]
+    key = ("slow", tuple(rivals))
+    if key in ctx._cache:
+        return ctx._cache[key]
     t_rec = sum(ctx.seg_est) * ctx.ts / len(ctx.seg_est)
     tau = 2.0 * ctx.tau_s
     taus = []
@@ -507,10 +525,16 @@ def _slow_sets(ctx: Context):
     by_id = {id(r): f for r, f in zip(ctx.est + ctx.val, filtered)}
     z_h = _play_set(ctx)
     static = _static_sets(ctx)
-    base = np.column_stack(
-        [ctx.stack(shape, ctx.est), ctx.stack(_trend, ctx.est), ctx.stack(z_h, ctx.est), _trend_blocks(ctx, 2)]
-        + [ctx.stack(zs, ctx.est) for zs in static.values()]
-    )
+    blocks = [ctx.stack(shape, ctx.est)]
+    if "drift" in rivals:
+        blocks += [ctx.stack(_trend, ctx.est), _trend_blocks(ctx, 2)]
+    if "hysteresis" in rivals:
+        blocks.append(ctx.stack(z_h, ctx.est))
+    cols = _column_tests(ctx) if "load_dependence" in rivals else {}
+    if cols:
+        name = min(cols, key=lambda k: cols[k]["both"].log10_p)
+        blocks += [ctx.stack(cols[name]["z_dyn"], ctx.est), ctx.stack(cols[name]["z_load"], ctx.est)]
+    base = np.column_stack(blocks + [ctx.stack(zs, ctx.est) for zs in static.values()])
     best = None
     for tau in taus:
         a = float(np.exp(-ctx.ts / tau))
@@ -526,13 +550,44 @@ def _slow_sets(ctx: Context):
         t = ctx.f_test(ctx.stack(z, ctx.est), extra_base=base, scope=GENERIC)
         if best is None or t.log10_p < best[0].log10_p:
             best = (t, lambda r, z=z: z(r, scaled=True), tau)
-    ctx._cache["slow"] = (best, len(taus))
-    return ctx._cache["slow"]
+    ctx._cache[key] = (best, len(taus))
+    return ctx._cache[key]
+
+
+def _drift_base(ctx: Context) -> np.ndarray:
+    """What the drift test is conditional on: the slow mode of the inputs and the output shape."""
+    (_, z_slow, _), _ = _slow_sets(ctx)
+    shape, _, _ = _output_shape(ctx)
+    return np.column_stack([ctx.stack(z_slow, ctx.est), ctx.stack(shape, ctx.est)])
+
+
+def _slow_rivals(ctx: Context, alpha: float) -> tuple:
+    """The rivals of a slow mode with evidence of their own: those whose test (a play operator's
+    direction effect and a trend in time, both beyond the slow mode; a condition column that changes
+    the output, Bonferroni over the columns) is significant at ``alpha``. A slow mode is tested beyond the regressors of these only: conditioned
+    on a rival without evidence, a slow tail after steps that play operators or slow cosines also
+    render (near-collinear regressors) would leave neither test any power."""
+    tests = {
+        "hysteresis": (_hysteresis_test(ctx), 1),
+        "drift": (ctx.f_test(_trend_blocks(ctx, DRIFT_TERMS), extra_base=_drift_base(ctx)), 1),
+    }
+    cols = _column_tests(ctx)
+    if cols:  # a condition column that changes the output (the load test, over the columns)
+        tests["load_dependence"] = (min((c["both"] for c in cols.values()), key=lambda t: t.log10_p), len(cols))
+    return tuple(r for r in SLOW_RIVALS if r in tests and stats.f_result(r, tests[r][0], alpha, tests[r][1]).significant)
 
 
 def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
-    (test, _z, tau), n_taus = _slow_sets(ctx)
-    res = stats.f_result("F(residual ~ slowly filtered input | drift, hysteresis)", test, alpha, n_taus, tau_s=tau)
+    rivals = _slow_rivals(ctx, alpha)
+    (test, _z, tau), n_taus = _slow_sets(ctx, rivals)
+    res = stats.f_result(
+        f"F(residual ~ slowly filtered input | {', '.join(rivals) or 'static maps'})",
+        test,
+        alpha,
+        n_taus,
+        tau_s=tau,
+        rivals=list(rivals),
+    )
 
     def z_full(r, tau_x):
         # the nominal re-identified with one extra pole: a share of the model output that follows
@@ -688,10 +743,7 @@ def drift(ctx: Context, alpha: float) -> CauseResult:
         return signals.cosine_trend_basis(len(r.y), n_terms)
 
     # a trend that no input explains: conditional on the slow mode of the inputs
-    (_, z_slow, _), _ = _slow_sets(ctx)
-    shape, _, _ = _output_shape(ctx)
-    base = np.column_stack([ctx.stack(z_slow, ctx.est), ctx.stack(shape, ctx.est)])
-    test = ctx.f_test(_trend_blocks(ctx, n_terms), extra_base=base)
+    test = ctx.f_test(_trend_blocks(ctx, n_terms), extra_base=_drift_base(ctx))
     res = stats.f_result("F(residual ~ slow trend in time | slow mode)", test, alpha)
     pred_g0_val, pred_g0_est = ctx.fit_apply(None)
     r_est = np.concatenate([r.y for r in ctx.est]) - pred_g0_est

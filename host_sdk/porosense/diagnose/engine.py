@@ -644,7 +644,7 @@ def _diagnose(estimation, validation, alpha, nominal, refit, explained=None) -> 
     results = {c: results[c] for c in CAUSES}
     baselines = {"nominal": ctx.yhat_val, GENERIC: ctx.baseline_validation(GENERIC)}
     baselines[ADEQUATE] = ctx_nl.baseline_validation(GENERIC)
-    findings, improvements, extended = {}, {}, {}
+    findings, improvements, extended, compared = {}, {}, {}, {}
     for cause, res in results.items():
         cctx = ctx if cause in DYNAMICS else ctx_nl
         keep = res.detail.get("score_mask", np.ones(len(y_val), bool))
@@ -661,6 +661,14 @@ def _diagnose(estimation, validation, alpha, nominal, refit, explained=None) -> 
         imp = np.full(len(y_val), np.nan)
         imp[keep] = (y_val[keep] - base[keep]) ** 2 - (y_val[keep] - ext[keep]) ** 2
         improvements[cause] = imp
+        # what the ranking compares: each extension's held-out improvement over one common
+        # reference, the nominal model (a disturbance's predictor over its own baseline): the
+        # dynamics causes' gains are against the nominal, the others' against nominal + G0 (+ the
+        # adequate-order correction), so their own gains differ by what that baseline gains
+        com = np.full(len(y_val), np.nan)
+        ref = base if trk is not None else baselines["nominal"]
+        com[keep] = (y_val[keep] - ref[keep]) ** 2 - (y_val[keep] - ext[keep]) ** 2
+        compared[cause] = com
         # evidence that agrees with the name
         notes = []
         if not res.detail.get("evidence_ok", True):
@@ -737,7 +745,7 @@ def _diagnose(estimation, validation, alpha, nominal, refit, explained=None) -> 
     for group in groups:
         o, st = ranking.rank(
             [
-                ranking.Candidate(c, findings[c].gain, improvements[c], findings[c].n_params)
+                ranking.Candidate(c, findings[c].gain, compared[c], findings[c].n_params)
                 for c in group
                 if findings[c].found
             ]
@@ -766,7 +774,7 @@ def _diagnose(estimation, validation, alpha, nominal, refit, explained=None) -> 
     ranked = [findings[c] for c in order] + [findings[NONE]] + [findings[c] for c in rest]
     top = ranked[0]
     runner = ranked[1] if top.cause != NONE else next((f for f in ranked[1:] if f.significant), None)
-    why = _why(top, runner, steps[0] if steps else None, findings, improvements)
+    why = _why(top, runner, steps[0] if steps else None, findings, compared)
     larger = [c for c in DISTURBANCES if findings[c].found and findings[c].gain > top.gain and top.cause != NONE]
     if larger and top.cause not in DISTURBANCES and runner is not None and runner.cause not in DISTURBANCES:
         why += (
@@ -778,7 +786,7 @@ def _diagnose(estimation, validation, alpha, nominal, refit, explained=None) -> 
     if steps:
         for other in steps[0].overlapping:
             if other != steps[0].winner:
-                t = stats.mean_positive_test(improvements[steps[0].largest] - improvements[other])
+                t = stats.mean_positive_test(compared[steps[0].largest] - compared[other])
                 ties.append(
                     {
                         "causes": [steps[0].winner, other],

@@ -38,7 +38,11 @@ Procedure:
    :func:`.stats.paired_gain_test`). drift and periodic_disturbance are disturbances, not
    input-output behaviour: their extensions track the measured output, and their gain is the
    one-step predictor's against the one-step predictor of the corrected model with an AR model
-   of its residual.
+   of its residual. outliers are glitches of the measurement: the extension is a robust refit
+   and a one-step predictor that rejects glitches (its innovation clipped at the alpha/N band),
+   against the corrected model's predictor with the same AR model reading every sample, on the
+   samples the filter does not flag (a glitch carries into the reading predictor's next
+   predictions; a persistent change does not return, so rejecting it loses).
 5. A cause is **found** when its test is significant, its evidence agrees with its name and its
    held-out gain is confirmed. Found causes are ranked by :mod:`.ranking` (held-out gain; the
    simplest extension among overlapping gains); ``none`` follows them, then the rest by gain.
@@ -649,8 +653,9 @@ def _diagnose(estimation, validation, alpha, nominal, refit, explained=None) -> 
         cctx = ctx if cause in DYNAMICS else ctx_nl
         keep = res.detail.get("score_mask", np.ones(len(y_val), bool))
         trk = res.detail.get("predictor_val")
-        if trk is not None:  # a disturbance tracker: a one-step predictor against the corrected simulation
-            base_name, base, ext = ADEQUATE, baselines[ADEQUATE], trk
+        if trk is not None:  # a one-step predictor against the corrected simulation (a disturbance
+            # tracker) or against its own reading counterpart (the outlier filter)
+            base_name, base, ext = ADEQUATE, res.detail.get("predictor_base_val", baselines[ADEQUATE]), trk
         else:
             base_name = "nominal" if cause in DYNAMICS else ADEQUATE
             base, ext = baselines[base_name], res.yhat_val if res.yhat_val is not None else baselines[ADEQUATE]

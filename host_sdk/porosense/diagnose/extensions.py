@@ -1115,14 +1115,71 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
     )
 
 
+def _ar_one_step(r: np.ndarray, ar: np.ndarray, band: float | None = None):
+    """One-step predictions of the residual r (output units) by its AR polynomial ``ar``.
+
+    ``ar`` is [1, a1, ..., ap] (:func:`.signals.fit_ar`).
+    With ``band`` (output units; robust: an additive-outlier filter), a sample whose innovation
+    exceeds the band is taken for a glitch: the predictor's history holds the prediction plus the
+    innovation clipped at the band, so the glitch does not carry into the next predictions.
+    Returns (predictions, flagged samples)."""
+    phi = -np.asarray(ar[1:], float)
+    p = len(phi)
+    n = len(r)
+    hist = np.zeros(p)  # the record starts at the corrected model (residual 0)
+    pred = np.zeros(n)
+    flag = np.zeros(n, bool)
+    for k in range(n):
+        pk = float(phi @ hist) if p else 0.0
+        pred[k] = pk
+        x = r[k]
+        if band is not None and abs(x - pk) > band:
+            flag[k] = True
+            x = pk + np.sign(x - pk) * band  # the innovation clipped at the band (no lock-out)
+        if p:
+            hist[1:] = hist[:-1]
+            hist[0] = x
+    return pred, flag
+
+
 def outliers(ctx: Context, alpha: float) -> CauseResult:
+    """Glitches: samples that leave the residual and return, beyond what its own dynamics predict.
+
+    Test: :func:`.stats.isolated_spikes` of the estimation residual (each record whitened on its
+    own), family-wise at alpha. Extension: the correction refit robustly on estimation with the
+    flagged samples left out (Huber), and a one-step predictor on it with an AR model of its
+    estimation residual (flagged samples interpolated) that takes a sample whose innovation
+    exceeds the estimation's alpha/N band for a glitch and holds in its place the prediction
+    plus the innovation clipped at the band (a robust filter-cleaner with a Huber psi: a
+    persistent change is followed at the band per sample, the filter is not locked out). Baseline: the corrected model (least squares over every sample) with the same
+    AR predictor reading every sample. Both are scored on the validation samples the filter does
+    not flag (a glitch is predictable by neither). A glitch pulls a least-squares fit and leaves
+    a reading predictor wrong on the samples after it, so rejecting it gains; a real change of
+    level that the band flags (a transient the model misses) persists, so rejecting it loses.
+    With a white residual (AR order 0) the gain is the robust refit's alone.
+    """
     step = max(stats.resolution(r.y) for r in ctx.est)
     spikes = stats.isolated_spikes(ctx.e_est, alpha, step, ctx.seg_est)
-    mask, _, _ = stats.spike_mask(ctx.e_est, alpha, step, ctx.seg_est)
-    pred, _ = ctx.fit_apply(None, robust=True, mask_est=mask)
-    # validation samples flagged in the residual of nominal + G0 are glitches of the measurement,
-    # not behaviour to predict: they are left out of the score of both sides of the gain
-    reject, _, _ = stats.spike_mask(ctx.y_val - ctx.baseline_validation(), alpha, step, [len(r.y) for r in ctx.val])
+    mask, thr, _ = stats.spike_mask(ctx.e_est, alpha, step, ctx.seg_est)
+    pred, pred_est = ctx.fit_apply(None, robust=True, mask_est=mask)
+    # the predictor pair: each on its own simulation (the robust refit, the corrected model), one
+    # AR model of the robust refit's estimation residual with the flagged samples interpolated
+    base_val, _ = ctx.fit_apply(None)
+    r_est = np.concatenate([r.y for r in ctx.est]) - pred_est
+    clean = []
+    for part, m in zip(np.split(r_est, np.cumsum(ctx.seg_est)[:-1]), np.split(mask, np.cumsum(ctx.seg_est)[:-1])):
+        idx = np.arange(len(part))
+        clean.append(np.interp(idx, idx[~m], part[~m]) - np.mean(part[~m]) if (~m).sum() >= 2 else part * 0.0)
+    ar = signals.fit_ar(np.concatenate(clean), 10)
+    seg_val = [len(r.y) for r in ctx.val]
+    reading, robust, flagged = [], [], []
+    cuts = np.cumsum(seg_val)[:-1]
+    for rb, rr in zip(np.split(ctx.y_val - base_val, cuts), np.split(ctx.y_val - pred, cuts)):
+        reading.append(_ar_one_step(rb, ar)[0])
+        pr, fl = _ar_one_step(rr, ar, thr if np.isfinite(thr) else None)
+        robust.append(pr)
+        flagged.append(fl)
+    flagged = np.concatenate(flagged)
     idx = np.flatnonzero(mask)
     Z = np.zeros((len(ctx.e_est), len(idx)))
     Z[idx, np.arange(len(idx))] = 1.0
@@ -1133,10 +1190,15 @@ def outliers(ctx: Context, alpha: float) -> CauseResult:
         spikes.significant,
         f"{int(spikes.value)} isolated spikes "
         f"({100 * spikes.detail['fraction']:.2f} % of samples; excess kurtosis of the residual "
-        f"differences {kurt:.3g}; {int(reject.sum())} validation samples rejected{res_note})",
-        "outlier rejection (alpha/N band around the local median) and a robust (Huber) refit",
+        f"differences {kurt:.3g}; {int(flagged.sum())} validation samples rejected{res_note})",
+        "simulation: outlier rejection (alpha/N band) and a robust (Huber) refit; predictor: a one-step "
+        "predictor that rejects glitches, against the same predictor reading every sample",
         pred,
-        {"score_mask": ~reject},
+        {
+            "score_mask": ~flagged,
+            "predictor_val": pred + np.concatenate(robust),
+            "predictor_base_val": base_val + np.concatenate(reading),
+        },
         Z_est=Z,
         n_search=1,
     )

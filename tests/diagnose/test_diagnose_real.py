@@ -57,9 +57,9 @@ def test_wh_circuit_low_order_names_unmodelled_dynamics_then_static_nonlinearity
     correction of 6 poles; the data alone support 4), then the level beyond the corrected model:
     hysteresis +3.13 (60 parameters, a static PWL and play operators) and static_nonlinearity
     +2.70 (37), hysteresis' improvement larger at one-sided p = 0.043 (one comparison, 5 %). With
-    outliers found (3 spikes, kurtosis -0.1, a robust refit's gain), the level of that step was
-    5 % / 2 and static_nonlinearity came second; outliers is not found now (its glitch-rejecting
-    predictor gains +0.22, t = 0.93)."""
+    outliers found (3 samples beyond the band that do not return, kurtosis -0.1, a robust refit's
+    gain), the level of that step was 5 % / 2 and static_nonlinearity came second; outliers is
+    not found now (no glitch; its glitch-rejecting predictor gains +0.22, t = 0.93)."""
     d = _wh(shared_data, 2)
     assert d.top == "unmodelled_dynamics"
     ud = d.finding("unmodelled_dynamics")

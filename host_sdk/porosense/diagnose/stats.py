@@ -487,7 +487,41 @@ def spike_mask(e: np.ndarray, alpha: float = DEFAULT_ALPHA, step: float = 0.0, s
     thr = _zcrit(alpha, n) * sigma + 0.5 * step * float(np.sum(np.abs(ar)))
     mask = np.zeros(n, bool)
     mask[tested] = np.abs(d) > thr
+    start = 0
+    for x in parts:
+        _keep_glitches(mask[start : start + len(x)], x, p)
+        start += len(x)
     return mask, thr, sigma
+
+
+def _keep_glitches(mask: np.ndarray, e: np.ndarray, p: int) -> None:
+    """Keep (in place) the runs of flagged samples after which the residual returns: a glitch.
+
+    A run of consecutive flagged samples (a glitch, a burst, and the innovations its AR
+    memory of p samples leaves) is compared with the residual e over the max(p, 1) + 1 samples
+    before and after it: the residual returns when its median after the run is closer to the
+    median before it than the run's largest excursion is, i.e. the level after differs from the
+    level before by less than half that excursion (the midpoint between "returned" and "stayed").
+    A transient the model misses or a change of level does not return and is not a glitch. A run
+    at a record's edge, with no samples on one side, is kept.
+    """
+    n = len(mask)
+    h = max(p, 1) + 1
+    k = 0
+    while k < n:
+        if not mask[k]:
+            k += 1
+            continue
+        end = k
+        while end + 1 < n and mask[end + 1]:
+            end += 1
+        before, after = e[max(0, k - h) : k], e[end + 1 : end + 1 + h]
+        if len(before) and len(after):
+            m0, m1 = float(np.median(before)), float(np.median(after))
+            excursion = float(np.max(np.abs(e[k : end + 1] - m0)))
+            if abs(m1 - m0) >= 0.5 * excursion:
+                mask[k : end + 1] = False
+        k = end + 1
 
 
 def isolated_spikes(

@@ -67,7 +67,9 @@ from porosense.errors import InputError
 from porosense.files import write_text
 
 #: causes that are disturbances, not input-output behaviour: tracked from the measured output
-DISTURBANCES = ("drift", "periodic_disturbance")
+#: (drift, periodic_disturbance) or filtered out of it (outliers); their gain is a one-step
+#: predictor's, ranked after the input-output causes
+DISTURBANCES = ("drift", "periodic_disturbance", "outliers")
 
 
 @dataclass
@@ -236,7 +238,7 @@ class Finding:
     effect_to_noise : float
         SD of the cause's fitted terms over the SD of what remains of the residual.
     predictor_gain : float or None
-        For a disturbance (drift, periodic_disturbance): the one-step predictor's gain, points.
+        For a disturbance (drift, periodic_disturbance, outliers): the one-step predictor's gain, points.
     on_device : str
         Whether the firmware's estimator can express the extension.
     """
@@ -543,8 +545,8 @@ def _why(top: Finding, runner: Finding | None, step, findings: dict, improvement
     if runner.cause in DISTURBANCES and top.cause not in DISTURBANCES:
         return (
             f"input-output causes are ranked before disturbances: {runner.cause}'s gain ({runner.gain:+.2f} points, "
-            f"against {top.gain:+.2f}) is a one-step predictor's, which reads the measured output and tracks any "
-            "slow misfit the corrected model leaves, so it is not compared with a simulation's gain"
+            f"against {top.gain:+.2f}) is a one-step predictor's, which reads the measured output (and a tracker "
+            "follows any slow misfit the corrected model leaves), so it is not compared with a simulation's gain"
         )
     if step is not None and runner.cause in step.overlapping and top.n_params < runner.n_params:
         largest = findings[step.largest]
@@ -784,8 +786,8 @@ def _diagnose(estimation, validation, alpha, nominal, refit, explained=None) -> 
     if larger and top.cause not in DISTURBANCES and runner is not None and runner.cause not in DISTURBANCES:
         why += (
             f"; {', '.join(larger)} gains more ({', '.join(f'{findings[c].gain:+.2f}' for c in larger)} points) "
-            "as a one-step predictor, which reads the measured output and tracks any slow misfit, so it is "
-            "ranked after the input-output causes"
+            "as a one-step predictor, which reads the measured output, so it is ranked after the input-output "
+            "causes"
         )
     ties = []
     if steps:

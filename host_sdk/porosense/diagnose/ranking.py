@@ -19,10 +19,10 @@ Causes that are not found (no significant test, evidence that disagrees with the
 confirmed gain) come after ``none``, by gain, so a cause whose extension does not gain is never
 ranked above one that does.
 
-Disturbances (drift, periodic_disturbance) are ranked after the input-output causes, among
-themselves by the same rule: their gain is a one-step predictor's (the extension reads the
-measured output and tracks whatever slow misfit the corrected model leaves, whatever its cause),
-not a simulation's. On the tensile records of tests/sim/test_diagnose_material.py (seed 1) the
+Disturbances (drift, periodic_disturbance, outliers) are ranked after the input-output causes,
+among themselves by the same rule: their gain is a one-step predictor's (the extension reads the
+measured output: drift and periodic_disturbance track whatever slow misfit the corrected model
+leaves, whatever its cause; outliers filters glitches out of it), not a simulation's. On the tensile records of tests/sim/test_diagnose_material.py (seed 1) the
 drift predictor gains +23.3 points on records read through a clip and +0.7 on the same records
 read in full: its gain there is the clip's misfit tracked, so it is no evidence against an
 input-output cause and the two scales are not compared. A found disturbance with a larger
@@ -123,7 +123,7 @@ RULE = (
     "confirmed at one-sided 5 %) ordered by held-out gain; a cause whose improvement is not below that of "
     "the largest gain nor of any other remaining cause at one-sided 5 % / (m - 1) (m causes remaining, "
     "Bonferroni; batch means of the per-sample improvement) overlaps it, and among overlapping causes the "
-    "extension with the fewest parameters wins; disturbances (drift, periodic_disturbance), whose gain is a "
-    "one-step predictor's tracking any slow misfit from the measured output, are ranked after the "
+    "extension with the fewest parameters wins; disturbances (drift, periodic_disturbance, outliers), whose gain "
+    "is a one-step predictor's reading the measured output, are ranked after the "
     "input-output causes (a simulation's gain), among themselves by the same rule"
 )

@@ -349,7 +349,19 @@ def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
         side: ctx.f_test(ctx.stack(nl, ctx.est), extra_base=ctx.stack(lin, ctx.est))
         for side, (lin, nl) in parts.items()
     }
-    side = min(tests, key=lambda k: tests[k].log10_p)
+    # the side: among those significant at the test's Bonferroni level, the one whose extension
+    # fitted on the first 70 % of every estimation record predicts the last 30 % best (an in-sample
+    # F test favours the 37-term map between the blocks, which can fit the estimation records'
+    # levels and not the validation's); none significant, the strongest
+    level = np.log10(alpha / len(tests))
+    sig = [k for k in tests if tests[k].log10_p < level]
+    if len(sig) > 1:
+        holdout = np.concatenate([np.arange(len(r.y)) >= 0.7 * len(r.y) for r in ctx.est])
+        y_est = np.concatenate([r.y for r in ctx.est])
+        held = {k: float(np.sum((y_est - ctx.fit_apply(sets[k], mask_est=holdout)[1])[holdout] ** 2)) for k in sig}
+        side = min(held, key=held.get)
+    else:
+        side = sig[0] if sig else min(tests, key=lambda k: tests[k].log10_p)
     ctx._cache["static_side"] = side
     test, z = tests[side], sets[side]
     res = stats.f_result(

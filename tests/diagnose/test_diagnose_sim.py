@@ -25,36 +25,25 @@ validation gain; on clean data top is none in >= 90 %. Checked at one size every
 not): 4 trials per cause, seeds 1000-1003.
 
 Measured on the simulator of issue 31 (physics beyond WH; every recording draws its own sensor
-sensitivity, contact-law scale, softening state and R0 drift, as real repeats differ), with the
-held-out ranking of issue 35: saturation 4/4 (held-out gains +5.6 to +31.0 points; 2/4, named
-static_nonlinearity twice, before a pile-up where the input is further from its rest level than
-elsewhere counted as clipping); every other cause is below the bound, each a strict xfail naming
-what is named instead: outliers 0/4, cross_coupling 2/4,
-time_delay 2/4 (1/4 before the delay's extension held the nominal's own prediction delayed),
-periodic_disturbance 1/4, load_dependence 1/4, drift 0/4, slow_relaxation 0/4,
-static_nonlinearity 0/4, hysteresis 0/4 (10 of 40 with saturation; 8 before); clean contractor records named none 1/4, the
-clean 3-DoF segment 0/2 (outliers twice).
+sensitivity, contact-law scale, kinetics, softening state and R0 drift, as real repeats differ),
+against the --sim nominal of porosense.diagnose.calibrate: the simulator's mean recording, each
+record with its own recording state fitted within the 99 % interval of the simulator's stated
+spread (porosense.sim.params.Variation). Top-1 at seeds 1000-1003
+(``python tools/sim_diagnosis_variation.py as_it_is``): saturation, periodic_disturbance and
+outliers 4/4; drift, time_delay, static_nonlinearity 3/4; load_dependence 2/4; hysteresis,
+cross_coupling 1/4; slow_relaxation 0/4 (25 of 40; 10 before the recording states); clean
+contractor records named none 4/4 (1/4 before), the clean 3-DoF segment 2/2 (0/2 before). Every
+cause below the bound is a strict xfail naming what is named instead.
 
-Where the misses come from (``python tools/sim_diagnosis_variation.py``, about 30 s CPU per
-variant: the same trials with the recordings' variation and R0 drift, ``repeat_variation`` and
-``baseline_drift`` of porosense.sim.params.PHYSICS_EFFECTS, switched off):
-
-- off in the records and in the calibrated simulator: clean records named none 4/4, the causes
-  14/40 (time_delay 4/4, saturation 3/4, periodic_disturbance 3/4, cross_coupling 2/4; drift
-  named outliers 4/4, outliers none 3/4, static_nonlinearity none or outliers, hysteresis,
-  slow_relaxation and load_dependence mostly unmodelled_dynamics): what clean records are named for is the recordings'
-  own variation (an R0 drift of 0.3 %/min rms is a drift the calibrated simulation lacks), and
-  the causes miss for reasons of their own as well;
-- off in the records only (the calibrated simulator keeps recording seed 0's realisation, which
-  ``porosense.diagnose.calibrate`` simulates: its drift rate, softening state and sensitivity):
-  causes 10/40, clean 0/4;
-- off in the calibrated simulator only (the mean recording as the nominal): causes 5/40, clean
-  1/4; the mean recording is no better a nominal.
-
-The calibration of the ``--sim`` path (porosity, scale, offset) cannot follow a
-recording-to-recording sensor change; a calibration of the simulator's own physics
-(porosense.sim.calibrate) in the ``--sim`` path, and a null that holds the recordings'
-variation, are what these trials need next.
+Where the misses come from (the same trials with the recordings' variation and R0 drift,
+``repeat_variation`` and ``baseline_drift`` of porosense.sim.params.PHYSICS_EFFECTS, switched off
+in the records and in the nominal: ``python tools/sim_diagnosis_variation.py off_in_both``): 33 of
+40, clean 4/4 (drift, time_delay, periodic_disturbance, outliers, hysteresis 4/4; saturation,
+load_dependence, static_nonlinearity 3/4; slow_relaxation, cross_coupling 2/4). The 8 trials
+between the two are causes a recording's own state within its prior partly explains: a
+rate-independent memory or a slow relaxation looks like slower contact kinetics (the kinetics state
+of the hysteresis trials sits at its bound, x1.47) or a softening state, a drift of 1.76 %/min
+(seed 1002) loses 0.77 %/min to the drift state; what is left gains less than the test can confirm.
 """
 
 from __future__ import annotations
@@ -68,16 +57,13 @@ TRIALS = 4
 SEED = 1000
 #: measured top-1 of the causes below the bound at seeds 1000-1003 (see the module docstring)
 BELOW_BOUND = {
-    "drift": "0/4: named static_nonlinearity twice, slow_relaxation, unmodelled_dynamics",
-    "time_delay": "2/4: named unmodelled_dynamics, slow_relaxation",
-    "periodic_disturbance": "1/4: named unmodelled_dynamics twice, hysteresis",
-    "load_dependence": "1/4: named cross_coupling twice, slow_relaxation",
-    "slow_relaxation": "0/4: named drift twice, unmodelled_dynamics, none",
-    "outliers": "0/4: named unmodelled_dynamics twice, drift, none",
-    "static_nonlinearity": "0/4: named drift, unmodelled_dynamics, slow_relaxation, none",
-    "hysteresis": "0/4: named drift, unmodelled_dynamics twice, slow_relaxation",
-    "cross_coupling": "2/4: named none, load_dependence",
-    NONE: "1/4: clean records named drift, unmodelled_dynamics twice",
+    "drift": "3/4: seed 1002 (1.76 %/min) named none",
+    "time_delay": "3/4: seed 1000 named unmodelled_dynamics",
+    "static_nonlinearity": "3/4: seed 1002 named none",
+    "load_dependence": "2/4: named cross_coupling twice (the load column leaks in additively)",
+    "hysteresis": "1/4: named drift twice, none",
+    "cross_coupling": "1/4: named none three times (gains not confirmed)",
+    "slow_relaxation": "0/4: named unmodelled_dynamics, drift, none twice",
 }
 
 
@@ -91,7 +77,6 @@ def _check(cause, n, seed, run=trials.run_sim_trial):
         assert all(g > 0 for g in gains), f"{cause}: validation gains {gains}"
 
 
-@pytest.mark.xfail(strict=True, reason="0/2: clean 3-DoF records named outliers twice (simulator of issue 31)")
 def test_sim_3dof_clean_is_none():
     _check(NONE, 2, 3000, trials.run_sim_3dof_trial)
 

@@ -263,29 +263,39 @@ def _post(y: np.ndarray, cause: str, pr: dict) -> np.ndarray:
 SIM_3DOF_EXPERIMENTS = (("sequential_60", "two_level"), ("sequential_40",))
 
 
+def _sim_record(actuator: str, exp: str, porosity: float, seed: int, effects, physics, noise: bool = True):
+    """One simulated recording of ``exp`` at SIM_RATE_HZ (porosense.sim.run_experiment)."""
+    from porosense import sim
+
+    return sim.run_experiment(
+        actuator, exp, porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed, effects=effects, physics=physics, noise=noise
+    )
+
+
+def _diagnose_sim(actuator: str, cause: str, est: list, val: list, nominal_physics, t0: float) -> Trial:
+    """Calibrate the --sim nominal on ``est`` ((u, y, conditions) per record), diagnose ``val``."""
+    from porosense.diagnose.calibrate import calibrate
+
+    ts = 1.0 / SIM_RATE_HZ
+    cal = calibrate(actuator, "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts, nominal_physics)
+    recs = [[engine.Record(u, y, cal.predict_record(u, y, ts)[0], ts, c) for u, y, c in part] for part in (est, val)]
+    d = engine.diagnose(recs[0], recs[1])
+    gain = d.finding(cause).gain if cause != NONE else 0.0
+    return Trial(cause, d.top, float(gain), time.perf_counter() - t0, d)
+
+
 def run_sim_3dof_trial(cause: str, seed: int, physics=None, nominal_physics=None) -> Trial:
     """Hide ``cause`` (cross_coupling or none) in the simulated 3-DoF segment, calibrate, diagnose.
 
     ``physics``: the simulator's stage parameters for the records, ``nominal_physics``: for the
     simulator calibrated on them (porosense.sim.Physics; None: the defaults)."""
-    from porosense import sim
-    from porosense.diagnose.calibrate import calibrate
-
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
     effects = {"cross_coupling": {"gain": rng.uniform(0.1, 0.3)}} if cause == "cross_coupling" else None
     porosity = rng.uniform(70.0, 82.0)
     parts = []
     for k, exp in enumerate(SIM_3DOF_EXPERIMENTS[0] + SIM_3DOF_EXPERIMENTS[1]):
-        rec = sim.run_experiment(
-            "3dof",
-            exp,
-            porosity=porosity,
-            rate_hz=SIM_RATE_HZ,
-            seed=seed * 10 + k,
-            effects=effects,
-            physics=physics,
-        )
+        rec = _sim_record("3dof", exp, porosity, seed * 10 + k, effects, physics)
         parts.append(
             (
                 rec["p_cmd_0"][:, None],
@@ -294,13 +304,7 @@ def run_sim_3dof_trial(cause: str, seed: int, physics=None, nominal_physics=None
             )
         )
     n_est = len(SIM_3DOF_EXPERIMENTS[0])
-    est, val = parts[:n_est], parts[n_est:]
-    ts = 1.0 / SIM_RATE_HZ
-    cal = calibrate("3dof", "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts, nominal_physics)
-    recs = [[engine.Record(u, y, cal.predict_record(u, y, ts)[0], ts, c) for u, y, c in part] for part in (est, val)]
-    d = engine.diagnose(recs[0], recs[1])
-    gain = d.finding(cause).gain if cause != NONE else 0.0
-    return Trial(cause, d.top, float(gain), time.perf_counter() - t0, d)
+    return _diagnose_sim("3dof", cause, parts[:n_est], parts[n_est:], nominal_physics, t0)
 
 
 def run_sim_trial(cause: str, seed: int, physics=None, nominal_physics=None) -> Trial:
@@ -309,9 +313,6 @@ def run_sim_trial(cause: str, seed: int, physics=None, nominal_physics=None) -> 
 
     ``physics``: the simulator's stage parameters for the records, ``nominal_physics``: for the
     simulator calibrated on them (porosense.sim.Physics; None: the defaults)."""
-    from porosense import sim
-    from porosense.diagnose.calibrate import calibrate
-
     if cause == "cross_coupling":
         return run_sim_3dof_trial(cause, seed, physics, nominal_physics)
     t0 = time.perf_counter()
@@ -325,9 +326,7 @@ def run_sim_trial(cause: str, seed: int, physics=None, nominal_physics=None) -> 
     porosity = rng.uniform(72.0, 86.0)
     if cause == "saturation":  # clip at the voltage a drawn share of the clean record lies below
         # on the validation experiment (the shallowest stroke): the clip must show in every record
-        clean = sim.run_experiment(
-            "contractor", "step_40", porosity=porosity, rate_hz=SIM_RATE_HZ, seed=seed * 10, physics=physics
-        )
+        clean = _sim_record("contractor", "step_40", porosity, seed * 10, None, physics)
         volts = 5.0 * clean["R_0"] / (clean["R_0"] + 1000.0)
         effects = {"saturation": {"low_V": float(np.quantile(volts, effects["saturation"]["quantile"]))}}
     parts = []
@@ -335,15 +334,7 @@ def run_sim_trial(cause: str, seed: int, physics=None, nominal_physics=None) -> 
     # the intermediate steps validate (a load that arrives during every record leaves the first
     # pulse unloaded, and that pulse must have been seen at the validation's level or above)
     for k, exp in enumerate(("staircase", "step_60", "step_40")):
-        rec = sim.run_experiment(
-            "contractor",
-            exp,
-            porosity=porosity,
-            rate_hz=SIM_RATE_HZ,
-            seed=seed * 10 + k,
-            effects=effects,
-            physics=physics,
-        )
+        rec = _sim_record("contractor", exp, porosity, seed * 10 + k, effects, physics)
         y = rec["dR_0"]
         if cause in ("static_nonlinearity", "hysteresis"):
             # the bend and the memory are the contact law's, before the electronics: applied to
@@ -352,22 +343,7 @@ def run_sim_trial(cause: str, seed: int, physics=None, nominal_physics=None) -> 
             # sample's noise would move a rate-independent memory and relax it during holds (a
             # creep of about memory / mean |noise step| samples, 5-15 s), which no sensor's
             # hysteresis does
-            clean = sim.run_experiment(
-                "contractor",
-                exp,
-                porosity=porosity,
-                rate_hz=SIM_RATE_HZ,
-                seed=seed * 10 + k,
-                effects=effects,
-                physics=physics,
-                noise=False,
-            )["dR_0"]
+            clean = _sim_record("contractor", exp, porosity, seed * 10 + k, effects, physics, noise=False)["dR_0"]
             y = _post(clean, cause, post) + (y - clean)
         parts.append((rec["p_cmd_0"][:, None], y, {"load_g": rec["load_g"]}))
-    est, val = parts[:2], parts[2:]
-    ts = 1.0 / SIM_RATE_HZ
-    cal = calibrate("contractor", "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts, nominal_physics)
-    recs = [[engine.Record(u, y, cal.predict_record(u, y, ts)[0], ts, c) for u, y, c in part] for part in (est, val)]
-    d = engine.diagnose(recs[0], recs[1])
-    gain = d.finding(cause).gain if cause != NONE else 0.0
-    return Trial(cause, d.top, float(gain), time.perf_counter() - t0, d)
+    return _diagnose_sim("contractor", cause, parts[:2], parts[2:], nominal_physics, t0)

@@ -227,3 +227,50 @@ def test_an_error_raised_by_ctrl_c_ends_as_the_interrupt(monkeypatch, capsys, si
         assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the caller's handler is back
     finally:
         signal.signal(signal.SIGINT, outer)
+
+
+SWALLOWED = """
+import sys, time, weakref
+from porosense import cli
+
+class Held:
+    pass
+
+def swallowing_callback(ref):  # what a Ctrl-C inside the import system's weakref callback does
+    raise KeyboardInterrupt
+
+def command(args):
+    held = Held()
+    ref = weakref.ref(held, swallowing_callback)
+    del held  # the callback raises; the interpreter reports it as unraisable and runs on
+    for _ in range({ticks}):
+        time.sleep(0.01)
+    print("ran on", flush=True)
+    return 0
+
+class Args:
+    func = staticmethod(command)
+    command = "swallow"
+
+cli.build_parser = lambda: type("P", (), {{"parse_args": lambda self, argv: Args()}})()
+sys.exit(cli.main([]))
+"""
+
+
+def test_an_interrupt_swallowed_by_a_callback_is_delivered_again(tmp_path):
+    """A Ctrl-C that lands in a weakref callback (seen once at the emulator's start-up, in
+    importlib's module-lock callback) is swallowed by the interpreter: the command must still stop
+    with one line and 130, not run on."""
+    ticks = int(HANG_S / 0.01)
+    proc = subprocess.run(
+        [sys.executable, "-c", SWALLOWED.format(ticks=ticks)],
+        capture_output=True,
+        text=True,
+        timeout=HANG_S + 30,
+        env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)),
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # a terminal's disposition
+    )
+    assert "ran on" not in proc.stdout
+    assert proc.returncode == 130, (proc.returncode, proc.stderr[-2000:])
+    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    assert lines == ["porosense swallow: interrupted"], lines

@@ -101,6 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGINT, previous)
+            sys.unraisablehook = sys.__unraisablehook__
 
 
 # Set once Ctrl-C arrived. A C extension that is being imported when the KeyboardInterrupt is
@@ -114,6 +115,23 @@ def _raise_interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
+#: delay of a swallowed Ctrl-C's second delivery, s (long enough for the hook to have returned)
+REDELIVER_S = 0.05
+
+
+def _redeliver_swallowed_interrupt(hook_args):
+    """sys.unraisablehook while a command runs: a Ctrl-C that landed in a callback which cannot
+    raise (a weakref callback of the import system, a __del__) is swallowed by the interpreter and
+    the command would run on; the signal is sent again, from another thread a moment later, so that
+    it lands after this hook returned, where it can stop the command."""
+    if isinstance(hook_args.exc_value, KeyboardInterrupt):
+        again = threading.Timer(REDELIVER_S, os.kill, (os.getpid(), signal.SIGINT))
+        again.daemon = True
+        again.start()
+        return
+    sys.__unraisablehook__(hook_args)
+
+
 def _latch_sigint():
     """Route Ctrl-C through :func:`_raise_interrupt`; returns the handler to restore, or None when
     SIGINT is not Python's default here (ignored by the caller, or not the main thread)."""
@@ -124,6 +142,7 @@ def _latch_sigint():
     if previous is not signal.default_int_handler:
         return None
     signal.signal(signal.SIGINT, _raise_interrupt)
+    sys.unraisablehook = _redeliver_swallowed_interrupt
     return previous
 
 

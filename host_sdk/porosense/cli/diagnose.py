@@ -91,7 +91,9 @@ def register(sub) -> argparse.ArgumentParser:
         nargs="*",
         default=[],
         metavar="COL",
-        help="extra measured columns the model does not use (a load, other channels)",
+        help="extra measured columns the model does not use (a load, other channels): a column in an input's "
+        "unit is taken for another channel's command (tested for cross_coupling), one in another unit for a "
+        "measured condition (tested for load_dependence); without a stated unit, for both",
     )
     p.add_argument("--estimation", metavar="A:B", help="sample range of every file used for estimation")
     p.add_argument("--validation", metavar="A:B", help="sample range of every file used for validation")
@@ -125,6 +127,23 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="replace an existing --save-extended file")
     p.set_defaults(func=run)
     return p
+
+
+def _column_kinds(conditions, inputs, tables) -> dict:
+    """What each --condition column is, from the units the files state (or porosense's column
+    conventions): in an input's unit, another channel's command or signal ("input", which
+    cross_coupling tests); in another unit, a measured condition such as a load ("condition",
+    which load_dependence tests); no unit stated, left to both."""
+    from porosense.data.units import column_unit, normal_unit
+
+    stated = [t.units for t in tables]
+    input_units = {normal_unit(u) for u in (column_unit(c, *stated) for c in inputs) if u}
+    kinds = {}
+    for c in conditions:
+        unit = column_unit(c, *stated)
+        if unit and input_units:
+            kinds[c] = "input" if normal_unit(unit) in input_units else "condition"
+    return kinds
 
 
 def _load(tables, inputs, output, conditions):
@@ -307,6 +326,7 @@ def run(args) -> int:
         predict, nominal, what = None, None, f"material law of {args.params}"
     else:
         predict, nominal, what = _predictor(args, inputs, est)
+    kinds = _column_kinds(conditions, inputs, tables + vtables)
     records = [
         [
             Record(
@@ -315,6 +335,7 @@ def run(args) -> int:
                 cond[MATERIAL_SIM] if material else predict(u, y),
                 args.ts,
                 {k: v for k, v in cond.items() if k not in extra},
+                kinds,
             )
             for u, y, cond in part
         ]

@@ -72,6 +72,10 @@ from porosense.files import write_text
 DISTURBANCES = ("drift", "periodic_disturbance", "outliers")
 
 
+#: what a condition column can be (Record.column_kinds)
+COLUMN_KINDS = ("input", "condition")
+
+
 @dataclass
 class Record:
     """One record to diagnose: what was measured and what the thing diagnosed predicted.
@@ -89,6 +93,11 @@ class Record:
     conditions : dict of str to ndarray
         Extra columns of N samples (e.g. ``load_g`` in g, ``p_0`` in kPa) that the load and
         condition causes test.
+    column_kinds : dict of str to str
+        What a condition column is, where known: ``"input"`` (another channel's command, which
+        can leak into the output additively: cross_coupling tests it) or ``"condition"`` (a
+        measured condition such as a load, which can change the model's gain: load_dependence
+        tests it). A column not named here is tested by both.
 
     Raises
     ------
@@ -101,12 +110,16 @@ class Record:
     yhat: np.ndarray
     ts: float
     conditions: dict = field(default_factory=dict)
+    column_kinds: dict = field(default_factory=dict)
 
     def __post_init__(self):
         self.u = np.asarray(self.u, float).reshape(len(self.u), -1)
         self.y = np.asarray(self.y, float)
         self.yhat = np.asarray(self.yhat, float)
         self.conditions = {k: np.asarray(v, float) for k, v in self.conditions.items()}
+        bad = {k: v for k, v in self.column_kinds.items() if v not in COLUMN_KINDS or k not in self.conditions}
+        if bad:
+            raise InputError(f"column kinds {bad}: each must name a condition column and be one of {COLUMN_KINDS}")
         n = len(self.y)
         if len(self.u) != n or len(self.yhat) != n or any(len(v) != n for v in self.conditions.values()):
             raise InputError("inputs, output, prediction and condition columns must have the same length")

@@ -193,7 +193,9 @@ class Context:
 
         def parts(records, pred):
             cuts = np.cumsum([len(r.y) for r in records])[:-1]
-            return [type(r)(r.u, r.y, p, r.ts, r.conditions) for r, p in zip(records, np.split(pred, cuts))]
+            return [
+                type(r)(r.u, r.y, p, r.ts, r.conditions, r.column_kinds) for r, p in zip(records, np.split(pred, cuts))
+            ]
 
         return parts(self.est, est), parts(self.val, val)
 
@@ -605,7 +607,9 @@ def _slow_rivals(ctx: Context, alpha: float) -> tuple:
     cols = _column_tests(ctx)
     if cols:  # a condition column that changes the output (the load test, over the columns)
         tests["load_dependence"] = (min((c["both"] for c in cols.values()), key=lambda t: t.log10_p), len(cols))
-    return tuple(r for r in SLOW_RIVALS if r in tests and stats.f_result(r, tests[r][0], alpha, tests[r][1]).significant)
+    return tuple(
+        r for r in SLOW_RIVALS if r in tests and stats.f_result(r, tests[r][0], alpha, tests[r][1]).significant
+    )
 
 
 def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
@@ -955,8 +959,16 @@ def _no_columns(alpha: float, name: str) -> CauseResult:
     return CauseResult(res, False, "no varying condition column was given", "none", None)
 
 
+def _of_kind(ctx: Context, cols: dict, other: str) -> dict:
+    """The column tests of ``cols`` whose column is not stated to be of kind ``other``
+    (porosense.diagnose.Record.column_kinds): a load is no leak of another channel's command,
+    and a command no condition that changes the gain."""
+    kinds = ctx.est[0].column_kinds
+    return {k: v for k, v in cols.items() if kinds.get(k) != other}
+
+
 def load_dependence(ctx: Context, alpha: float) -> CauseResult:
-    cols = _column_tests(ctx)
+    cols = _of_kind(ctx, _column_tests(ctx), "input")
     if not cols:
         return _no_columns(alpha, "F(residual ~ column and column x output)")
     name = min(cols, key=lambda k: cols[k]["both"].log10_p)
@@ -979,7 +991,7 @@ def load_dependence(ctx: Context, alpha: float) -> CauseResult:
 
 
 def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
-    cols = _column_tests(ctx)
+    cols = _of_kind(ctx, _column_tests(ctx), "condition")
     if not cols:
         return _no_columns(alpha, "F(residual ~ filtered unused input)")
     name = min(cols, key=lambda k: cols[k]["dyn"].log10_p)

@@ -273,12 +273,18 @@ def _sim_record(actuator: str, exp: str, porosity: float, seed: int, effects, ph
 
 
 def _diagnose_sim(actuator: str, cause: str, est: list, val: list, nominal_physics, t0: float) -> Trial:
-    """Calibrate the --sim nominal on ``est`` ((u, y, conditions) per record), diagnose ``val``."""
+    """Calibrate the --sim nominal on ``est`` ((u, y, conditions) per record), diagnose ``val``.
+
+    The condition columns are stated as a user's recording states them (``diagnose`` reads it
+    from their units): the other channels' commands are inputs, the load a condition."""
     from porosense.diagnose.calibrate import calibrate
 
     ts = 1.0 / SIM_RATE_HZ
     cal = calibrate(actuator, "dR_0", [u for u, _, _ in est], [y for _, y, _ in est], ts, nominal_physics)
-    recs = [[engine.Record(u, y, cal.predict_record(u, y, ts)[0], ts, c) for u, y, c in part] for part in (est, val)]
+    kinds = {k: ("input" if k.startswith("p_cmd_") else "condition") for k in est[0][2]}
+    recs = [
+        [engine.Record(u, y, cal.predict_record(u, y, ts)[0], ts, c, kinds) for u, y, c in part] for part in (est, val)
+    ]
     d = engine.diagnose(recs[0], recs[1])
     gain = d.finding(cause).gain if cause != NONE else 0.0
     return Trial(cause, d.top, float(gain), time.perf_counter() - t0, d)

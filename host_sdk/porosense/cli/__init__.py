@@ -101,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGINT, previous)
-            sys.unraisablehook = sys.__unraisablehook__
+            sys.unraisablehook = _hooks_before.pop()
 
 
 # Set once Ctrl-C arrived. A C extension that is being imported when the KeyboardInterrupt is
@@ -115,6 +115,8 @@ def _raise_interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
+#: the unraisable hooks in place before each running command's (restored when it ends)
+_hooks_before: list = []
 #: delay of a swallowed Ctrl-C's second delivery, s (long enough for the hook to have returned)
 REDELIVER_S = 0.05
 
@@ -129,7 +131,7 @@ def _redeliver_swallowed_interrupt(hook_args):
         again.daemon = True
         again.start()
         return
-    sys.__unraisablehook__(hook_args)
+    (_hooks_before[-1] if _hooks_before else sys.__unraisablehook__)(hook_args)
 
 
 def _latch_sigint():
@@ -142,6 +144,7 @@ def _latch_sigint():
     if previous is not signal.default_int_handler:
         return None
     signal.signal(signal.SIGINT, _raise_interrupt)
+    _hooks_before.append(sys.unraisablehook)
     sys.unraisablehook = _redeliver_swallowed_interrupt
     return previous
 

@@ -344,6 +344,30 @@ def _static_sets(ctx: Context) -> dict:
     return sets
 
 
+#: share of every estimation record a choice between extensions is fitted on; the rest scores it
+CHOICE_FIT_SHARE = 0.7
+
+
+def _choice_holdout(ctx: Context) -> np.ndarray:
+    """Estimation samples that score a choice between extensions: the last 30 % of every record
+    (the choice is fitted on the first 70 %, so an extension that fits the estimation records'
+    levels and not new ones loses)."""
+    return np.concatenate([np.arange(len(r.y)) >= CHOICE_FIT_SHARE * len(r.y) for r in ctx.est])
+
+
+def _best_on_holdout(ctx: Context, candidates: dict) -> str:
+    """The key of ``candidates`` (regressor functions) whose extension, fitted on the first 70 % of
+    every estimation record, predicts the last 30 % best (squared error)."""
+    holdout = _choice_holdout(ctx)
+    y_est = np.concatenate([r.y for r in ctx.est])
+
+    def held(z):
+        return float(np.sum((y_est - ctx.fit_apply(z, mask_est=holdout)[1])[holdout] ** 2))
+
+    scores = {k: held(z) for k, z in candidates.items()}
+    return min(scores, key=scores.get)
+
+
 def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
     sets = _static_sets(ctx)
     parts = ctx._cache["static_parts"]
@@ -358,10 +382,7 @@ def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
     level = np.log10(alpha / len(tests))
     sig = [k for k in tests if tests[k].log10_p < level]
     if len(sig) > 1:
-        holdout = np.concatenate([np.arange(len(r.y)) >= 0.7 * len(r.y) for r in ctx.est])
-        y_est = np.concatenate([r.y for r in ctx.est])
-        held = {k: float(np.sum((y_est - ctx.fit_apply(sets[k], mask_est=holdout)[1])[holdout] ** 2)) for k in sig}
-        side = min(held, key=held.get)
+        side = _best_on_holdout(ctx, {k: sets[k] for k in sig})
     else:
         side = sig[0] if sig else min(tests, key=lambda k: tests[k].log10_p)
     ctx._cache["static_side"] = side
@@ -494,10 +515,7 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
     # chosen by an in-sample test can fit the estimation records' levels and not the validation's:
     # on the simulator's step records the 37-parameter map between the blocks lost 5-30 fit points)
     cands = {k: (lambda r, k=k: np.column_stack([sets[k](r), z_h(r)])) for k in sets}
-    holdout = np.concatenate([np.arange(len(r.y)) >= 0.7 * len(r.y) for r in ctx.est])
-    y_est = np.concatenate([r.y for r in ctx.est])
-    held = {k: float(np.sum((y_est - ctx.fit_apply(z, mask_est=holdout)[1])[holdout] ** 2)) for k, z in cands.items()}
-    side = min(held, key=held.get)
+    side = _best_on_holdout(ctx, cands)
     z_full = cands[side]
     pred, _ = ctx.fit_apply(z_full)
     # the name needs a gain from the memory itself: the extension must predict the held-out data
@@ -1101,7 +1119,7 @@ def saturation(ctx: Context, alpha: float) -> CauseResult:
         clip = np.maximum if side == "low" else np.minimum
         # the clip alone, or the clip after the generic correction refitted on unclipped samples:
         # chosen on the last 30 % of every estimation record, fitted on the first 70 %
-        holdout = np.concatenate([np.arange(len(r.y)) >= 0.7 * len(r.y) for r in ctx.est])
+        holdout = _choice_holdout(ctx)
         _, refit_est = ctx.fit_apply(None, mask_est=censored | holdout)
         rss_refit = float(np.sum((y_est - clip(refit_est, lim_est))[holdout] ** 2))
         rss_clip = float(np.sum((y_est - clip(ctx.yhat_est, lim_est))[holdout] ** 2))

@@ -1,8 +1,10 @@
 """The ranking rule: held-out gain first, and the simplest extension among gains that overlap.
 
 Every found cause has a held-out gain confirmed against its own baseline (see :mod:`.engine`).
-Its per-sample improvement on the validation records, d_c[k] = (y - baseline)^2 -
-(y - extension)^2, carries the uncertainty of that gain. The found causes are ordered by
+The ranking compares them over one common reference: the per-sample improvement on the
+validation records d_c[k] = (y - nominal)^2 - (y - extension)^2 (a disturbance's predictor over
+its own baseline), since the dynamics causes' gains are against the nominal model and the
+others' against nominal + G0 and the adequate-order correction. The found causes are ordered by
 repeating:
 
 1. every remaining candidate is compared with every other (batch means of d_a - d_b,
@@ -22,8 +24,8 @@ ranked above one that does.
 Disturbances (drift, periodic_disturbance, outliers) are ranked after the input-output causes,
 among themselves by the same rule: their gain is a one-step predictor's (the extension reads the
 measured output: drift and periodic_disturbance track whatever slow misfit the corrected model
-leaves, whatever its cause; outliers filters glitches out of it), not a simulation's. On the tensile records of tests/sim/test_diagnose_material.py (seed 1) the
-drift predictor gains +23.3 points on records read through a clip and +0.7 on the same records
+leaves, whatever its cause; outliers filters glitches out of it), not a simulation's. On the
+tensile records of tests/sim/test_diagnose_material.py (seed 1) the drift predictor gains +23.3 points on records read through a clip and +0.7 on the same records
 read in full: its gain there is the clip's misfit tracked, so it is no evidence against an
 input-output cause and the two scales are not compared. A found disturbance with a larger
 gain than the top input-output cause is reported as such (``why_top``).

@@ -36,9 +36,9 @@ Procedure:
    samples (samples an extension rejects leave both sides). It is confirmed when the paired
    per-sample improvement is positive at one-sided 5 % (batch means, 20 batches,
    :func:`.stats.paired_gain_test`). drift and periodic_disturbance are disturbances, not
-   input-output behaviour: their extensions track the measured output, and their gain is the
-   one-step predictor's against the one-step predictor of the corrected model with an AR model
-   of its residual. outliers are glitches of the measurement: the extension is a robust refit
+   input-output behaviour: their extensions track the measured output, and their gain is that
+   of the corrected simulation plus the disturbance tracked from the measured output up to the
+   previous sample (a one-step predictor) against the corrected simulation. outliers are glitches of the measurement: the extension is a robust refit
    and a one-step predictor that rejects glitches (its innovation clipped at the alpha/N band),
    against the corrected model's predictor with the same AR model reading every sample, on the
    samples the filter does not flag (a glitch carries into the reading predictor's next

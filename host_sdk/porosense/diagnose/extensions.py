@@ -811,7 +811,6 @@ def drift(ctx: Context, alpha: float) -> CauseResult:
         if best is None or rss < best[0]:
             best = (rss, a, tau)
     _, a, tau = best
-    _track_per_record(ctx.est, r_est, lambda rec, x: _ema_causal(x, a))
     pred_trk = pred_g0_val + _track_per_record(ctx.val, r_val, lambda rec, x: _ema_causal(x, a))
 
     # simulation mode: a deterministic trend since the start of each record (offset and gain

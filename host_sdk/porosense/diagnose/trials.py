@@ -128,7 +128,9 @@ class Plant:
         if c == "outliers":
             k = rng.random(n) < pr["rate"]
             y[k] += rng.choice([-1.0, 1.0], k.sum()) * rng.uniform(0.3, 1.0, k.sum()) * full
-        return engine.Record(p0[:, None], y, np.zeros(n), TS, {"p_cmd_1": p1, "load_g": load})
+        # stated as a user states them by their units: another channel's command, a measured load
+        kinds = {"p_cmd_1": "input", "load_g": "condition"}
+        return engine.Record(p0[:, None], y, np.zeros(n), TS, {"p_cmd_1": p1, "load_g": load}, kinds)
 
 
 def draw_plant(rng, cause: str) -> Plant:

@@ -58,8 +58,8 @@ DESCRIPTION = {
         "a clipping model at the measured limit",
     ),
     "cross_coupling": (
-        "the residual follows a measured input the model does not use",
-        "that column as an extra MISO input",
+        "the residual follows measured inputs the model does not use",
+        "those columns as extra MISO inputs",
     ),
     "outliers": (
         "the residual has isolated spikes far beyond its noise",

@@ -9,7 +9,7 @@ nominal came from), so ``predict``, ``quantize`` and ``flash`` take it as they t
     time_delay           the nominal structure with the found extra delay
     slow_relaxation      one more pole (and zero)
     unmodelled_dynamics  one more pole (and zero): "re-identify at a higher order"
-    cross_coupling       the column as another input (a MISO branch with its own dynamics)
+    cross_coupling       the columns as other inputs (a MISO branch each, with its own dynamics)
 
 Otherwise (hysteresis, load_dependence, drift, periodic_disturbance, outliers) it is a
 :class:`porosense.ident.extended.ExtendedModel`: nominal + G0 + the cause's terms, in
@@ -96,13 +96,13 @@ def _structural(cause: str, res, ctx, nominal):
         poles = int(res.detail.get("n_poles", nominal.n_poles + 1))
         more = {"n_poles": poles, "n_zeros": min(nominal.n_zeros + poles - nominal.n_poles, poles - 1)}
         return refit(nominal.kind, nominal, us, ys, ctx.ts, inputs, **more), [r.u for r in ctx.val]
-    if cause == "cross_coupling" and len(inputs) < 3:
-        col = res.detail["column"]
+    cols = tuple(res.detail.get("columns", [res.detail.get("column")])) if cause == "cross_coupling" else ()
+    if cols and len(inputs) + len(cols) <= 3:  # the on-device structure takes up to three inputs
 
-        def with_col(recs):
-            return [np.column_stack([r.u, r.conditions[col]]) for r in recs]
+        def with_cols(recs):
+            return [np.column_stack([r.u] + [r.conditions[c] for c in cols]) for r in recs]
 
-        return refit(nominal.kind, nominal, with_col(ctx.est), ys, ctx.ts, inputs + (col,)), with_col(ctx.val)
+        return refit(nominal.kind, nominal, with_cols(ctx.est), ys, ctx.ts, tuple(inputs) + cols), with_cols(ctx.val)
     return None
 
 

@@ -1014,29 +1014,43 @@ def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
     name = min(cols, key=lambda k: cols[k]["dyn"].log10_p)
     c = cols[name]
     res = stats.f_result(f"F(residual ~ dynamics of unused input {name})", c["dyn"], alpha, len(cols), column=name)
+    # a channel can leak from every neighbour: the extension takes each column whose own test
+    # holds at the same level (alpha / columns), the strongest always
+    leaking = [k for k in cols if k == name or stats.f_result(k, cols[k]["dyn"], alpha, len(cols)).significant]
+
+    def z_leak(r, leaking=leaking):
+        return np.column_stack([cols[k]["z_dyn"](r) for k in leaking])
+
     inter = stats.f_result("interaction", c["inter"], alpha, len(cols))
-    pred, _ = ctx.fit_apply(c["z_dyn"])
+    pred, _ = ctx.fit_apply(z_leak)
     # a leak adds to the output: a column that changes the model's gain (an interaction with the
     # output beyond the column's own dynamics, at the same level as the test) is a dependence on
-    # a condition, which load_dependence names
-    additive = not inter.significant
+    # a condition, which load_dependence names. A column stated an input (Record.column_kinds) is
+    # no condition: its leak enters before the sensor's static map (another channel's strain into
+    # this one's contact strain), whose slope changes with the operating point, so an interaction
+    # is what such a leak shows and is no evidence against it
+    stated = ctx.est[0].column_kinds.get(name) == "input"
+    additive = stated or not inter.significant
+    named = ", ".join(leaking)
     return CauseResult(
         res,
         True,
-        f"the residual follows the unused input {name} through "
-        f"dynamics, additively (interaction with the output F = {c['inter'].f:.3g}, "
-        f"p = {inter.p:.2g}; {_explained(res)})",
-        f"{name} as an extra MISO input",
+        f"the residual follows the unused input{'s' if len(leaking) > 1 else ''} {named} through "
+        f"dynamics (interaction of {name} with the output F = {c['inter'].f:.3g}, p = {inter.p:.2g}"
+        + ("; the column is stated an input" if stated else ", additively")
+        + f"; {_explained(res)})",
+        f"{named} as extra MISO input{'s' if len(leaking) > 1 else ''}",
         pred,
         {
             "column": name,
+            "columns": leaking,
             "evidence_ok": additive,
             "evidence_note": ""
             if additive
             else f"{name} changes the model's gain (interaction with the output F = {c['inter'].f:.3g}, "
             f"p = {inter.p:.2g}): a dependence on a condition, not an additive leak",
         },
-        Z_est=ctx.stack(c["z_dyn"], ctx.est),
+        Z_est=ctx.stack(z_leak, ctx.est),
         n_search=len(cols),
     )
 

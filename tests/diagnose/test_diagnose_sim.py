@@ -32,8 +32,9 @@ against the --sim nominal of porosense.diagnose.calibrate: the simulator's mean 
 record with its own recording state fitted within the 99 % interval of the simulator's stated
 spread (porosense.sim.params.Variation). Top-1 at seeds 1000-1003
 (``python tools/sim_diagnosis_variation.py as_it_is``): saturation, periodic_disturbance and
-outliers 4/4; drift, time_delay, static_nonlinearity, load_dependence 3/4; hysteresis,
-cross_coupling 1/4; slow_relaxation 0/4 (26 of 40; 10 before the recording states); clean
+outliers 4/4; drift, time_delay, static_nonlinearity, load_dependence 3/4; hysteresis 1/4;
+slow_relaxation 0/4; cross_coupling 4/4 at these seeds but 1/8 at 1004-1011, so it is run on 12
+trials (29 of 40 at seeds 1000-1003; 10 before the recording states); clean
 contractor records named none 4/4 (1/4 before), the clean 3-DoF segment 2/2 (0/2 before). Every
 cause below the bound is a strict xfail naming what is named instead.
 
@@ -57,6 +58,8 @@ from porosense.diagnose.catalogue import NONE
 
 TRIALS = 4
 SEED = 1000
+#: causes whose first four trials were measured unrepresentative of the next eight: run on twelve
+TRIALS_OF = {"cross_coupling": 12}
 #: measured top-1 of the causes below the bound at seeds 1000-1003 (see the module docstring)
 BELOW_BOUND = {
     "drift": "3/4: seed 1002 (1.76 %/min) named none",
@@ -64,7 +67,7 @@ BELOW_BOUND = {
     "static_nonlinearity": "3/4: seed 1002 named none",
     "load_dependence": "3/4: seed 1001 named none",
     "hysteresis": "1/4: named drift twice, none",
-    "cross_coupling": "1/4: named none three times (gains not confirmed)",
+    "cross_coupling": "5/12: 4/4 at seeds 1000-1003, 1/8 at 1004-1011 (gains 0.10-0.13 are absorbed by the calibration)",
     "slow_relaxation": "0/4: named unmodelled_dynamics, drift, none twice",
 }
 
@@ -92,4 +95,4 @@ def test_sim_3dof_clean_is_none():
     ],
 )
 def test_sim_hidden_cause_found_many_trials(cause):
-    _check(cause, TRIALS, SEED)
+    _check(cause, TRIALS_OF.get(cause, TRIALS), SEED)

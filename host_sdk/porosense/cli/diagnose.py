@@ -209,6 +209,16 @@ def _split(args, inputs, conditions, tables, vtables):
     return est, val
 
 
+def _predicted(args, predict, u, y):
+    """(``predict``'s prediction for one record, the record's recording state as the diagnosis
+    refits it: porosense.diagnose.calibrate.StateColumns for --sim, else None)."""
+    states = getattr(args, "record_states", None) or []
+    n = len(states)
+    yhat = predict(u, y)
+    states = getattr(args, "record_states", None) or []
+    return yhat, (states[-1].columns if len(states) > n else None)
+
+
 def _predictor(args, inputs, est):
     """(u -> yhat for the diagnosis, the nominal model or None, a line describing what is diagnosed).
 
@@ -327,20 +337,12 @@ def run(args) -> int:
     else:
         predict, nominal, what = _predictor(args, inputs, est)
     kinds = _column_kinds(conditions, inputs, tables + vtables)
-    records = [
-        [
-            Record(
-                u,
-                y,
-                cond[MATERIAL_SIM] if material else predict(u, y),
-                args.ts,
-                {k: v for k, v in cond.items() if k not in extra},
-                kinds,
-            )
-            for u, y, cond in part
-        ]
-        for part in (est, val)
-    ]
+
+    def record(u, y, cond):
+        yhat, state = (cond[MATERIAL_SIM], None) if material else _predicted(args, predict, u, y)
+        return Record(u, y, yhat, args.ts, {k: v for k, v in cond.items() if k not in extra}, kinds, state)
+
+    records = [[record(u, y, cond) for u, y, cond in part] for part in (est, val)]
     result = diagnose(
         records[0], records[1], alpha=args.alpha, nominal=nominal if args.save_extended and not args.sim else None
     )

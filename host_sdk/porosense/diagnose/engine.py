@@ -98,6 +98,10 @@ class Record:
         can leak into the output additively: cross_coupling tests it) or ``"condition"`` (a
         measured condition such as a load, which can change the model's gain: load_dependence
         tests it). A column not named here is tested by both.
+    state : porosense.diagnose.calibrate.StateColumns, optional
+        The record's own recording state fitted into ``yhat`` (a calibrated simulation's), as
+        nuisance regressors with their prior: every extension is fitted with it free to move
+        within its prior (:meth:`.extensions.Context.fit_apply`).
 
     Raises
     ------
@@ -111,6 +115,7 @@ class Record:
     ts: float
     conditions: dict = field(default_factory=dict)
     column_kinds: dict = field(default_factory=dict)
+    state: object = None
 
     def __post_init__(self):
         self.u = np.asarray(self.u, float).reshape(len(self.u), -1)

@@ -189,15 +189,18 @@ class Context:
     def corrected(self, scope: str = ADEQUATE) -> tuple[list, list]:
         """(estimation, validation) records whose prediction is the nominal + the correction of
         ``scope`` (fitted on estimation): the model the other causes are judged against."""
-        val, est = self.fit_apply(None, scope=scope)
+        val, est, d_val, d_est = self._fit(None, scope=scope)
 
-        def parts(records, pred):
+        def parts(records, pred, ds):
             cuts = np.cumsum([len(r.y) for r in records])[:-1]
             return [
-                type(r)(r.u, r.y, p, r.ts, r.conditions, r.column_kinds) for r, p in zip(records, np.split(pred, cuts))
+                type(r)(
+                    r.u, r.y, p, r.ts, r.conditions, r.column_kinds, r.state.moved(d) if r.state is not None else None
+                )
+                for r, p, d in zip(records, np.split(pred, cuts), ds)
             ]
 
-        return parts(self.est, est), parts(self.val, val)
+        return parts(self.est, est, d_est), parts(self.val, val, d_val)
 
     def base(self, scope: str = ADEQUATE) -> tuple[np.ndarray, np.ndarray]:
         """(estimation, validation) regressors of a baseline correction, the constant last.
@@ -221,24 +224,79 @@ class Context:
         return stats.gls_f_test(self.e_est, Z_est, base, segments=self.seg_est)
 
     def fit_apply(self, z_fn=None, *, robust: bool = False, mask_est: np.ndarray | None = None, scope: str = ADEQUATE):
-        """Fit e ~ [baseline of ``scope``, Z] on estimation; return (extended yhat on validation, on estimation)."""
+        """Fit e ~ [baseline of ``scope``, Z] on estimation; return (extended yhat on validation, on estimation).
+
+        Records that carry their recording state (``Record.state``: a calibrated simulation's,
+        porosense.diagnose.calibrate.StateColumns) have it refitted with the extension: on the
+        estimation records jointly with the extension's coefficients, on each validation record
+        on its own residual after the extension (the same rule as its fit: the posterior's
+        maximum under the state's prior). A cause the state partly mimics is so fitted with the
+        state free to move back toward its mean, and its held-out gain measured so."""
+        return self._fit(z_fn, robust=robust, mask_est=mask_est, scope=scope)[:2]
+
+    def _fit(self, z_fn=None, *, robust: bool = False, mask_est: np.ndarray | None = None, scope: str = ADEQUATE):
+        """:meth:`fit_apply` and the states' increments: (val, est, [d per validation record], [d per
+        estimation record]; d None for a record without a state)."""
         Xe, Xv = self.base(scope)
         if z_fn is not None:
             Xe = np.column_stack([Xe, self.stack(z_fn, self.est)])
             Xv = np.column_stack([Xv, self.stack(z_fn, self.val)])
         e = self.e_est
         rows = np.ones(len(e), bool) if mask_est is None else ~mask_est
-        scale = np.linalg.norm(Xe[rows], axis=0)
+        n_x = Xe.shape[1]
+        Se, R, t, spans = self._state_blocks()
+        A = np.column_stack([Xe, Se])[rows]
+        b = e[rows]
+        if len(t):
+            A = np.vstack([A, np.column_stack([np.zeros((len(t), n_x)), R])])
+            b = np.concatenate([b, t])
+        scale = np.linalg.norm(A, axis=0)
         scale[scale == 0] = 1.0
         if robust:
-            coef = _huber_lstsq(Xe[rows] / scale, e[rows])
+            coef = _huber_lstsq(A / scale, b)
         else:
             # SVD with directions below 1e-6 of the largest singular value left out: nearly
             # collinear regressors (a model output and a filter bank of its input) would otherwise
             # take large opposite coefficients that cancel on estimation and not on validation
-            coef = np.linalg.lstsq(Xe[rows] / scale, e[rows], rcond=FIT_RCOND)[0]
+            coef = np.linalg.lstsq(A / scale, b, rcond=FIT_RCOND)[0]
         coef = coef / scale
-        return self.yhat_val + Xv @ coef, self.yhat_est + Xe @ coef
+        est = self.yhat_est + Xe @ coef[:n_x] + Se @ coef[n_x:]
+        d_est = [None if sp is None else coef[n_x + sp[0] : n_x + sp[1]] for sp in spans]
+        val = self.yhat_val + Xv @ coef[:n_x]
+        d_val, start = [], 0
+        for r in self.val:
+            n = len(r.y)
+            d = None
+            if r.state is not None:
+                d = r.state.refit(r.y - val[start : start + n])
+                val[start : start + n] += r.state.S @ d
+            d_val.append(d)
+            start += n
+        return val, est, d_val, d_est
+
+    def _state_blocks(self):
+        """The estimation records' states: block columns (N_est, K), prior rows (K, K), targets (K,),
+        and each record's column span (None without a state)."""
+        if "state_blocks" not in self._cache:
+            cols = sum(r.state.S.shape[1] for r in self.est if r.state is not None)
+            Se = np.zeros((len(self.e_est), cols))
+            R = np.zeros((cols, cols))
+            t = np.zeros(cols)
+            spans, row, col = [], 0, 0
+            for r in self.est:
+                n = len(r.y)
+                if r.state is None:
+                    spans.append(None)
+                else:
+                    k = r.state.S.shape[1]
+                    Se[row : row + n, col : col + k] = r.state.S
+                    R[col : col + k, col : col + k] = r.state.R
+                    t[col : col + k] = r.state.t
+                    spans.append((col, col + k))
+                    col += k
+                row += n
+            self._cache["state_blocks"] = (Se, R, t, spans)
+        return self._cache["state_blocks"]
 
     def baseline_validation(self, scope: str = ADEQUATE) -> np.ndarray:
         """Nominal + the baseline correction of ``scope``, fitted on estimation, on validation."""

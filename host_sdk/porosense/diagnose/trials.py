@@ -275,6 +275,14 @@ def _sim_record(actuator: str, exp: str, porosity: float, seed: int, effects, ph
     )
 
 
+def _state_record(cal, p_cmd, y, ts, conditions, kinds) -> engine.Record:
+    """A record predicted by the calibrated simulation (driven by every channel's command p_cmd,
+    (N, channels) kPa; the diagnosed input is channel 0's) with its own recording state, which
+    the diagnosis refits beside every extension (porosense.diagnose.engine.Record.state)."""
+    yhat, state = cal.predict_record(p_cmd, y, ts)
+    return engine.Record(p_cmd[:, :1], y, yhat, ts, conditions, kinds, state.columns)
+
+
 def _diagnose_sim(actuator: str, cause: str, est: list, val: list, nominal_physics, t0: float) -> Trial:
     """Calibrate the --sim nominal on ``est`` ((p_cmd, y, conditions) per record), diagnose ``val``.
 
@@ -287,10 +295,7 @@ def _diagnose_sim(actuator: str, cause: str, est: list, val: list, nominal_physi
     ts = 1.0 / SIM_RATE_HZ
     cal = calibrate(actuator, "dR_0", [p for p, _, _ in est], [y for _, y, _ in est], ts, nominal_physics)
     kinds = {k: ("input" if k.startswith("p_cmd_") else "condition") for k in est[0][2]}
-    recs = [
-        [engine.Record(p[:, :1], y, cal.predict_record(p, y, ts)[0], ts, c, kinds) for p, y, c in part]
-        for part in (est, val)
-    ]
+    recs = [[_state_record(cal, p, y, ts, c, kinds) for p, y, c in part] for part in (est, val)]
     d = engine.diagnose(recs[0], recs[1])
     gain = d.finding(cause).gain if cause != NONE else 0.0
     return Trial(cause, d.top, float(gain), time.perf_counter() - t0, d)

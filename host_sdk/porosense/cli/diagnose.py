@@ -63,7 +63,8 @@ def register(sub) -> argparse.ArgumentParser:
         "--sim",
         metavar="ACTUATOR",
         help="calibrate this simulator (contractor, bending, 3dof) "
-        "to the estimation range (inputs: commanded vacuum in kPa) and diagnose it; material: the "
+        "to the estimation range (inputs: commanded vacuum in kPa; the simulator is driven by all its "
+        "channels' commands p_cmd_0.. when the files have them) and diagnose it; material: the "
         "piezoresistive law of --params (porosense calibrate material) on tensile records, --input the "
         "strain column (%% unless the file states 1), --output the resistance (ohm), each file's R0 and "
         "its drift taken from its estimation samples (a file given for validation only: all its samples), "
@@ -219,10 +220,11 @@ def _predicted(args, predict, u, y):
     return yhat, (states[-1].columns if len(states) > n else None)
 
 
-def _predictor(args, inputs, est):
+def _predictor(args, inputs, est, drives):
     """(u -> yhat for the diagnosis, the nominal model or None, a line describing what is diagnosed).
 
-    The callable takes a record's inputs and measured output. A model's prediction starts
+    The callable takes a record's inputs (with --sim: the commands that drive the simulator,
+    ``drives`` of the estimation records, see :func:`_sim_drive_columns`) and measured output. A model's prediction starts
     settled at the record's rest level or from rest, whichever its first samples show
     (porosense.diagnose.predict_as_started), so that no start-up transient enters the diagnosis
     that is not in the data; the fit printed first is the model simulated from rest, as ``predict`` scores it
@@ -233,6 +235,8 @@ def _predictor(args, inputs, est):
     us = [u for u, _, _ in est]
     ys = [y for _, y, _ in est]
     args.record_states = []
+    if args.sim:
+        us = drives
 
     def with_state(cal):
         def predict(u, y):
@@ -331,15 +335,21 @@ def run(args) -> int:
     extra = [c for c in measured if c not in conditions and c not in inputs and c != args.output]
     if material:  # the law runs over each whole file (its relaxation remembers), then is cut like the data
         extra.append(_material_prediction(args, inputs[0], tables, vtables))
+    drive = _sim_drive_columns(args, inputs, tables + vtables) if args.sim and not material else []
+    extra += [c for c in drive if c not in conditions + inputs + extra]
     est, val = _split(args, inputs, conditions + extra, tables, vtables)
+
+    def drive_of(u, cond):  # the simulator's commands of a record (the inputs where nothing else drives it)
+        return _drive_matrix(u, cond, inputs, drive)
+
     if material:
         predict, nominal, what = None, None, f"material law of {args.params}"
     else:
-        predict, nominal, what = _predictor(args, inputs, est)
+        predict, nominal, what = _predictor(args, inputs, est, [drive_of(u, c) for u, _, c in est])
     kinds = _column_kinds(conditions, inputs, tables + vtables)
 
     def record(u, y, cond):
-        yhat, state = (cond[MATERIAL_SIM], None) if material else _predicted(args, predict, u, y)
+        yhat, state = (cond[MATERIAL_SIM], None) if material else _predicted(args, predict, drive_of(u, cond), y)
         return Record(u, y, yhat, args.ts, {k: v for k, v in cond.items() if k not in extra}, kinds, state)
 
     records = [[record(u, y, cond) for u, y, cond in part] for part in (est, val)]
@@ -350,7 +360,7 @@ def run(args) -> int:
     extension, tried = None, []
     if args.save_extended and args.sim:
         names = _validation_names(args, tables, vtables, len(val))
-        extension, tried = _extend_simulator(args, result, measured, est, val, names)
+        extension, tried = _extend_simulator(args, result, measured, est, val, names, drive_of)
         doc["extension"] = extension.to_dict() if extension is not None else None
         doc["extensions_tried"] = [e.to_dict() for e in tried]
     states = _record_states(args, tables, vtables)
@@ -457,6 +467,32 @@ def _load_sim_params(actuator: str, path):
         raise ModelError(f"--params {path} is not a simulator parameter file ({exc})") from None
 
 
+def _sim_drive_columns(args, inputs, tables) -> list:
+    """The columns that drive the --sim actuator's channels, in channel order: its commands
+    ``p_cmd_0`` .. ``p_cmd_{n-1}`` (kPa) when every file has them, as porosense records them (a
+    segment's contractors move one another: simulated with one command alone, a segment misses
+    its own mechanics, which then looks like a neighbour's leak); otherwise the --input columns
+    (empty list: the inputs drive it)."""
+    from porosense import sim
+
+    n = sim.make_plant(args.sim, noise=False).n_channels
+    names = [f"p_cmd_{c}" for c in range(n)]
+    if names == inputs or not all(c in t.columns for t in tables for c in names):
+        return []
+    return names
+
+
+def _drive_matrix(u, cond: dict, inputs: list, drive: list):
+    """(N, channels) commands of one record: the ``drive`` columns from its inputs ``u`` and
+    ``cond`` columns, or ``u`` itself when ``drive`` is empty."""
+    import numpy as np
+
+    if not drive:
+        return u
+    cols = {**dict(zip(inputs, np.asarray(u).T)), **cond}
+    return np.column_stack([cols[c] for c in drive])
+
+
 def _sim_measured_columns(args, inputs) -> list:
     """The simulator's resistance columns (dR_0 ..) for its channels: what an extension is fitted to."""
     from porosense import sim
@@ -467,9 +503,10 @@ def _sim_measured_columns(args, inputs) -> list:
     return [f"dR_{c}" for c in range(n)]
 
 
-def _extend_simulator(args, result, measured, est, val, val_names):
+def _extend_simulator(args, result, measured, est, val, val_names, drive_of):
     """(the parameter file extended by the best found cause, every extension tried):
-    porosense.sim.extend.extend_best on the diagnosis' found causes."""
+    porosense.sim.extend.extend_best on the diagnosis' found causes; ``drive_of(u, conditions)``
+    gives a record's commands to the simulator (kPa, channel order)."""
     import numpy as np
 
     from porosense.sim.calibrate import ActuatorRecord
@@ -481,7 +518,7 @@ def _extend_simulator(args, result, measured, est, val, val_names):
             cols = {**cond, args.output: y}
             dr = np.column_stack([cols[c] for c in measured])
             outputs = {} if args.output in measured else {args.output: y}
-            out.append(ActuatorRecord(u, args.ts, dr, outputs, name=name))
+            out.append(ActuatorRecord(drive_of(u, cond), args.ts, dr, outputs, name=name))
         return out
 
     physics, effects = args.sim_params

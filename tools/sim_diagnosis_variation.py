@@ -1,7 +1,7 @@
 """Where the simulator trials' misses come from (tests/diagnose/test_diagnose_sim.py).
 
-The trials of tests/diagnose/test_diagnose_sim.py (porosense.diagnose.trials.run_sim_trial, 4
-per cause and 4 clean contractor trials, seeds 1000-1003) on the simulator as it is and with the
+The trials of tests/diagnose/test_diagnose_sim.py (porosense.diagnose.trials.run_sim_trial, 12
+per cause and 12 clean contractor trials, seeds 1000-1011) on the simulator as it is and with the
 recordings' variation and R0 drift (porosense.sim.params.PHYSICS_EFFECTS ``repeat_variation``
 and ``baseline_drift``) switched off in the records, in the simulator calibrated on them
 (porosense.diagnose.calibrate: the mean recording, each record with its own recording state
@@ -22,7 +22,7 @@ from porosense.diagnose import trials
 from porosense.diagnose.catalogue import NONE
 from porosense.sim import Physics
 
-SEEDS = range(1000, 1004)
+SEEDS = range(1000, 1012)
 OFF = ("repeat_variation", "baseline_drift")
 
 

@@ -98,3 +98,17 @@ def test_an_output_without_a_recording_state_is_the_mean_recording():
     yhat, state = cal.predict_record(u[1], recs[1]["curvature"], 1.0 / RATE_HZ)
     assert np.array_equal(yhat, cal.predict(u[1], 1.0 / RATE_HZ))
     assert state.at_bound == () and state.fit >= 90.0, state
+
+
+@pytest.mark.parametrize("leak", [0.0, 0.25])
+def test_a_calibration_the_print_cannot_follow_says_so(leak):
+    """A 3-DoF segment whose contractor 0 reads its neighbours' strain (a leak the simulator
+    lacks) pulls the porosity to its bound; a clean one stays inside (porosity drawn at 76 %)."""
+    effects = {"cross_coupling": {"gain": leak}} if leak else None
+    us, ys = [], []
+    for k, exp in enumerate(("sequential_60", "two_level")):
+        rec = sim.run_experiment("3dof", exp, porosity=76.0, rate_hz=20, seed=4100 + k, effects=effects)
+        us.append(np.column_stack([rec[f"p_cmd_{c}"] for c in range(3)]))
+        ys.append(rec["dR_0"])
+    cal = calibrate("3dof", "dR_0", us, ys, 0.05)
+    assert cal.porosity_at_bound == bool(leak), cal.porosity

@@ -264,7 +264,9 @@ def _predictor(args, inputs, est, drives):
         return (
             with_state(cal),
             None,
-            f"{args.sim} simulator calibrated on estimation: porosity {cal.porosity:.1f} %, scale "
+            f"{args.sim} simulator calibrated on estimation: porosity {cal.porosity:.1f} %"
+            + (" (at its bound: the print's parameters cannot follow the data)" if cal.porosity_at_bound else "")
+            + ", scale "
             f"{cal.scale:.4g}, offset {cal.offset:.4g} (fit {cal.fit_estimation:.1f} %)"
             + (", each record with its own recording state" if args.output.startswith("dR_") else ""),
         )

@@ -306,6 +306,13 @@ class Calibration:
     #: named effects the simulator runs with (a parameter file's, porosense.sim.effects), not saved
     effects: object = field(default=None, repr=False, compare=False)
 
+    @property
+    def porosity_at_bound(self) -> bool:
+        """True when the calibrated porosity sits at an end of POROSITY_BOUNDS: the print's
+        parameters could not follow the data, so the fit took up something beyond them (a hidden
+        leak ends there, measured on the 3-DoF trials)."""
+        return any(abs(self.porosity - b) < 1e-3 for b in POROSITY_BOUNDS)
+
     def _nominal(self):
         return mean_recording(self.physics)
 

@@ -723,11 +723,21 @@ def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
     sse = {t: float(np.sum((y_all - ctx.fit_apply(lambda r, t=t: z_full(r, t), scope=CONSTANT)[1]) ** 2)) for t in grid}
     tau = min(sse, key=sse.get)
     pred, _ = ctx.fit_apply(lambda r: z_full(r, tau), scope=CONSTANT)
+    # the name needs a gain from the slow mode itself: a static map of a dynamic output (a bend)
+    # changes its transients with the level, which a share of the output that follows it slowly
+    # renders in part, so the extension must predict the held-out data better than
+    # static_nonlinearity's extension beyond nominal + G0 (the engine's rival test, one-sided 5 %),
+    # as hysteresis' memory must
+    static = static_nonlinearity(Context(ctx.est, ctx.val, correct=False), alpha)
     # the name needs its own evidence: a missing pole of the nominal is also a pole; a relaxation
     # is one much slower than the nominal's slowest (the measured output re-identified with one
     # pole more puts it there), a missing faster or nearby pole is unmodelled dynamics
     pole = None
-    detail = {"tau_s": tau}
+    detail = {
+        "tau_s": tau,
+        "rival_val": static.yhat_val,
+        "rival": "static_nonlinearity's extension (a static PWL of the level beyond nominal + G0)",
+    }
     if res.significant:
         pole = dynamics.slow_pole(
             [r.u for r in ctx.est], [r.y for r in ctx.est], ctx.model_order or 1, ctx.slowest_tau_s, tau, ctx.ts

@@ -210,7 +210,11 @@ class DelayOrPole:
     scored after the slower model has settled from the unknown state before each record (batch
     means, :func:`.stats.paired_gain_test`, the delay model as the extension, one-sided 5 %).
     ``prefers_delay``: the dead time predicts better (confirmed); ``prefers_pole``: one more pole
-    predicts better (the delay's gain refuted); neither: the data cannot tell them apart.
+    predicts better (the delay's gain refuted); neither: the data cannot tell them apart, or
+    neither linear model renders the data's dynamics: the model diagnosed (``fit_nominal``, its
+    prediction on the same samples) predicts the validation records better than both
+    (``nominal_better``, one-sided 5 % each, batch means), so what tells them apart is how each
+    misfits what the linear models leave out (a nonlinear response), not the start of the response.
     """
 
     delay: int
@@ -218,16 +222,18 @@ class DelayOrPole:
     fit_delay: float
     fit_pole: float
     test: stats.GainTest
+    fit_nominal: float = float("nan")
+    nominal_better: bool = False
 
     @property
     def prefers_delay(self) -> bool:
         """The dead time predicts the validation records better than one more pole (one-sided 5 %)."""
-        return self.test.confirmed
+        return bool(self.test.confirmed and not self.nominal_better)
 
     @property
     def prefers_pole(self) -> bool:
         """One more pole predicts the validation records better than the dead time (one-sided 5 %)."""
-        return self.test.refuted
+        return bool(self.test.refuted and not self.nominal_better)
 
     def sentence(self) -> str:
         return (
@@ -235,6 +241,12 @@ class DelayOrPole:
             f"{'s' if self.order > 1 else ''} and a dead time of {self.delay} samples fits {self.fit_delay:.2f} %, "
             f"one with {self.order + 1} poles and no dead time {self.fit_pole:.2f} % "
             f"(paired t = {self.test.t:.3g}, one-sided p = {self.test.p:.2g})"
+            + (
+                f"; the model diagnosed predicts better than both ({self.fit_nominal:.2f} %, one-sided 5 % each), so "
+                "they do not render the data's dynamics and say nothing of a dead time"
+                if self.nominal_better
+                else ""
+            )
         )
 
 
@@ -257,11 +269,14 @@ def _oe_fit_predict(us_est: list, ys_est: list, us_val: list, order: int, d: int
 SETTLE_TAUS = 4.6
 
 
-def delay_or_pole(us_est: list, ys_est: list, us_val: list, ys_val: list, order: int, delays) -> DelayOrPole:
+def delay_or_pole(
+    us_est: list, ys_est: list, us_val: list, ys_val: list, order: int, delays, yhat_val: list | None = None
+) -> DelayOrPole:
     """Compare a dead time (the best of ``delays`` >= 2 samples on estimation) with one more pole.
 
-    us_*: lists of (N_r, n_in) inputs; ys_*: lists of (N_r,) measured outputs; order: the nominal
-    model's poles. See :class:`DelayOrPole`.
+    us_*: lists of (N_r, n_in) inputs; ys_*: lists of (N_r,) measured outputs (output units);
+    order: the nominal model's poles; yhat_val: the model diagnosed's prediction of each
+    validation record (output units; optional). See :class:`DelayOrPole`.
     """
     us_est = [np.asarray(u, float).reshape(len(u), -1) for u in us_est]
     us_val = [np.asarray(u, float).reshape(len(u), -1) for u in us_val]
@@ -280,12 +295,19 @@ def delay_or_pole(us_est: list, ys_est: list, us_val: list, ys_val: list, order:
     keep = np.concatenate(keep)
     pred_delay, pred_pole = np.concatenate(pred_delay)[keep], np.concatenate(pred_pole)[keep]
     y_val = y_val[keep]
+    fit_nom, nominal_better = float("nan"), False
+    if yhat_val is not None:
+        nom = np.concatenate([np.asarray(p, float) for p in yhat_val])[keep]
+        fit_nom = float(fit_percent(y_val, nom))
+        nominal_better = all(stats.paired_gain_test(y_val, p, nom).confirmed for p in (pred_delay, pred_pole))
     return DelayOrPole(
         int(d),
         order,
         float(fit_percent(y_val, pred_delay)),
         float(fit_percent(y_val, pred_pole)),
         stats.paired_gain_test(y_val, pred_pole, pred_delay),
+        fit_nom,
+        bool(nominal_better),
     )
 
 

@@ -21,9 +21,11 @@ Procedure:
    later than the model's (prewhitened input-output cross-correlation), a held-out gain
    from the delay itself and a measured output that does not prefer one more pole to a dead
    time on held-out data (:func:`.dynamics.delay_or_pole`; when it prefers the dead time at
-   one-sided 5 %, time_delay explains the linear deficit); slow_relaxation a held-out gain from the slow mode itself
-   and a slow missing pole: the measured output re-identified with one pole more than the nominal
-   puts its slowest pole beyond twice the nominal's slowest time constant
+   one-sided 5 %, time_delay explains the linear deficit; when the model diagnosed predicts better
+   than both linear models, they say nothing of a dead time); slow_relaxation a held-out gain from
+   the slow mode itself, beyond static_nonlinearity's extension too (a bend of a dynamic output
+   changes its transients with the level), and a slow missing pole: the measured output
+   re-identified with one pole more than the nominal puts its slowest pole beyond twice the nominal's slowest time constant
    (:func:`.dynamics.slow_pole`; below it at one-sided 5 %, the evidence disagrees with the name;
    beyond it at one-sided 5 %, slow_relaxation explains the linear deficit); hysteresis
    a direction effect beyond static maps, a slow mode and the adequate-order linear model (its

@@ -821,6 +821,7 @@ def time_delay(ctx: Context, alpha: float) -> CauseResult:
             [r.y for r in ctx.val],
             ctx.model_order or 1,
             (d - 1, d, d + 1),
+            [r.yhat for r in ctx.val],
         )
         peak_note += f"; {choice.sentence()}"
         if choice.prefers_pole:

@@ -51,7 +51,8 @@ free to move back toward its mean; the corrected baselines (nominal + G0, + the 
 correction) are refitted the same way, the nominal itself is the fit above. A clean record's residual is mostly noise (n_eff 24-90 on the clean contractor trials
 of tests/diagnose/test_diagnose_sim.py) and the posterior stays near the fit; a cause leaves a
 coloured residual (n_eff 2.8, 30 and 16 on the three records of the hysteresis trial at seed
-1000).
+1000). The drift diagnosis asks of these columns whether a record's drift rate, fitted without
+its bound, lies beyond the prior's 99 % interval (porosense.diagnose.extensions.drift).
 
 The porosity, scale and offset are calibrated with the estimation records' states fitted
 jointly by the rule (the print and the sensor are common to all records, the state is each
@@ -152,11 +153,19 @@ class StateColumns:
     output units, so that the posterior of an increment d is maximised by the least squares of
     [residual; t] on [S; R] (R = P / sqrt(w), P the inverse prior standard deviations, t the
     prior's pull back to the mean from the fitted state, w the data weight of
-    :func:`_fit_state`). d = 0 is the fitted state."""
+    :func:`_fit_state`). d = 0 is the fitted state. ``names`` (k,): each column's state (of
+    :data:`STATES`); ``sd`` (k,): its prior standard deviation in the column's unit (1 for the
+    z-unit states, the offset's in the output unit, the drift's in % of R0 per minute)."""
 
     S: np.ndarray
     R: np.ndarray
     t: np.ndarray
+    names: tuple = ()
+    sd: np.ndarray | None = None
+    #: % of R0 per minute: the standard deviation of the drift rate that R0's random walk alone
+    #: shows over the record (least-squares slope of a random walk of q %^2 per minute over T
+    #: minutes: sqrt(6 q / (5 T)))
+    walk_rate_sd: float = 0.0
 
     def refit(self, r: np.ndarray) -> np.ndarray:
         """The state's increment d (k,) that maximises the posterior for the residual r (N,)."""
@@ -164,7 +173,17 @@ class StateColumns:
 
     def moved(self, d: np.ndarray) -> StateColumns:
         """The same state after an increment d was applied to the prediction."""
-        return StateColumns(self.S, self.R, self.t - self.R @ d)
+        return StateColumns(self.S, self.R, self.t - self.R @ d, self.names, self.sd, self.walk_rate_sd)
+
+    def value(self, name: str) -> float:
+        """The state ``name``'s present value (its column's unit; z units for gain, scale and
+        kinetics): the prior's mean 0 less its pull back, -t_j / R_jj."""
+        j = self.names.index(name)
+        return float(-self.t[j] / self.R[j, j])
+
+    def weight(self) -> float:
+        """The data weight w (1 / output unit^2) the prior rows are scaled by: (P_jj / R_jj)^2."""
+        return float((1.0 / (self.sd[0] * self.R[0, 0])) ** 2)
 
 
 @dataclass(frozen=True)
@@ -177,6 +196,8 @@ class _Prior:
     conditioning: tuple
     offset_sd: float
     drift_sd: float
+    #: R0's random walk, % of R0 rms after one minute
+    walk_pct: float = 0.0
 
     @classmethod
     def of(cls, physics) -> _Prior:
@@ -190,6 +211,7 @@ class _Prior:
             tuple(float(c) for c in v.conditioning_range),
             float(np.hypot(pz.flicker_pct, v.drift_walk_pct * np.sqrt(R0_CALIBRATION_S / 60.0))),
             v.drift_pct_per_min_sd,
+            v.drift_walk_pct,
         )
 
 
@@ -420,7 +442,10 @@ def _state_columns(model: _Model, A, lo, hi, x, w) -> StateColumns | None:
         return None
     cols = np.flatnonzero(P.any(axis=0))
     Pk = P[:, cols]
-    return StateColumns(A[:, cols], Pk / np.sqrt(w), (t - P @ x) / np.sqrt(w))
+    names = tuple(STATES[j] for j in cols)
+    t_min = max(float(model.t_min[-1]), 1e-9)
+    walk = float(np.sqrt(1.2 * model.prior.walk_pct**2 / t_min))
+    return StateColumns(A[:, cols], Pk / np.sqrt(w), (t - P @ x) / np.sqrt(w), names, 1.0 / np.diag(Pk), walk)
 
 
 def _state(model: _Model, x, scale) -> RecordState:

@@ -40,7 +40,9 @@ Procedure:
    :func:`.stats.paired_gain_test`). drift and periodic_disturbance are disturbances, not
    input-output behaviour: their extensions track the measured output, and their gain is that
    of the corrected simulation plus the disturbance tracked from the measured output up to the
-   previous sample (a one-step predictor) against the corrected simulation. outliers are glitches of the measurement: the extension is a robust refit
+   previous sample (a one-step predictor) against the corrected simulation (records that carry
+   their recording state: the drift beyond it simulated, each record's state refitted, see
+   :func:`.extensions.drift`). outliers are glitches of the measurement: the extension is a robust refit
    and a one-step predictor that rejects glitches (its innovation clipped at the alpha/N band),
    against the corrected model's predictor with the same AR model reading every sample, on the
    samples the filter does not flag (a glitch carries into the reading predictor's next

@@ -864,7 +864,115 @@ def _track_per_record(records, resid: np.ndarray, fn) -> np.ndarray:
     return np.concatenate(out)
 
 
+def _has_drift_state(records) -> bool:
+    return all(r.state is not None and "drift" in getattr(r.state, "names", ()) for r in records)
+
+
+def _drift_column(r) -> np.ndarray:
+    """The record's drift state column: output change per % of R0 per minute of R0 drift."""
+    return r.state.S[:, r.state.names.index("drift")]
+
+
+def _state_drift_test(ctx: Context, alpha: float) -> stats.StatResult:
+    """Is an estimation record's R0 drift beyond what the simulator says repeats differ by?
+
+    Every record carries its recording state (calibrate.StateColumns), whose drift is bounded to
+    the prior's central 99 % interval |rate| <= b = Z_PRIOR drift_sd (% of R0 per minute). Here
+    each record's drift rate is fitted without that bound, jointly with the other Gaussian
+    states (under their prior), the baseline correction and what the trend test is conditional
+    on (the slow mode of the inputs, the output shape); each record's data weighted by
+    w = n_eff / (N sigma^2) of its own residual (calibrate.n_effective; one reweighting), so
+    the rate's standard error is the long-run one of a coloured residual; R0's random walk, which
+    the rate absorbs and the residual then does not show, adds its own (StateColumns.walk_rate_sd)
+    in quadrature: se. Per record, the
+    null hypothesis is |rate| <= b; its p value is that of the least favourable rate |rate| = b:
+    p_i = Phi((b - |r|) / se) + Phi((-b - |r|) / se) (at most uniform under the null). Combined
+    over the K records by Fisher's rule, -2 sum ln p_i against chi-square with 2K degrees of
+    freedom: a drift of the sensor (ageing, temperature) acts on every record, and the records'
+    noise is independent (they share only the baseline's few coefficients)."""
+    from scipy.stats import chi2, norm
+
+    from porosense.diagnose.calibrate import Z_PRIOR, n_effective
+
+    recs = ctx.est
+    Xb = np.column_stack([ctx.base(ADEQUATE)[0], _drift_base(ctx)])
+    n_b, N = Xb.shape[1], len(ctx.e_est)
+    K = sum(r.state.S.shape[1] for r in recs)
+    Se = np.zeros((N, K))
+    P_rows, P_t, spans, drift_col = [], [], [], []
+    row = col = 0
+    for r in recs:
+        st, n = r.state, len(r.y)
+        k = st.S.shape[1]
+        Se[row : row + n, col : col + k] = st.S
+        sw = np.sqrt(st.weight())
+        for j, name in enumerate(st.names):
+            if name == "drift":
+                drift_col.append(col + j)
+                continue
+            p = np.zeros(n_b + K)
+            p[n_b + col + j] = 1.0 / st.sd[j]
+            P_rows.append(p)
+            P_t.append(st.t[j] * sw)  # the prior's pull back in its own unit (P d = t sqrt(w))
+        spans.append((row, row + n))
+        row += n
+        col += k
+    X = np.column_stack([Xb, Se])
+    P = np.array(P_rows).reshape(-1, n_b + K)
+    w = [r.state.weight() for r in recs]
+    for _ in range(2):
+        sw = np.concatenate([np.full(b - a, np.sqrt(wi)) for (a, b), wi in zip(spans, w)])
+        A = np.vstack([X * sw[:, None], P])
+        y = np.concatenate([ctx.e_est * sw, P_t])
+        scale = np.linalg.norm(A, axis=0)
+        scale[scale == 0] = 1.0
+        U, sv, Vt = np.linalg.svd(A / scale, full_matrices=False)
+        keep = sv > FIT_RCOND * sv[0]
+        coef = (Vt[keep].T @ ((U[:, keep].T @ y) / sv[keep])) / scale
+        e = ctx.e_est - X @ coef
+        w = []
+        for a, b in spans:
+            v = float(np.mean(e[a:b] ** 2))
+            w.append(n_effective(e[a:b]) / ((b - a) * v) if v > 0 else 1.0)
+    rates, ses, bounds, ps = [], [], [], []
+    for r, j in zip(recs, drift_col):
+        c = n_b + j
+        # coefficient covariance (A'A)^-1 of the weighted problem (unit noise), in the drift's unit
+        vj = Vt[keep][:, c] / scale[c]
+        se = float(np.sqrt(np.sum((vj / sv[keep]) ** 2) + r.state.walk_rate_sd**2))
+        rate = r.state.value("drift") + float(coef[c])
+        bound = Z_PRIOR * float(r.state.sd[r.state.names.index("drift")])
+        p = float(norm.sf((abs(rate) - bound) / se) + norm.sf((abs(rate) + bound) / se)) if se > 0 else 1.0
+        rates.append(rate)
+        ses.append(se)
+        bounds.append(bound)
+        ps.append(p)
+    k = len(ps)
+    fisher = float(-2.0 * np.sum(np.log(np.maximum(ps, 1e-300))))
+    log10_p = float(chi2.logsf(fisher, 2 * k) / np.log(10.0))
+    return stats.StatResult(
+        "Fisher chi2(|R0 drift rate| beyond the prior's 99 % bound, over the records)",
+        fisher,
+        float(chi2.isf(alpha, 2 * k)),
+        max(10.0**log10_p, 1e-300),
+        alpha,
+        {
+            "rate_pct_per_min": [round(x, 4) for x in rates],
+            "se_pct_per_min": [round(x, 4) for x in ses],
+            "bound_pct_per_min": [round(x, 4) for x in bounds],
+            "p_records": ps,
+            "combined": "Fisher",
+        },
+        log10_p=min(0.0, log10_p),
+    )
+
+
 def drift(ctx: Context, alpha: float) -> CauseResult:
+    """A slow trend in time that no input explains. Records that carry their recording state
+    with a drift (a calibrated simulation's): is a record's R0 drift beyond what the simulator
+    says repeats differ by (:func:`_state_drift_test`, :func:`_drift_beyond_state`)? Others: the
+    F test of slow cosines of time per record beyond the slow mode of the inputs, the extension
+    an offset and gain drifting linearly, the predictor a drift tracked from the output."""
     n_terms = DRIFT_TERMS
 
     def z(r, recs=None):
@@ -873,6 +981,8 @@ def drift(ctx: Context, alpha: float) -> CauseResult:
     # a trend that no input explains: conditional on the slow mode of the inputs
     test = ctx.f_test(_trend_blocks(ctx, n_terms), extra_base=_drift_base(ctx))
     res = stats.f_result("F(residual ~ slow trend in time | slow mode)", test, alpha)
+    if _has_drift_state(ctx.est + ctx.val):
+        return _drift_beyond_state(ctx, alpha, res)
     pred_g0_val, pred_g0_est = ctx.fit_apply(None)
     r_est = np.concatenate([r.y for r in ctx.est]) - pred_g0_est
     r_val = ctx.y_val - pred_g0_val
@@ -904,6 +1014,32 @@ def drift(ctx: Context, alpha: float) -> CauseResult:
         pred,
         {"predictor_val": pred_trk},
         Z_est=_trend_blocks(ctx, n_terms),
+    )
+
+
+def _drift_beyond_state(ctx: Context, alpha: float, f_res: stats.StatResult) -> CauseResult:
+    """drift for records that carry their recording state: the test of :func:`_state_drift_test`;
+    the extension a common R0 drift rate beyond each record's drift state (its drift column, the
+    simulator's form rate t / 60 (1 + dR / 100)), fitted on estimation with the states beside it
+    (each validation record's state refitted after it). Its gain is that of this simulation
+    against the corrected simulation: the baseline's validation states are already refitted on
+    the whole validation record, so a drift tracked from the measured output adds nothing to
+    them (the causal rate fitted on the samples up to the previous one: paired t of -0.07..+1.24
+    on the drift trials of tests/diagnose/test_diagnose_sim.py)."""
+    res = _state_drift_test(ctx, alpha)
+    res.detail["trend_f"] = f_res.value
+    pred, _ = ctx.fit_apply(_drift_column)
+    rates = ", ".join(f"{x:+.2f}" for x in res.detail["rate_pct_per_min"])
+    return CauseResult(
+        res,
+        True,
+        f"the records' R0 drifts beyond what repeats differ by (rates {rates} % of R0 per minute, "
+        f"99 % prior bound {res.detail['bound_pct_per_min'][0]:.2f})",
+        "simulation: an R0 drift rate beyond each record's state, common to the records (rate t / 60 "
+        "(1 + dR / 100)); predictor: the same, each record's state refitted on it",
+        pred,
+        {"predictor_val": pred},
+        Z_est=ctx.stack(_drift_column, ctx.est),
     )
 
 

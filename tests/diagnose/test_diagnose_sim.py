@@ -23,8 +23,8 @@ Strength ranges, drawn uniformly (porosense.diagnose.trials.SIM_STRENGTHS):
 - cross_coupling: gain 0.1-0.3 of the neighbours' strain into contractor 0's contact strain
 
 Bound (issues 8 and 31): the hidden cause is top-1 in >= 90 % of trials with a positive
-validation gain; on clean data top is none in >= 90 %. Checked at one size everywhere (CI or
-not): 12 trials per cause, seeds 1000-1011 (4 trials were run before; they were measured
+validation gain; on clean data top is none in >= 95 %. Checked at one size everywhere (CI or
+not): 12 trials per cause and clean, seeds 1000-1011 (the clean 3-DoF segment: 3000-3011) (4 trials were run before; they were measured
 unrepresentative of the next eight: cross_coupling 4/4 at 1000-1003, 1/8 at 1004-1011).
 
 Measured on the simulator of issue 31 (physics beyond WH; every recording draws its own sensor
@@ -34,10 +34,10 @@ record with its own recording state fitted within the 99 % interval of the simul
 spread (porosense.sim.params.Variation) and refitted beside every correction and extension with
 its Gaussian prior (so a cause the state partly mimics keeps its gain). Top-1 at seeds
 1000-1011 (``python tools/sim_diagnosis_variation.py as_it_is``): saturation,
-periodic_disturbance, outliers 12/12; load_dependence, static_nonlinearity 9/12; time_delay,
-hysteresis 8/12; cross_coupling 7/12; drift 5/12; slow_relaxation 3/12 (85 of 120); clean
-contractor records named none 12/12, the clean 3-DoF segment 2/2. Every cause below the bound is
-a strict xfail naming what is named instead.
+periodic_disturbance, outliers 12/12; time_delay 10/12; load_dependence, static_nonlinearity
+9/12; hysteresis 8/12; cross_coupling 7/12; drift 5/12; slow_relaxation 1/12 (85 of 120); clean
+contractor records named none 12/12, the clean 3-DoF segment 11/12 (3005 named drift). Every
+cause or clean set below its bound is a strict xfail naming what is named instead.
 
 Where the misses come from: causes a recording's own state within its prior partly explains (a
 rate-independent memory or a slow relaxation looks like slower contact kinetics or a softening
@@ -54,15 +54,17 @@ from porosense.diagnose.catalogue import NONE
 
 TRIALS = 12
 SEED = 1000
+#: issue 31 item 6: a hidden cause top-1 in >= 90 % of trials, clean records named none in >= 95 %
+CAUSE_BOUND, CLEAN_BOUND = 0.90, 0.95
 #: measured top-1 of the causes below the bound at seeds 1000-1011 (see the module docstring)
 BELOW_BOUND = {
     "drift": "5/12: named none x6, slow_relaxation",
-    "time_delay": "8/12: named unmodelled_dynamics x4",
+    "time_delay": "10/12: named unmodelled_dynamics x2",
     "load_dependence": "9/12: named drift x2, static_nonlinearity",
     "static_nonlinearity": "9/12: named none x2, hysteresis",
     "hysteresis": "8/12: named none x2, unmodelled_dynamics, slow_relaxation",
-    "cross_coupling": "7/12: named none x3, slow_relaxation x2",
-    "slow_relaxation": "3/12: named drift x5, none x3, static_nonlinearity, periodic_disturbance",
+    "cross_coupling": "7/12: named none x3, unmodelled_dynamics x2",
+    "slow_relaxation": "1/12: named drift x4, none x3, static_nonlinearity, periodic_disturbance, unmodelled_dynamics, time_delay",
 }
 
 
@@ -70,14 +72,17 @@ def _check(cause, n, seed, run=trials.run_sim_trial):
     results = [run(cause, seed + k) for k in range(n)]
     tops = [r.top for r in results]
     rate = sum(t == cause for t in tops) / n
-    assert rate >= 0.9, f"{cause}: top-1 in {rate:.0%} of {n} simulator trials ({tops})"
+    bound = CLEAN_BOUND if cause == NONE else CAUSE_BOUND
+    assert rate >= bound, f"{cause}: top-1 in {rate:.0%} of {n} simulator trials ({tops}), bound {bound:.0%}"
     if cause != NONE:
         gains = [r.gain for r in results if r.top == cause]
         assert all(g > 0 for g in gains), f"{cause}: validation gains {gains}"
 
 
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="11/12: seed 3005 named drift")
 def test_sim_3dof_clean_is_none():
-    _check(NONE, 2, 3000, trials.run_sim_3dof_trial)
+    _check(NONE, TRIALS, 3000, trials.run_sim_3dof_trial)
 
 
 @pytest.mark.slow

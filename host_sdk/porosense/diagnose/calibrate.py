@@ -548,14 +548,17 @@ def _joint(models: list, ys: list, keeps: list):
 
 
 @single_threaded
-def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float, physics=None) -> Calibration:
+def calibrate(
+    actuator: str, output: str, u_list: list, y_list: list, ts: float, physics=None, effects=None
+) -> Calibration:
     """Fit porosity, scale and offset of ``actuator``'s ``output`` to the estimation records, each
     record with its own recording state (the rule of the module docstring).
 
     ``u_list``: commanded vacuum per record, (N, n_channels) kPa; ``y_list``: the measured output
     (N,) per record, output unit; ``ts``: sample period, s. ``physics`` (porosense.sim.Physics or
     None for the defaults) is the simulator calibrated: its mean recording is the nominal and
-    its Variation the prior of each record's state."""
+    its Variation the prior of each record's state; ``effects`` (porosense.sim.effects, None:
+    none) are named effects the simulator runs with."""
     from porosense.dsp.metrics import fit_percent
     from porosense.sim import Physics
 
@@ -571,7 +574,7 @@ def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float,
 
     def models(por, sens=None):
         sens = sens or [None] * len(u_list)
-        return [_Model(actuator, output, por, u, ts, nominal, prior, S) for u, S in zip(u_list, sens)]
+        return [_Model(actuator, output, por, u, ts, nominal, prior, S, effects=effects) for u, S in zip(u_list, sens)]
 
     # the porosity grid brackets the fit with the mean recording (offset and drift states only),
     # the bounded search refines it with every state, its sensitivities taken at the bracket's
@@ -604,7 +607,7 @@ def calibrate(actuator: str, output: str, u_list: list, y_list: list, ts: float,
     fit = fit_percent(np.concatenate(ys)[kk], np.concatenate(preds)[kk])
     for s, y, p, kp in zip(states, ys, preds, keeps):
         s.fit = float(fit_percent(y[kp], p[kp]))
-    return Calibration(actuator, output, por, scale, offset, float(fit), physics, states)
+    return Calibration(actuator, output, por, scale, offset, float(fit), physics, states, effects)
 
 
 def as_calibrated(actuator: str, output: str, physics, effects=None) -> Calibration:

@@ -338,6 +338,16 @@ def run_sim_trial(cause: str, seed: int, physics=None, nominal_physics=None) -> 
     if cause == "cross_coupling":
         return run_sim_3dof_trial(cause, seed, physics, nominal_physics)
     t0 = time.perf_counter()
+    _, est, val = sim_trial_records(cause, seed, physics)
+    return _diagnose_sim("contractor", cause, est, val, nominal_physics, t0)
+
+
+def sim_trial_records(cause: str, seed: int, physics=None) -> tuple:
+    """The contractor records of :func:`run_sim_trial` with ``cause`` hidden: (the simulator
+    effects hidden, None for the causes applied to the measured dR; estimation records; validation
+    records), each record (p_cmd (N, 1) kPa, dR_0 (N,) %, {"load_g": (N,) g}).
+
+    ``physics``: the simulator's stage parameters (porosense.sim.Physics; None: the defaults)."""
     rng = np.random.default_rng(seed)
     effects = _sim_effect(rng, cause)
     post = (
@@ -368,4 +378,4 @@ def run_sim_trial(cause: str, seed: int, physics=None, nominal_physics=None) -> 
             clean = _sim_record("contractor", exp, porosity, seed * 10 + k, effects, physics, noise=False)["dR_0"]
             y = _post(clean, cause, post) + (y - clean)
         parts.append((rec["p_cmd_0"][:, None], y, {"load_g": rec["load_g"]}))
-    return _diagnose_sim("contractor", cause, parts[:2], parts[2:], nominal_physics, t0)
+    return effects, parts[:2], parts[2:]

@@ -212,12 +212,11 @@ def _split(args, inputs, conditions, tables, vtables):
 
 def _predicted(args, predict, u, y):
     """(``predict``'s prediction for one record, the record's recording state as the diagnosis
-    refits it: porosense.diagnose.calibrate.StateColumns for --sim, else None)."""
-    states = getattr(args, "record_states", None) or []
-    n = len(states)
+    refits it: porosense.diagnose.calibrate.StateColumns for --sim, else None). A --sim
+    prediction appends the record's state to ``args.record_states`` (set by :func:`_predictor`)."""
+    n = len(args.record_states)
     yhat = predict(u, y)
-    states = getattr(args, "record_states", None) or []
-    return yhat, (states[-1].columns if len(states) > n else None)
+    return yhat, (args.record_states[-1].columns if len(args.record_states) > n else None)
 
 
 def _predictor(args, inputs, est, drives):

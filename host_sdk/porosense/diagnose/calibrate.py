@@ -68,7 +68,7 @@ left out of the calibration and state fits: they only say that the output is bey
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 from scipy import optimize
@@ -173,7 +173,7 @@ class StateColumns:
 
     def moved(self, d: np.ndarray) -> StateColumns:
         """The same state after an increment d was applied to the prediction."""
-        return StateColumns(self.S, self.R, self.t - self.R @ d, self.names, self.sd, self.walk_rate_sd)
+        return replace(self, t=self.t - self.R @ d)
 
     def value(self, name: str) -> float:
         """The state ``name``'s present value (its column's unit; z units for gain, scale and

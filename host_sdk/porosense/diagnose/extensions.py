@@ -896,15 +896,14 @@ def _state_drift_test(ctx: Context, alpha: float) -> stats.StatResult:
 
     recs = ctx.est
     Xb = np.column_stack([ctx.base(ADEQUATE)[0], _drift_base(ctx)])
-    n_b, N = Xb.shape[1], len(ctx.e_est)
-    K = sum(r.state.S.shape[1] for r in recs)
-    Se = np.zeros((N, K))
+    n_b = Xb.shape[1]
+    Se = ctx._state_blocks()[0]  # every record carries a state (_has_drift_state)
+    K = Se.shape[1]
     P_rows, P_t, spans, drift_col = [], [], [], []
     row = col = 0
     for r in recs:
         st, n = r.state, len(r.y)
         k = st.S.shape[1]
-        Se[row : row + n, col : col + k] = st.S
         sw = np.sqrt(st.weight())
         for j, name in enumerate(st.names):
             if name == "drift":

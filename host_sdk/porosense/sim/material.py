@@ -176,27 +176,34 @@ class ContactNetwork:
         e = np.asarray(e, dtype=float)
         a_f, a_b, a_r, a_h = self.alphas(dt)
         x_eq = np.asarray(self._x_eq(e), dtype=float).tolist()
-        r, gf, gb = p.instant_share, 1.0 - a_f, 1.0 - a_b
+        r, r1, gf, gb = p.instant_share, 1.0 - p.instant_share, 1.0 - a_f, 1.0 - a_b
         xs, xp, c = self.x_slow, self.x, self.c
-        inv_n, sf = 1.0 / p.soften_cycles, p.soften_fraction
-        n = len(x_eq)
-        x_out, s_out = [0.0] * n, [0.0] * n
-        for k, xe in enumerate(x_eq):  # the contact kinetics are nonlinear: one sample at a time
+        inv_n = 1.0 / p.soften_cycles
+        x_out: list = []
+        c_out: list = []
+        keep_x, keep_c = x_out.append, c_out.append
+        # The contact kinetics are nonlinear (the rate depends on the direction, the softening on
+        # the path): one sample at a time, in as few Python operations as the arithmetic allows.
+        for xe in x_eq:
             d = xe - xs
-            xs += (gf if d > 0.0 else gb) * d
-            x = r * xe + (1.0 - r) * xs
+            if d > 0.0:
+                xs += gf * d
+            else:
+                xs += gb * d
+            x = r * xe + r1 * xs
             c *= a_h
             if x > xp:
                 c += (x - xp) * (1.0 - c) * inv_n
             xp = x
-            x_out[k] = x
-            s_out[k] = 1.0 - sf * c
+            keep_x(x)
+            keep_c(c)
         self.x_slow, self.x, self.c = xs, xp, c
-        x = np.asarray(x_out)
+        x = np.asarray(x_out, dtype=float)
+        sens = 1.0 - p.soften_fraction * np.asarray(c_out, dtype=float)  # softened sensitivity
         if p.curve_strain:
-            g = 100.0 * np.expm1(np.asarray(s_out) * x)
+            g = 100.0 * np.expm1(sens * x)
         else:
-            g = np.where(e >= 0.0, -p.floor_pct * np.asarray(s_out) * x, -100.0 * p.tension_gauge_factor * e)
+            g = np.where(e >= 0.0, -p.floor_pct * sens * x, -100.0 * p.tension_gauge_factor * e)
         h = np.log(np.maximum(1.0 + g / 100.0, 1e-9)) if p.relax_log else g
         out = h.copy()
         for i, (a, k) in enumerate(zip(a_r, p.relax_gain)):

@@ -13,6 +13,7 @@ Each step is limited to ``max_rate_kpa_s * dt`` (the flow the pump or the vent c
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
@@ -37,21 +38,66 @@ def step_pressure(pressure: float, dt: float, setpoint_kpa: float, pump: bool, v
 
 
 def run_pressure(dt: float, setpoint_kpa, pump, valve, p: Pneumatics, p0: float = 0.0) -> np.ndarray:
-    """Chamber pressure (kPa) for each sample of the actuation series (1-D arrays)."""
-    setpoint_kpa = np.asarray(setpoint_kpa, dtype=float).tolist()
-    pump = np.asarray(pump, dtype=bool).tolist()
-    valve = np.asarray(valve, dtype=bool).tolist()
+    """Chamber pressure (kPa) for each sample of the actuation series (1-D arrays).
+
+    The series depends only on the actuation and the pneumatics, not on the foam or the sensor,
+    so a calibration that simulates the same records at many porosities computes it once: the
+    last :data:`RUN_CACHE_SIZE` series are kept (keyed on the exact inputs; a new array is
+    returned every call).
+
+    Parameters
+    ----------
+    dt : float
+        Sample period, s.
+    setpoint_kpa : array_like, shape (N,)
+        Regulator setpoint, kPa.
+    pump, valve : array_like of bool, shape (N,)
+        Pump and valve states.
+    p : Pneumatics
+        The line's parameters.
+    p0 : float
+        Chamber pressure before the first sample, kPa.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Chamber pressure after each sample, kPa.
+    """
+    sp = np.ascontiguousarray(setpoint_kpa, dtype=float).ravel()
+    pu = np.ascontiguousarray(pump, dtype=bool).ravel()
+    va = np.ascontiguousarray(valve, dtype=bool).ravel()
+    key = (float(dt), sp.tobytes(), pu.tobytes(), va.tobytes(), p, float(p0))
+    return np.array(_pressure_series(*key))
+
+
+RUN_CACHE_SIZE = 64  # series of :func:`run_pressure` kept (each a few tens of kB)
+
+
+def forget_runs() -> None:
+    """Empty the cache of :func:`run_pressure` (a benchmark of the simulation itself)."""
+    _pressure_series.cache_clear()
+
+
+@lru_cache(maxsize=RUN_CACHE_SIZE)
+def _pressure_series(dt: float, sp: bytes, pu: bytes, va: bytes, p: Pneumatics, p0: float) -> np.ndarray:
+    """:func:`run_pressure` of the inputs' bytes (float64 setpoints, bool pump and valve); the
+    returned array is read-only (it is shared by every caller of the same inputs)."""
+    setpoint_kpa = np.frombuffer(sp, dtype=float).tolist()
+    pump = np.frombuffer(pu, dtype=bool).tolist()
+    valve = np.frombuffer(va, dtype=bool).tolist()
     out = [0.0] * len(setpoint_kpa)
     pressure = p0
     cache: dict = {}
     limit = p.max_rate_kpa_s * dt
-    for k, (sp, pu, va) in enumerate(zip(setpoint_kpa, pump, valve)):
-        key = (sp, pu, va)
+    for k, (s, on, open_) in enumerate(zip(setpoint_kpa, pump, valve)):
+        key = (s, on, open_)
         if key not in cache:  # schedules are piecewise constant: few distinct targets
-            target, tau = target_and_tau(sp, pu, va, p)
+            target, tau = target_and_tau(s, on, open_, p)
             cache[key] = (target, -math.expm1(-dt / tau))
         target, gain = cache[key]
         change = (target - pressure) * gain
         pressure += limit if change > limit else -limit if change < -limit else change
         out[k] = pressure
-    return np.asarray(out)
+    series = np.asarray(out)
+    series.flags.writeable = False
+    return series

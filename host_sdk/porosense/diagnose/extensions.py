@@ -1217,6 +1217,31 @@ def load_dependence(ctx: Context, alpha: float) -> CauseResult:
     )
 
 
+def _leak_before_map(ctx: Context, cols: dict, leaking: list, z_add):
+    """A leak of other channels' commands that enters before the sensor's static map (a column
+    stated an input, porosense.diagnose.Record.column_kinds: another channel's strain into this
+    one's contact strain). With the map g and the channel's own contact strain x, the output is
+    g(x + l) = g(x) + g'(x) l to first order in the leak l: the leak's dynamics (the columns' own
+    Laguerre banks, as the additive leak) scaled by the map's slope at the operating point, whose
+    first-order expansion in the output level is a + b (yhat - mean) / sd. The nominal fitted to
+    records that carry the leak has its own level map bent by it (its calibration took part of
+    g'(x) l for g(x)): a static PWL of the output level (static_nonlinearity's output-side map)
+    enters the extension too, and the leak must gain beyond that map alone (the rival).
+
+    Returns (builder of the extension's regressors, detail entries: the rival's validation
+    prediction and its name)."""
+    m, s = float(np.mean(ctx.yhat_est)), float(np.std(ctx.yhat_est)) or 1.0
+    static = _static_sets(ctx)["output"]
+    n_bank = 3  # the leak's own dynamics: the first half of each column's z_dyn (its Laguerre bank)
+
+    def z(r):
+        banks = np.column_stack([cols[k]["z_dyn"](r)[:, :n_bank] for k in leaking])
+        return np.column_stack([z_add(r), banks * ((r.yhat - m) / s)[:, None], static(r)])
+
+    rival, _ = ctx.fit_apply(static)
+    return z, {"rival_val": rival, "rival": "static_nonlinearity's extension (a static PWL on the output side)"}
+
+
 def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
     cols = _of_kind(ctx, _column_tests(ctx), "condition")
     if not cols:
@@ -1228,9 +1253,14 @@ def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
     # holds at the same level (alpha / columns), the strongest always
     leaking = [k for k in cols if k == name or stats.f_result(k, cols[k]["dyn"], alpha, len(cols)).significant]
 
-    def z_leak(r, leaking=leaking):
+    stated = ctx.est[0].column_kinds.get(name) == "input"
+
+    def z_add(r, leaking=leaking):
         return np.column_stack([cols[k]["z_dyn"](r) for k in leaking])
 
+    z_leak, detail = z_add, {}
+    if stated:
+        z_leak, detail = _leak_before_map(ctx, cols, leaking, z_add)
     inter = stats.f_result("interaction", c["inter"], alpha, len(cols))
     pred, _ = ctx.fit_apply(z_leak)
     # a leak adds to the output: a column that changes the model's gain (an interaction with the
@@ -1239,7 +1269,6 @@ def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
     # no condition: its leak enters before the sensor's static map (another channel's strain into
     # this one's contact strain), whose slope changes with the operating point, so an interaction
     # is what such a leak shows and is no evidence against it
-    stated = ctx.est[0].column_kinds.get(name) == "input"
     additive = stated or not inter.significant
     named = ", ".join(leaking)
     return CauseResult(
@@ -1249,9 +1278,15 @@ def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
         f"dynamics (interaction of {name} with the output F = {c['inter'].f:.3g}, p = {inter.p:.2g}"
         + ("; the column is stated an input" if stated else ", additively")
         + f"; {_explained(res)})",
-        f"{named} as extra MISO input{'s' if len(leaking) > 1 else ''}",
+        f"{named} as extra MISO input{'s' if len(leaking) > 1 else ''}"
+        + (
+            ", scaled by the slope of the sensor's map at the output level, with a static PWL on the output side"
+            if stated
+            else ""
+        ),
         pred,
         {
+            **detail,
             "column": name,
             "columns": leaking,
             "evidence_ok": additive,

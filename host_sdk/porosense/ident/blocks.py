@@ -14,6 +14,9 @@ their derivatives (:func:`pwl_rows`), for the Jacobian and for every basis built
 
 from __future__ import annotations
 
+import threading
+from collections import OrderedDict
+
 import numpy as np
 from scipy.signal import lfilter
 
@@ -270,8 +273,6 @@ def pwl_expected(x, y, u, sigma: float, derivatives: bool = False):
     before g. ``sigma`` > 0 in the units of u. With ``derivatives``, also returns dz/du (N,),
     dz/dx (N, n), dz/dy (N, n) and dz/dsigma (N,).
     """
-    from scipy.special import ndtr
-
     u = np.asarray(u, dtype=float)
     x = np.asarray(x, dtype=float)
     y = np.asarray(y, dtype=float)
@@ -279,11 +280,7 @@ def pwl_expected(x, y, u, sigma: float, derivatives: bool = False):
     dx = np.diff(x)
     s = np.diff(y) / dx  # slopes of the n - 1 segments
     c = np.diff(s)  # slope changes at the inner breakpoints x_1..x_(n-2)
-    d = u[:, None] - x[None, 1:-1]  # (N, n - 2)
-    t = d / sigma
-    cdf = ndtr(t)
-    pdf = np.exp(-0.5 * t * t) / np.sqrt(2.0 * np.pi)
-    hinge = d * cdf + sigma * pdf
+    cdf, pdf, hinge = _hinges(x[1:-1], u, float(sigma))
     z = y[0] + s[0] * (u - x[0]) + hinge @ c
     if not derivatives:
         return z
@@ -304,3 +301,35 @@ def pwl_expected(x, y, u, sigma: float, derivatives: bool = False):
     dz_dx[:, :-1] += ds_w
     dz_dx[:, 1:] -= ds_w
     return z, slope, dz_dx, dz_dy, dz_dsigma
+
+
+#: Hinge expectations of :func:`pwl_expected` kept for their inputs (a fit's Jacobian follows the
+#: simulation at the same parameters and signal: the normal CDF, most of its cost, is computed once).
+_HINGES: OrderedDict = OrderedDict()
+_HINGES_KEEP = 4
+_HINGES_LOCK = threading.Lock()
+
+
+def _hinges(inner, u, sigma: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Normal CDF and density of ``(u - inner) / sigma`` and the hinges' expectations
+    ``E max(0, u - inner + v)`` (each (N, len(inner)), read-only), for v ~ N(0, sigma^2)."""
+    from scipy.special import ndtr
+
+    key = (inner.tobytes(), u.tobytes(), sigma)
+    with _HINGES_LOCK:
+        hit = _HINGES.get(key)
+        if hit is not None:
+            _HINGES.move_to_end(key)
+            return hit
+    d = u[:, None] - inner[None, :]  # (N, n - 2)
+    t = d / sigma
+    cdf = ndtr(t)
+    pdf = np.exp(-0.5 * t * t) / np.sqrt(2.0 * np.pi)
+    hinge = d * cdf + sigma * pdf
+    for a in (cdf, pdf, hinge):
+        a.flags.writeable = False
+    with _HINGES_LOCK:
+        _HINGES[key] = (cdf, pdf, hinge)
+        while len(_HINGES) > _HINGES_KEEP:
+            _HINGES.popitem(last=False)
+    return cdf, pdf, hinge

@@ -212,11 +212,13 @@ def _split(args, inputs, conditions, tables, vtables):
 
 def _predicted(args, predict, u, y):
     """(``predict``'s prediction for one record, the record's recording state as the diagnosis
-    refits it: porosense.diagnose.calibrate.StateColumns for --sim, else None). A --sim
+    refits it: porosense.diagnose.calibrate.StateColumns for --sim, else None, and the record's
+    calibrated simulation: porosense.diagnose.calibrate.Simulation for --sim, else None). A --sim
     prediction appends the record's state to ``args.record_states`` (set by :func:`_predictor`)."""
     n = len(args.record_states)
     yhat = predict(u, y)
-    return yhat, (args.record_states[-1].columns if len(args.record_states) > n else None)
+    state = args.record_states[-1] if len(args.record_states) > n else None
+    return yhat, getattr(state, "columns", None), getattr(state, "simulation", None)
 
 
 def _predictor(args, inputs, est, drives):
@@ -350,8 +352,10 @@ def run(args) -> int:
     kinds = _column_kinds(conditions, inputs, tables + vtables)
 
     def record(u, y, cond):
-        yhat, state = (cond[MATERIAL_SIM], None) if material else _predicted(args, predict, drive_of(u, cond), y)
-        return Record(u, y, yhat, args.ts, {k: v for k, v in cond.items() if k not in extra}, kinds, state)
+        yhat, state, simulation = (
+            (cond[MATERIAL_SIM], None, None) if material else _predicted(args, predict, drive_of(u, cond), y)
+        )
+        return Record(u, y, yhat, args.ts, {k: v for k, v in cond.items() if k not in extra}, kinds, state, simulation)
 
     records = [[record(u, y, cond) for u, y, cond in part] for part in (est, val)]
     result = diagnose(

@@ -72,6 +72,7 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 from scipy import optimize
+from scipy.signal import lfilter
 from scipy.stats import norm
 
 from porosense.dsp.blas import single_threaded
@@ -128,10 +129,13 @@ class RecordState:
     fit: float = float("nan")
     #: the state's columns and prior for a refit beside an extension (:class:`StateColumns`), not saved
     columns: object = field(default=None, repr=False, compare=False)
+    #: the record's calibrated simulation, for the simulator's own effects (:class:`Simulation`), not saved
+    simulation: object = field(default=None, repr=False, compare=False)
 
     def to_dict(self) -> dict:
         d = asdict(self)
         d.pop("columns")
+        d.pop("simulation")
         d["at_bound"] = list(self.at_bound)
         return d
 
@@ -184,6 +188,30 @@ class StateColumns:
     def weight(self) -> float:
         """The data weight w (1 / output unit^2) the prior rows are scaled by: (P_jj / R_jj)^2."""
         return float((1.0 / (self.sd[0] * self.R[0, 0])) ** 2)
+
+
+@dataclass
+class Simulation:
+    """One record's calibrated simulation, for the simulator's own named effects
+    (porosense.sim.effects) as diagnosis' extensions (porosense.diagnose.extensions).
+
+    ``g`` (N,) %: the static drop of the output channel's contact network
+    (porosense.sim.material.ContactNetwork), simulated at the record's fitted recording state;
+    ``scale``: the calibrated output scale (output unit per % dR); ``ts``: sample period, s."""
+
+    g: np.ndarray
+    scale: float
+    ts: float
+
+    def slow_relaxation(self, tau_s: float) -> np.ndarray:
+        """The output's change (output unit) per unit ``gain`` of the ``slow_relaxation`` effect of
+        time constant ``tau_s`` (s), as porosense.sim.plant adds it to dR:
+        (g - g through a first-order lag of tau_s) (1 + g / 100), the lag started settled at g's
+        first sample (the record starts at rest), times the output scale."""
+        g = self.g
+        a = float(np.exp(-self.ts / tau_s))
+        lag = lfilter([1.0 - a], [1.0, -a], g, zi=[a * g[0]])[0]
+        return self.scale * (g - lag) * (1.0 + g / 100.0)
 
 
 @dataclass(frozen=True)
@@ -245,11 +273,11 @@ class _Model:
         ``S`` (N, 4): sensitivities taken from elsewhere (zero columns: that state held)."""
         self.z = z
         if z is None:
-            self.m = _simulate(*self.args, self.physics, self.effects)
+            self.m, self.g = _simulate(*self.args, self.physics, self.effects, with_g=True)
             self.S = np.zeros((len(self.m), 0))
             return
         p = self.prior
-        self.m = _simulate(*self.args, _with_state(self.physics, z, p), self.effects)
+        self.m, self.g = _simulate(*self.args, _with_state(self.physics, z, p), self.effects, with_g=True)
         if S is not None:
             self.S = S
             return
@@ -368,6 +396,8 @@ class Calibration:
         pred, x = _fit_state(model, y, keep, self.scale, self.offset)
         state = _state(model, x, self.scale)
         state.columns = getattr(model, "columns_at_fit", None)
+        if model.g is not None:
+            state.simulation = Simulation(model.g, float(self.scale), float(ts))
         state.fit = float(fit_percent(y[keep], pred[keep]))
         return pred, state
 
@@ -475,9 +505,13 @@ def _state(model: _Model, x, scale) -> RecordState:
 
 
 def _simulate(
-    actuator: str, output: str, porosity, p_cmd: np.ndarray, ts: float, physics=None, effects=None
-) -> np.ndarray:
+    actuator: str, output: str, porosity, p_cmd: np.ndarray, ts: float, physics=None, effects=None, with_g=False
+):
+    """The simulated ``output`` (N,), and with ``with_g`` also the output channel's static drop g
+    (N,) % (None for an output that is no channel's dR)."""
     from porosense import sim
+
+    g_key = f"g_{output[3:]}" if output.startswith("dR_") else None
 
     p = np.asarray(p_cmd, float).reshape(len(p_cmd), -1)
     if effects:  # a parameter file's named effects: dR as the electronics read it (porosense.sim.calibrate)
@@ -492,7 +526,8 @@ def _simulate(
         )
         if output not in out:
             raise InputError(f"the {actuator} simulator has no output '{output}'")
-        return np.asarray(out[output], float)
+        y = np.asarray(out[output], float)
+        return (y, out.get(g_key)) if with_g else y
     sp = np.zeros((len(p), 3))
     sp[:, : p.shape[1]] = np.minimum(p, 0.0)
     on = sp < 0.0
@@ -501,9 +536,10 @@ def _simulate(
     if output not in out:
         raise InputError(
             f"the {actuator} simulator has no output '{output}' "
-            f"(it has {', '.join(k for k in out if not k.startswith(('voltage', 'euler', 't_')))})"
+            f"(it has {', '.join(k for k in out if not k.startswith(('voltage', 'euler', 't_', 'g_')))})"
         )
-    return np.asarray(out[output], float)  # sample k as a recording stores it
+    y = np.asarray(out[output], float)  # sample k as a recording stores it
+    return (y, out.get(g_key)) if with_g else y
 
 
 def _at_limit(y: np.ndarray, min_count: int = 10) -> np.ndarray:

@@ -106,6 +106,10 @@ class Record:
         The record's own recording state fitted into ``yhat`` (a calibrated simulation's), as
         nuisance regressors with their prior: every extension is fitted with it free to move
         within its prior (:meth:`.extensions.Context.fit_apply`).
+    simulation : porosense.diagnose.calibrate.Simulation, optional
+        The calibrated simulation ``yhat`` comes from (``--sim``): the causes the simulator carries
+        as named effects are then tested and extended as that effect computed from it
+        (:func:`.extensions.slow_relaxation`); without it, as residual regressions.
 
     Raises
     ------
@@ -120,6 +124,7 @@ class Record:
     conditions: dict = field(default_factory=dict)
     column_kinds: dict = field(default_factory=dict)
     state: object = None
+    simulation: object = None
 
     def __post_init__(self):
         self.u = np.asarray(self.u, float).reshape(len(self.u), -1)

@@ -195,7 +195,14 @@ class Context:
             cuts = np.cumsum([len(r.y) for r in records])[:-1]
             return [
                 type(r)(
-                    r.u, r.y, p, r.ts, r.conditions, r.column_kinds, r.state.moved(d) if r.state is not None else None
+                    r.u,
+                    r.y,
+                    p,
+                    r.ts,
+                    r.conditions,
+                    r.column_kinds,
+                    r.state.moved(d) if r.state is not None else None,
+                    r.simulation,
                 )
                 for r, p, d in zip(records, np.split(pred, cuts), ds)
             ]
@@ -694,7 +701,109 @@ def _slow_rivals(ctx: Context, alpha: float) -> tuple:
     )
 
 
+def _simulated(ctx: Context) -> bool:
+    """Whether every record comes from a calibrated simulator that computes its own effects
+    (porosense.diagnose.engine.Record.simulation)."""
+    return all(r.simulation is not None for r in ctx.est + ctx.val)
+
+
+def _sim_slow_taus(ctx: Context) -> np.ndarray:
+    """Time constants (s) the simulator's slow_relaxation effect is searched over: a geometric
+    grid of ratio sqrt(2) over the bounds ``porosense diagnose --sim --save-extended`` fits it
+    within (porosense.sim.extend.EFFECT_FITS), kept where a slow mode can be told apart within the
+    estimation records, as the residual regression's grid (:func:`_slow_sets`): no faster than
+    dynamics.SLOW_RATIO times the model's own time constant (a fast mode is unmodelled dynamics),
+    and no slower than half a record (one that does not relax within the record is a change of
+    the gain to the level). The grid point nearest that range when none lies in it."""
+    from porosense.sim.extend import EFFECT_FITS
+
+    (_, lo, hi, _) = next(f for f in EFFECT_FITS["slow_relaxation"] if f[0] == "tau_s")
+    grid = np.geomspace(lo, hi, int(np.ceil(np.log(hi / lo) / np.log(np.sqrt(2.0)))) + 1)
+    t_rec = sum(ctx.seg_est) * ctx.ts / len(ctx.seg_est)
+    floor, ceil = dynamics.SLOW_RATIO * ctx.tau_s, t_rec / 2.0
+    keep = grid[(grid >= floor) & (grid <= ceil)]
+    if keep.size:
+        return keep
+    return grid[[int(np.argmin(np.abs(np.log(grid / np.clip(grid, floor, max(ceil, floor))))))]]
+
+
+def _slow_evidence(ctx: Context, alpha: float, res: stats.StatResult, tau: float) -> tuple[dict, object]:
+    """What a slow mode's name needs beyond its gain: (detail, the slow-pole verdict or None).
+
+    A gain from the slow mode itself: a static map of a dynamic output (a bend) changes its
+    transients with the level, which a share of the output that follows it slowly renders in
+    part, so the extension must predict the held-out data better than static_nonlinearity's
+    extension beyond nominal + G0 (the engine's rival test, one-sided 5 %), as hysteresis'
+    memory must. And a slow pole: a missing pole of the nominal is also a pole; a relaxation is
+    one much slower than the nominal's slowest (the measured output re-identified with one pole
+    more puts it there), a missing faster or nearby pole is unmodelled dynamics."""
+    static = static_nonlinearity(Context(ctx.est, ctx.val, correct=False), alpha)
+    pole = None
+    detail = {
+        "tau_s": tau,
+        "rival_val": static.yhat_val,
+        "rival": "static_nonlinearity's extension (a static PWL of the level beyond nominal + G0)",
+    }
+    if res.significant:
+        pole = dynamics.slow_pole(
+            [r.u for r in ctx.est], [r.y for r in ctx.est], ctx.model_order or 1, ctx.slowest_tau_s, tau, ctx.ts
+        )
+        detail.update(
+            {
+                "prefers_slow": pole.slow,
+                "evidence_ok": not pole.not_slow,
+                "evidence_note": f"the pole the data need is not a slow one: {pole.sentence()}",
+            }
+        )
+    return detail, pole
+
+
+def _simulator_slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
+    """slow_relaxation of records from a calibrated simulator: the simulator's own effect
+    (porosense.sim.effects), gain x (g - g through a first-order lag of tau) (1 + g / 100) added to
+    dR, g the calibrated simulation's contact network (porosense.diagnose.calibrate.Simulation).
+    It is linear in its gain for a given tau. The test: F of the effect beyond the generic
+    correction (a slow mode is linear dynamics), tau the most significant of :func:`_sim_slow_taus`
+    (Bonferroni over them). The extension: the effect alone on the nominal (its gain and a
+    constant, each record's recording state refitted beside it), tau the one of the grid that fits
+    the estimation records best."""
+    taus = _sim_slow_taus(ctx)
+
+    def z(r, tau):
+        return r.simulation.slow_relaxation(tau)[:, None]
+
+    best = None
+    for tau in taus:
+        t = ctx.f_test(ctx.stack(lambda r, tau=tau: z(r, tau), ctx.est), scope=GENERIC)
+        if best is None or t.log10_p < best[0].log10_p:
+            best = (t, tau)
+    test, tau_test = best
+    res = stats.f_result(
+        "F(residual ~ the simulator's slow_relaxation effect)", test, alpha, len(taus), tau_s=float(tau_test)
+    )
+    y_all = np.concatenate([r.y for r in ctx.est])
+    sse = {
+        float(t): float(np.sum((y_all - ctx.fit_apply(lambda r, t=t: z(r, t), scope=CONSTANT)[1]) ** 2)) for t in taus
+    }
+    tau = min(sse, key=sse.get)
+    pred, _ = ctx.fit_apply(lambda r: z(r, tau), scope=CONSTANT)
+    detail, pole = _slow_evidence(ctx, alpha, res, tau)
+    return CauseResult(
+        res,
+        True,
+        f"the residual follows the simulator's slow relaxation of its contact network with tau about "
+        f"{tau_test:.3g} s ({_explained(res)}" + (f"; {pole.sentence()}" if pole is not None else "") + ")",
+        f"the simulator's slow_relaxation effect at tau = {tau:.3g} s",
+        pred,
+        detail,
+        Z_est=ctx.stack(lambda r: z(r, tau), ctx.est),
+        n_search=len(taus),
+    )
+
+
 def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
+    if _simulated(ctx):
+        return _simulator_slow_relaxation(ctx, alpha)
     rivals = _slow_rivals(ctx, alpha)
     (test, _z, tau), n_taus = _slow_sets(ctx, rivals)
     res = stats.f_result(
@@ -723,32 +832,7 @@ def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
     sse = {t: float(np.sum((y_all - ctx.fit_apply(lambda r, t=t: z_full(r, t), scope=CONSTANT)[1]) ** 2)) for t in grid}
     tau = min(sse, key=sse.get)
     pred, _ = ctx.fit_apply(lambda r: z_full(r, tau), scope=CONSTANT)
-    # the name needs a gain from the slow mode itself: a static map of a dynamic output (a bend)
-    # changes its transients with the level, which a share of the output that follows it slowly
-    # renders in part, so the extension must predict the held-out data better than
-    # static_nonlinearity's extension beyond nominal + G0 (the engine's rival test, one-sided 5 %),
-    # as hysteresis' memory must
-    static = static_nonlinearity(Context(ctx.est, ctx.val, correct=False), alpha)
-    # the name needs its own evidence: a missing pole of the nominal is also a pole; a relaxation
-    # is one much slower than the nominal's slowest (the measured output re-identified with one
-    # pole more puts it there), a missing faster or nearby pole is unmodelled dynamics
-    pole = None
-    detail = {
-        "tau_s": tau,
-        "rival_val": static.yhat_val,
-        "rival": "static_nonlinearity's extension (a static PWL of the level beyond nominal + G0)",
-    }
-    if res.significant:
-        pole = dynamics.slow_pole(
-            [r.u for r in ctx.est], [r.y for r in ctx.est], ctx.model_order or 1, ctx.slowest_tau_s, tau, ctx.ts
-        )
-        detail.update(
-            {
-                "prefers_slow": pole.slow,
-                "evidence_ok": not pole.not_slow,
-                "evidence_note": f"the pole the data need is not a slow one: {pole.sentence()}",
-            }
-        )
+    detail, pole = _slow_evidence(ctx, alpha, res, tau)
     return CauseResult(
         res,
         True,

@@ -278,9 +278,10 @@ def _sim_record(actuator: str, exp: str, porosity: float, seed: int, effects, ph
 def _state_record(cal, p_cmd, y, ts, conditions, kinds) -> engine.Record:
     """A record predicted by the calibrated simulation (driven by every channel's command p_cmd,
     (N, channels) kPa; the diagnosed input is channel 0's) with its own recording state, which
-    the diagnosis refits beside every extension (porosense.diagnose.engine.Record.state)."""
+    the diagnosis refits beside every extension (porosense.diagnose.engine.Record.state), and
+    the simulation itself (Record.simulation: the simulator's own effects)."""
     yhat, state = cal.predict_record(p_cmd, y, ts)
-    return engine.Record(p_cmd[:, :1], y, yhat, ts, conditions, kinds, state.columns)
+    return engine.Record(p_cmd[:, :1], y, yhat, ts, conditions, kinds, state.columns, state.simulation)
 
 
 def _diagnose_sim(actuator: str, cause: str, est: list, val: list, nominal_physics, t0: float) -> Trial:

@@ -351,7 +351,7 @@ def simulated_output(actuator: str, physics: Physics, p_cmd, ts: float, output: 
     p = p[:, None] if p.ndim == 1 else p
     out = simulate_record(actuator, physics, ActuatorRecord(p, ts, np.zeros_like(p)), effects=effects or None)
     if output not in out:
-        names = ", ".join(k for k in out if not k.startswith(("voltage", "euler", "t_")))
+        names = ", ".join(k for k in out if not k.startswith(("voltage", "euler", "t_", "g_")))
         raise InputError(f"the {actuator} simulator has no output '{output}' (it has {names})")
     return np.asarray(out[output], dtype=float)
 

@@ -424,7 +424,8 @@ class Plant:
         dict of str to ndarray
             ``voltage_V`` (N, 3) V, ``euler_deg`` (N, 3) deg, ``dropped`` (N,) bool, the truth
             columns (``p_c`` kPa, ``R_c`` ohm, ``dR_c`` %, ``strain_c`` %, the actuator's outputs,
-            ``load_g`` g) and ``t_plant`` (s).
+            ``load_g`` g), ``g_c`` (%, the contact network's static drop, what ``slow_relaxation``
+            acts on) and ``t_plant`` (s).
         """
         dt = float(dt_s)
         setpoint_kpa = np.atleast_2d(np.asarray(setpoint_kpa, dtype=float))
@@ -479,6 +480,7 @@ class Plant:
             base = 1.0 + (d.drift_pct_per_min * t / 60.0 + walk[:, c]) / 100.0
             out[f"R_{c}"] = d.r0_ohm * base * (1.0 + dr / 100.0)
             out[f"dR_{c}"] = dr
+            out[f"g_{c}"] = g  # the network's static drop (%), what slow_relaxation acts on
             out[f"strain_{c}"] = 100.0 * eps[:, c]
             dr_seen = dr + ((pz.noise_pct * rng.standard_normal(N) + flicker[:, c]) if noisy else 0.0)
             if "periodic_disturbance" in eff:

@@ -67,7 +67,10 @@ def run_pressure(dt: float, setpoint_kpa, pump, valve, p: Pneumatics, p0: float 
     pu = np.ascontiguousarray(pump, dtype=bool).ravel()
     va = np.ascontiguousarray(valve, dtype=bool).ravel()
     key = (float(dt), sp.tobytes(), pu.tobytes(), va.tobytes(), p, float(p0))
-    return np.array(_pressure_series(*key))
+    try:
+        return np.array(_pressure_series(*key))
+    except TypeError:  # parameters that cannot be a key (not the frozen Pneumatics): not kept
+        return np.array(_pressure_series.__wrapped__(*key))
 
 
 RUN_CACHE_SIZE = 64  # series of :func:`run_pressure` kept (each a few tens of kB)

@@ -306,7 +306,7 @@ def pwl_expected(x, y, u, sigma: float, derivatives: bool = False):
 #: Hinge expectations of :func:`pwl_expected` kept for their inputs (a fit's Jacobian follows the
 #: simulation at the same parameters and signal: the normal CDF, most of its cost, is computed once).
 _HINGES: OrderedDict = OrderedDict()
-_HINGES_KEEP = 4
+_HINGES_KEEP = 2  # a fit makes one other call between the simulation and the Jacobian at one point
 _HINGES_LOCK = threading.Lock()
 
 

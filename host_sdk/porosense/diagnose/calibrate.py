@@ -202,6 +202,21 @@ class Simulation:
     g: np.ndarray
     scale: float
     ts: float
+    #: the simulated output (output unit, N,) for a load series (N,) g, or None
+    loaded: object = field(default=None, repr=False, compare=False)
+    _last: tuple = field(default=(None, None), repr=False, compare=False)
+
+    def load_dependence(self, load_g: np.ndarray) -> np.ndarray:
+        """The output's change (output unit, N,) when the load during the record is ``load_g``
+        (N,) g instead of the simulator's constant one: the ``load_dependence`` effect, the
+        record's calibrated simulation (its fitted state) run again with that load, less itself.
+        Zeros when the simulation cannot be run again."""
+        load_g = np.asarray(load_g, float)
+        if self.loaded is None:
+            return np.zeros(len(self.g))
+        if self._last[0] is None or not np.array_equal(self._last[0], load_g):
+            self._last = (load_g.copy(), self.loaded(load_g))
+        return self._last[1]
 
     def slow_relaxation(self, tau_s: float) -> np.ndarray:
         """The output's change (output unit) per unit ``gain`` of the ``slow_relaxation`` effect of
@@ -397,7 +412,14 @@ class Calibration:
         state = _state(model, x, self.scale)
         state.columns = getattr(model, "columns_at_fit", None)
         if model.g is not None:
-            state.simulation = Simulation(model.g, float(self.scale), float(ts))
+            at = _with_state(model.physics, model.z, model.prior) if model.z is not None else model.physics
+            base = model.m.copy()
+
+            def loaded(load, at=at, base=base, u=p_cmd):
+                m = _simulate(self.actuator, self.output, self.porosity, u, ts, at, self.effects, load=load)
+                return self.scale * (m - base)
+
+            state.simulation = Simulation(model.g, float(self.scale), float(ts), loaded)
         state.fit = float(fit_percent(y[keep], pred[keep]))
         return pred, state
 
@@ -505,10 +527,19 @@ def _state(model: _Model, x, scale) -> RecordState:
 
 
 def _simulate(
-    actuator: str, output: str, porosity, p_cmd: np.ndarray, ts: float, physics=None, effects=None, with_g=False
+    actuator: str,
+    output: str,
+    porosity,
+    p_cmd: np.ndarray,
+    ts: float,
+    physics=None,
+    effects=None,
+    with_g=False,
+    load=None,
 ):
     """The simulated ``output`` (N,), and with ``with_g`` also the output channel's static drop g
-    (N,) % (None for an output that is no channel's dR)."""
+    (N,) % (None for an output that is no channel's dR); ``load`` (N,) g: the load during the
+    record (None: the simulator's constant load)."""
     from porosense import sim
 
     g_key = f"g_{output[3:]}" if output.startswith("dR_") else None
@@ -523,6 +554,7 @@ def _simulate(
             ActuatorRecord(p, ts, np.zeros_like(p)),
             porosity=porosity,
             effects=effects,
+            load_g=load,
         )
         if output not in out:
             raise InputError(f"the {actuator} simulator has no output '{output}'")
@@ -532,7 +564,7 @@ def _simulate(
     sp[:, : p.shape[1]] = np.minimum(p, 0.0)
     on = sp < 0.0
     plant = sim.make_plant(actuator, porosity=porosity, noise=False, physics=physics)
-    out = plant.run(ts, sp, on, on.copy())
+    out = plant.run(ts, sp, on, on.copy(), load_g=load)
     if output not in out:
         raise InputError(
             f"the {actuator} simulator has no output '{output}' "

@@ -1350,7 +1350,49 @@ def _of_kind(ctx: Context, cols: dict, other: str) -> dict:
     return {k: v for k, v in cols.items() if kinds.get(k) != other}
 
 
+#: the load column a simulator's recording carries (g; porosense.sim.experiment writes it)
+SIM_LOAD_COLUMN = "load_g"
+
+
+def _simulator_load_dependence(ctx: Context, alpha: float) -> CauseResult:
+    """load_dependence of records from a calibrated simulator whose load column varies: the
+    simulator's own effect (porosense.sim.effects: the load changes during a record), each
+    record's calibrated simulation run again with its measured load column
+    (porosense.diagnose.calibrate.Simulation.load_dependence), less itself. The load is measured,
+    so the effect has no parameter to search: the test is F of that change beyond the corrected
+    model, the extension its share (each record's recording state refitted beside it)."""
+    name = SIM_LOAD_COLUMN
+
+    def z(r):
+        return r.simulation.load_dependence(r.conditions[name])[:, None]
+
+    Z = ctx.stack(z, ctx.est)
+    res = stats.f_result(f"F(residual ~ the simulator's load_dependence effect of {name})", ctx.f_test(Z), alpha, 1)
+    pred, _ = ctx.fit_apply(z)
+    return CauseResult(
+        res,
+        True,
+        f"the residual follows what the simulator predicts of the measured load {name} ({_explained(res)})",
+        f"the simulator's load_dependence effect of the measured {name}",
+        pred,
+        {"column": name, "n_params": 1},
+        Z_est=Z,
+    )
+
+
+def _simulator_load(ctx: Context) -> bool:
+    """Whether the records come from a calibrated simulator and carry its load column, stated no
+    input (porosense.diagnose.engine.Record.column_kinds), varying on the estimation records."""
+    if not _simulated(ctx) or any(SIM_LOAD_COLUMN not in r.conditions for r in ctx.est + ctx.val):
+        return False
+    if ctx.est[0].column_kinds.get(SIM_LOAD_COLUMN) == "input":
+        return False
+    return float(np.std(np.concatenate([r.conditions[SIM_LOAD_COLUMN] for r in ctx.est]))) > 0
+
+
 def load_dependence(ctx: Context, alpha: float) -> CauseResult:
+    if _simulator_load(ctx):
+        return _simulator_load_dependence(ctx, alpha)
     cols = _of_kind(ctx, _column_tests(ctx), "input")
     if not cols:
         return _no_columns(alpha, "F(residual ~ column and column x output)")

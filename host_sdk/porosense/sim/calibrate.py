@@ -297,12 +297,13 @@ class ActuatorRecord:
 
 
 def simulate_record(
-    actuator: str, physics: Physics, rec: ActuatorRecord, *, porosity=None, seed: int = 0, effects=None
+    actuator: str, physics: Physics, rec: ActuatorRecord, *, porosity=None, seed: int = 0, effects=None, load_g=None
 ) -> dict:
     """Noiseless simulated columns (``R_c``, ``dR_c``, ``strain_c`` and the actuator's outputs)
     for the commanded vacuum of ``rec``. With ``effects`` (porosense.sim.effects) ``dR_c`` is
     the one the electronics read (delay, clipping and drift included), relative to the first
-    sample, as a recording's is."""
+    sample, as a recording's is. ``load_g`` (N,) g: the load during the record (None: the
+    simulator's own, porosense.sim.plant.Plant.run)."""
     from porosense.sim.electronics import resistance_from_voltage
     from porosense.sim.plant import make_plant
 
@@ -311,7 +312,7 @@ def simulate_record(
     sp = np.zeros((rec.p_cmd.shape[0], 3))
     sp[:, : min(n, rec.p_cmd.shape[1])] = rec.p_cmd[:, :n]
     on = sp < 0.0
-    out = plant.run(rec.ts, sp, on, on.copy())
+    out = plant.run(rec.ts, sp, on, on.copy(), load_g=load_g)
     if effects:
         for c in range(n):
             r = resistance_from_voltage(out["voltage_V"][:, c], physics.electronics)

@@ -407,7 +407,7 @@ class Plant:
         return PlantReading(np.array(volts), np.array(euler), truth)
 
     # --- a whole series -------------------------------------------------------------------
-    def run(self, dt_s: float, setpoint_kpa, pump, valve) -> dict:
+    def run(self, dt_s: float, setpoint_kpa, pump, valve, load_g=None) -> dict:
         """Simulate an actuation series from rest (the plant's own state is not touched).
 
         Parameters
@@ -418,6 +418,9 @@ class Plant:
             Regulator setpoints, kPa (<= 0).
         pump, valve : array_like of bool, shape (N, 3)
             Pump and valve states.
+        load_g : array_like, shape (N,), optional
+            The hanging load during the series, g, in place of the plant's own (its constant
+            load, or ``load_dependence``'s ramp); the series starts at rest under its first value.
 
         Returns
         -------
@@ -438,9 +441,13 @@ class Plant:
         rng = np.random.default_rng(self.seed)
         noisy = self.noise
         al = self._alphas(dt)
-        load = self.load_at(t)
+        if load_g is None:
+            load, rest_load = self.load_at(t), self.load_g
+        else:
+            load = np.asarray(load_g, dtype=float).reshape(N)
+            rest_load = float(load[0])
         sigma_load = load_stress_kpa(load, f)
-        eps_rest, e_rest = self.rest_state(self.load_g)
+        eps_rest, e_rest = self.rest_state(rest_load)
 
         def first_order(u, a, y0):
             return lfilter([1.0 - a], [1.0, -a], u, zi=[a * y0])[0]

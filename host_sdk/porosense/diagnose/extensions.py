@@ -230,8 +230,19 @@ class Context:
         base = b if extra_base is None else np.column_stack([b, extra_base])
         return stats.gls_f_test(self.e_est, Z_est, base, segments=self.seg_est)
 
-    def fit_apply(self, z_fn=None, *, robust: bool = False, mask_est: np.ndarray | None = None, scope: str = ADEQUATE):
+    def fit_apply(
+        self,
+        z_fn=None,
+        *,
+        robust: bool = False,
+        mask_est: np.ndarray | None = None,
+        scope: str = ADEQUATE,
+        fixed=None,
+    ):
         """Fit e ~ [baseline of ``scope``, Z] on estimation; return (extended yhat on validation, on estimation).
+
+        ``fixed``: a function of a record giving a term (N,) of the output's unit added to its
+        prediction with coefficient 1 before the fit (a simulator's effect with its parameters set).
 
         Records that carry their recording state (``Record.state``: a calibrated simulation's,
         porosense.diagnose.calibrate.StateColumns) have it refitted with the extension: on the
@@ -239,16 +250,27 @@ class Context:
         on its own residual after the extension (the same rule as its fit: the posterior's
         maximum under the state's prior). A cause the state partly mimics is so fitted with the
         state free to move back toward its mean, and its held-out gain measured so."""
-        return self._fit(z_fn, robust=robust, mask_est=mask_est, scope=scope)[:2]
+        return self._fit(z_fn, robust=robust, mask_est=mask_est, scope=scope, fixed=fixed)[:2]
 
-    def _fit(self, z_fn=None, *, robust: bool = False, mask_est: np.ndarray | None = None, scope: str = ADEQUATE):
+    def _fit(
+        self,
+        z_fn=None,
+        *,
+        robust: bool = False,
+        mask_est: np.ndarray | None = None,
+        scope: str = ADEQUATE,
+        fixed=None,
+    ):
         """:meth:`fit_apply` and the states' increments: (val, est, [d per validation record], [d per
         estimation record]; d None for a record without a state)."""
         Xe, Xv = self.base(scope)
         if z_fn is not None:
             Xe = np.column_stack([Xe, self.stack(z_fn, self.est)])
             Xv = np.column_stack([Xv, self.stack(z_fn, self.val)])
-        e = self.e_est
+        e, yhat_est, yhat_val = self.e_est, self.yhat_est, self.yhat_val
+        if fixed is not None:
+            f_est, f_val = self.stack(fixed, self.est)[:, 0], self.stack(fixed, self.val)[:, 0]
+            e, yhat_est, yhat_val = e - f_est, yhat_est + f_est, yhat_val + f_val
         rows = np.ones(len(e), bool) if mask_est is None else ~mask_est
         n_x = Xe.shape[1]
         Se, R, t, spans = self._state_blocks()
@@ -267,9 +289,9 @@ class Context:
             # take large opposite coefficients that cancel on estimation and not on validation
             coef = np.linalg.lstsq(A / scale, b, rcond=FIT_RCOND)[0]
         coef = coef / scale
-        est = self.yhat_est + Xe @ coef[:n_x] + Se @ coef[n_x:]
+        est = yhat_est + Xe @ coef[:n_x] + Se @ coef[n_x:]
         d_est = [None if sp is None else coef[n_x + sp[0] : n_x + sp[1]] for sp in spans]
-        val = self.yhat_val + Xv @ coef[:n_x]
+        val = yhat_val + Xv @ coef[:n_x]
         d_val, start = [], 0
         for r in self.val:
             n = len(r.y)
@@ -855,8 +877,8 @@ def _simulator_time_delay(ctx: Context, alpha: float) -> CauseResult:
     the generic correction, the delay the most significant of 1 sample up to the bound
     ``porosense diagnose --sim --save-extended`` fits it within (porosense.sim.extend.EFFECT_FITS)
     and a twentieth of the shortest estimation record (Bonferroni over them). The extension: the
-    simulation delayed (its share and a constant, each record's recording state refitted beside
-    it), the delay the one that fits the estimation records best. The name needs its own
+    whole simulation delayed and a constant (each record's recording state refitted beside it),
+    the delay the one that fits the estimation records best. The name needs its own
     evidence: the measured response rises later than the simulation's (as for any model). Whether
     a dead time or one more pole explains the linear deficit is judged on the simulator itself:
     its delayed simulation against the corrected one on held-out data (the engine's overlap rule
@@ -879,13 +901,19 @@ def _simulator_time_delay(ctx: Context, alpha: float) -> CauseResult:
     res = stats.f_result(
         "F(residual ~ the simulator's time_delay effect)", test, alpha, d_max, delay_samples=int(d_test)
     )
+
+    # the extension is the effect itself: the whole simulation delayed (a share of it delayed
+    # would be a low-pass of the simulation under a delay's name, which a long shift renders)
+    def delayed(r, lag):
+        return signals.shift(r.yhat, lag) - r.yhat
+
     y_all = np.concatenate([r.y for r in ctx.est])
     sse = {
-        d: float(np.sum((y_all - ctx.fit_apply(lambda r, d=d: z(r, d), scope=CONSTANT)[1]) ** 2))
+        d: float(np.sum((y_all - ctx.fit_apply(scope=CONSTANT, fixed=lambda r, d=d: delayed(r, d))[1]) ** 2))
         for d in range(1, d_max + 1)
     }
     d = min(sse, key=sse.get)
-    pred, _ = ctx.fit_apply(lambda r: z(r, d), scope=CONSTANT)
+    pred, _ = ctx.fit_apply(scope=CONSTANT, fixed=lambda r: delayed(r, d))
     y_est = np.concatenate([r.y for r in ctx.est])
     span = int(min(200, d_max + 4 * max(1.0, ctx.tau_s / ctx.ts)))
     rises = [stats.response_rises(ctx.u_est[:, i], y_est, ctx.yhat_est, span) for i in range(ctx.n_in)]
@@ -903,14 +931,14 @@ def _simulator_time_delay(ctx: Context, alpha: float) -> CauseResult:
         pred,
         {
             "delay": d,
-            "n_params": 2,
+            "n_params": 2,  # the delay and the constant
             "rise_measured": shown.measured,
             "rise_model": shown.model,
             "evidence_ok": bool(later),
             "evidence_note": "" if later else f"no delay in the data: {peak_note}",
             "prefers_delay": False,
         },
-        Z_est=ctx.stack(lambda r: z(r, d), ctx.est),
+        Z_est=ctx.stack(lambda r: delayed(r, d)[:, None], ctx.est),
         n_search=d_max,
     )
 

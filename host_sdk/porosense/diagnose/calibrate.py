@@ -76,6 +76,7 @@ from scipy.signal import lfilter
 from scipy.stats import norm
 
 from porosense.dsp.blas import single_threaded
+from porosense.dsp.heap import reuses_freed_memory
 from porosense.errors import InputError
 
 POROSITY_BOUNDS = (60.0, 90.0)
@@ -616,6 +617,7 @@ def _joint(models: list, ys: list, keeps: list):
 
 
 @single_threaded
+@reuses_freed_memory
 def calibrate(
     actuator: str, output: str, u_list: list, y_list: list, ts: float, physics=None, effects=None
 ) -> Calibration:

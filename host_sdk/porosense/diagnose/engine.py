@@ -66,6 +66,7 @@ from porosense.diagnose import extensions, ranking, signals, stats
 from porosense.diagnose.catalogue import CAUSES, EXPRESSIBLE, NONE
 from porosense.diagnose.extensions import ADEQUATE, DYNAMICS, GENERIC
 from porosense.dsp.blas import one_thread
+from porosense.dsp.heap import reuses_freed_memory
 from porosense.dsp.metrics import fit_percent, rms_percent
 from porosense.errors import InputError
 from porosense.files import write_text
@@ -594,6 +595,7 @@ def _why(top: Finding, runner: Finding | None, step, findings: dict, improvement
     )
 
 
+@reuses_freed_memory
 def diagnose(
     estimation: list, validation: list, *, alpha: float = stats.DEFAULT_ALPHA, nominal=None, refit: bool = True
 ) -> Diagnosis:

@@ -22,12 +22,12 @@ import numpy as np
 
 from porosense.data.model_file import MODEL_FORMAT, MODEL_FORMAT_VERSION
 from porosense.dsp.blas import single_threaded
+from porosense.dsp.heap import reuses_freed_memory
 from porosense.errors import InputError, ModelError
 from porosense.files import write_text
 from porosense.ident import output_error
 from porosense.ident.blocks import sos_rows
 from porosense.ident.chain import Chain, ChainSpec
-from porosense.ident.heap import reuses_freed_memory
 from porosense.ident.metrics import fit_percent, information_criteria, rms_percent
 from porosense.ident.process_noise import with_process_noise
 from porosense.ident.refine import Fit, Options, refine

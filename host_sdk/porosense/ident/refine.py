@@ -15,8 +15,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from porosense.dsp.blas import single_threaded
+from porosense.dsp.heap import reuses_freed_memory
 from porosense.ident.chain import Chain, ChainSpec
-from porosense.ident.heap import reuses_freed_memory
 from porosense.ident.lm import levenberg_marquardt, normal_equations_rows
 from porosense.ident.pwl_prior import BendPrior, map_names
 

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from porosense.dsp.blas import single_threaded
+from porosense.dsp.heap import reuses_freed_memory
 from porosense.ident.candidates import Candidate, tie_tolerance
-from porosense.ident.heap import reuses_freed_memory
 from porosense.ident.models import Model, Scaling, make_model
 
 

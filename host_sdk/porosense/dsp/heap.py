@@ -1,6 +1,6 @@
-"""Fits reuse the memory they free (glibc's allocator settings, once per process).
+"""Fits and diagnoses reuse the memory they free (glibc's allocator settings, once per process).
 
-Every simulation and Jacobian of a fit makes arrays of a few hundred kB, above glibc's
+Every simulation and Jacobian of a fit (and every least-squares problem of a diagnosis) makes arrays of a few hundred kB, above glibc's
 threshold for mapping an allocation from the system afresh, so each one is mapped, faulted in
 page by page and unmapped again. Raising the threshold to its largest (32 MB) and keeping up
 to 64 MB of freed memory lets the same pages serve the next array. Measured on the paper grid

@@ -1,4 +1,4 @@
-"""Fits reuse the memory they free (porosense.ident.heap)."""
+"""Fits and diagnoses reuse the memory they free (porosense.dsp.heap)."""
 
 import platform
 import resource
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from porosense import ident
-from porosense.ident import heap
+from porosense.dsp import heap
 
 
 @pytest.mark.skipif(platform.system() != "Linux" or platform.libc_ver()[0] != "glibc", reason="glibc's mallopt only")

@@ -879,7 +879,9 @@ def _simulator_time_delay(ctx: Context, alpha: float) -> CauseResult:
     and a twentieth of the shortest estimation record (Bonferroni over them). The extension: the
     whole simulation delayed and a constant (each record's recording state refitted beside it),
     the delay the one that fits the estimation records best. The name needs its own
-    evidence: the measured response rises later than the simulation's (as for any model). Whether
+    evidence: the measured response rises later than the simulation's (as for any model), and the
+    delayed simulation predicts the held-out data better than the undelayed one with the same
+    constant and states refitted (the engine's rival test). Whether
     a dead time or one more pole explains the linear deficit is judged on the simulator itself:
     its delayed simulation against the corrected one on held-out data (the engine's overlap rule
     for the dynamics causes), not by linear models of the measured output, which a nonlinear
@@ -937,6 +939,10 @@ def _simulator_time_delay(ctx: Context, alpha: float) -> CauseResult:
             "evidence_ok": bool(later),
             "evidence_note": "" if later else f"no delay in the data: {peak_note}",
             "prefers_delay": False,
+            # the gain must come from the delay, not from the constant and the states refitted
+            # with it (the engine's rival test, one-sided 5 %)
+            "rival_val": ctx.fit_apply(scope=CONSTANT)[0],
+            "rival": "the simulation with its constant and recording states refitted, undelayed",
         },
         Z_est=ctx.stack(lambda r: delayed(r, d)[:, None], ctx.est),
         n_search=d_max,

@@ -442,17 +442,32 @@ def _choice_holdout(ctx: Context) -> np.ndarray:
     return np.concatenate([np.arange(len(r.y)) >= CHOICE_FIT_SHARE * len(r.y) for r in ctx.est])
 
 
-def _best_on_holdout(ctx: Context, candidates: dict) -> str:
-    """The key of ``candidates`` (regressor functions) whose extension, fitted on the first 70 % of
-    every estimation record, predicts the last 30 % best (squared error)."""
-    holdout = _choice_holdout(ctx)
+def _best_by_bic(ctx: Context, candidates: dict) -> str:
+    """The key of ``candidates`` (regressor functions) with the smallest Bayesian information
+    criterion on all estimation samples counted at their effective number:
+    n_eff ln(RSS / N) + p ln(n_eff), RSS the squared residual of the extension fitted on every
+    estimation record, p its number of regressors, N the estimation samples and n_eff their
+    effective number, that of the residual of the candidate with the fewest regressors (the
+    residual if no more complex side is needed; :func:`porosense.diagnose.calibrate.n_effective`
+    per record, summed). Counted at N (in an F test) or scored on the last 30 % of every
+    estimation record, the 36-term map between the linear blocks wins on the estimation records
+    and loses on validation."""
+    from porosense.diagnose.calibrate import n_effective
+
     y_est = np.concatenate([r.y for r in ctx.est])
+    bounds = np.cumsum([0] + [len(r.y) for r in ctx.est])
+    sizes = {k: ctx.stack(z, ctx.est[:1]).shape[1] for k, z in candidates.items()}
+    resid = {k: y_est - ctx.fit_apply(z)[1] for k, z in candidates.items()}
+    simplest = min(candidates, key=lambda k: sizes[k])
+    n_eff = sum(n_effective(resid[simplest][a:b]) for a, b in zip(bounds[:-1], bounds[1:]))
+    n_eff = max(n_eff, 2.0)
+    n = len(y_est)
 
-    def held(z):
-        return float(np.sum((y_est - ctx.fit_apply(z, mask_est=holdout)[1])[holdout] ** 2))
+    def bic(k):
+        rss = float(resid[k] @ resid[k])
+        return n_eff * np.log(max(rss, 1e-300) / n) + sizes[k] * np.log(n_eff)
 
-    scores = {k: held(z) for k, z in candidates.items()}
-    return min(scores, key=scores.get)
+    return min(candidates, key=bic)
 
 
 def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
@@ -462,14 +477,14 @@ def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
         side: ctx.f_test(ctx.stack(nl, ctx.est), extra_base=ctx.stack(lin, ctx.est))
         for side, (lin, nl) in parts.items()
     }
-    # the side: among those significant at the test's Bonferroni level, the one whose extension
-    # fitted on the first 70 % of every estimation record predicts the last 30 % best (an in-sample
-    # F test favours the 37-term map between the blocks, which can fit the estimation records'
-    # levels and not the validation's); none significant, the strongest
+    # the side: among those significant at the test's Bonferroni level, the one of smallest
+    # information criterion at the residual's effective sample size (_best_by_bic: an F test at N
+    # favours the 36-term map between the blocks, which can fit the estimation records' levels and
+    # not the validation's); none significant, the strongest
     level = np.log10(alpha / len(tests))
     sig = [k for k in tests if tests[k].log10_p < level]
     if len(sig) > 1:
-        side = _best_on_holdout(ctx, {k: sets[k] for k in sig})
+        side = _best_by_bic(ctx, {k: sets[k] for k in sig})
     else:
         side = sig[0] if sig else min(tests, key=lambda k: tests[k].log10_p)
     ctx._cache["static_side"] = side
@@ -599,12 +614,12 @@ def hysteresis(ctx: Context, alpha: float) -> CauseResult:
     test = _hysteresis_test(ctx)
     res = stats.f_result("F(residual ~ direction of motion at equal level | level)", test, alpha)
     # direction dependence beyond the level: the play operators on top of a static map (so that
-    # hysteresis is ranked on what a static map cannot explain), of the side whose extension
-    # predicts the last 30 % of every estimation record best when fitted on the first 70 % (a side
-    # chosen by an in-sample test can fit the estimation records' levels and not the validation's:
-    # on the simulator's step records the 37-parameter map between the blocks lost 5-30 fit points)
+    # hysteresis is ranked on what a static map cannot explain), of the side of smallest information
+    # criterion at the residual's effective sample size (_best_by_bic: a side chosen by an F test at
+    # N can fit the estimation records' levels and not the validation's: on the simulator's step
+    # records the 36-parameter map between the blocks lost 5-30 fit points)
     cands = {k: (lambda r, k=k: np.column_stack([sets[k](r), z_h(r)])) for k in sets}
-    side = _best_on_holdout(ctx, cands)
+    side = _best_by_bic(ctx, cands)
     z_full = cands[side]
     pred, _ = ctx.fit_apply(z_full)
     # the name needs a gain from the memory itself: the extension must predict the held-out data

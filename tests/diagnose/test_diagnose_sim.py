@@ -41,8 +41,8 @@ slow_relaxation, hysteresis 10/12; static_nonlinearity 9/12 (109 of 120); clean 
 named none 12/12, the clean 3-DoF segment 12/12. Every cause below its bound is a strict xfail
 naming what is named instead.
 
-Where the misses come from: drift's two misses (1005, 1009) are the two trials where the
-simulator given the true drift, calibrated as the nominal is, does not gain on the held-out
+Where the misses come from (each trial's finding: ``python tools/sim_diagnosis_findings.py
+CAUSE``): drift's two misses (1005, 1009) are the two trials where the simulator given the true drift, calibrated as the nominal is, does not gain on the held-out
 record either (``python tools/sim_diagnosis_oracle.py drift``: confirmed 10/12): the data's limit
 at this strength range. slow_relaxation 1005 gains +0.09 points (t 0.98, not confirmed) and 1009
 does not beat a static map on held-out data (the oracle confirms the true effect in 12/12).

@@ -41,16 +41,18 @@ slow_relaxation, hysteresis 10/12; static_nonlinearity 9/12 (109 of 120); clean 
 named none 12/12, the clean 3-DoF segment 12/12. Every cause below its bound is a strict xfail
 naming what is named instead.
 
-Where the misses come from (each trial's finding: ``python tools/sim_diagnosis_findings.py
-CAUSE``): drift's two misses (1005, 1009) are the two trials where the simulator given the true drift, calibrated as the nominal is, does not gain on the held-out
-record either (``python tools/sim_diagnosis_oracle.py drift``: confirmed 10/12): the data's limit
-at this strength range. slow_relaxation 1005 gains +0.09 points (t 0.98, not confirmed) and 1009
-does not beat a static map on held-out data (the oracle confirms the true effect in 12/12).
-static_nonlinearity 1006 is named hysteresis (its play operators beat the static map on held-out
-data at one-sided p 0.03), 1008 unmodelled_dynamics (the map between the linear blocks, chosen by
-BIC on the estimation records, loses on the validation record: the staircase and step_60 favour a
-map step_40 does not), 1010 none (gain +0.19 points, t 1.58); hysteresis 1002 and 1010 none (1010:
-no play-operator set is significant).
+Where the misses come from (each trial's finding: ``python tools/sim_diagnosis_findings.py CAUSE``):
+drift's two misses (1005, 1009) are the two trials where the simulator given the true drift,
+calibrated as the nominal is, does not gain on the held-out record either (``python
+tools/sim_diagnosis_oracle.py drift``: confirmed 10/12): the data's limit at this strength range.
+slow_relaxation 1005 gains +0.09 points (t 0.98, not confirmed) and 1009 does not beat a static map
+on held-out data (the oracle confirms the true effect in 12/12). static_nonlinearity 1006 is named
+hysteresis (its play operators beat the static map on held-out data), 1008 unmodelled_dynamics (the
+map between the linear blocks, chosen by BIC on the estimation records, loses on the validation
+record: the staircase and step_60 favour a map step_40 does not; gain -0.22 points), 1010 none (gain
++0.19 points, t 1.58); hysteresis 1002 none (the side chosen loses 0.15 points on validation), 1010
+none (its test, the direction of motion at equal level, is not significant, F = 1.03, while its
+extension gains +1.44 points, t 3.42).
 """
 
 from __future__ import annotations

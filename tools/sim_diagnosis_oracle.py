@@ -4,7 +4,7 @@ For the contractor trials of tests/diagnose/test_diagnose_sim.py (porosense.diag
 seeds 1000-1011), the oracle is the simulator given the hidden effect with its true parameters,
 calibrated on the estimation records as the nominal is (porosense.diagnose.calibrate: porosity,
 scale, offset, each record's recording state). Its held-out gain is its fit on the validation
-record against the nominal's, each with the record's own state fitted, and it is confirmed by the
+records against the nominal's, each with the record's own state fitted, and it is confirmed by the
 same paired test the diagnosis uses (porosense.diagnose.stats.paired_gain_test, one-sided 5 %).
 A trial whose oracle gain is not confirmed cannot be diagnosed with a confirmed gain either: the
 count of confirmed oracles bounds what any diagnosis can reach at that strength range.
@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import sys
 
+import numpy as np
+
 from porosense.diagnose import stats, trials
 from porosense.diagnose.calibrate import calibrate
 from porosense.dsp.metrics import fit_percent
@@ -36,8 +38,10 @@ def oracle(cause: str, seed: int) -> tuple[float, object]:
     us, ys = [p for p, _, _ in est], [y for _, y, _ in est]
     nominal = calibrate("contractor", "dR_0", us, ys, ts)
     extended = calibrate("contractor", "dR_0", us, ys, ts, effects=effects)
-    ((p, y, _),) = val
-    base, ext = nominal.predict_record(p, y, ts)[0], extended.predict_record(p, y, ts)[0]
+    # the validation records concatenated, as the diagnosis scores them
+    y = np.concatenate([y for _, y, _ in val])
+    base = np.concatenate([nominal.predict_record(p, y, ts)[0] for p, y, _ in val])
+    ext = np.concatenate([extended.predict_record(p, y, ts)[0] for p, y, _ in val])
     return fit_percent(y, ext) - fit_percent(y, base), stats.paired_gain_test(y, base, ext)
 
 

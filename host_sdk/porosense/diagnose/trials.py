@@ -202,13 +202,14 @@ SIM_RATE_HZ = 20.0
 #: Strength ranges of the causes hidden with porosense.sim's named effects (contractor, 20 Hz).
 #: static_nonlinearity and hysteresis are not simulator effects: they are applied to the
 #: measured dR as in the surrogate; cross_coupling is hidden in the 3-DoF segment.
-#: Contractor records: estimation = staircase + step_60, validation = step_40 (porosity 72-86 %).
+#: Contractor records: the paper's design, estimation = staircase + step_10 + step_60, validation =
+#: step_20 + step_40 (porosity 72-86 %).
 SIM_STRENGTHS = {
     "drift": "rate_pct_per_min 1-3 % of R0 per minute",
     "time_delay": "delay_s 0.15-0.5 s",
     "periodic_disturbance": "amplitude_pct 1-3 % dR at freq_hz 1-9 Hz",
-    "saturation": "low_V at the divider voltage the clean step_40 record (the validation, the shallowest "
-    "stroke) stays above for 80-95 % of its samples",
+    "saturation": "low_V at the divider voltage the clean step_40 record (the deeper validation stroke) stays "
+    "above for 80-95 % of its samples (a clip the staircase, step_40 and step_60 reach)",
     "load_dependence": "delta_g 200-500 g ramped in from 10-30 s over 5-15 s",
     "slow_relaxation": "gain 0.1-0.2 of the change in dR, tau_s 15-40 s",
     "outliers": "glitch_pct 10-30 % dR with probability 0.3-1 % per sample",
@@ -218,6 +219,10 @@ SIM_STRENGTHS = {
     "contractor 0's contact strain",
 }
 SIM_CAUSES = tuple(SIM_STRENGTHS)
+#: the contractor's records as the paper's design: (realisation index, experiment); estimation
+#: first, the last SIM_N_VALIDATION validate
+SIM_EXPERIMENTS = ((0, "staircase"), (3, "step_10"), (1, "step_60"), (4, "step_20"), (2, "step_40"))
+SIM_N_VALIDATION = 2
 
 
 def _sim_effect(rng, cause: str) -> dict | None:
@@ -358,7 +363,8 @@ def sim_trial_records(cause: str, seed: int, physics=None) -> tuple:
     )
     porosity = rng.uniform(72.0, 86.0)
     if cause == "saturation":  # clip at the voltage a drawn share of the clean record lies below
-        # on the validation experiment (the shallowest stroke): the clip must show in every record
+        # on the deeper validation experiment: the clip shows in it and in the deeper estimation
+        # records (staircase, step_60); step_10 and step_20 may stay above it
         clean = _sim_record("contractor", "step_40", porosity, seed * 10, None, physics)
         volts = 5.0 * clean["R_0"] / (clean["R_0"] + 1000.0)
         effects = {"saturation": {"low_V": float(np.quantile(volts, effects["saturation"]["quantile"]))}}
@@ -366,7 +372,7 @@ def sim_trial_records(cause: str, seed: int, physics=None) -> tuple:
     # validation inside the estimation's range: the staircase and the largest steps are fitted,
     # the intermediate steps validate (a load that arrives during every record leaves the first
     # pulse unloaded, and that pulse must have been seen at the validation's level or above)
-    for k, exp in enumerate(("staircase", "step_60", "step_40")):
+    for k, exp in SIM_EXPERIMENTS:
         rec = _sim_record("contractor", exp, porosity, seed * 10 + k, effects, physics)
         y = rec["dR_0"]
         if cause in ("static_nonlinearity", "hysteresis"):
@@ -379,4 +385,5 @@ def sim_trial_records(cause: str, seed: int, physics=None) -> tuple:
             clean = _sim_record("contractor", exp, porosity, seed * 10 + k, effects, physics, noise=False)["dR_0"]
             y = _post(clean, cause, post) + (y - clean)
         parts.append((rec["p_cmd_0"][:, None], y, {"load_g": rec["load_g"]}))
-    return effects, parts[:2], parts[2:]
+    n_est = len(SIM_EXPERIMENTS) - SIM_N_VALIDATION
+    return effects, parts[:n_est], parts[n_est:]

@@ -10,8 +10,9 @@ repeating:
 1. every remaining candidate is compared with every other (batch means of d_a - d_b,
    :func:`.stats.mean_positive_test`, one-sided at 5 % / (m - 1), m candidates remaining,
    Bonferroni); a candidate whose improvement is below another's is *dominated*;
-2. the candidate with the largest gain (fit points) is never dominated; the candidates that are
-   not dominated overlap it;
+2. the reference is the candidate with the largest gain as reported (fit points against its own
+   baseline: the nominal for the dynamics causes, the corrected model for the others); it is
+   not itself tested for dominance, and the other candidates that are not dominated overlap it;
 3. among the overlapping candidates the one with the fewest parameters wins (then the larger
    gain, then the name); it is placed next and removed.
 

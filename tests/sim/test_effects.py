@@ -105,3 +105,30 @@ def test_outliers(clean):
     assert rec.meta["dropped_samples"] >= 5 and len(rec) < len(clean)
     assert spikes(rec) >= 6 and spikes(clean) == 0
     assert "dropped_samples" not in clean.meta
+
+
+def test_load_dependence_from_a_column_is_checked_and_runs_on_a_recording_only():
+    """The measured form of load_dependence (what diagnose --save-extended writes): its column
+    and unit are kept as stated, another unit or parameter is refused in one line, and a plant
+    without a recording refuses it (a schedule has no load column); simulated on a record, a
+    load column of zeros leaves a calibrated file's simulation (no print variation, no drift)
+    unchanged (|difference| < 1e-9 %), and a record without the column is refused in one line."""
+    from porosense.sim import Physics
+    from porosense.sim.calibrate import ActuatorRecord, simulate_record
+
+    spec = {"load_dependence": {"column": "load_g", "unit": "g", "factor": 0.5}}
+    assert resolve_effects(spec)["load_dependence"] == {"column": "load_g", "unit": "g", "factor": 0.5}
+    for bad in ({"column": "load_g", "unit": "kg"}, {"column": "load_g", "delta_g": 4.0}, {"column": ""}):
+        with pytest.raises(InputError) as err:
+            resolve_effects({"load_dependence": bad})
+        assert "\n" not in str(err.value)
+    with pytest.raises(InputError, match="column 'load_g'"):
+        make_plant("contractor", effects=spec)
+    physics = Physics().without("repeat_variation", "baseline_drift")  # as a calibrated file has it
+    rec = contractor(experiment="step_20")
+    p = np.asarray(rec["p_cmd_0"], dtype=float)[:, None]
+    ar = ActuatorRecord(p, 1.0 / rec.meta["rate_hz"], np.zeros_like(p), load_g=np.zeros(p.shape[0]))
+    base = simulate_record("contractor", physics, ar)["dR_0"]
+    assert np.max(np.abs(simulate_record("contractor", physics, ar, effects=spec)["dR_0"] - base)) < 1e-9
+    with pytest.raises(InputError, match="no load column 'load_g'"):
+        simulate_record("contractor", physics, ActuatorRecord(p, ar.ts, np.zeros_like(p)), effects=spec)

@@ -77,7 +77,10 @@ def material_records(tables, args, ts: float, estimation=None):
     return out
 
 
-def actuator_record(table, actuator: str, ts: float):
+def actuator_record(table, actuator: str, ts: float, load_column: str | None = None):
+    """The table as a porosense.sim.calibrate.ActuatorRecord: ``p_cmd_C`` (kPa), ``dR_C`` (%),
+    the actuator's outputs the table has and, with ``load_column``, the load during it (g; a table
+    without that column, or with it in another stated unit, is refused in one line)."""
     import numpy as np
 
     from porosense.cli._data import require_columns
@@ -89,12 +92,27 @@ def actuator_record(table, actuator: str, ts: float):
     dr_cols = [f"dR_{c}" for c in range(n)]
     require_columns(table, p_cols + dr_cols)
     outputs = {k: table[k] for k in OUTPUTS[actuator] if k in table.columns}
+    load = None
+    if load_column is not None:
+        from porosense.data.units import normal_unit
+        from porosense.errors import InputError
+
+        if load_column not in table.columns:
+            raise InputError(
+                f"{table.path} has no column '{load_column}': the parameter file's load_dependence takes the "
+                "load during the record (g) from it"
+            )
+        unit = table.units.get(load_column)
+        if unit and normal_unit(unit) != "g":
+            raise InputError(f"{table.path}: column '{load_column}' is in {unit}; the load_dependence takes it in g")
+        load = table[load_column]
     return ActuatorRecord(
         np.column_stack([table[c] for c in p_cols]),
         ts,
         np.column_stack([table[c] for c in dr_cols]),
         outputs,
         name=str(table.path),
+        load_g=load,
     )
 
 

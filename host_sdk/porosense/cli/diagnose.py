@@ -123,7 +123,8 @@ def register(sub) -> argparse.ArgumentParser:
         "'porosense predict' runs and, where the device structure carries it, 'quantize' and 'flash' take. "
         "With --sim and --params: the parameter file extended by the cause, its parameters fitted on the "
         "estimation records (which then need the dR_<channel> columns) and its gain measured on the "
-        "validation records; 'porosense simulate --params' runs it",
+        "validation records; 'porosense simulate --params' runs it. load_dependence is saved as the load "
+        "taken from the recordings' load_g column (g, given with --condition), which 'simulate --replay' reads",
     )
     p.add_argument("--force", action="store_true", help="replace an existing --save-extended file")
     p.set_defaults(func=run)
@@ -336,6 +337,7 @@ def run(args) -> int:
     # the simulator's extension is fitted to every measured resistance column, not only the output
     measured = _sim_measured_columns(args, inputs) if args.save_extended and args.sim else []
     extra = [c for c in measured if c not in conditions and c not in inputs and c != args.output]
+    args.sim_load_column = _sim_load_column(conditions, tables + vtables) if measured else None
     if material:  # the law runs over each whole file (its relaxation remembers), then is cut like the data
         extra.append(_material_prediction(args, inputs[0], tables, vtables))
     drive = _sim_drive_columns(args, inputs, tables + vtables) if args.sim and not material else []
@@ -466,10 +468,20 @@ def _load_sim_params(actuator: str, path):
 
     if not Path(path).is_file():
         raise InputError(f"--params {path}: no such file")
+    from porosense.sim.effects import measured_load
+
     try:
-        return load_params(path)
+        physics, effects = load_params(path)
     except (ValueError, TypeError, KeyError) as exc:
         raise ModelError(f"--params {path} is not a simulator parameter file ({exc})") from None
+    measured = measured_load(effects)
+    if measured is not None:
+        raise InputError(
+            f"--params {path} takes the load during a record from its column '{measured[0]}' (g; extended by "
+            "load_dependence): diagnosis runs the simulator on the commands alone; give the file it was extended "
+            f"from, or replay it: porosense simulate {actuator} --params {path} --replay REC"
+        )
+    return physics, effects
 
 
 def _sim_drive_columns(args, inputs, tables) -> list:
@@ -508,6 +520,18 @@ def _sim_measured_columns(args, inputs) -> list:
     return [f"dR_{c}" for c in range(n)]
 
 
+def _sim_load_column(conditions, tables):
+    """The --condition column the simulator's load_dependence extension takes the load from
+    (porosense.sim.extend.LOAD_COLUMN), when given and in g (stated so, or no unit stated); else None."""
+    from porosense.data.units import column_unit, normal_unit
+    from porosense.sim.extend import LOAD_COLUMN
+
+    if LOAD_COLUMN not in conditions:
+        return None
+    unit = column_unit(LOAD_COLUMN, *(t.units for t in tables))
+    return LOAD_COLUMN if unit is None or normal_unit(unit) == "g" else None
+
+
 def _extend_simulator(args, result, measured, est, val, val_names, drive_of):
     """(the parameter file extended by the best found cause, every extension tried):
     porosense.sim.extend.extend_best on the diagnosis' found causes; ``drive_of(u, conditions)``
@@ -515,7 +539,9 @@ def _extend_simulator(args, result, measured, est, val, val_names, drive_of):
     import numpy as np
 
     from porosense.sim.calibrate import ActuatorRecord
-    from porosense.sim.extend import extend_best
+    from porosense.sim.extend import LOAD_COLUMN, extend_best
+
+    load = args.sim_load_column  # the measured load (g) the load_dependence extension runs on, or None
 
     def records(part, names):
         out = []
@@ -523,11 +549,18 @@ def _extend_simulator(args, result, measured, est, val, val_names, drive_of):
             cols = {**cond, args.output: y}
             dr = np.column_stack([cols[c] for c in measured])
             outputs = {} if args.output in measured else {args.output: y}
-            out.append(ActuatorRecord(drive_of(u, cond), args.ts, dr, outputs, name=name))
+            out.append(ActuatorRecord(drive_of(u, cond), args.ts, dr, outputs, name=name, load_g=cols.get(load)))
         return out
 
     physics, effects = args.sim_params
     causes = [f.cause for f in result.findings if f.found]
+    if "load_dependence" in causes and load is None:
+        causes.remove("load_dependence")
+        say(
+            args,
+            f"load_dependence found, but the simulator takes the load from a column '{LOAD_COLUMN}' in g "
+            "(give it with --condition): not extended by it",
+        )
     est_recs = records(est, [f"estimation {k}" for k in range(len(est))])
     return extend_best(args.sim, physics, causes, est_recs, records(val, val_names), effects=effects)
 

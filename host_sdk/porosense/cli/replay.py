@@ -45,9 +45,11 @@ def replay(args, physics, effects=None) -> int:
         units = {"R_sim": "ohm", "dR_sim": "%", "strain_sim": "%"}
     else:
         from porosense.sim.calibrate import simulate_record
+        from porosense.sim.effects import measured_load
 
         physics = (physics or Physics()).without("baseline_drift")
-        rec = actuator_record(table, args.actuator, ts)
+        load = measured_load(effects)
+        rec = actuator_record(table, args.actuator, ts, load[0] if load else None)
         sim = simulate_record(args.actuator, physics, rec, porosity=args.porosity, effects=effects or None)
         for c in range(rec.dr.shape[1]):
             for name, unit in (("R", "ohm"), ("dR", "%"), ("strain", "%")):

@@ -70,7 +70,8 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument(
         "--replay",
         metavar="REC",
-        help="replay this recording's inputs (p_cmd_C; material: --strain) through the simulator, noiseless, "
+        help="replay this recording's inputs (p_cmd_C, and its load_g column in g when --params is extended by "
+        "load_dependence; material: --strain) through the simulator, noiseless, "
         "and write t with R_sim, dR_sim, strain_sim (and the outputs, _sim) to --out FILE.csv, printing their fit "
         "against the recording's own columns",
     )

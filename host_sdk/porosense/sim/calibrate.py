@@ -278,13 +278,16 @@ def simulate_material(physics: Physics, t, strain, r=None, estimation=None) -> d
 @dataclass
 class ActuatorRecord:
     """One actuator recording: commanded vacuum ``p_cmd`` (N, channels; kPa), sample period
-    ``ts`` (s), measured ``dr`` (N, channels; %), measured ``outputs`` (name -> (N,)) and a ``name``."""
+    ``ts`` (s), measured ``dr`` (N, channels; %), measured ``outputs`` (name -> (N,)), a ``name``
+    and, where the recording measured it, the load during it ``load_g`` (N,) g (what a
+    ``load_dependence`` in its measured form runs on, porosense.sim.effects)."""
 
     p_cmd: np.ndarray
     ts: float
     dr: np.ndarray
     outputs: dict = field(default_factory=dict)
     name: str = ""
+    load_g: np.ndarray | None = None
 
     def __post_init__(self):
         self.p_cmd = np.atleast_2d(np.asarray(self.p_cmd, dtype=float).T).T
@@ -294,6 +297,10 @@ class ActuatorRecord:
             raise InputError(f"record {self.name}: p_cmd and dR need the same length (at least 10 samples)")
         if not np.all(np.isfinite(self.p_cmd)) or not np.all(np.isfinite(self.dr)):
             raise InputError(f"record {self.name}: p_cmd and dR must be finite")
+        if self.load_g is not None:
+            self.load_g = np.asarray(self.load_g, dtype=float).reshape(-1)
+            if self.load_g.size != self.p_cmd.shape[0] or not np.all(np.isfinite(self.load_g)):
+                raise InputError(f"record {self.name}: the load (g) needs a finite value on every sample")
 
 
 def simulate_record(
@@ -303,17 +310,36 @@ def simulate_record(
     for the commanded vacuum of ``rec``. With ``effects`` (porosense.sim.effects) ``dR_c`` is
     the one the electronics read (delay, clipping and drift included), relative to the first
     sample, as a recording's is. ``load_g`` (N,) g: the load during the record (None: the
-    simulator's own, porosense.sim.plant.Plant.run)."""
+    record's own ``load_g`` where ``effects`` hold ``load_dependence`` in its measured form, else
+    the simulator's own, porosense.sim.plant.Plant.run); that form scales it by its ``factor``.
+
+    Raises
+    ------
+    InputError
+        ``effects`` take the load from a column the record does not carry."""
+    from porosense.sim.effects import measured_load, resolve_effects
     from porosense.sim.electronics import resistance_from_voltage
     from porosense.sim.plant import make_plant
 
+    effects = resolve_effects(effects) if effects else effects
+    measured = measured_load(effects)
+    if measured is not None:
+        column, factor = measured
+        effects = {k: v for k, v in effects.items() if k != "load_dependence"}
+        series = load_g if load_g is not None else rec.load_g
+        if series is None:
+            raise InputError(
+                f"record {rec.name or '(unnamed)'} has no load column '{column}' (g): the parameter file's "
+                "load_dependence takes the load during the record from it"
+            )
+        load_g = factor * np.asarray(series, dtype=float)
     plant = make_plant(actuator, porosity=porosity, physics=physics, noise=False, seed=seed, effects=effects)
     n = plant.n_channels
     sp = np.zeros((rec.p_cmd.shape[0], 3))
     sp[:, : min(n, rec.p_cmd.shape[1])] = rec.p_cmd[:, :n]
     on = sp < 0.0
     out = plant.run(rec.ts, sp, on, on.copy(), load_g=load_g)
-    if effects:
+    if effects or measured is not None:
         for c in range(n):
             r = resistance_from_voltage(out["voltage_V"][:, c], physics.electronics)
             out[f"dR_{c}"] = (r / r[0] - 1.0) * 100.0

@@ -12,7 +12,11 @@ Each effect has parameters with units (defaults below). Pass them to ``make_plan
   by the sample rate (at exactly fs/2 choose a phase other than 0 to see it).
 - ``saturation``: the ADC input clips to ``[low_V, high_V]`` (V) (divider or PGA range).
 - ``load_dependence``: the load changes by ``delta_g`` (g) during a record, ramping from
-  ``start_s`` over ``ramp_s`` (s).
+  ``start_s`` over ``ramp_s`` (s). Its measured form ``{"column": COL, "unit": "g", "factor":
+  k}`` (what ``diagnose --sim ... --save-extended`` writes, :data:`MEASURED`) takes the load
+  during a record from the recording's column COL (g) instead, times ``factor`` (1: as
+  measured): it runs on a recording only (porosense.sim.calibrate.simulate_record, ``simulate
+  --replay``), and a plant without one refuses it.
 - ``slow_relaxation``: an extra slow relaxation mode of the resistance, ``tau_s`` (s) and
   ``gain`` (fraction of the change in dR).
 - ``cross_coupling``: 3-DoF channels leak into each other's contact strain, ``gain``
@@ -39,6 +43,41 @@ DEFAULTS: dict[str, dict[str, float]] = {
 
 EFFECT_NAMES = tuple(DEFAULTS)
 
+#: effects that take a condition from the recording: the measured form's parameters and defaults
+#: (``column``: the recording's column, ``unit``: its unit, ``factor``: the simulated load per
+#: measured load, 1)
+MEASURED: dict[str, dict] = {"load_dependence": {"column": "load_g", "unit": "g", "factor": 1.0}}
+
+
+def measured_load(effects) -> tuple[str, float] | None:
+    """(column, factor) of a resolved ``load_dependence`` in its measured form, else None."""
+    eff = (effects or {}).get("load_dependence") if isinstance(effects, dict) else None
+    if eff and "column" in eff:
+        return str(eff["column"]), float(eff["factor"])
+    return None
+
+
+def _measured(name: str, params: dict) -> dict:
+    known = MEASURED[name]
+    unknown = set(params) - set(known)
+    if unknown:
+        raise InputError(
+            f"effect '{name}' from a column has no parameter {sorted(unknown)} (parameters: {list(known)})"
+        )
+    out = {**known, **params}
+    column, unit = out["column"], str(out["unit"]).strip()
+    if not isinstance(column, str) or not column.strip():
+        raise InputError(f"effect '{name}': 'column' must name the recording's column, got {column!r}")
+    if unit != known["unit"]:
+        raise InputError(f"effect '{name}': the column's unit must be {known['unit']}, got {unit!r}")
+    try:
+        factor = float(out["factor"])
+    except (TypeError, ValueError):
+        factor = float("nan")
+    if not (factor >= 0.0 and factor < float("inf")):
+        raise InputError(f"effect '{name}': 'factor' must be a finite number >= 0, got {out['factor']!r}")
+    return {"column": column.strip(), "unit": unit, "factor": factor}
+
 
 def resolve_effects(effects) -> dict[str, dict[str, float]]:
     """Normalise named extra effects to their full parameters.
@@ -52,7 +91,8 @@ def resolve_effects(effects) -> dict[str, dict[str, float]]:
     Returns
     -------
     dict of str to dict of str to float
-        Effect name to every one of its parameters.
+        Effect name to every one of its parameters (a :data:`MEASURED` form keeps its column name
+        and unit as strings).
 
     Raises
     ------
@@ -70,6 +110,9 @@ def resolve_effects(effects) -> dict[str, dict[str, float]]:
         if name not in DEFAULTS:
             raise InputError(f"unknown effect '{name}' (known: {', '.join(EFFECT_NAMES)})")
         params = dict(params or {})
+        if name in MEASURED and "column" in params:
+            out[name] = _measured(name, params)
+            continue
         unknown = set(params) - set(DEFAULTS[name])
         if unknown:
             raise InputError(f"effect '{name}' has no parameter {sorted(unknown)} (parameters: {list(DEFAULTS[name])})")

@@ -32,7 +32,7 @@ from scipy.signal import lfilter
 
 from porosense.errors import InputError
 from porosense.sim import kinematics, pneumatics
-from porosense.sim.effects import resolve_effects
+from porosense.sim.effects import measured_load, resolve_effects
 from porosense.sim.electronics import divider_voltage
 from porosense.sim.foam import FoamCurve, load_stress_kpa
 from porosense.sim.material import ContactNetwork
@@ -135,6 +135,12 @@ class Plant:
         self.seed = int(seed)
         self.specimen = int(specimen)
         self.effects = resolve_effects(effects)
+        column = measured_load(self.effects)
+        if column is not None:
+            raise InputError(
+                f"load_dependence here takes the load from a recording's column '{column[0]}' (g): it runs on a "
+                "recording (porosense simulate --params FILE --replay REC), not on a schedule"
+            )
         self.noise = bool(noise)
         self.n_channels = 3 if actuator == "3dof" else 1
         self.outputs = OUTPUTS[actuator]

@@ -123,7 +123,8 @@ def test_load_dependence_is_saved_with_its_column_and_replayed_from_the_recordin
     within 0.1 of 1; ``simulate --replay`` of the held-out -40 kPa record runs it with the
     record's load and fits dR better than the calibrated file (measured 63.3 -> 99.3 %, bound:
     above 95 %); the same record without its load column, a schedule and ``diagnose --params``
-    of the extended file are each refused in one line naming the column (exit 2)."""
+    of the extended file are each refused in one line naming the column (exit 2), and a replay
+    whose --out would write its sidecar over the parameter file in one line (the file unchanged)."""
     from porosense.sim import Physics, run_experiment
 
     physics = Physics().without("repeat_variation", "baseline_drift")
@@ -168,3 +169,9 @@ def test_load_dependence_is_saved_with_its_column_and_replayed_from_the_recordin
         err = capsys.readouterr().err
         assert "'load_g'" in err and "Traceback" not in err and err.count("\n") == 1, err
     assert not (tmp_path / "b.csv").exists() and not (tmp_path / "sched").exists()
+    # a replay named after the parameter file would write its sidecar over it: refused, the file kept
+    kept = ext.read_bytes()
+    argv = ["simulate", "contractor", "--params", str(ext), "--replay", paths["step_40"], "--out"]
+    assert main(argv + [str(ext.with_suffix(".csv")), "--force"]) == 2
+    err = capsys.readouterr().err
+    assert "sidecar" in err and err.count("\n") == 1 and ext.read_bytes() == kept, err

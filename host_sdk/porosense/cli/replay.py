@@ -18,6 +18,13 @@ def replay(args, physics, effects=None) -> int:
     from porosense.sim import OUTPUTS, Physics
 
     out = output_file(args.out or f"{Path(args.replay).stem}_sim.csv", "--out", force=args.force)
+    sidecar = out.with_suffix(".json")  # Recording.to_csv writes the units and notes there
+    if args.params and sidecar.resolve() == Path(args.params).resolve():
+        raise InputError(
+            f"--out {out} would write its sidecar {sidecar} over --params {args.params}: give another name"
+        )
+    if not args.force and sidecar.exists():
+        raise InputError(f"{sidecar} exists (the sidecar --out {out} writes): --force replaces it")
     tables = read_tables([args.replay], args)
     ts = sample_period(tables, args)
     table = tables[0]

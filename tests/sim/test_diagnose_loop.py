@@ -14,11 +14,11 @@ Bounds: in every trial the diagnosis names saturation (a found cause), the loop 
 parameter file by it, the extension predicts the held-out records better than the calibrated
 file (held-out gain > 0 fit points) and ``simulate --params --replay`` of the extended file fits
 a clipped held-out record better. On the same generator without the clip, saturation is not
-named. Measured (10 s CPU per trial): seed 0, clip at 45 % of the drop: found time_delay,
-saturation, drift; saturation's extension gains +38.2 fit points on the estimation records and
-+20.5 held out, the replay of step_40 fits 61.3 -> 88.5 %; seed 1, clip at 56 %: +51.7 / +31.4,
-48.6 -> 95.4 %; seed 0 without the clip: time_delay, static_nonlinearity (held-out gain +0.00)
-and drift found, not saturation. The calibrated file runs as its mean recording, each record
+named. Measured (``pytest tests/sim/test_diagnose_loop.py -s``, a few s CPU per trial): seed 0,
+clip at 45 % of the drop: found saturation, static_nonlinearity, outliers; saturation's extension
+gains +38.2 fit points on the estimation records and +20.5 held out, the replay of step_40 fits
+61.3 -> 88.5 %; seed 1, clip at 56 %: +51.7 / +31.4, 48.6 -> 95.4 %; seed 0 without the clip:
+static_nonlinearity (held-out gain +0.00), unmodelled_dynamics and drift found, not saturation. The calibrated file runs as its mean recording, each record
 with its own recording state (porosense.diagnose.calibrate.as_calibrated).
 """
 

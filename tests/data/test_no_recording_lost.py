@@ -20,6 +20,7 @@ import pytest
 
 from porosense.cli import main
 from porosense.data import Recording
+from porosense.errors import InputError
 from porosense.sim import run_experiment
 
 RATE_HZ = 50
@@ -144,3 +145,19 @@ def test_every_command_that_writes_a_model_or_parameters_refuses_to_replace_them
     _one_line(capsys, f"{tmp_path / existing} exists")
     assert (tmp_path / existing).read_text() == "kept\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_a_recording_never_replaces_a_model_or_parameter_file_of_its_stem(tmp_path):
+    """Recording.to_csv (every command's recording: record, control run, simulate, demo) writes its
+    units to NAME.json: a JSON there that is not a recording's sidecar (a model, a parameter file)
+    is refused whole, before the CSV is written; its own sidecar is replaced as before."""
+    rec = Recording(np.arange(5) / 10.0, {"dR_0": np.linspace(0.0, -4.0, 5)}, {}, {"dR_0": "%"})
+    model = tmp_path / "run.json"
+    model.write_text('{"kind": "wiener_hammerstein", "ts": 0.02}')
+    before = model.read_bytes()
+    with pytest.raises(InputError, match="not a recording's sidecar"):
+        rec.to_csv(tmp_path / "run.csv")
+    assert model.read_bytes() == before and not (tmp_path / "run.csv").exists()
+    rec.to_csv(tmp_path / "other.csv")
+    rec.to_csv(tmp_path / "other.csv")  # its own sidecar: replaced, the recording reads back
+    assert np.array_equal(Recording.from_csv(tmp_path / "other.csv")["dR_0"], rec["dR_0"])

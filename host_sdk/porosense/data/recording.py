@@ -43,6 +43,24 @@ def _jsonable(value):
     return value
 
 
+def _refuse_foreign_sidecar(path: Path) -> None:
+    """InputError when the JSON beside ``path`` exists and is not a recording's sidecar: a model
+    or a parameter file of the same stem would be replaced by the recording's units."""
+    side = path.with_suffix(".json")
+    if not side.is_file():
+        return
+    try:
+        doc = json.loads(side.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        doc = None
+    if isinstance(doc, dict) and (doc.get("format") == FORMAT or {"units", "columns"} <= doc.keys()):
+        return
+    raise InputError(
+        f"{side} is not a recording's sidecar: writing {path.name} would replace it with the recording's units "
+        "(give the output another name)"
+    )
+
+
 @dataclass
 class Recording:
     """A record of samples at times ``t`` with named columns of equal length.
@@ -248,8 +266,15 @@ class Recording:
         -------
         Path
             The CSV path.
+
+        Raises
+        ------
+        InputError
+            When a JSON of the same stem exists that is not a recording's sidecar (a model, a
+            parameter file): nothing is written.
         """
         path = Path(path)
+        _refuse_foreign_sidecar(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         names = ["t"] + self.names
         cols = [self.t] + [self.columns[n] for n in self.names]

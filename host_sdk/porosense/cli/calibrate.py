@@ -8,6 +8,7 @@ from porosense.cli._args import ACTUATORS, parse_range
 from porosense.cli._data import add_data_options, add_json_options, emit_json, output_file, say
 
 MATERIAL = "material"
+LOAD_COLUMN = "load_g"  # the recordings' hanging load (g), as porosense.sim.experiment writes it
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -21,7 +22,10 @@ def register(sub) -> argparse.ArgumentParser:
             "measured outputs (strain_0 %, curvature 1/m, theta_x/theta_y deg, dz mm) of one "
             "print. material: a tensile test (strain imposed, resistance and time measured); the "
             "piezoresistive law is fitted with each recording's own R0 and R0 drift, on the "
-            "samples of --estimation A:B (the rest is held out and scored)."
+            "samples of --estimation A:B (the rest is held out and scored). A recording with a "
+            "load column (load_g, g; --load-column COL) was made under that hanging load: it is "
+            "simulated under it, so the fitted physics is the unloaded print's, and the parameter "
+            "file names the column (simulate --params --replay reads it)."
         ),
         epilog=(
             "examples: porosense calibrate contractor --data rec1.csv rec2.csv --out params.json; "
@@ -37,6 +41,12 @@ def register(sub) -> argparse.ArgumentParser:
     p.add_argument("--resistance", metavar="COL", help="material: the resistance column (ohm)")
     p.add_argument("--estimation", metavar="A:B", help="material: estimation samples of each recording (default: all)")
     p.add_argument("--ablation", action="store_true", help="material: refit without each effect and report it")
+    p.add_argument(
+        "--load-column",
+        metavar="COL",
+        help="ACTUATOR: the recordings' hanging-load column in g (default load_g); each record that has it is "
+        "simulated under that load during the fit, the others unloaded",
+    )
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     add_data_options(p)
     add_json_options(p, "the calibration's figures")
@@ -104,8 +114,14 @@ def actuator_record(table, actuator: str, ts: float, load_column: str | None = N
             )
         unit = table.units.get(load_column)
         if unit and normal_unit(unit) != "g":
-            raise InputError(f"{table.path}: column '{load_column}' is in {unit}; the load_dependence takes it in g")
-        load = table[load_column]
+            raise InputError(f"{table.path}: column '{load_column}' is in {unit}; the simulator takes the load in g")
+        load = np.asarray(table[load_column], dtype=float)
+        bad = np.flatnonzero(~(np.isfinite(load) & (load >= 0.0)))
+        if bad.size:
+            raise InputError(
+                f"{table.path}: column '{load_column}' has {load[bad[0]]:g} g at sample {bad[0]} (a load is a "
+                "finite mass >= 0 g)"
+            )
     return ActuatorRecord(
         np.column_stack([table[c] for c in p_cols]),
         ts,
@@ -123,6 +139,8 @@ def run(args) -> int:
     out = output_file(args.out, "--out", force=args.force)
     if args.actuator == MATERIAL and not (args.strain and args.resistance):
         raise InputError("calibrate material needs --strain COL and --resistance COL")
+    if args.actuator == MATERIAL and args.load_column:
+        raise InputError("--load-column names an actuator recording's hanging load: calibrate material has none")
     tables = read_tables(args.data, args)
     ts = sample_period(tables, args)
     if args.actuator == MATERIAL:
@@ -136,8 +154,17 @@ def run(args) -> int:
     else:
         from porosense.sim.calibrate import calibrate_actuator
 
-        cal = calibrate_actuator(args.actuator, [actuator_record(t, args.actuator, ts) for t in tables])
-        cal.physics.save(out, fit=cal.to_dict())
+        column = args.load_column or LOAD_COLUMN
+        has = [column in t.columns for t in tables]
+        if args.load_column and not any(has):
+            raise InputError(f"--load-column {column}: no recording has that column (g)")
+        if not args.quiet and not all(has):
+            bare = [str(t.path) for t, h in zip(tables, has) if not h]
+            what = "no recording has a" if not any(has) else f"{len(bare)} of {len(tables)} recordings have no"
+            say(args, f"{what} load column '{column}' (g): calibrated unloaded ({', '.join(bare)})")
+        records = [actuator_record(t, args.actuator, ts, column if h else None) for t, h in zip(tables, has)]
+        cal = calibrate_actuator(args.actuator, records, load_column=column)
+        cal.save(out)
     if not args.quiet:
         say(args, str(cal))
         say(args, f"wrote {out}")

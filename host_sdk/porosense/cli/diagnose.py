@@ -323,6 +323,15 @@ def run(args) -> int:
         output_file(args.save_extended, "--save-extended", force=args.force)
     if args.params:
         args.sim_params = _load_sim_params(args.sim, args.params)
+        from porosense.sim.calibrate import calibrated_load_column
+
+        column = calibrated_load_column(args.params)
+        if column is not None:
+            say(
+                args,
+                f"--params {args.params} was calibrated with each record under its load (column '{column}', g); "
+                "diagnosis runs it on the commands alone, unloaded",
+            )
     tables = read_tables(args.data, args)
     vtables = read_tables(args.validation_data, args) if args.validation_data else []
     args.ts = sample_period(tables + vtables, args)

@@ -51,13 +51,27 @@ def replay(args, physics, effects=None) -> int:
         }
         units = {"R_sim": "ohm", "dR_sim": "%", "strain_sim": "%"}
     else:
-        from porosense.sim.calibrate import simulate_record
+        from porosense.sim.calibrate import calibrated_load_column, simulate_record
         from porosense.sim.effects import measured_load
 
         physics = (physics or Physics()).without("baseline_drift")
         load = measured_load(effects)
-        rec = actuator_record(table, args.actuator, ts, load[0] if load else None)
-        sim = simulate_record(args.actuator, physics, rec, porosity=args.porosity, effects=effects or None)
+        column = load[0] if load else (calibrated_load_column(args.params) if args.params else None)
+        if column and not load and column not in table.columns:
+            say(
+                args,
+                f"{args.replay} has no load column '{column}' (g) the parameters were calibrated with: replayed unloaded",
+            )
+            column = None
+        rec = actuator_record(table, args.actuator, ts, column)
+        sim = simulate_record(
+            args.actuator,
+            physics,
+            rec,
+            porosity=args.porosity,
+            effects=effects or None,
+            load_g=None if load else rec.load_g,
+        )
         for c in range(rec.dr.shape[1]):
             for name, unit in (("R", "ohm"), ("dR", "%"), ("strain", "%")):
                 columns[f"{name}_sim_{c}"], units[f"{name}_sim_{c}"] = sim[f"{name}_{c}"], unit

@@ -71,7 +71,8 @@ def register(sub) -> argparse.ArgumentParser:
         "--replay",
         metavar="REC",
         help="replay this recording's inputs (p_cmd_C, and its load_g column in g when --params is extended by "
-        "load_dependence; material: --strain) through the simulator, noiseless, "
+        "load_dependence or was calibrated with that load column; material: --strain) through the simulator, "
+        "noiseless, "
         "and write t with R_sim, dR_sim, strain_sim (and the outputs, _sim) to --out FILE.csv, printing their fit "
         "against the recording's own columns",
     )

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -398,6 +399,12 @@ _ACT = (
     ("piezo", "relax_gain", 0.05, 3.0),
     ("piezo", "relax_s", 0.2, 5.0),
 )
+#: fitted as well where the records' loads differ (a load's share on the foam, at most 1, and the
+#: contacts it holds open): with one load throughout they trade off against the unloaded physics
+_LOAD_ACT = (
+    ("foam", "load_share", 0.2, 5.0),
+    ("piezo", "load_contact_coupling", 0.1, 10.0),
+)
 
 
 def piled_at_extreme(y: np.ndarray, min_count: int = 10) -> np.ndarray:
@@ -413,10 +420,10 @@ def piled_at_extreme(y: np.ndarray, min_count: int = 10) -> np.ndarray:
     return out
 
 
-def _actuator_physics(base: Physics, theta) -> Physics:
+def _actuator_physics(base: Physics, theta, spec=_ACT) -> Physics:
     f, pz = base.foam, base.piezo
     fv, pv = {}, {}
-    for (stage, name, _, _), lf in zip(_ACT, theta):
+    for (stage, name, _, _), lf in zip(spec, theta):
         k = math.exp(lf)
         if name == "creep":
             fv["creep_tau_s"] = tuple(tau * k for tau in f.creep_tau_s)
@@ -427,25 +434,78 @@ def _actuator_physics(base: Physics, theta) -> Physics:
         else:
             pv[name] = getattr(pz, name) * k
     pv["instant_share"] = min(pv["instant_share"], 1.0)
+    if "load_share" in fv:
+        fv["load_share"] = min(fv["load_share"], 1.0)
     pv["floor_pct"] = min(pv["floor_pct"], 99.0)
     return base.with_(foam=fv, piezo=pv)
 
 
+#: key of a parameter file calibrated with each record's load: {"column": COL, "unit": "g", "records": [...]}
+CALIBRATED_LOAD = "calibrated_load"
+
+
+def calibrated_load_column(path) -> str | None:
+    """The load column (g) a parameter file was calibrated with (``porosense calibrate`` ran each
+    record under the load of that column), or None for a file calibrated unloaded.
+
+    Raises
+    ------
+    InputError
+        An unreadable file, or a ``calibrated_load`` entry without a column or in a unit other than g.
+    """
+    import json
+    from pathlib import Path
+
+    try:
+        doc = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot read simulator parameters {path}: {exc}") from None
+    entry = doc.get(CALIBRATED_LOAD) if isinstance(doc, dict) else None
+    if not entry:
+        return None
+    column = entry.get("column") if isinstance(entry, dict) else None
+    if not isinstance(column, str) or not column.strip() or str(entry.get("unit", "g")).strip() != "g":
+        raise InputError(f"{path}: '{CALIBRATED_LOAD}' must name a load column in g, got {entry!r}")
+    return column.strip()
+
+
 @dataclass
 class ActuatorCalibration:
-    """Calibrated plant parameters and the fits before and after (%, per record and column)."""
+    """Calibrated plant parameters and the fits before and after (%, per record and column).
+
+    ``loaded`` names the records that ran under their recorded load (g) in the fit and in these
+    figures (the others ran unloaded); ``load_column`` is the recordings' load column, None when
+    the calibration ran every record unloaded."""
 
     actuator: str
     physics: Physics
     fit_before: dict
     fit_after: dict
     cost_evaluations: int = 0
+    loaded: list = field(default_factory=list)
+    load_column: str | None = None
 
     def to_dict(self) -> dict:
-        return {"actuator": self.actuator, "fit_before": self.fit_before, "fit_after": self.fit_after}
+        out = {"actuator": self.actuator, "fit_before": self.fit_before, "fit_after": self.fit_after}
+        if self.load_column is not None:
+            out["loaded_records"] = list(self.loaded)
+        return out
+
+    def save(self, path) -> Path:
+        """The parameter file (``porosense simulate --params``); calibrated with loads, it states
+        the load column (``calibrated_load``) that ``simulate --params --replay`` reads."""
+        extra = {"fit": self.to_dict()}
+        if self.load_column is not None and self.loaded:
+            extra[CALIBRATED_LOAD] = {"column": self.load_column, "unit": "g", "records": list(self.loaded)}
+        return self.physics.save(path, **extra)
 
     def __str__(self) -> str:
         lines = [f"{self.actuator} calibrated ({self.cost_evaluations} evaluations of the residual):"]
+        if self.loaded:
+            lines.append(
+                f"  under their recorded load (column '{self.load_column}', g): {len(self.loaded)} of "
+                f"{len(self.fit_after)} records"
+            )
         for name, cols in self.fit_after.items():
             lines.append(
                 f"  {name}: "
@@ -454,10 +514,10 @@ class ActuatorCalibration:
         return "\n".join(lines)
 
 
-def _fits(actuator, physics, records) -> dict:
+def _fits(actuator, physics, records, use_load: bool = False) -> dict:
     out = {}
     for r in records:
-        sim = simulate_record(actuator, physics, r)
+        sim = simulate_record(actuator, physics, r, load_g=r.load_g if use_load else None)
         cols = {f"dR_{c}": fit_percent(r.dr[:, c], sim[f"dR_{c}"]) for c in range(r.dr.shape[1])}
         cols.update({k: fit_percent(v, sim[k]) for k, v in r.outputs.items()})
         out[r.name] = cols
@@ -465,7 +525,15 @@ def _fits(actuator, physics, records) -> dict:
 
 
 @single_threaded
-def calibrate_actuator(actuator: str, records, *, physics: Physics | None = None, max_nfev: int = 80):
+def calibrate_actuator(
+    actuator: str,
+    records,
+    *,
+    physics: Physics | None = None,
+    max_nfev: int = 80,
+    use_load: bool = True,
+    load_column: str | None = None,
+):
     """Fit the plant's foam and contact-law parameters to recordings of one print.
 
     Parameters
@@ -473,21 +541,31 @@ def calibrate_actuator(actuator: str, records, *, physics: Physics | None = None
     actuator : str
         'contractor', 'bending' or '3dof'.
     records : list of ActuatorRecord
-        Commanded vacuum (kPa), measured dR (%) and measured outputs (the actuator's units).
+        Commanded vacuum (kPa), measured dR (%) and measured outputs (the actuator's units);
+        a record with ``load_g`` (g) was made under that hanging load.
     physics : Physics, optional
         Starting parameters (default: the simulator's defaults).
     max_nfev : int
         Simulations of the records the least-squares fit may spend.
+    use_load : bool
+        Simulate each record that carries a load under it (the plant's load stress and contact
+        opening, porosense.sim.plant.Plant.run), so the fitted physics is the unloaded print's;
+        records without one run unloaded. False: every record unloaded (a load then ends up in
+        the fitted physics).
+    load_column : str, optional
+        The recordings' load column (reported and saved with the parameters; default ``load_g``).
 
     Returns
     -------
     ActuatorCalibration
-        The parameters (print-to-print variation and drift off: one print measured) and the
-        fit (%) of every column before and after.
+        The parameters (print-to-print variation and drift off: one print measured), the fit
+        (%) of every column before and after (each record under the load it was fitted with)
+        and the records that ran loaded.
     """
     records = list(records)
     if not records:
         raise InputError("no recording to calibrate from")
+    loaded = [r.name for r in records if use_load and r.load_g is not None]
     base = (physics or Physics()).without("repeat_variation", "baseline_drift")
     # each column weighted by its own spread, each record by its length; samples piled up at a
     # column's extreme (a clipped ADC or divider) say only that the value is beyond the limit:
@@ -501,11 +579,15 @@ def calibrate_actuator(actuator: str, records, *, physics: Physics | None = None
         keep.update({k: ~piled_at_extreme(v) for k, v in r.outputs.items()})
         scales.append((s, 1.0 / math.sqrt(r.dr.shape[0]), keep))
 
+    # the load's own parameters only where the loads differ (between records or within one)
+    loads = [r.load_g if (use_load and r.load_g is not None) else np.zeros(1) for r in records]
+    spec = _ACT + _LOAD_ACT if float(np.ptp(np.concatenate(loads))) > 0.0 else _ACT
+
     def residual(theta):
-        ph = _actuator_physics(base, theta)
+        ph = _actuator_physics(base, theta, spec)
         out = []
         for r, (s, w, keep) in zip(records, scales):
-            sim = simulate_record(actuator, ph, r)
+            sim = simulate_record(actuator, ph, r, load_g=r.load_g if use_load else None)
             for c in range(r.dr.shape[1]):
                 col = f"dR_{c}"
                 out.append(w * keep[col] * (sim[col] - r.dr[:, c]) / s[col])
@@ -513,8 +595,16 @@ def calibrate_actuator(actuator: str, records, *, physics: Physics | None = None
                 out.append(w * keep[k] * (sim[k] - v) / s[k])
         return np.nan_to_num(np.concatenate(out), nan=1e3)
 
-    lo = np.log([b[2] for b in _ACT])
-    hi = np.log([b[3] for b in _ACT])
-    sol = least_squares(residual, np.zeros(len(_ACT)), bounds=(lo, hi), max_nfev=max_nfev, diff_step=1e-3)
-    ph = _actuator_physics(base, sol.x)
-    return ActuatorCalibration(actuator, ph, _fits(actuator, base, records), _fits(actuator, ph, records), sol.nfev)
+    lo = np.log([b[2] for b in spec])
+    hi = np.log([b[3] for b in spec])
+    sol = least_squares(residual, np.zeros(len(spec)), bounds=(lo, hi), max_nfev=max_nfev, diff_step=1e-3)
+    ph = _actuator_physics(base, sol.x, spec)
+    return ActuatorCalibration(
+        actuator,
+        ph,
+        _fits(actuator, base, records, use_load),
+        _fits(actuator, ph, records, use_load),
+        sol.nfev,
+        loaded,
+        (load_column or "load_g") if use_load else None,
+    )

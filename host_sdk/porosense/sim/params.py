@@ -243,7 +243,8 @@ class Physics:
         Parameters
         ----------
         d : dict
-            Stage name to fields (``format``, ``version``, ``notes`` and ``fit`` keys are ignored).
+            Stage name to fields (``format``, ``version``, ``notes``, ``fit``, ``effects``,
+            ``extension`` and ``calibrated_load`` keys are ignored here).
 
         Returns
         -------
@@ -266,7 +267,8 @@ class Physics:
             for k, v in values.items():
                 values[k] = tuple(v) if isinstance(getattr(base, k), tuple) else type(getattr(base, k))(v)
             stages[f.name] = replace(base, **values)
-        unknown = set(d) - {f.name for f in fields(cls)} - {"format", "version", "notes", "fit", "effects", "extension"}
+        extra = {"format", "version", "notes", "fit", "effects", "extension", "calibrated_load"}
+        unknown = set(d) - {f.name for f in fields(cls)} - extra
         if unknown:
             raise InputError(f"unknown physics stage(s) {sorted(unknown)}")
         return cls(**stages)

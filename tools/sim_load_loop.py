@@ -53,7 +53,7 @@ def _records(folder: Path, seed: int):
         r = actuator_generator.record(rng, par, p, RATE_HZ, load if loaded else None, load_par if loaded else None)
         cols = {"p_cmd_0": p, "dR_0": r["dR_0"], "strain_0": r["strain_0"], "load_g": load}
         path = folder / f"{name}{'_loaded' if loaded else ''}.csv"
-        Recording(t, cols, {"p_cmd_0": "kPa", "dR_0": "%", "strain_0": "%", "load_g": "g"}, {}).to_csv(path)
+        Recording(t, cols, {}, {"p_cmd_0": "kPa", "dR_0": "%", "strain_0": "%", "load_g": "g"}).to_csv(path)
         return str(path)
 
     cal = [one(n, False) for n in ESTIMATION]

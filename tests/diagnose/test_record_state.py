@@ -40,3 +40,28 @@ def test_state_refit_is_the_posterior_maximum():
     assert np.allclose(d, closed, rtol=1e-9, atol=1e-12)
     # after applying d the residual is r - S d, and the posterior's maximum is then 0
     assert np.allclose(StateColumns(S, R, t).moved(d).refit(r - S @ d), 0.0, atol=1e-9)
+
+
+def test_state_fit_is_the_records_own_rule():
+    """fit(r) is the least squares of r on S bounded to the prior's 99 % interval about its mean
+    (|z| <= 2.576 sd, the rule calibrate fits a record's state by), the present value given by the
+    prior's pull t: inside the interval it is the unbounded least squares (to 1e-9), beyond it the
+    state stops at the interval's edge (to 1e-9) and no other point of the box fits better."""
+    from porosense.diagnose.calibrate import Z_PRIOR
+
+    rng = np.random.default_rng(2)
+    S = rng.normal(size=(400, 2))
+    sd = np.array([1.0, 0.5])
+    R = np.diag(1.0 / sd)  # data weight 1
+    now = np.array([0.5, -0.2])  # present values: t = -R now
+    cols = StateColumns(S, R, -R @ now, ("gain", "offset"), sd)
+    # a small increment: the unbounded least squares
+    r = S @ np.array([0.3, 0.1]) + 0.01 * rng.normal(size=400)
+    assert np.allclose(cols.fit(r), np.linalg.lstsq(S, r, rcond=None)[0], rtol=1e-9, atol=1e-12)
+    # an increment that would take the gain state beyond +2.576: it stops at the edge
+    r = S @ np.array([5.0, 0.1]) + 0.01 * rng.normal(size=400)
+    d = cols.fit(r)
+    assert abs(now[0] + d[0] - Z_PRIOR * sd[0]) < 1e-9, d
+    sse = float(np.sum((r - S @ d) ** 2))
+    for probe in rng.uniform(-Z_PRIOR, Z_PRIOR, size=(200, 2)) * sd - now:
+        assert float(np.sum((r - S @ probe) ** 2)) >= sse - 1e-9

@@ -128,6 +128,12 @@ def _simulator_load(ctx: Context) -> bool:
 
 
 def load_dependence(ctx: Context, alpha: float) -> CauseResult:
+    """Test and extension of a dependence on a measured condition (a load, g, or any column
+    stated a condition).
+
+    Records of a calibrated simulator with a load column: the simulation run again with the
+    measured load. Otherwise: F of the residual on the column and the column times the model
+    output (a load-scheduled gain); the extension adds both to the nominal."""
     if _simulator_load(ctx):
         return _simulator_load_dependence(ctx, alpha)
     cols = _of_kind(ctx, _column_tests(ctx), "input")
@@ -178,6 +184,11 @@ def _leak_before_map(ctx: Context, cols: dict, leaking: list, z_add):
 
 
 def cross_coupling(ctx: Context, alpha: float) -> CauseResult:
+    """Test and extension of a coupling from another channel (a column the model does not use).
+
+    Test: F of the residual on the column's dynamics (a Laguerre bank), the strongest column at
+    alpha / columns. Extension: the dynamics of every column that holds at that level; a column
+    stated an input leaks before the sensor's static map (scaled by the map's slope)."""
     cols = _of_kind(ctx, _column_tests(ctx), "condition")
     if not cols:
         return _no_columns(alpha, "F(residual ~ filtered unused input)")

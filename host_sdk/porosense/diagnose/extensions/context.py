@@ -103,7 +103,7 @@ class Context:
         self.base_ba = self._base_dynamics()
         self.G0_est = self.stack(self.generic, self.est)
         self.G0_val = self.stack(self.generic, self.val)
-        # the linear dynamics the data support (see :mod:`.dynamics`): unmodelled_dynamics' extension
+        # the linear dynamics the data support (see :mod:`..dynamics`): unmodelled_dynamics' extension
         self.adequate = dynamics.choose([r.u for r in self.est], [r.e for r in self.est]) if correct else None
         if correct:
             self.A_est = self.stack(lambda r: self.adequate.regressors(r.u), self.est)
@@ -118,7 +118,7 @@ class Context:
         return np.vstack([np.asarray(fn(r), float).reshape(len(r.y), -1) for r in records])
 
     def lag_bank(self, x: np.ndarray, order: int = LAGUERRE_ORDER, pole: float | None = None) -> np.ndarray:
-        """Laguerre bank of x started in steady state at its rest level (:func:`.signals.rest_level`)."""
+        """Laguerre bank of x started in steady state at its rest level (:func:`..signals.rest_level`)."""
         a = self.pole if pole is None else pole
         x0 = signals.rest_level(x)
         return laguerre_bank(np.asarray(x, float) - x0, a, order) + x0 * np.sqrt(1.0 - a * a) / (1.0 - a)
@@ -236,7 +236,7 @@ class Context:
         """(estimation, validation) regressors of a baseline correction, the constant last.
 
         ``constant``: an offset only; ``generic``: G0 (Laguerre bank at the model's own pole, and a
-        constant); ``adequate``: G0 and the adequate-order linear correction (:mod:`.dynamics`).
+        constant); ``adequate``: G0 and the adequate-order linear correction (:mod:`..dynamics`).
         """
         if scope == GENERIC:
             return self.G0_est, self.G0_val

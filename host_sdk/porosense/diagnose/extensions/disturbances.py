@@ -210,6 +210,11 @@ def _drift_beyond_state(ctx: Context, alpha: float, f_res: stats.StatResult) -> 
 
 
 def periodic_disturbance(ctx: Context, alpha: float) -> CauseResult:
+    """Test and extension of a periodic disturbance of the measurement.
+
+    Test: the strongest spectral line of the estimation residual (Hz) outside the inputs' own
+    lines. Extension: a sine and cosine at that frequency, refined on each record's time axis (s),
+    amplitude and phase free in every record (output units)."""
     exclude = None
     for i in range(ctx.n_in):
         m = stats.line_mask(ctx.u_est[:, i])
@@ -288,7 +293,7 @@ def periodic_disturbance(ctx: Context, alpha: float) -> CauseResult:
 def _ar_one_step(r: np.ndarray, ar: np.ndarray, band: float | None = None):
     """One-step predictions of the residual r (output units) by its AR polynomial ``ar``.
 
-    ``ar`` is [1, a1, ..., ap] (:func:`.signals.fit_ar`).
+    ``ar`` is [1, a1, ..., ap] (:func:`..signals.fit_ar`).
     With ``band`` (output units; robust: an additive-outlier filter), a sample whose innovation
     exceeds the band is taken for a glitch: the predictor's history holds the prediction plus the
     innovation clipped at the band, so the glitch does not carry into the next predictions.
@@ -315,7 +320,7 @@ def _ar_one_step(r: np.ndarray, ar: np.ndarray, band: float | None = None):
 def outliers(ctx: Context, alpha: float) -> CauseResult:
     """Glitches: samples that leave the residual and return, beyond what its own dynamics predict.
 
-    Test: :func:`.stats.isolated_spikes` of the estimation residual (each record whitened on its
+    Test: :func:`..stats.isolated_spikes` of the estimation residual (each record whitened on its
     own), family-wise at alpha. Extension: the correction refit robustly on estimation with the
     flagged samples left out (Huber), and a one-step predictor on it with an AR model of its
     estimation residual (flagged samples interpolated) that takes a sample whose innovation

@@ -61,6 +61,12 @@ def _hysteresis_test(ctx: Context, slow_rivals: tuple = ("hysteresis", "drift"))
 
 
 def hysteresis(ctx: Context, alpha: float) -> CauseResult:
+    """Test and extension of a memory of the direction of motion (hysteresis).
+
+    Test: F of the residual on the direction of motion at equal level, given the level.
+    Extension: play operators (widths as shares of the output's range) on top of the static map
+    of the side of smallest information criterion, their form chosen by leave-one-record-out
+    error; named only where it beats static_nonlinearity's extension on held-out records."""
     sets = _static_sets(ctx)
     test = _hysteresis_test(ctx)
     res = stats.f_result("F(residual ~ direction of motion at equal level | level)", test, alpha)

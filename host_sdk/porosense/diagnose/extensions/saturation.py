@@ -30,7 +30,7 @@ START_HOLD_SAMPLES = 10
 
 
 def _start_level(x: np.ndarray) -> float:
-    """An input's own rest level (its units): :func:`.signals.rest_level` with a hold that allows
+    """An input's own rest level (its units): :func:`..signals.rest_level` with a hold that allows
     measurement noise (START_HOLD_SAMPLES within START_HOLD_SHARE of the span)."""
     return signals.rest_level(x, hold=START_HOLD_SAMPLES, tol=START_HOLD_SHARE)
 
@@ -50,6 +50,14 @@ def _inputs_away_from_rest(ctx: Context, censored: np.ndarray) -> stats.ExcessTe
 
 
 def saturation(ctx: Context, alpha: float) -> CauseResult:
+    """Test and extension of clipping of the measured output at a limit (a divider or ADC range).
+
+    Test: samples piling up at one extreme value of each estimation record's output, beyond
+    what its distribution gives, with the model's excess beyond that limit as the F test's
+    regressor; a rest at the limit (where the model, fitted without those samples, predicts no
+    excess and the input is at its rest level) is not clipping. Extension: the model output, or
+    the generic correction refitted on the unclipped samples, clipped at each record's limit
+    (output units)."""
     y_est = np.concatenate([r.y for r in ctx.est])
     # tested per record: a limit in dR moves with each record's R0 calibration
     # only the measured output: an input that sits exactly at its extreme is, for a command, its

@@ -173,6 +173,12 @@ def _simulator_slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
 
 
 def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
+    """Test and extension of a slow relaxation (a mode much slower than the model's own).
+
+    Records of a calibrated simulator: the simulator's own slow_relaxation effect on each
+    record's simulation. Otherwise: F of the residual on slowly filtered inputs (time constants
+    in s from SLOW_RATIO times the model's own) beside its rivals' regressors; the extension is the
+    nominal re-identified with one extra pole at the time constant fitted best."""
     if _simulated(ctx):
         return _simulator_slow_relaxation(ctx, alpha)
     rivals = _slow_rivals(ctx, alpha)
@@ -299,6 +305,12 @@ def _simulator_time_delay(ctx: Context, alpha: float) -> CauseResult:
 
 
 def time_delay(ctx: Context, alpha: float) -> CauseResult:
+    """Test and extension of a dead time in front of the model.
+
+    Records of a calibrated simulator: the whole simulation delayed by whole samples. Otherwise:
+    F of the residual on the model output delayed by 1..d_max samples (the best delay, tested at
+    alpha / d_max) with the delayed inputs' Laguerre bank; the extension is the nominal
+    re-identified with that delay (the delay is reported in samples of the record's period)."""
     if _simulated(ctx):
         return _simulator_time_delay(ctx, alpha)
     d_max = int(min(25, max(2, min(ctx.seg_est) // 20)))

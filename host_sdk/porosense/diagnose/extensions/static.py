@@ -83,6 +83,12 @@ def _static_sets(ctx: Context) -> dict:
 
 
 def static_nonlinearity(ctx: Context, alpha: float) -> CauseResult:
+    """Test and extension of a static nonlinearity the nominal model lacks.
+
+    Test: F of the residual on a piecewise-linear (PWL) map of the level beyond its linear part,
+    on each side (output: Wiener; input: Hammerstein; between the linear blocks), at alpha /
+    sides; among the significant sides the one of smallest information criterion. Extension: the
+    PWL of that side fitted on the estimation records (output units, as the record's y)."""
     sets = _static_sets(ctx)
     parts = ctx._cache["static_parts"]
     tests = {

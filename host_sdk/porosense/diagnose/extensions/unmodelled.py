@@ -15,8 +15,8 @@ def unmodelled_dynamics(ctx: Context, alpha: float) -> CauseResult:
 
     Test (MATLAB resid's independence test, as a GLS F test): G0 and a second, faster Laguerre
     bank of every input against the nominal residual. Extension: the adequate-order linear
-    correction of :mod:`.dynamics` (with G0), whose gain is measured against the nominal model;
-    with a nominal model at hand the engine re-identifies it at a higher order (:mod:`.extend`).
+    correction of :mod:`..dynamics` (with G0), whose gain is measured against the nominal model;
+    with a nominal model at hand the engine re-identifies it at a higher order (:mod:`..extend`).
     """
     # G0 and a second, faster Laguerre bank (2, 4 or 8 times faster than the dominant pole):
     # an order that is too low misses faster poles that a bank at the dominant pole renders poorly

@@ -225,6 +225,20 @@ def slow_relaxation(ctx: Context, alpha: float) -> CauseResult:
     )
 
 
+def _response_rise(ctx: Context, d_max: int, whose: str):
+    """(the input whose measured step response rises latest against the prediction's, whether it
+    rises later, a sentence saying at which lags, in samples): a dead time's own evidence."""
+    y_est = np.concatenate([r.y for r in ctx.est])
+    span = int(min(200, d_max + 4 * max(1.0, ctx.tau_s / ctx.ts)))
+    rises = [stats.response_rises(ctx.u_est[:, i], y_est, ctx.yhat_est, span) for i in range(ctx.n_in)]
+    shown = max(rises, key=lambda p: p.measured - p.model)
+    note = (
+        f"the measured step response (running sum of the prewhitened input-output cross-correlation) "
+        f"reaches {100 * stats.RISE_SHARE:.0f} % at lag {shown.measured}, {whose} at lag {shown.model}"
+    )
+    return shown, shown.measured > shown.model, note
+
+
 def _simulator_time_delay(ctx: Context, alpha: float) -> CauseResult:
     """time_delay of records from a calibrated simulator: the simulator's own effect
     (porosense.sim.effects: the reading lags the physics by delay_s), its calibrated simulation
@@ -271,15 +285,7 @@ def _simulator_time_delay(ctx: Context, alpha: float) -> CauseResult:
     }
     d = min(sse, key=sse.get)
     pred, _ = ctx.fit_apply(scope=CONSTANT, fixed=lambda r: delayed(r, d))
-    y_est = np.concatenate([r.y for r in ctx.est])
-    span = int(min(200, d_max + 4 * max(1.0, ctx.tau_s / ctx.ts)))
-    rises = [stats.response_rises(ctx.u_est[:, i], y_est, ctx.yhat_est, span) for i in range(ctx.n_in)]
-    shown = max(rises, key=lambda p: p.measured - p.model)
-    later = shown.measured > shown.model
-    peak_note = (
-        f"the measured step response (running sum of the prewhitened input-output cross-correlation) "
-        f"reaches {100 * stats.RISE_SHARE:.0f} % at lag {shown.measured}, the simulation's at lag {shown.model}"
-    )
+    shown, later, peak_note = _response_rise(ctx, d_max, "the simulation's")
     return CauseResult(
         res,
         True,
@@ -348,15 +354,7 @@ def time_delay(ctx: Context, alpha: float) -> CauseResult:
     d = min(sse, key=sse.get)
     pred, _ = ctx.fit_apply(lambda r: z_ext(r, d), scope=CONSTANT)
     # the name needs its own evidence: the measured response rises later than the model's
-    y_est = np.concatenate([r.y for r in ctx.est])
-    span = int(min(200, d_max + 4 * max(1.0, ctx.tau_s / ctx.ts)))
-    rises = [stats.response_rises(ctx.u_est[:, i], y_est, ctx.yhat_est, span) for i in range(ctx.n_in)]
-    shown = max(rises, key=lambda p: p.measured - p.model)
-    later = shown.measured > shown.model
-    peak_note = (
-        f"the measured step response (running sum of the prewhitened input-output cross-correlation) "
-        f"reaches {100 * stats.RISE_SHARE:.0f} % at lag {shown.measured}, the model's at lag {shown.model}"
-    )
+    shown, later, peak_note = _response_rise(ctx, d_max, "the model's")
     evidence_ok, note = bool(later), "" if later else f"no delay in the data: {peak_note}"
     # a missing pole also makes the response rise late: the data must prefer a dead time to one
     # more pole on held-out data (judged where the test and the rise agree)

@@ -13,16 +13,14 @@ def replay(args, physics, effects=None) -> int:
     from porosense.cli._data import emit_json, output_file, read_tables, sample_period, say
     from porosense.cli.calibrate import actuator_record, material_records, time_axis
     from porosense.data import Recording
+    from porosense.data.recording import refuse_foreign_sidecar
     from porosense.dsp.metrics import fit_percent
     from porosense.errors import InputError
     from porosense.sim import OUTPUTS, Physics
 
     out = output_file(args.out or f"{Path(args.replay).stem}_sim.csv", "--out", force=args.force)
     sidecar = out.with_suffix(".json")  # Recording.to_csv writes the units and notes there
-    if args.params and sidecar.resolve() == Path(args.params).resolve():
-        raise InputError(
-            f"--out {out} would write its sidecar {sidecar} over --params {args.params}: give another name"
-        )
+    refuse_foreign_sidecar(out)  # a parameter file or model of that stem: refused before any work
     if not args.force and sidecar.exists():
         raise InputError(f"{sidecar} exists (the sidecar --out {out} writes): --force replaces it")
     tables = read_tables([args.replay], args)

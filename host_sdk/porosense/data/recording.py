@@ -43,10 +43,11 @@ def _jsonable(value):
     return value
 
 
-def _refuse_foreign_sidecar(path: Path) -> None:
-    """InputError when the JSON beside ``path`` exists and is not a recording's sidecar: a model
-    or a parameter file of the same stem would be replaced by the recording's units."""
-    side = path.with_suffix(".json")
+def refuse_foreign_sidecar(path) -> None:
+    """InputError when the JSON beside the CSV ``path`` exists and is not a recording's sidecar: a
+    model or a parameter file of the same stem would be replaced by the recording's units
+    (:meth:`Recording.to_csv` checks it; a command calls it before it computes the recording)."""
+    side = Path(path).with_suffix(".json")
     if not side.is_file():
         return
     try:
@@ -274,7 +275,7 @@ class Recording:
             parameter file): nothing is written.
         """
         path = Path(path)
-        _refuse_foreign_sidecar(path)
+        refuse_foreign_sidecar(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         names = ["t"] + self.names
         cols = [self.t] + [self.columns[n] for n in self.names]

@@ -21,6 +21,7 @@ the (calibrated) simulator.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -453,9 +454,6 @@ def calibrated_load_column(path) -> str | None:
     InputError
         An unreadable file, or a ``calibrated_load`` entry without a column or in a unit other than g.
     """
-    import json
-    from pathlib import Path
-
     try:
         doc = json.loads(Path(path).read_text())
     except (OSError, ValueError) as exc:

@@ -250,7 +250,7 @@ def extend(actuator: str, physics: Physics, cause: str, estimation, held_out, *,
     unit, cross_validated = None, None
     # a delay is piecewise constant in whole samples: a grid, not a gradient
     if cause == "load_dependence":
-        theta, unit, cross_validated = _load_factor(residual, lo, hi, len(estimation), max_nfev)
+        theta, cross_validated = _load_factor(residual, lo, hi, len(estimation), max_nfev)
         if cross_validated is not None and not cross_validated > 0.0:
             theta = np.array([1.0])  # the data do not support a factor: the load as measured
     elif cause == "time_delay":
@@ -297,8 +297,8 @@ def _factor_fit(residual, lo, hi, subset, max_nfev: int) -> float:
 
 
 def _load_factor(residual, lo, hi, n_records: int, max_nfev: int):
-    """(factor fitted on every estimation record as a 1-array, None, the factor's gain over the
-    load as measured in leave-one-record-out, mean cost ratio in %, or None with one record).
+    """(the factor fitted on every estimation record, as a 1-array; its cost reduction against the
+    load as measured on records left out of its fit, mean over records in %, or None with one record).
 
     Leave one record out: the factor is fitted on the other estimation records and its cost on
     the one left out compared with factor 1's; the mean relative cost reduction (%, > 0: the
@@ -306,13 +306,13 @@ def _load_factor(residual, lo, hi, n_records: int, max_nfev: int):
     whether the data support a factor."""
     theta = np.array([_factor_fit(residual, lo, hi, None, max_nfev)])
     if n_records < 2:
-        return theta, None, None
+        return theta, None
     gains = []
     for k in range(n_records):
         f = _factor_fit(residual, lo, hi, [j for j in range(n_records) if j != k], max_nfev)
         c1 = float(np.sum(residual([1.0], [k]) ** 2))
         gains.append(100.0 * (c1 - float(np.sum(residual([f], [k]) ** 2))) / max(c1, 1e-12))
-    return theta, None, float(np.mean(gains))
+    return theta, float(np.mean(gains))
 
 
 def extend_best(actuator: str, physics: Physics, causes, estimation, held_out, *, effects=None):
